@@ -1,0 +1,28 @@
+#pragma once
+/// @file parallel.hpp
+/// Thread control and loops on oneTBB, without exposing TBB headers.
+#include <functional>
+
+#include "ccfr/core/types.hpp"
+
+namespace ccfr {
+
+/// Limits every parallel loop to `n` threads (n <= 0: all hardware threads). Process-wide.
+void set_thread_count(int n);
+/// The thread count in force.
+int thread_count();
+
+/// Calls body(begin, end) on disjoint sub-ranges covering [0, n) in parallel.
+/// Use when the result does not depend on how the range is split.
+void parallel_for(Index n, const std::function<void(Index begin, Index end)>& body, Index grain = 256);
+
+/// Splits [0, n) into `num_chunks` fixed contiguous chunks and calls body(chunk, begin, end) in
+/// parallel. Chunk boundaries depend only on n and num_chunks, so per-chunk buffers merged in
+/// chunk order give results that are deterministic for a given chunk count.
+void parallel_chunks(Index n, Index num_chunks, const std::function<void(Index chunk, Index begin, Index end)>& body);
+
+/// A fixed chunk count (at most 128, at most n): enough for load balance on a few cores and
+/// independent of the thread count, so chunked results are identical for any thread count.
+Index default_chunk_count(Index n);
+
+}  // namespace ccfr

@@ -1,0 +1,53 @@
+#pragma once
+/// @file aabb.hpp
+/// Axis-aligned bounding boxes of primitives.
+#include <cmath>
+#include <limits>
+
+#include "ccfr/core/types.hpp"
+
+namespace ccfr {
+
+struct AABB {
+  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity());
+  Vec3 hi = Vec3::Constant(-std::numeric_limits<double>::infinity());
+
+  void expand(const Vec3& p) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  void expand(const AABB& b) {
+    lo = lo.cwiseMin(b.lo);
+    hi = hi.cwiseMax(b.hi);
+  }
+  void inflate(double r) {
+    lo.array() -= r;
+    hi.array() += r;
+  }
+  bool overlaps(const AABB& b) const {
+    return lo.x() <= b.hi.x() && b.lo.x() <= hi.x() && lo.y() <= b.hi.y() && b.lo.y() <= hi.y() &&
+           lo.z() <= b.hi.z() && b.lo.z() <= hi.z();
+  }
+  bool valid() const { return lo.allFinite() && hi.allFinite() && (lo.array() <= hi.array()).all(); }
+  Vec3 center() const { return 0.5 * (lo + hi); }
+  Vec3 extent() const { return hi - lo; }
+
+  static AABB of(const Vec3& a) {
+    AABB b;
+    b.lo = b.hi = a;
+    return b;
+  }
+  static AABB of(const Vec3& a, const Vec3& c) {
+    AABB b;
+    b.lo = a.cwiseMin(c);
+    b.hi = a.cwiseMax(c);
+    return b;
+  }
+  static AABB of(const Vec3& a, const Vec3& c, const Vec3& d) {
+    AABB b = of(a, c);
+    b.expand(d);
+    return b;
+  }
+};
+
+}  // namespace ccfr

@@ -1,0 +1,50 @@
+#pragma once
+/// @file distance.hpp
+/// Closest points and distances between point, segment and triangle primitives, with the
+/// parameters (barycentric coordinates) of the closest points and the closest feature.
+/// All routines are total: degenerate input (zero-length edges, zero-area triangles, parallel
+/// or collinear edges, coincident points) gives a valid closest pair, never NaN.
+#include <cstdint>
+
+#include "ccfr/core/types.hpp"
+
+namespace ccfr {
+
+/// Closest feature of a segment (a, b).
+enum class EdgeFeature : std::uint8_t { v0, v1, interior };
+/// Closest feature of a triangle (a, b, c); edge eIJ joins vertices I and J.
+enum class TriangleFeature : std::uint8_t { v0, v1, v2, e01, e12, e20, interior };
+
+struct PointEdgeResult {
+  double t = 0.0;        ///< closest point = a + t (b - a), t in [0, 1]
+  Vec3 closest = Vec3::Zero();
+  double distance_sq = 0.0;
+  EdgeFeature feature = EdgeFeature::v0;
+};
+
+struct PointTriangleResult {
+  Vec3 bary = Vec3(1, 0, 0);  ///< closest point = bary[0] a + bary[1] b + bary[2] c, bary >= 0, sum 1
+  Vec3 closest = Vec3::Zero();
+  double distance_sq = 0.0;
+  TriangleFeature feature = TriangleFeature::v0;
+};
+
+struct EdgeEdgeResult {
+  double s = 0.0;  ///< closest point on edge A = a0 + s (a1 - a0), s in [0, 1]
+  double t = 0.0;  ///< closest point on edge B = b0 + t (b1 - b0), t in [0, 1]
+  Vec3 pa = Vec3::Zero(), pb = Vec3::Zero();
+  double distance_sq = 0.0;
+  EdgeFeature feature_a = EdgeFeature::v0, feature_b = EdgeFeature::v0;
+  bool parallel = false;  ///< the edges are (nearly) parallel: the closest pair is not unique
+};
+
+/// Squared distance between two points.
+inline double point_point_distance_sq(const Vec3& p, const Vec3& q) { return (p - q).squaredNorm(); }
+/// Closest point on segment (a, b) to p.
+PointEdgeResult point_edge(const Vec3& p, const Vec3& a, const Vec3& b);
+/// Closest point on triangle (a, b, c) to p.
+PointTriangleResult point_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c);
+/// Closest points between segments (a0, a1) and (b0, b1).
+EdgeEdgeResult edge_edge(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1);
+
+}  // namespace ccfr

@@ -1,0 +1,49 @@
+#pragma once
+/// @file obj.hpp
+/// Wavefront OBJ frames of the output contract (`o name`, `v x y z`, `f a b c`, `l a b ...`,
+/// `p a ...`, 1-based global indices) and plain OBJ mesh import.
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "ccfr/core/scene.hpp"
+#include "ccfr/core/types.hpp"
+
+namespace ccfr::io {
+
+/// One object block of a frame file. Ranges index the frame's global arrays.
+struct FrameObject {
+  std::string name;
+  Index vertex_begin = 0, vertex_end = 0;
+  Index face_begin = 0, face_end = 0;
+  Index line_begin = 0, line_end = 0;
+  Index point_begin = 0, point_end = 0;
+};
+
+/// A frame as read back from disk.
+struct Frame {
+  Positions v;                          ///< #V
+  std::vector<Vec3i> faces;             ///< #F, 0-based
+  std::vector<std::vector<Index>> lines;  ///< polylines, 0-based
+  std::vector<Index> points;            ///< free points, 0-based
+  std::vector<FrameObject> objects;
+};
+
+/// Writes one frame atomically (temporary file in the same folder, then rename).
+void write_frame_obj(const std::filesystem::path& path, const Topology& topo, const Positions& x);
+/// Reads a frame written by write_frame_obj (or any OBJ with v/f/l/p/o lines).
+/// Throws ccfr::Error naming the file and line on malformed input or non-finite coordinates.
+Frame read_frame_obj(const std::filesystem::path& path);
+
+/// A triangle mesh imported from an OBJ file (polygons fan-triangulated).
+struct ObjMesh {
+  Positions v;
+  std::vector<Vec3i> f;
+  std::vector<std::vector<Index>> lines;
+};
+ObjMesh read_obj_mesh(const std::filesystem::path& path);
+
+/// Writes `content` to `path` atomically (temporary file, then rename).
+void write_file_atomic(const std::filesystem::path& path, const std::string& content);
+
+}  // namespace ccfr::io

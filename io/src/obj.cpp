@@ -1,0 +1,153 @@
+#include "ccfr/io/obj.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <system_error>
+#include <unistd.h>
+
+#include "ccfr/core/error.hpp"
+
+namespace ccfr::io {
+
+namespace fs = std::filesystem;
+
+void write_file_atomic(const fs::path& path, const std::string& content) {
+  const fs::path tmp = path.string() + ".tmp" + std::to_string(::getpid());
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw Error("cannot write '" + tmp.string() + "'");
+    out.write(content.data(), static_cast<std::streamsize>(content.size()));
+    out.flush();
+    if (!out) throw Error("failed writing '" + tmp.string() + "' (disk full?)");
+  }
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) {
+    fs::remove(tmp, ec);
+    throw Error("cannot rename '" + tmp.string() + "' to '" + path.string() + "'");
+  }
+}
+
+void write_frame_obj(const fs::path& path, const Topology& topo, const Positions& x) {
+  std::string s;
+  s.reserve(x.size() * 40 + topo.faces.size() * 24);
+  char buf[128];
+  s += "# ccfr frame\n";
+  for (const auto& o : topo.objects) {
+    s += "o " + o.name + "\n";
+    for (Index v = o.vertex_begin; v < o.vertex_end; ++v) {
+      const int n = std::snprintf(buf, sizeof buf, "v %.17g %.17g %.17g\n", x[v].x(), x[v].y(), x[v].z());
+      s.append(buf, static_cast<size_t>(n));
+    }
+    for (Index f = o.face_begin; f < o.face_end; ++f) {
+      const auto& t = topo.faces[f];
+      const int n = std::snprintf(buf, sizeof buf, "f %d %d %d\n", t[0] + 1, t[1] + 1, t[2] + 1);
+      s.append(buf, static_cast<size_t>(n));
+    }
+    for (Index l = o.polyline_begin; l < o.polyline_end; ++l) {
+      s += "l";
+      for (Index v : topo.polylines.row(l)) s += " " + std::to_string(v + 1);
+      s += "\n";
+    }
+    if (o.kind == ObjectKind::particles && o.num_vertices() > 0) {
+      s += "p";
+      for (Index v = o.vertex_begin; v < o.vertex_end; ++v) s += " " + std::to_string(v + 1);
+      s += "\n";
+    }
+  }
+  write_file_atomic(path, s);
+}
+
+namespace {
+[[noreturn]] void fail(const fs::path& p, int line, const std::string& msg) {
+  throw Error(p.string() + ":" + std::to_string(line) + ": " + msg);
+}
+
+Index parse_index(const std::string& tok, Index nv, const fs::path& p, int line) {
+  // Accept "i", "i/t", "i/t/n", "i//n"; negative indices are relative to the end.
+  const std::string head = tok.substr(0, tok.find('/'));
+  char* end = nullptr;
+  const long v = std::strtol(head.c_str(), &end, 10);
+  if (head.empty() || *end != '\0' || v == 0) fail(p, line, "bad vertex index '" + tok + "'");
+  const long idx = v > 0 ? v - 1 : nv + v;
+  if (idx < 0 || idx >= nv) fail(p, line, "vertex index " + tok + " out of range (" + std::to_string(nv) + " vertices so far)");
+  return static_cast<Index>(idx);
+}
+
+template <class Sink>
+void parse_obj(const fs::path& path, Sink&& sink) {
+  std::ifstream in(path);
+  if (!in) throw Error("cannot open '" + path.string() + "'");
+  std::string line, tag, tok;
+  int lineno = 0;
+  while (std::getline(in, line)) {
+    ++lineno;
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream ls(line);
+    if (!(ls >> tag)) continue;
+    sink(tag, ls, lineno);
+  }
+}
+}  // namespace
+
+Frame read_frame_obj(const fs::path& path) {
+  Frame fr;
+  auto current = [&]() -> FrameObject& {
+    if (fr.objects.empty()) fr.objects.push_back({"default"});
+    return fr.objects.back();
+  };
+  parse_obj(path, [&](const std::string& tag, std::istringstream& ls, int ln) {
+    const Index nv = static_cast<Index>(fr.v.size());
+    std::string tok;
+    if (tag == "o" || tag == "g") {
+      std::string name;
+      std::getline(ls >> std::ws, name);
+      FrameObject o;
+      o.name = name;
+      o.vertex_begin = o.vertex_end = nv;
+      o.face_begin = o.face_end = static_cast<Index>(fr.faces.size());
+      o.line_begin = o.line_end = static_cast<Index>(fr.lines.size());
+      o.point_begin = o.point_end = static_cast<Index>(fr.points.size());
+      fr.objects.push_back(o);
+    } else if (tag == "v") {
+      double c[3];
+      for (double& ci : c) {
+        if (!(ls >> tok)) fail(path, ln, "vertex needs 3 coordinates");
+        char* end = nullptr;
+        ci = std::strtod(tok.c_str(), &end);
+        if (*end != '\0') fail(path, ln, "bad coordinate '" + tok + "'");
+        if (!std::isfinite(ci)) fail(path, ln, "non-finite coordinate '" + tok + "' (NaN or inf)");
+      }
+      fr.v.emplace_back(c[0], c[1], c[2]);
+      current().vertex_end = static_cast<Index>(fr.v.size());
+    } else if (tag == "f") {
+      std::vector<Index> poly;
+      while (ls >> tok) poly.push_back(parse_index(tok, nv, path, ln));
+      if (poly.size() < 3) fail(path, ln, "face needs at least 3 vertices");
+      for (size_t k = 1; k + 1 < poly.size(); ++k) fr.faces.emplace_back(poly[0], poly[k], poly[k + 1]);
+      current().face_end = static_cast<Index>(fr.faces.size());
+    } else if (tag == "l") {
+      std::vector<Index> pl;
+      while (ls >> tok) pl.push_back(parse_index(tok, nv, path, ln));
+      if (pl.size() < 2) fail(path, ln, "line needs at least 2 vertices");
+      fr.lines.push_back(std::move(pl));
+      current().line_end = static_cast<Index>(fr.lines.size());
+    } else if (tag == "p") {
+      while (ls >> tok) fr.points.push_back(parse_index(tok, nv, path, ln));
+      current().point_end = static_cast<Index>(fr.points.size());
+    }
+    // vn, vt, usemtl, s, mtllib: ignored
+  });
+  return fr;
+}
+
+ObjMesh read_obj_mesh(const fs::path& path) {
+  if (!fs::exists(path)) throw Error("mesh file '" + path.string() + "' does not exist");
+  Frame fr = read_frame_obj(path);
+  if (fr.v.empty()) throw Error("mesh file '" + path.string() + "' has no vertices");
+  return ObjMesh{std::move(fr.v), std::move(fr.faces), std::move(fr.lines)};
+}
+
+}  // namespace ccfr::io
