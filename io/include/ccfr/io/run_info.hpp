@@ -1,0 +1,29 @@
+#pragma once
+/// @file run_info.hpp
+/// What tools need to know about a run directory, read back from its run.json.
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace ccfr::io {
+
+struct RunInfo {
+  std::filesystem::path dir;
+  std::string scene;       ///< scene name
+  std::string solver;      ///< contact.solver
+  double radius = 0.0;     ///< r
+  double offset = 0.0;     ///< ξ
+  double repulsion_range = 0.0;  ///< δ
+  double fps = 0.0;
+  std::vector<std::filesystem::path> frames;  ///< frames/frame_*.obj present on disk, in order
+};
+
+/// Reads DIR/run.json and lists DIR/frames/frame_*.obj. Throws ccfr::Error if DIR or run.json
+/// is missing or malformed. A missing run.json is accepted when `require_run_json` is false
+/// (then only `frames` and `dir` are filled).
+RunInfo read_run_info(const std::filesystem::path& dir, bool require_run_json = true);
+
+/// Lists DIR/frames/frame_*.obj in frame order.
+std::vector<std::filesystem::path> list_frames(const std::filesystem::path& dir);
+
+}  // namespace ccfr::io

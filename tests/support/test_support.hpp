@@ -1,0 +1,67 @@
+#pragma once
+// Test support shared by every suite: a guard that fails any test logging an unexpected warning
+// or error through spdlog, and small helpers for seeded randomness.
+#include <gtest/gtest.h>
+#include <spdlog/sinks/base_sink.h>
+#include <spdlog/spdlog.h>
+
+#include <atomic>
+#include <memory>
+#include <mutex>
+#include <random>
+#include <string>
+
+namespace ccfr::test {
+
+/// Counts warnings and errors logged through the default logger.
+class CountingSink final : public spdlog::sinks::base_sink<std::mutex> {
+ public:
+  std::atomic<int> warnings{0};
+  std::string last;
+
+ protected:
+  void sink_it_(const spdlog::details::log_msg& msg) override {
+    if (msg.level >= spdlog::level::warn) {
+      ++warnings;
+      last.assign(msg.payload.data(), msg.payload.size());
+    }
+  }
+  void flush_() override {}
+};
+
+inline std::shared_ptr<CountingSink>& counting_sink() {
+  static std::shared_ptr<CountingSink> sink = std::make_shared<CountingSink>();
+  return sink;
+}
+
+/// While alive, warnings are expected and do not fail the test.
+class ExpectWarnings {
+ public:
+  ExpectWarnings() { depth()++; }
+  ~ExpectWarnings() { counting_sink()->warnings = 0; depth()--; }
+  static int& depth() {
+    static int d = 0;
+    return d;
+  }
+};
+
+class WarningListener final : public ::testing::EmptyTestEventListener {
+  void OnTestStart(const ::testing::TestInfo&) override { counting_sink()->warnings = 0; }
+  void OnTestEnd(const ::testing::TestInfo&) override {
+    if (ExpectWarnings::depth() == 0 && counting_sink()->warnings > 0)
+      ADD_FAILURE() << "unexpected warning logged: " << counting_sink()->last;
+  }
+};
+
+class WarningGuardEnvironment final : public ::testing::Environment {
+ public:
+  void SetUp() override {
+    spdlog::default_logger()->sinks().push_back(counting_sink());
+    ::testing::UnitTest::GetInstance()->listeners().Append(new WarningListener);
+  }
+};
+
+/// A seeded generator for reproducible random tests.
+inline std::mt19937_64 rng(std::uint64_t seed) { return std::mt19937_64(seed); }
+
+}  // namespace ccfr::test
