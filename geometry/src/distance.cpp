@@ -1,0 +1,167 @@
+#include "ccfr/geometry/distance.hpp"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+
+namespace ccfr {
+
+namespace {
+
+// A triangle whose squared doubled area is below this fraction of (longest edge)^4 has a height
+// below ~1e-10 of its size: the face-region formulas divide by that area, so such triangles are
+// treated as the union of their three edges (which is exact for a zero-area triangle).
+constexpr double kDegenerateTriangle = 1e-20;
+// Edges are parallel when sin^2 of their angle is below this: the 2x2 system for the interior
+// closest pair is then too ill-conditioned to trust, and the minimum over the endpoint-vs-segment
+// cases is the exact answer for parallel segments anyway.
+constexpr double kParallel = 1e-14;
+
+EdgeFeature edge_feature(double t) {
+  if (t <= 0.0) return EdgeFeature::v0;
+  if (t >= 1.0) return EdgeFeature::v1;
+  return EdgeFeature::interior;
+}
+
+PointTriangleResult make_pt(const Vec3& p, double u, double v, double w, const Vec3& closest, TriangleFeature f) {
+  PointTriangleResult r;
+  r.bary = Vec3(u, v, w);
+  r.closest = closest;
+  r.distance_sq = (p - closest).squaredNorm();
+  r.feature = f;
+  return r;
+}
+
+// Closest point of a zero-area triangle: the best of its three edges.
+PointTriangleResult point_degenerate_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const PointEdgeResult eab = point_edge(p, a, b);
+  const PointEdgeResult ebc = point_edge(p, b, c);
+  const PointEdgeResult eca = point_edge(p, c, a);
+  auto feat = [](EdgeFeature f, TriangleFeature f0, TriangleFeature f1, TriangleFeature fe) {
+    return f == EdgeFeature::v0 ? f0 : (f == EdgeFeature::v1 ? f1 : fe);
+  };
+  PointTriangleResult r = make_pt(p, 1.0 - eab.t, eab.t, 0.0, eab.closest,
+                                  feat(eab.feature, TriangleFeature::v0, TriangleFeature::v1, TriangleFeature::e01));
+  if (ebc.distance_sq < r.distance_sq)
+    r = make_pt(p, 0.0, 1.0 - ebc.t, ebc.t, ebc.closest,
+                feat(ebc.feature, TriangleFeature::v1, TriangleFeature::v2, TriangleFeature::e12));
+  if (eca.distance_sq < r.distance_sq)
+    r = make_pt(p, eca.t, 0.0, 1.0 - eca.t, eca.closest,
+                feat(eca.feature, TriangleFeature::v2, TriangleFeature::v0, TriangleFeature::e20));
+  return r;
+}
+
+}  // namespace
+
+PointEdgeResult point_edge(const Vec3& p, const Vec3& a, const Vec3& b) {
+  PointEdgeResult r;
+  const Vec3 d = b - a;
+  const double len_sq = d.squaredNorm();
+  // A zero-length edge is its vertex v0; the division below would give NaN.
+  double t = len_sq > 0.0 ? (p - a).dot(d) / len_sq : 0.0;
+  if (!(t > 0.0)) t = 0.0;  // also catches t = NaN from an overflowing dot product
+  if (t > 1.0) t = 1.0;
+  r.t = t;
+  r.feature = edge_feature(t);
+  r.closest = r.feature == EdgeFeature::v0 ? a : (r.feature == EdgeFeature::v1 ? b : Vec3(a + t * d));
+  r.distance_sq = (p - r.closest).squaredNorm();
+  return r;
+}
+
+PointTriangleResult point_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const Vec3 ab = b - a, ac = c - a, bc = c - b;
+  const double lmax = std::max({ab.squaredNorm(), ac.squaredNorm(), bc.squaredNorm()});
+  if (!(ab.cross(ac).squaredNorm() > kDegenerateTriangle * lmax * lmax))
+    return point_degenerate_triangle(p, a, b, c);
+
+  // Voronoi-region walk (Ericson, Real-Time Collision Detection, 5.1.5). Every division below is
+  // by a positive quantity bounded away from zero by the non-degeneracy test above.
+  const Vec3 ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0.0 && d2 <= 0.0) return make_pt(p, 1, 0, 0, a, TriangleFeature::v0);
+
+  const Vec3 bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0.0 && d4 <= d3) return make_pt(p, 0, 1, 0, b, TriangleFeature::v1);
+
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
+    const double v = std::clamp(d1 / (d1 - d3), 0.0, 1.0);
+    return make_pt(p, 1.0 - v, v, 0.0, a + v * ab, TriangleFeature::e01);
+  }
+
+  const Vec3 cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0.0 && d5 <= d6) return make_pt(p, 0, 0, 1, c, TriangleFeature::v2);
+
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
+    const double w = std::clamp(d2 / (d2 - d6), 0.0, 1.0);
+    return make_pt(p, 1.0 - w, 0.0, w, a + w * ac, TriangleFeature::e20);
+  }
+
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
+    const double w = std::clamp((d4 - d3) / ((d4 - d3) + (d5 - d6)), 0.0, 1.0);
+    return make_pt(p, 0.0, 1.0 - w, w, b + w * bc, TriangleFeature::e12);
+  }
+
+  // Face region: va, vb, vc > 0 up to rounding; clamp and renormalise so bary stays a convex combination.
+  double u = std::max(va, 0.0), v = std::max(vb, 0.0), w = std::max(vc, 0.0);
+  const double sum = u + v + w;
+  if (!(sum > 0.0)) return point_degenerate_triangle(p, a, b, c);
+  u /= sum;
+  v /= sum;
+  w /= sum;
+  return make_pt(p, u, v, w, u * a + v * b + w * c, TriangleFeature::interior);
+}
+
+EdgeEdgeResult edge_edge(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1) {
+  const Vec3 da = a1 - a0, db = b1 - b0, r0 = a0 - b0;
+  const double a = da.squaredNorm(), c = db.squaredNorm(), b = da.dot(db);
+  const double denom = a * c - b * b;  // |da x db|^2, >= 0 up to rounding
+  const bool nondegenerate = a > 0.0 && c > 0.0;
+  EdgeEdgeResult r;
+  r.parallel = nondegenerate && !(denom > kParallel * a * c);
+
+  if (nondegenerate && !r.parallel) {
+    // Stationary point of |a0 + s da - b0 - t db|^2. The function is convex, so a stationary point
+    // strictly inside the unit square is the global minimum; otherwise the minimum is on the boundary.
+    const double d = da.dot(r0), e = db.dot(r0);
+    const double s = (b * e - c * d) / denom;
+    const double t = (a * e - b * d) / denom;
+    if (s > 0.0 && s < 1.0 && t > 0.0 && t < 1.0) {
+      r.s = s;
+      r.t = t;
+      r.pa = a0 + s * da;
+      r.pb = b0 + t * db;
+      r.distance_sq = (r.pa - r.pb).squaredNorm();
+      r.feature_a = r.feature_b = EdgeFeature::interior;
+      return r;
+    }
+  }
+
+  // Boundary of the square: one parameter at 0 or 1, the other free. Exact for parallel and
+  // zero-length edges too, since then an endpoint of one edge is always among the closest points.
+  const PointEdgeResult c0 = point_edge(a0, b0, b1);
+  const PointEdgeResult c1 = point_edge(a1, b0, b1);
+  const PointEdgeResult c2 = point_edge(b0, a0, a1);
+  const PointEdgeResult c3 = point_edge(b1, a0, a1);
+  int best = 0;
+  double best_d = c0.distance_sq;
+  if (c1.distance_sq < best_d) best = 1, best_d = c1.distance_sq;
+  if (c2.distance_sq < best_d) best = 2, best_d = c2.distance_sq;
+  if (c3.distance_sq < best_d) best = 3, best_d = c3.distance_sq;
+  switch (best) {
+    case 0: r.s = 0.0, r.t = c0.t, r.pa = a0, r.pb = c0.closest; break;
+    case 1: r.s = 1.0, r.t = c1.t, r.pa = a1, r.pb = c1.closest; break;
+    case 2: r.s = c2.t, r.t = 0.0, r.pa = c2.closest, r.pb = b0; break;
+    default: r.s = c3.t, r.t = 1.0, r.pa = c3.closest, r.pb = b1; break;
+  }
+  r.distance_sq = best_d;
+  r.feature_a = edge_feature(r.s);
+  r.feature_b = edge_feature(r.t);
+  return r;
+}
+
+}  // namespace ccfr

@@ -1,0 +1,298 @@
+// Closest-point kernels against independent long-double references and dense sampling, on
+// seeded random input and on degenerate configurations.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "ccfr/geometry/distance.hpp"
+#include "test_support.hpp"
+
+namespace ccfr {
+namespace {
+
+using LD = long double;
+struct V3L {
+  LD x, y, z;
+};
+V3L L(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
+V3L sub(V3L a, V3L b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+V3L add(V3L a, V3L b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+V3L mul(LD s, V3L a) { return {s * a.x, s * a.y, s * a.z}; }
+LD dot(V3L a, V3L b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+
+// Reference point-segment distance in long double.
+LD ref_pe(V3L p, V3L a, V3L b) {
+  V3L d = sub(b, a);
+  LD l = dot(d, d);
+  LD t = l > 0 ? dot(sub(p, a), d) / l : 0;
+  t = std::clamp<LD>(t, 0, 1);
+  V3L q = sub(p, add(a, mul(t, d)));
+  return dot(q, q);
+}
+
+// Reference point-triangle distance: plane projection if inside (barycentrics from a 2x2 solve),
+// else the best edge. A different algorithm from the Voronoi walk under test.
+LD ref_pt(V3L p, V3L a, V3L b, V3L c) {
+  LD best = std::min({ref_pe(p, a, b), ref_pe(p, b, c), ref_pe(p, c, a)});
+  V3L e0 = sub(b, a), e1 = sub(c, a), ap = sub(p, a);
+  LD m00 = dot(e0, e0), m01 = dot(e0, e1), m11 = dot(e1, e1);
+  LD det = m00 * m11 - m01 * m01;
+  if (det > 1e-30L * m00 * m11) {
+    LD r0 = dot(e0, ap), r1 = dot(e1, ap);
+    LD v = (m11 * r0 - m01 * r1) / det, w = (m00 * r1 - m01 * r0) / det;
+    if (v >= 0 && w >= 0 && v + w <= 1) {
+      V3L q = sub(p, add(a, add(mul(v, e0), mul(w, e1))));
+      best = std::min(best, dot(q, q));
+    }
+  }
+  return best;
+}
+
+// Reference segment-segment distance by nested ternary search on the convex function
+// f(s) = min_t |A(s) - B(t)|^2 (min over t is the point-segment distance, also convex in s).
+LD ref_ee(V3L a0, V3L a1, V3L b0, V3L b1) {
+  auto f = [&](LD s) { return ref_pe(add(a0, mul(s, sub(a1, a0))), b0, b1); };
+  LD lo = 0, hi = 1;
+  for (int it = 0; it < 200; ++it) {
+    LD m1 = lo + (hi - lo) / 3, m2 = hi - (hi - lo) / 3;
+    if (f(m1) < f(m2))
+      hi = m2;
+    else
+      lo = m1;
+  }
+  return std::min({f(0), f(1), f((lo + hi) / 2)});
+}
+
+Vec3 rand_vec(std::mt19937_64& g, double scale = 1.0) {
+  std::uniform_real_distribution<double> u(-scale, scale);
+  return Vec3(u(g), u(g), u(g));
+}
+
+void expect_close(double got, LD ref, double scale_sq) {
+  EXPECT_TRUE(std::isfinite(got));
+  EXPECT_NEAR(got, static_cast<double>(ref), 1e-12 * scale_sq + 1e-12 * std::abs(static_cast<double>(ref)));
+}
+
+void check_pe(const Vec3& p, const Vec3& a, const Vec3& b) {
+  const PointEdgeResult r = point_edge(p, a, b);
+  ASSERT_TRUE(r.closest.allFinite());
+  EXPECT_GE(r.t, 0.0);
+  EXPECT_LE(r.t, 1.0);
+  EXPECT_LE((r.closest - (a + r.t * (b - a))).norm(), 1e-12 * (1 + a.norm() + b.norm()));
+  EXPECT_DOUBLE_EQ(r.distance_sq, (p - r.closest).squaredNorm());
+  const double scale = (p - a).squaredNorm() + (b - a).squaredNorm();
+  expect_close(r.distance_sq, ref_pe(L(p), L(a), L(b)), scale);
+  if (r.feature == EdgeFeature::v0) EXPECT_EQ(r.t, 0.0);
+  if (r.feature == EdgeFeature::v1) EXPECT_EQ(r.t, 1.0);
+  if (r.feature == EdgeFeature::interior) EXPECT_TRUE(r.t > 0.0 && r.t < 1.0);
+}
+
+void check_pt(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const PointTriangleResult r = point_triangle(p, a, b, c);
+  ASSERT_TRUE(r.closest.allFinite());
+  ASSERT_TRUE(r.bary.allFinite());
+  EXPECT_GE(r.bary.minCoeff(), 0.0);
+  EXPECT_NEAR(r.bary.sum(), 1.0, 1e-12);
+  const double size = (a - b).norm() + (b - c).norm() + (c - a).norm() + (p - a).norm();
+  EXPECT_LE((r.closest - (r.bary[0] * a + r.bary[1] * b + r.bary[2] * c)).norm(), 1e-12 * (1 + size));
+  expect_close(r.distance_sq, ref_pt(L(p), L(a), L(b), L(c)), size * size);
+  switch (r.feature) {
+    case TriangleFeature::v0: EXPECT_EQ(r.bary[0], 1.0); break;
+    case TriangleFeature::v1: EXPECT_EQ(r.bary[1], 1.0); break;
+    case TriangleFeature::v2: EXPECT_EQ(r.bary[2], 1.0); break;
+    case TriangleFeature::e01: EXPECT_EQ(r.bary[2], 0.0); break;
+    case TriangleFeature::e12: EXPECT_EQ(r.bary[0], 0.0); break;
+    case TriangleFeature::e20: EXPECT_EQ(r.bary[1], 0.0); break;
+    case TriangleFeature::interior: EXPECT_GT(r.bary.minCoeff(), 0.0); break;
+  }
+}
+
+void check_ee(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1) {
+  const EdgeEdgeResult r = edge_edge(a0, a1, b0, b1);
+  ASSERT_TRUE(r.pa.allFinite() && r.pb.allFinite());
+  EXPECT_TRUE(r.s >= 0.0 && r.s <= 1.0);
+  EXPECT_TRUE(r.t >= 0.0 && r.t <= 1.0);
+  const double size = (a0 - a1).norm() + (b0 - b1).norm() + (a0 - b0).norm();
+  EXPECT_LE((r.pa - (a0 + r.s * (a1 - a0))).norm(), 1e-12 * (1 + size));
+  EXPECT_LE((r.pb - (b0 + r.t * (b1 - b0))).norm(), 1e-12 * (1 + size));
+  EXPECT_NEAR(r.distance_sq, (r.pa - r.pb).squaredNorm(), 1e-15 * (1 + size * size));
+  expect_close(r.distance_sq, ref_ee(L(a0), L(a1), L(b0), L(b1)), size * size);
+  EXPECT_EQ(r.feature_a == EdgeFeature::v0, r.s == 0.0);
+  EXPECT_EQ(r.feature_a == EdgeFeature::v1, r.s == 1.0);
+  EXPECT_EQ(r.feature_b == EdgeFeature::v0, r.t == 0.0);
+  EXPECT_EQ(r.feature_b == EdgeFeature::v1, r.t == 1.0);
+  // Symmetry: swapping the edges gives the same distance and, where unique, the same points.
+  const EdgeEdgeResult q = edge_edge(b0, b1, a0, a1);
+  EXPECT_NEAR(q.distance_sq, r.distance_sq, 1e-14 * (1 + size * size));
+  EXPECT_EQ(q.parallel, r.parallel);
+  if (!r.parallel && r.distance_sq > 1e-8 * size * size) {
+    EXPECT_LE((q.pa - r.pb).norm(), 1e-6 * (1 + size));
+    EXPECT_LE((q.pb - r.pa).norm(), 1e-6 * (1 + size));
+  }
+}
+
+TEST(Distance, PointEdgeRandom) {
+  auto g = test::rng(1);
+  for (int i = 0; i < 20000; ++i) check_pe(rand_vec(g), rand_vec(g), rand_vec(g));
+}
+
+TEST(Distance, PointEdgeDegenerate) {
+  const Vec3 a(0.3, -0.2, 0.1);
+  check_pe(Vec3(1, 2, 3), a, a);  // zero-length edge
+  check_pe(a, a, a);              // all coincident
+  check_pe(a, a, Vec3(1, 1, 1));  // at an endpoint
+  const PointEdgeResult r = point_edge(Vec3(5, 0, 0), a, a);
+  EXPECT_EQ(r.feature, EdgeFeature::v0);
+  EXPECT_EQ(r.t, 0.0);
+  const PointEdgeResult mid = point_edge(Vec3(0.5, 1, 0), Vec3(0, 0, 0), Vec3(1, 0, 0));
+  EXPECT_EQ(mid.feature, EdgeFeature::interior);
+  EXPECT_DOUBLE_EQ(mid.t, 0.5);
+  EXPECT_DOUBLE_EQ(mid.distance_sq, 1.0);
+  // Tiny and huge scales.
+  check_pe(Vec3(1e-300, 0, 0), Vec3(0, 0, 0), Vec3(0, 1e-300, 0));
+  check_pe(Vec3(1e150, 0, 0), Vec3(0, 0, 0), Vec3(0, 1e150, 0));
+}
+
+TEST(Distance, PointTriangleRandom) {
+  auto g = test::rng(2);
+  for (int i = 0; i < 20000; ++i) check_pt(rand_vec(g), rand_vec(g), rand_vec(g), rand_vec(g));
+}
+
+TEST(Distance, PointTriangleFeatures) {
+  const Vec3 a(0, 0, 0), b(1, 0, 0), c(0, 1, 0);
+  struct Case {
+    Vec3 p;
+    TriangleFeature f;
+    double d2;
+  };
+  const Case cases[] = {
+      {Vec3(-1, -1, 1), TriangleFeature::v0, 3.0},      {Vec3(2, -1, 0), TriangleFeature::v1, 2.0},
+      {Vec3(-1, 3, 0), TriangleFeature::v2, 5.0},        {Vec3(0.5, -1, 0), TriangleFeature::e01, 1.0},
+      {Vec3(1, 1, 0), TriangleFeature::e12, 0.5},        {Vec3(-2, 0.5, 0), TriangleFeature::e20, 4.0},
+      {Vec3(0.25, 0.25, -2), TriangleFeature::interior, 4.0},
+  };
+  for (const Case& cs : cases) {
+    const PointTriangleResult r = point_triangle(cs.p, a, b, c);
+    EXPECT_EQ(r.feature, cs.f) << cs.p.transpose();
+    EXPECT_NEAR(r.distance_sq, cs.d2, 1e-14);
+    check_pt(cs.p, a, b, c);
+  }
+}
+
+TEST(Distance, PointTriangleDegenerate) {
+  auto g = test::rng(3);
+  for (int i = 0; i < 5000; ++i) {
+    const Vec3 a = rand_vec(g), b = rand_vec(g), p = rand_vec(g);
+    std::uniform_real_distribution<double> u(-1.5, 2.5);
+    check_pt(p, a, b, a + u(g) * (b - a));  // collinear, zero area
+    check_pt(p, a, a, b);                   // coincident vertices
+    check_pt(p, a, b, b);
+    check_pt(p, a, a, a);                   // a single point
+    check_pt(a, a, b, b);                   // the point is a vertex
+    // Nearly degenerate: height 1e-9 relative.
+    const Vec3 n = rand_vec(g).normalized();
+    check_pt(p, a, b, 0.5 * (a + b) + 1e-9 * n);
+  }
+  const PointTriangleResult r = point_triangle(Vec3(0.5, 1, 0), Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(2, 0, 0));
+  EXPECT_NEAR(r.distance_sq, 1.0, 1e-15);
+  EXPECT_TRUE(r.bary.allFinite());
+}
+
+TEST(Distance, PointTriangleOnFace) {
+  auto g = test::rng(4);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (int i = 0; i < 5000; ++i) {
+    const Vec3 a = rand_vec(g), b = rand_vec(g), c = rand_vec(g);
+    double v = u(g), w = u(g);
+    if (v + w > 1) v = 1 - v, w = 1 - w;
+    const Vec3 p = (1 - v - w) * a + v * b + w * c;
+    const PointTriangleResult r = point_triangle(p, a, b, c);
+    EXPECT_LE(r.distance_sq, 1e-24);
+  }
+}
+
+TEST(Distance, EdgeEdgeRandom) {
+  auto g = test::rng(5);
+  for (int i = 0; i < 5000; ++i) check_ee(rand_vec(g), rand_vec(g), rand_vec(g), rand_vec(g));
+}
+
+TEST(Distance, EdgeEdgeCrossing) {
+  const EdgeEdgeResult r = edge_edge(Vec3(-1, 0, 0), Vec3(1, 0, 0), Vec3(0, -1, 0.5), Vec3(0, 1, 0.5));
+  EXPECT_FALSE(r.parallel);
+  EXPECT_EQ(r.feature_a, EdgeFeature::interior);
+  EXPECT_EQ(r.feature_b, EdgeFeature::interior);
+  EXPECT_DOUBLE_EQ(r.s, 0.5);
+  EXPECT_DOUBLE_EQ(r.t, 0.5);
+  EXPECT_DOUBLE_EQ(r.distance_sq, 0.25);
+  // Closest pair at an endpoint of B and the interior of A.
+  const EdgeEdgeResult q = edge_edge(Vec3(-1, 0, 0), Vec3(1, 0, 0), Vec3(0.25, 2, 1), Vec3(0.25, 5, 1));
+  EXPECT_EQ(q.feature_a, EdgeFeature::interior);
+  EXPECT_EQ(q.feature_b, EdgeFeature::v0);
+  EXPECT_DOUBLE_EQ(q.distance_sq, 5.0);
+}
+
+TEST(Distance, EdgeEdgeDegenerate) {
+  auto g = test::rng(6);
+  std::uniform_real_distribution<double> u(-2, 2);
+  for (int i = 0; i < 2000; ++i) {
+    const Vec3 a0 = rand_vec(g), a1 = rand_vec(g), off = rand_vec(g);
+    const Vec3 d = a1 - a0;
+    // Parallel, overlapping or not.
+    check_ee(a0, a1, a0 + off + u(g) * d, a0 + off + u(g) * d);
+    // Collinear.
+    check_ee(a0, a1, a0 + u(g) * d, a0 + u(g) * d);
+    // Anti-parallel identical.
+    check_ee(a0, a1, a1, a0);
+    // Zero-length edges.
+    check_ee(a0, a0, rand_vec(g), rand_vec(g));
+    check_ee(rand_vec(g), rand_vec(g), a1, a1);
+    check_ee(a0, a0, a1, a1);
+    check_ee(a0, a0, a0, a0);
+    // Shared endpoint.
+    check_ee(a0, a1, a1, rand_vec(g));
+    // Nearly parallel.
+    check_ee(a0, a1, a0 + off, a1 + off + 1e-9 * rand_vec(g));
+  }
+  const EdgeEdgeResult r = edge_edge(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0.5, 1, 0), Vec3(2, 1, 0));
+  EXPECT_TRUE(r.parallel);
+  EXPECT_DOUBLE_EQ(r.distance_sq, 1.0);
+  const EdgeEdgeResult z = edge_edge(Vec3(0, 0, 0), Vec3(0, 0, 0), Vec3(0, 0, 0), Vec3(0, 0, 0));
+  EXPECT_FALSE(z.parallel);
+  EXPECT_EQ(z.distance_sq, 0.0);
+}
+
+TEST(Distance, NeverNaNOnExtremeInput) {
+  const double big = 1e150, tiny = 1e-300;
+  const Vec3 o = Vec3::Zero();
+  for (double s : {big, tiny}) {
+    const Vec3 x(s, 0, 0), y(0, s, 0), z(0, 0, s);
+    EXPECT_FALSE(std::isnan(point_triangle(z, o, x, y).distance_sq));
+    EXPECT_FALSE(std::isnan(edge_edge(o, x, y, z).distance_sq));
+    EXPECT_FALSE(std::isnan(edge_edge(o, x, y, y + x).distance_sq));
+    EXPECT_TRUE(point_triangle(z, o, x, y).bary.allFinite());
+  }
+}
+
+// Dense sampling gives an upper bound on the true distance; the kernel must never exceed it.
+TEST(Distance, NotAboveSampledMinimum) {
+  auto g = test::rng(7);
+  for (int i = 0; i < 50; ++i) {
+    const Vec3 p = rand_vec(g), a = rand_vec(g), b = rand_vec(g), c = rand_vec(g), d = rand_vec(g);
+    double best_pt = std::numeric_limits<double>::infinity(), best_ee = best_pt;
+    const int n = 120;
+    for (int k = 0; k <= n; ++k)
+      for (int l = 0; l <= n; ++l) {
+        const double s = double(k) / n, t = double(l) / n;
+        best_ee = std::min(best_ee, ((a + s * (b - a)) - (c + t * (d - c))).squaredNorm());
+        if (k + l <= n) best_pt = std::min(best_pt, (p - ((1 - s - t) * a + s * b + t * c)).squaredNorm());
+      }
+    EXPECT_LE(point_triangle(p, a, b, c).distance_sq, best_pt + 1e-15);
+    EXPECT_LE(edge_edge(a, b, c, d).distance_sq, best_ee + 1e-15);
+  }
+}
+
+}  // namespace
+}  // namespace ccfr
