@@ -12,25 +12,39 @@ namespace ccfr {
 
 class Bvh {
  public:
-  /// Builds the tree over `boxes` with at most `leaf_size` boxes per leaf.
+  /// Builds the tree over `boxes` (#B) with at most `leaf_size` boxes per leaf (median split of
+  /// the box centres along the longest axis). Throws ccfr::Error if a box has a NaN coordinate;
+  /// empty boxes (lo > hi, the default AABB) are allowed and overlap nothing.
   void build(std::span<const AABB> boxes, int leaf_size = 4);
   /// Refits all node bounds to new boxes (same count and order as in build), keeping the tree.
+  /// Throws ccfr::Error on a NaN box or a different box count.
   void refit(std::span<const AABB> boxes);
-  /// All pairs (i, j), i < j, of overlapping boxes. Parallel; the output order is
-  /// deterministic for given input (independent of thread timing).
+  /// All pairs (i, j), i < j, of overlapping boxes (closed boxes: touching counts), replacing the
+  /// contents of `out`. Parallel over fixed chunks of leaves; the output order is deterministic
+  /// for given input (independent of thread timing and thread count).
   void self_pairs(std::vector<std::pair<Index, Index>>& out) const;
-  /// Indices of boxes overlapping `box`, appended to `out`.
+  /// Indices of boxes overlapping `box`, appended to `out` in a deterministic order. A box with a
+  /// NaN coordinate overlaps nothing.
   void query(const AABB& box, std::vector<Index>& out) const;
   Index size() const { return num_boxes_; }
 
  private:
+  /// Nodes in depth-first order: an internal node's left child is the next node, so only the
+  /// right child is stored. Every node covers the contiguous range [first, first + count) of
+  /// order_, which lets self_pairs skip subtrees that lie entirely before the querying leaf.
   struct Node {
     AABB box;
-    Index left = -1, right = -1;  ///< children, -1 for a leaf
-    Index first = 0, count = 0;   ///< leaf: range in order_
+    Index right = -1;             ///< right child, -1 for a leaf
+    Index first = 0, count = 0;   ///< range in order_
   };
+  Index build_node(Index first, Index count, int leaf_size, std::span<const AABB> boxes);
+  void gather(std::span<const AABB> boxes);
+  void leaf_pairs(Index leaf, std::vector<std::pair<Index, Index>>& out) const;
+
   std::vector<Node> nodes_;
-  std::vector<Index> order_;  ///< box ids, leaf-contiguous
+  std::vector<Index> order_;   ///< #boxes: box ids, leaf-contiguous
+  std::vector<AABB> sorted_;   ///< #boxes: boxes in order_ order, for cache-friendly leaf tests
+  std::vector<Index> leaves_;  ///< leaf node ids in depth-first order
   Index num_boxes_ = 0;
 };
 

@@ -1,0 +1,163 @@
+// The flat BVH against brute force: identical pair sets on random soups and cloth-like grids,
+// before and after refit; box queries; determinism; NaN guard.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <set>
+
+#include "ccfr/core/error.hpp"
+#include "ccfr/core/parallel.hpp"
+#include "ccfr/geometry/bvh.hpp"
+#include "test_support.hpp"
+
+namespace ccfr {
+namespace {
+
+using Pairs = std::vector<std::pair<Index, Index>>;
+
+Pairs brute_pairs(const std::vector<AABB>& boxes) {
+  Pairs p;
+  for (Index i = 0; i < static_cast<Index>(boxes.size()); ++i)
+    for (Index j = i + 1; j < static_cast<Index>(boxes.size()); ++j)
+      if (boxes[i].overlaps(boxes[j])) p.emplace_back(i, j);
+  return p;
+}
+
+Pairs sorted(Pairs p) {
+  std::sort(p.begin(), p.end());
+  return p;
+}
+
+std::vector<AABB> random_soup(std::mt19937_64& g, int n, double size) {
+  std::uniform_real_distribution<double> u(0, 1), s(0, size);
+  std::vector<AABB> boxes(n);
+  for (auto& b : boxes) {
+    const Vec3 c(u(g), u(g), u(g));
+    b = AABB::of(c, c + Vec3(s(g), s(g), s(g)));
+  }
+  return boxes;
+}
+
+// Triangle boxes of a res x res grid on [0,1]^2 displaced by sines, grown by `margin`.
+std::vector<AABB> cloth_boxes(int res, double phase, double margin) {
+  auto at = [&](int i, int j) {
+    const double x = double(i) / res, z = double(j) / res;
+    return Vec3(x, 0.05 * std::sin(12 * x + phase) * std::cos(9 * z - phase), z);
+  };
+  std::vector<AABB> boxes;
+  for (int i = 0; i < res; ++i)
+    for (int j = 0; j < res; ++j) {
+      AABB a = AABB::of(at(i, j), at(i + 1, j), at(i + 1, j + 1));
+      AABB b = AABB::of(at(i, j), at(i + 1, j + 1), at(i, j + 1));
+      a.inflate(margin);
+      b.inflate(margin);
+      boxes.push_back(a);
+      boxes.push_back(b);
+    }
+  return boxes;
+}
+
+TEST(Bvh, RandomSoupMatchesBruteForce) {
+  auto g = test::rng(11);
+  for (int leaf : {1, 2, 4, 8}) {
+    for (int n : {0, 1, 2, 3, 17, 500, 2000}) {
+      auto boxes = random_soup(g, n, 0.08);
+      Bvh bvh;
+      bvh.build(boxes, leaf);
+      EXPECT_EQ(bvh.size(), n);
+      Pairs p;
+      bvh.self_pairs(p);
+      for (auto [i, j] : p) EXPECT_LT(i, j);
+      EXPECT_EQ(sorted(p), brute_pairs(boxes)) << "n=" << n << " leaf=" << leaf;
+      const std::set<std::pair<Index, Index>> unique(p.begin(), p.end());
+      EXPECT_EQ(unique.size(), p.size());  // no duplicates
+      // Refit to moved boxes keeps correctness.
+      auto moved = random_soup(g, n, 0.12);
+      bvh.refit(moved);
+      bvh.self_pairs(p);
+      EXPECT_EQ(sorted(p), brute_pairs(moved));
+    }
+  }
+}
+
+TEST(Bvh, ClothGridMatchesBruteForceAfterRefit) {
+  auto boxes = cloth_boxes(24, 0.0, 0.01);
+  Bvh bvh;
+  bvh.build(boxes, 4);
+  Pairs p;
+  bvh.self_pairs(p);
+  EXPECT_EQ(sorted(p), brute_pairs(boxes));
+  for (double phase : {0.7, 2.1}) {
+    auto moved = cloth_boxes(24, phase, 0.02);
+    bvh.refit(moved);
+    bvh.self_pairs(p);
+    EXPECT_EQ(sorted(p), brute_pairs(moved));
+  }
+}
+
+TEST(Bvh, DegenerateBoxes) {
+  // Identical boxes, points (zero extent), touching boxes and empty boxes.
+  std::vector<AABB> boxes;
+  for (int i = 0; i < 20; ++i) boxes.push_back(AABB::of(Vec3(0, 0, 0), Vec3(1, 1, 1)));
+  for (int i = 0; i < 10; ++i) boxes.push_back(AABB::of(Vec3(2, 0, 0)));
+  boxes.push_back(AABB::of(Vec3(1, 1, 1), Vec3(2, 2, 2)));  // touches the unit boxes at a corner
+  boxes.push_back(AABB{});                                   // empty
+  boxes.push_back(AABB{});
+  Bvh bvh;
+  bvh.build(boxes, 4);
+  Pairs p;
+  bvh.self_pairs(p);
+  EXPECT_EQ(sorted(p), brute_pairs(boxes));
+}
+
+TEST(Bvh, QueryMatchesBruteForce) {
+  auto g = test::rng(12);
+  auto boxes = random_soup(g, 3000, 0.05);
+  Bvh bvh;
+  bvh.build(boxes);
+  auto queries = random_soup(g, 200, 0.2);
+  for (const AABB& q : queries) {
+    std::vector<Index> got, want;
+    bvh.query(q, got);
+    for (Index i = 0; i < 3000; ++i)
+      if (boxes[i].overlaps(q)) want.push_back(i);
+    std::sort(got.begin(), got.end());
+    EXPECT_EQ(got, want);
+  }
+  std::vector<Index> none;
+  AABB nan_box = AABB::of(Vec3(std::nan(""), 0, 0), Vec3(1, 1, 1));
+  bvh.query(nan_box, none);
+  EXPECT_TRUE(none.empty());
+}
+
+TEST(Bvh, DeterministicAcrossThreadCounts) {
+  auto boxes = cloth_boxes(40, 0.3, 0.01);
+  Bvh bvh;
+  bvh.build(boxes);
+  Pairs p1, p2;
+  set_thread_count(1);
+  bvh.self_pairs(p1);
+  set_thread_count(2);
+  bvh.self_pairs(p2);
+  set_thread_count(0);
+  EXPECT_EQ(p1, p2);
+}
+
+TEST(Bvh, RejectsNaNBoxes) {
+  std::vector<AABB> boxes(4, AABB::of(Vec3(0, 0, 0), Vec3(1, 1, 1)));
+  boxes[2].hi.y() = std::numeric_limits<double>::quiet_NaN();
+  Bvh bvh;
+  EXPECT_THROW(bvh.build(boxes), Error);
+  boxes[2].hi.y() = 1;
+  bvh.build(boxes);
+  boxes[3].lo.x() = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(bvh.refit(boxes), Error);
+  boxes.pop_back();
+  EXPECT_THROW(bvh.refit(boxes), Error);
+}
+
+}  // namespace
+}  // namespace ccfr
