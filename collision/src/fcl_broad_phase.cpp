@@ -1,0 +1,96 @@
+/// @file fcl_broad_phase.cpp
+/// The only translation unit that includes FCL (design: FCL is a PRIVATE dependency).
+#include <fcl/broadphase/broadphase_dynamic_AABB_tree.h>
+#include <fcl/geometry/shape/sphere.h>
+
+#include <algorithm>
+
+#include "ccfr/collision/broad_phase.hpp"
+#include "ccfr/core/error.hpp"
+
+namespace ccfr {
+
+namespace {
+
+/// A collision object whose world box is written directly. FCL would otherwise derive the box
+/// from a geometry and a transform (computeAABB), which is both slower and unable to represent
+/// a deforming triangle; all objects share one dummy geometry that FCL never queries because
+/// only the broad phase runs.
+class BoxObject final : public fcl::CollisionObjectd {
+ public:
+  BoxObject(const std::shared_ptr<fcl::CollisionGeometryd>& dummy, Index id) : fcl::CollisionObjectd(dummy) {
+    setUserData(reinterpret_cast<void*>(static_cast<std::intptr_t>(id)));
+  }
+  void set_box(const AABB& b) {
+    aabb.min_ = b.lo;
+    aabb.max_ = b.hi;
+  }
+  Index id() const { return static_cast<Index>(reinterpret_cast<std::intptr_t>(getUserData())); }
+};
+
+struct CollideData {
+  const std::vector<AABB>* boxes;
+  std::vector<IndexPair>* out;
+};
+
+// FCL reports pairs whose tree boxes overlap; the explicit re-check keeps the pair set exactly
+// the closed-interval overlap set the other broad phases report.
+bool collect_pair(fcl::CollisionObjectd* o1, fcl::CollisionObjectd* o2, void* data) {
+  auto& d = *static_cast<CollideData*>(data);
+  Index a = static_cast<const BoxObject*>(o1)->id(), b = static_cast<const BoxObject*>(o2)->id();
+  if (a > b) std::swap(a, b);
+  if ((*d.boxes)[a].overlaps((*d.boxes)[b])) d.out->emplace_back(a, b);
+  return false;  // never stop early: we want every pair
+}
+
+}  // namespace
+
+struct FclBroadPhase::Impl {
+  std::shared_ptr<fcl::CollisionGeometryd> dummy = std::make_shared<fcl::Sphered>(0.0);
+  std::vector<std::unique_ptr<BoxObject>> objects;
+  std::vector<AABB> boxes;
+  std::unique_ptr<fcl::DynamicAABBTreeCollisionManagerd> manager;
+};
+
+FclBroadPhase::FclBroadPhase() : impl_(std::make_unique<Impl>()) {}
+FclBroadPhase::~FclBroadPhase() = default;
+
+void FclBroadPhase::build(std::span<const AABB> boxes) {
+  check_finite_boxes(boxes, name());
+  Impl& m = *impl_;
+  m.boxes.assign(boxes.begin(), boxes.end());
+  m.manager = std::make_unique<fcl::DynamicAABBTreeCollisionManagerd>();
+  m.objects.clear();
+  m.objects.reserve(boxes.size());
+  std::vector<fcl::CollisionObjectd*> raw;
+  raw.reserve(boxes.size());
+  for (size_t i = 0; i < boxes.size(); ++i) {
+    m.objects.push_back(std::make_unique<BoxObject>(m.dummy, static_cast<Index>(i)));
+    m.objects.back()->set_box(boxes[i]);
+    raw.push_back(m.objects.back().get());
+  }
+  m.manager->registerObjects(raw);
+  m.manager->setup();
+}
+
+void FclBroadPhase::update(std::span<const AABB> boxes) {
+  Impl& m = *impl_;
+  if (!m.manager || boxes.size() != m.objects.size())
+    throw Error("fcl broad phase: update() with a different box count than build()");
+  check_finite_boxes(boxes, name());
+  m.boxes.assign(boxes.begin(), boxes.end());
+  for (size_t i = 0; i < boxes.size(); ++i) m.objects[i]->set_box(boxes[i]);
+  // The no-argument update copies every object's box into its leaf and refits the tree once;
+  // update(objects) re-inserts leaf by leaf, ~10x slower and keeping stale, larger boxes.
+  m.manager->update();
+}
+
+void FclBroadPhase::query_pairs(std::vector<IndexPair>& out) {
+  out.clear();
+  Impl& m = *impl_;
+  if (!m.manager) return;
+  CollideData data{&m.boxes, &out};
+  m.manager->collide(&data, collect_pair);
+}
+
+}  // namespace ccfr

@@ -1,0 +1,463 @@
+#include "ccfr/collision/narrow_phase.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <atomic>
+#include <bit>
+#include <cmath>
+
+#include "ccfr/core/error.hpp"
+#include "ccfr/core/parallel.hpp"
+#include "ccfr/core/timer.hpp"
+#include "ccfr/geometry/distance.hpp"
+
+namespace ccfr {
+
+std::string_view to_string(ContactKind kind) {
+  switch (kind) {
+    case ContactKind::vf: return "vf";
+    case ContactKind::ee: return "ee";
+    case ContactKind::ve: return "ve";
+    case ContactKind::vv: return "vv";
+  }
+  return "unknown";
+}
+
+namespace detail {
+
+namespace {
+constexpr std::uint64_t kEmptySlot = ~std::uint64_t{0};  // not a valid key: vv with ids 2^31-1 twice
+
+std::uint64_t mix(std::uint64_t k) {  // splitmix64 finaliser: keys are highly structured
+  k ^= k >> 30;
+  k *= 0xbf58476d1ce4e5b9ULL;
+  k ^= k >> 27;
+  k *= 0x94d049bb133111ebULL;
+  return k ^ (k >> 31);
+}
+}  // namespace
+
+void KeySet::assign(std::vector<std::uint64_t> keys) {
+  std::sort(keys.begin(), keys.end());
+  keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+  size_ = keys.size();
+  const std::uint64_t capacity = std::bit_ceil(std::max<std::uint64_t>(16, 2 * keys.size()));
+  mask_ = capacity - 1;
+  slots_.assign(capacity, kEmptySlot);
+  for (std::uint64_t k : keys) {
+    std::uint64_t i = mix(k) & mask_;
+    while (slots_[i] != kEmptySlot) i = (i + 1) & mask_;
+    slots_[i] = k;
+  }
+}
+
+bool KeySet::contains(std::uint64_t key) const {
+  if (size_ == 0) return false;
+  for (std::uint64_t i = mix(key) & mask_;; i = (i + 1) & mask_) {
+    if (slots_[i] == key) return true;
+    if (slots_[i] == kEmptySlot) return false;
+  }
+}
+
+}  // namespace detail
+
+namespace {
+
+/// Below this distance (m) the closest points coincide numerically: the pair touches or
+/// intersects and has no usable normal.
+constexpr double kMinNormalDistance = 1e-12;
+
+bool has_vertex(const Vec3i& f, Index v) { return f[0] == v || f[1] == v || f[2] == v; }
+bool share_vertex(const Vec2i& a, const Vec2i& b) { return a[0] == b[0] || a[0] == b[1] || a[1] == b[0] || a[1] == b[1]; }
+
+/// Calls the sink once for every sub-pair of the primitive pair (p, q) that its
+/// representatives assign to this pair (Curtis et al. 2008): a triangle tests only the vertices
+/// and edges it represents, so over all triangle pairs each vertex-face and edge-edge sub-pair
+/// comes up exactly once. Sub-pairs sharing a vertex are skipped here; so are pairs of triangles of
+/// one rigid or obstacle object.
+template <class Sink>
+void visit_sub_pairs(const Topology& topo, const CollisionPrimitives& prims, Index p, Index q, Sink& sink) {
+  PrimitiveKind kp = prims.kind(p), kq = prims.kind(q);
+  if (kp > kq) {
+    std::swap(p, q);
+    std::swap(kp, kq);
+  }
+  const Index a = prims.element(p), b = prims.element(q);
+  if (kp == PrimitiveKind::triangle) {
+    const Vec3i& fa = topo.faces[a];
+    const std::uint8_t own_a = prims.face_owns[a];
+    if (kq == PrimitiveKind::triangle) {
+      if (prims.face_no_self[a] && topo.face_object[a] == topo.face_object[b]) return;
+      const Vec3i& fb = topo.faces[b];
+      const std::uint8_t own_b = prims.face_owns[b];
+      for (int k = 0; k < 3; ++k)
+        if ((own_a >> k & 1) && !has_vertex(fb, fa[k])) sink.vf(fa[k], b);
+      for (int k = 0; k < 3; ++k)
+        if ((own_b >> k & 1) && !has_vertex(fa, fb[k])) sink.vf(fb[k], a);
+      for (int k = 0; k < 3; ++k) {
+        if (!(own_a >> (3 + k) & 1)) continue;
+        const Index ea = topo.face_edges[a][k];
+        for (int l = 0; l < 3; ++l) {
+          if (!(own_b >> (3 + l) & 1)) continue;
+          const Index eb = topo.face_edges[b][l];
+          if (!share_vertex(topo.edges[ea], topo.edges[eb])) sink.ee(ea, eb);
+        }
+      }
+    } else if (kq == PrimitiveKind::edge) {
+      const Vec2i& seg = topo.edges[b];
+      const std::uint8_t own_s = prims.segment_owns[static_cast<size_t>(q - prims.num_triangles)];
+      for (int k = 0; k < 2; ++k)
+        if ((own_s >> k & 1) && !has_vertex(fa, seg[k])) sink.vf(seg[k], a);
+      for (int k = 0; k < 3; ++k) {
+        if (!(own_a >> (3 + k) & 1)) continue;
+        const Index ea = topo.face_edges[a][k];
+        if (!share_vertex(topo.edges[ea], seg)) sink.ee(ea, b);
+      }
+    } else {
+      if (!has_vertex(fa, b)) sink.vf(b, a);
+    }
+  } else if (kp == PrimitiveKind::edge) {
+    if (kq == PrimitiveKind::edge) {
+      if (!share_vertex(topo.edges[a], topo.edges[b])) sink.ee(a, b);
+    } else {
+      if (topo.edges[a][0] != b && topo.edges[a][1] != b) sink.ve(b, a);
+    }
+  } else {
+    sink.vv(a, b);
+  }
+}
+
+/// Closest points of one sub-pair: side A and side B vertices with barycentric weights.
+struct Closest {
+  ContactKind kind;
+  std::uint64_t key;
+  int na, nb;
+  Index va[2], vb[3];
+  double wa[2], wb[3];
+  Vec3 pa, pb;
+  double dist_sq;
+};
+
+bool boxes_within(const Vec3& alo, const Vec3& ahi, const Vec3& blo, const Vec3& bhi, double reach) {
+  return (alo.array() <= bhi.array() + reach).all() && (blo.array() <= ahi.array() + reach).all();
+}
+
+/// Computes the closest points of sub-pairs in canonical orientation (so the result does not
+/// depend on which primitive of the pair came first), after a box pre-check against `reach`.
+/// Returns false when the sub-pair is certainly farther than `reach`.
+struct ClosestPoints {
+  const Topology& topo;
+  const Positions& x;
+  double reach;
+
+  bool vf(Index v, Index f, Closest& c) const {
+    const Vec3& p = x[v];
+    const Vec3i& t = topo.faces[f];
+    const Vec3 &a = x[t[0]], &b = x[t[1]], &d = x[t[2]];
+    const Vec3 lo = a.cwiseMin(b).cwiseMin(d), hi = a.cwiseMax(b).cwiseMax(d);
+    if (!boxes_within(p, p, lo, hi, reach)) return false;
+    const PointTriangleResult r = point_triangle(p, a, b, d);
+    c = {ContactKind::vf, sub_pair_key(ContactKind::vf, v, f), 1, 3, {v, -1}, {t[0], t[1], t[2]},
+         {1.0, 0.0}, {r.bary[0], r.bary[1], r.bary[2]}, p, r.closest, r.distance_sq};
+    return true;
+  }
+  bool ee(Index e0, Index e1, Closest& c) const {
+    if (e0 > e1) std::swap(e0, e1);
+    const Vec2i &ea = topo.edges[e0], &eb = topo.edges[e1];
+    const Vec3 &a0 = x[ea[0]], &a1 = x[ea[1]], &b0 = x[eb[0]], &b1 = x[eb[1]];
+    if (!boxes_within(a0.cwiseMin(a1), a0.cwiseMax(a1), b0.cwiseMin(b1), b0.cwiseMax(b1), reach)) return false;
+    const EdgeEdgeResult r = edge_edge(a0, a1, b0, b1);
+    c = {ContactKind::ee, sub_pair_key(ContactKind::ee, e0, e1), 2, 2, {ea[0], ea[1]}, {eb[0], eb[1], -1},
+         {1.0 - r.s, r.s}, {1.0 - r.t, r.t, 0.0}, r.pa, r.pb, r.distance_sq};
+    return true;
+  }
+  bool ve(Index v, Index e, Closest& c) const {
+    const Vec3& p = x[v];
+    const Vec2i& s = topo.edges[e];
+    const Vec3 &a = x[s[0]], &b = x[s[1]];
+    if (!boxes_within(p, p, a.cwiseMin(b), a.cwiseMax(b), reach)) return false;
+    const PointEdgeResult r = point_edge(p, a, b);
+    c = {ContactKind::ve, sub_pair_key(ContactKind::ve, v, e), 1, 2, {v, -1}, {s[0], s[1], -1},
+         {1.0, 0.0}, {1.0 - r.t, r.t, 0.0}, p, r.closest, r.distance_sq};
+    return true;
+  }
+  bool vv(Index v0, Index v1, Closest& c) const {
+    if (v0 > v1) std::swap(v0, v1);
+    const Vec3 &p = x[v0], &q = x[v1];
+    if (!boxes_within(p, p, q, q, reach)) return false;
+    c = {ContactKind::vv, sub_pair_key(ContactKind::vv, v0, v1), 1, 1, {v0, -1}, {v1, -1, -1},
+         {1.0, 0.0}, {1.0, 0.0, 0.0}, p, q, point_point_distance_sq(p, q)};
+    return true;
+  }
+};
+
+/// Sink of the detection pass: turns each sub-pair within range into half-spaces and a contact.
+struct DetectSink {
+  ClosestPoints cp;
+  const detail::KeySet& excluded;
+  std::span<const double> w;
+  double offset;
+  std::vector<TaggedHalfSpace>& planes;
+  std::vector<ContactPair>& contacts;
+  Index within = 0, excluded_count = 0, degenerate = 0;
+
+  void vf(Index v, Index f) { run(&ClosestPoints::vf, v, f); }
+  void ee(Index a, Index b) { run(&ClosestPoints::ee, a, b); }
+  void ve(Index v, Index e) { run(&ClosestPoints::ve, v, e); }
+  void vv(Index a, Index b) { run(&ClosestPoints::vv, a, b); }
+
+  template <class Fn>
+  void run(Fn fn, Index a, Index b) {
+    Closest c;
+    if (!(cp.*fn)(a, b, c)) return;
+    // Alg. NarrowPhase lines 7/22/38: φ = ‖x_A − x_B‖ − ξ < 2r  ⇔  ‖x_A − x_B‖ < 2r + ξ.
+    if (c.dist_sq >= cp.reach * cp.reach) return;
+    if (excluded.contains(c.key)) {
+      ++excluded_count;
+      return;
+    }
+    // Lines 8, 23-24: barycentric-weighted inverse masses of each side.
+    double w_a = 0.0, w_b = 0.0;
+    for (int i = 0; i < c.na; ++i) w_a += c.wa[i] * w[c.va[i]];
+    for (int j = 0; j < c.nb; ++j) w_b += c.wb[j] * w[c.vb[j]];
+    if (!(w_a + w_b > 0.0)) return;  // both sides immovable: nothing can be constrained
+    ++within;
+    const Vec3 diff = c.pa - c.pb;
+    const double dist = std::sqrt(c.dist_sq);
+    if (dist < kMinNormalDistance) {
+      ++degenerate;
+      return;
+    }
+    const Vec3 n = diff / dist;  // lines 9/25/40: unit normal from B to A
+    const double phi = dist - offset;
+    // Mass shares that add up to 1 (design clarification 4). Then for any displacements that
+    // satisfy all half-spaces, every vertex of A stays at n·x ≥ n·x_A − s_A φ and every vertex of
+    // B at n·x ≤ n·x_B + s_B φ (the closest points are extreme along n over each primitive), so
+    // the plane in between keeps the primitives ≥ ‖x_A − x_B‖ − φ = ξ apart.
+    const double s_a = w_a / (w_a + w_b);
+    const double s_b = 1.0 - s_a;
+    // Lines 10/26/41: d_k = s φ, kept even when negative (clarification 7). Side B's normal
+    // points from A toward B (clarification 3 for the face-vertex branch).
+    for (int i = 0; i < c.na; ++i)
+      if (w[c.va[i]] > 0.0) planes.push_back({c.va[i], c.key, HalfSpace{n, s_a * phi, phi}});
+    for (int j = 0; j < c.nb; ++j)
+      if (w[c.vb[j]] > 0.0) planes.push_back({c.vb[j], c.key, HalfSpace{-n, s_b * phi, phi}});
+    ContactPair& cp_out = contacts.emplace_back();
+    cp_out.kind = c.kind;
+    for (int i = 0; i < c.na; ++i) {
+      cp_out.v[i] = c.va[i];
+      cp_out.w[i] = c.wa[i];
+    }
+    for (int j = 0; j < c.nb; ++j) {
+      cp_out.v[c.na + j] = c.vb[j];
+      cp_out.w[c.na + j] = -c.wb[j];
+    }
+    cp_out.n = n;
+    cp_out.distance = dist;
+  }
+};
+
+/// Sink of the initial pass: collects sub-pairs closer than ξ (clarification 5).
+struct CloserThanOffsetSink {
+  ClosestPoints cp;  // reach = ξ
+  std::vector<std::uint64_t>& keys;
+
+  void vf(Index v, Index f) { run(&ClosestPoints::vf, v, f); }
+  void ee(Index a, Index b) { run(&ClosestPoints::ee, a, b); }
+  void ve(Index v, Index e) { run(&ClosestPoints::ve, v, e); }
+  void vv(Index a, Index b) { run(&ClosestPoints::vv, a, b); }
+  template <class Fn>
+  void run(Fn fn, Index a, Index b) {
+    Closest c;
+    if ((cp.*fn)(a, b, c) && c.dist_sq < cp.reach * cp.reach) keys.push_back(c.key);
+  }
+};
+
+/// Sink that records every sub-pair it is given (all of them, not only the represented ones).
+struct AllKeysSink {
+  std::vector<std::uint64_t>& keys;
+  void vf(Index v, Index f) { keys.push_back(sub_pair_key(ContactKind::vf, v, f)); }
+  void ee(Index a, Index b) { keys.push_back(sub_pair_key(ContactKind::ee, std::min(a, b), std::max(a, b))); }
+  void ve(Index v, Index e) { keys.push_back(sub_pair_key(ContactKind::ve, v, e)); }
+  void vv(Index a, Index b) { keys.push_back(sub_pair_key(ContactKind::vv, std::min(a, b), std::max(a, b))); }
+};
+
+double orient(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) { return (b - a).cross(c - a).dot(d - a); }
+
+/// Whether segment (p, q) properly crosses the interior of triangle (a, b, c). Touching and
+/// coplanar contact are left out on purpose: they put a vertex-face or edge-edge sub-pair at
+/// distance 0, which the "closer than ξ" rule already excludes.
+bool segment_crosses_triangle(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const double sp = orient(a, b, c, p), sq = orient(a, b, c, q);
+  if (!((sp > 0 && sq < 0) || (sp < 0 && sq > 0))) return false;
+  const double s0 = orient(p, q, a, b), s1 = orient(p, q, b, c), s2 = orient(p, q, c, a);
+  return (s0 > 0 && s1 > 0 && s2 > 0) || (s0 < 0 && s1 < 0 && s2 < 0);
+}
+
+}  // namespace
+
+CollisionDetector::CollisionDetector(const Topology& topo, const Positions& initial, CollisionParams params,
+                                     std::unique_ptr<BroadPhase> broad_phase)
+    : topo_(topo), params_(params), prims_(build_collision_primitives(topo)), broad_(std::move(broad_phase)) {
+  if (!broad_) throw Error("CollisionDetector: no broad phase given");
+  if (static_cast<Index>(initial.size()) != topo.num_vertices())
+    throw Error("CollisionDetector: " + std::to_string(initial.size()) + " initial positions for " +
+                std::to_string(topo.num_vertices()) + " vertices");
+  if (!(params_.radius > 0.0) || !(params_.offset >= 0.0) || !(params_.repulsion_range >= 0.0))
+    throw Error("CollisionDetector: radius must be > 0, offset and repulsion_range >= 0");
+  compute_primitive_boxes(prims_, topo_, initial,
+                          box_inflation(params_.radius, params_.offset, params_.repulsion_range), boxes_);
+  broad_->build(boxes_);
+  compute_exclusions(initial);
+}
+
+CollisionDetector::~CollisionDetector() = default;
+
+void CollisionDetector::compute_exclusions(const Positions& initial) {
+  broad_->query_pairs(candidates_);
+  const Index n = static_cast<Index>(candidates_.size());
+  const Index chunks = default_chunk_count(n);
+  std::vector<std::vector<std::uint64_t>> close(static_cast<size_t>(chunks)), crossing(static_cast<size_t>(chunks));
+  std::atomic<Index> intersecting{0};
+  const ClosestPoints cp{topo_, initial, params_.offset};
+  parallel_chunks(n, chunks, [&](Index chunk, Index begin, Index end) {
+    CloserThanOffsetSink close_sink{cp, close[chunk]};
+    AllKeysSink all_sink{crossing[chunk]};
+    Index local_intersecting = 0;
+    for (Index i = begin; i < end; ++i) {
+      auto [p, q] = candidates_[i];
+      visit_sub_pairs(topo_, prims_, p, q, close_sink);
+      // Intersecting triangle-triangle or triangle-segment pairs (paper §4.1): every sub-pair of
+      // the primitive pair is excluded, since their closest points would give inverted normals.
+      PrimitiveKind kp = prims_.kind(p), kq = prims_.kind(q);
+      if (kp > kq) {
+        std::swap(p, q);
+        std::swap(kp, kq);
+      }
+      if (kp != PrimitiveKind::triangle || kq == PrimitiveKind::point) continue;
+      const Vec3i& fa = topo_.faces[p];
+      bool crosses = false;
+      auto tri_crossed_by = [&](const Vec3i& f, const Vec2i& e) {
+        return segment_crosses_triangle(initial[e[0]], initial[e[1]], initial[f[0]], initial[f[1]], initial[f[2]]);
+      };
+      if (kq == PrimitiveKind::triangle) {
+        if (prims_.face_no_self[p] && topo_.face_object[p] == topo_.face_object[q]) continue;
+        const Vec3i& fb = topo_.faces[q];
+        for (int k = 0; k < 3 && !crosses; ++k)
+          crosses = tri_crossed_by(fb, topo_.edges[topo_.face_edges[p][k]]) ||
+                    tri_crossed_by(fa, topo_.edges[topo_.face_edges[q][k]]);
+        if (!crosses) continue;
+        for (int k = 0; k < 3; ++k) {
+          if (!has_vertex(fb, fa[k])) all_sink.vf(fa[k], q);
+          if (!has_vertex(fa, fb[k])) all_sink.vf(fb[k], p);
+          for (int l = 0; l < 3; ++l) {
+            const Index ea = topo_.face_edges[p][k], eb = topo_.face_edges[q][l];
+            if (!share_vertex(topo_.edges[ea], topo_.edges[eb])) all_sink.ee(ea, eb);
+          }
+        }
+      } else {
+        const Index e = prims_.element(q);
+        const Vec2i& seg = topo_.edges[e];
+        crosses = tri_crossed_by(fa, seg);
+        if (!crosses) continue;
+        for (int k = 0; k < 2; ++k)
+          if (!has_vertex(fa, seg[k])) all_sink.vf(seg[k], p);
+        for (int k = 0; k < 3; ++k)
+          if (!share_vertex(topo_.edges[topo_.face_edges[p][k]], seg)) all_sink.ee(topo_.face_edges[p][k], e);
+      }
+      ++local_intersecting;
+    }
+    intersecting += local_intersecting;
+  });
+  std::vector<std::uint64_t> keys;
+  size_t close_count = 0;
+  for (const auto& c : close) {
+    keys.insert(keys.end(), c.begin(), c.end());
+    close_count += c.size();
+  }
+  for (const auto& c : crossing) keys.insert(keys.end(), c.begin(), c.end());
+  excluded_.assign(std::move(keys));
+  initially_intersecting_ = intersecting.load();
+  spdlog::info(
+      "collision: {} primitives, {} sub-pairs closer than the offset {} and {} intersecting primitive pairs in "
+      "the initial configuration; {} sub-pairs excluded for the run",
+      prims_.size(), close_count, params_.offset, initially_intersecting_, excluded_.size());
+}
+
+void CollisionDetector::detect(const Positions& x, std::span<const double> inv_mass, RegionSet& regions,
+                               std::vector<ContactPair>& contacts, DetectionStats& stats) {
+  const Index nv = topo_.num_vertices();
+  if (static_cast<Index>(x.size()) != nv || static_cast<Index>(inv_mass.size()) != nv)
+    throw Error("CollisionDetector::detect: expected " + std::to_string(nv) + " positions and inverse masses, got " +
+                std::to_string(x.size()) + " and " + std::to_string(inv_mass.size()));
+  stats = DetectionStats{};
+  Stopwatch watch;
+  compute_primitive_boxes(prims_, topo_, x, box_inflation(params_.radius, params_.offset, params_.repulsion_range),
+                          boxes_);
+  broad_->update(boxes_);
+  broad_->query_pairs(candidates_);
+  stats.broad_s = watch.seconds();
+  stats.candidates = static_cast<Index>(candidates_.size());
+
+  watch.restart();
+  // A primitive with no movable vertex can only meet another immovable one in vain.
+  movable_.resize(static_cast<size_t>(prims_.size()));
+  parallel_for(prims_.size(), [&](Index begin, Index end) {
+    for (Index p = begin; p < end; ++p) {
+      const Index e = prims_.element(p);
+      switch (prims_.kind(p)) {
+        case PrimitiveKind::triangle:
+          movable_[p] = inv_mass[topo_.faces[e][0]] > 0 || inv_mass[topo_.faces[e][1]] > 0 || inv_mass[topo_.faces[e][2]] > 0;
+          break;
+        case PrimitiveKind::edge:
+          movable_[p] = inv_mass[topo_.edges[e][0]] > 0 || inv_mass[topo_.edges[e][1]] > 0;
+          break;
+        case PrimitiveKind::point:
+          movable_[p] = inv_mass[e] > 0;
+          break;
+      }
+    }
+  }, 4096);
+
+  const Index n = stats.candidates;
+  const Index chunks = default_chunk_count(n);
+  plane_buffers_.resize(static_cast<size_t>(chunks));
+  contact_buffers_.resize(static_cast<size_t>(chunks));
+  std::vector<Index> within(static_cast<size_t>(chunks), 0), excluded(static_cast<size_t>(chunks), 0),
+      degenerate(static_cast<size_t>(chunks), 0);
+  const ClosestPoints cp{topo_, x, 2.0 * params_.radius + params_.offset};
+  parallel_chunks(n, chunks, [&](Index chunk, Index begin, Index end) {
+    plane_buffers_[chunk].clear();
+    contact_buffers_[chunk].clear();
+    DetectSink sink{cp, excluded_, inv_mass, params_.offset, plane_buffers_[chunk], contact_buffers_[chunk]};
+    for (Index i = begin; i < end; ++i) {
+      const auto [p, q] = candidates_[i];
+      if (movable_[p] || movable_[q]) visit_sub_pairs(topo_, prims_, p, q, sink);
+    }
+    within[chunk] = sink.within;
+    excluded[chunk] = sink.excluded_count;
+    degenerate[chunk] = sink.degenerate;
+  });
+  // An empty candidate list runs no chunk; keep stale buffers out of the result.
+  if (n == 0) {
+    plane_buffers_.clear();
+    contact_buffers_.clear();
+  }
+
+  size_t total_contacts = 0;
+  for (Index c = 0; c < static_cast<Index>(contact_buffers_.size()); ++c) {
+    total_contacts += contact_buffers_[c].size();
+    stats.pairs_within_range += within[c];
+    stats.excluded_initial += excluded[c];
+    stats.degenerate += degenerate[c];
+  }
+  contacts.clear();
+  contacts.reserve(total_contacts);
+  for (const auto& b : contact_buffers_) contacts.insert(contacts.end(), b.begin(), b.end());
+  build_region_set(nv, plane_buffers_, regions);
+  stats.constraints = static_cast<Index>(regions.total());
+  stats.narrow_s = watch.seconds();
+}
+
+}  // namespace ccfr
