@@ -1,0 +1,153 @@
+#include "ccfr/feasibility/plesnik.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "ccfr/feasibility/exact_projector.hpp"
+#include "small_buffer.hpp"
+
+namespace ccfr {
+
+void PlesnikRecursion::reset(const Vec3& start) {
+  x0 = start;
+  x = start;
+  m = 0;
+}
+
+PlesnikRecursion::Step PlesnikRecursion::add(const Vec3& n, double beta, double tolerance) {
+  if (m == 0) {
+    // Lines 1-6: the first equation is a plain projection; v_0 = n spans its ERO line.
+    const double beta0 = n.dot(n);
+    if (!(beta0 > tolerance)) return Step::redundant;
+    x += ((beta - n.dot(x)) / beta0) * n;
+    v[0] = n;
+    a[0] = n;
+    b[0] = beta;
+    m = 1;
+    return Step::added;
+  }
+  // In R^3 a fourth equation is always dependent on three independent ones.
+  if (m == 3) return Step::redundant;
+
+  // Lines 8-15: the equiresidual point u on the current ERO line. Either orientation of the new
+  // equation describes the same plane; take the one with the larger denominator (see header).
+  const Vec3& vm = v[m - 1];
+  const double c0 = a[0].dot(vm);
+  const double nv = n.dot(vm);
+  const double sign = std::abs(nv - c0) >= std::abs(-nv - c0) ? 1.0 : -1.0;
+  const Vec3 am = sign * n;
+  const double bm = sign * beta;
+  const double beta_u = am.dot(vm) - c0;
+  if (!(std::abs(beta_u) > tolerance)) return Step::redundant;
+  const Vec3 u = x + ((bm - am.dot(x)) / beta_u) * vm;
+
+  // Lines 16-25: w from w_0 = x^(0) + a_m through the stored ERO directions; the last step
+  // (j = m) uses the new equation (clarification 1).
+  Vec3 w = x0 + am;
+  for (int j = 1; j <= m; ++j) {
+    const Vec3& aj = j < m ? a[j] : am;
+    const double bj = j < m ? b[j] : bm;
+    const Vec3 dn = aj - a[0];
+    const double beta_w = dn.dot(v[j - 1]);
+    if (std::abs(beta_w) > tolerance) w += ((bj - b[0] - dn.dot(w)) / beta_w) * v[j - 1];
+  }
+
+  // Lines 26-35: the new ERO direction, and its intersection with P_0.
+  const Vec3 v_new = w - u;
+  const double scale = std::max({1.0, (u - x0).norm(), (w - x0).norm()});
+  if (!(v_new.norm() > tolerance * scale)) return Step::redundant;
+  const double beta_new = a[0].dot(v_new);
+  if (std::abs(beta_new) < tolerance)
+    x = u;
+  else
+    x = u + ((b[0] - a[0].dot(u)) / beta_new) * v_new;
+  v[m] = v_new;
+  a[m] = am;
+  b[m] = bm;
+  ++m;
+  return Step::added;
+}
+
+Vec3 retract_toward_anchor(const Vec3& p, double epsilon) {
+  const double len = p.norm();
+  if (!(len > epsilon)) return Vec3::Zero();
+  return p * ((len - epsilon) / len);
+}
+
+PlesnikProjector::PlesnikProjector(const ProjectorParams& params) : params_(params) { validate(params_); }
+
+ProjectResult PlesnikProjector::project(const Vec3& x_anchor, const Vec3& x_candidate,
+                                        std::span<const HalfSpace> planes) const {
+  const double tol = params_.feasibility_tolerance;
+  ProjectResult res;
+  res.x = x_candidate;
+  if (!x_candidate.allFinite() || !x_anchor.allFinite()) {
+    res.status = ProjectStatus::infeasible;
+    res.x = x_anchor;
+    return res;
+  }
+
+  // Lines 1-3: values at the candidate, relative to the anchor.
+  const Vec3 q = x_candidate - x_anchor;
+  const auto count = planes.size();
+  SmallBuffer<std::pair<double, std::uint32_t>> order(count);
+  double d_min = 0.0;
+  for (std::size_t k = 0; k < count; ++k) {
+    const double rho = planes[k].n.dot(q) + planes[k].d;
+    if (std::isnan(rho)) {  // a non-finite plane: nothing can be certified
+      res.status = ProjectStatus::infeasible;
+      res.x = x_anchor;
+      return res;
+    }
+    if (rho < -tol) ++res.active;
+    d_min = std::min(d_min, planes[k].d);
+    order[k] = {rho, static_cast<std::uint32_t>(k)};
+  }
+  if (res.active == 0) return res;
+
+  // Clarification 7: the anchor violates a plane, so neither the retraction toward it nor the
+  // fallback to it keeps the vertex feasible. The exact projection is the defined answer.
+  if (d_min < -tol) {
+    const ExactProjector exact(params_);
+    ProjectResult r = exact.project(x_anchor, x_candidate, planes);
+    r.active = res.active;
+    return r;
+  }
+
+  // Ascending violation depth, ties by index so the result does not depend on the sort.
+  std::sort(order.begin(), order.end());
+
+  PlesnikRecursion rec;
+  Vec3 x_pass = q;  // x' of the paper, relative to the anchor
+  for (int it = 1; it <= params_.max_iterations; ++it) {
+    rec.reset(x_pass);
+    Vec3 x_check = x_pass;  // the retracted point, where constraints are evaluated
+    for (const auto& [rho0, k] : order) {
+      const HalfSpace& h = planes[k];
+      if (h.n.dot(x_check) + h.d >= -tol) continue;  // line 10: not violated
+      // Line 11: n_k . (x - x_anchor) = -d_k is the plane in anchor-relative coordinates.
+      if (rec.add(h.n, -h.d, params_.redundancy_tolerance) == PlesnikRecursion::Step::added)
+        x_check = retract_toward_anchor(rec.x, params_.epsilon);  // lines 15-19
+    }
+    x_pass = x_check;
+    res.iterations = it;
+    bool ok = true;  // clarification 2: re-check every constraint after the pass
+    for (const auto& h : planes)
+      if (!(h.n.dot(x_pass) + h.d >= -tol)) {
+        ok = false;
+        break;
+      }
+    if (ok) {
+      res.x = x_anchor + x_pass;
+      res.status = ProjectStatus::projected;
+      return res;
+    }
+  }
+  // Line 24: no convergence within the budget; the anchor is feasible here (all d_k >= -tol).
+  res.x = x_anchor;
+  res.status = ProjectStatus::halted;
+  return res;
+}
+
+}  // namespace ccfr

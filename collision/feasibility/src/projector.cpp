@@ -1,0 +1,141 @@
+#include "ccfr/feasibility/projector.hpp"
+
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <stdexcept>
+
+#include "ccfr/core/error.hpp"
+#include "ccfr/core/parallel.hpp"
+#include "ccfr/feasibility/exact_projector.hpp"
+#include "ccfr/feasibility/plesnik.hpp"
+#include "ccfr/feasibility/successive_projection.hpp"
+
+namespace ccfr {
+
+namespace {
+
+/// A vertex counts as remaining outside when a value is below this (or NaN) after projection.
+constexpr double kRemainingSlack = 1e-9;
+
+struct FactoryEntry {
+  std::string_view name;
+  std::unique_ptr<Projector> (*make)(const ProjectorParams&);
+};
+
+/// The one table of projectors; make_projector and projector_names read only this.
+constexpr FactoryEntry kProjectors[] = {
+    {"plesnik", [](const ProjectorParams& p) -> std::unique_ptr<Projector> {
+       return std::make_unique<PlesnikProjector>(p);
+     }},
+    {"successive_projection", [](const ProjectorParams& p) -> std::unique_ptr<Projector> {
+       return std::make_unique<SuccessiveProjectionProjector>(p);
+     }},
+    {"exact", [](const ProjectorParams& p) -> std::unique_ptr<Projector> {
+       return std::make_unique<ExactProjector>(p);
+     }},
+};
+
+}  // namespace
+
+std::string_view to_string(ProjectStatus status) {
+  switch (status) {
+    case ProjectStatus::feasible: return "feasible";
+    case ProjectStatus::projected: return "projected";
+    case ProjectStatus::halted: return "halted";
+    case ProjectStatus::infeasible: return "infeasible";
+  }
+  return "unknown";
+}
+
+void validate(const ProjectorParams& p) {
+  auto bad = [](const char* field, const char* rule) {
+    throw Error(std::string("projector parameter '") + field + "' must be " + rule);
+  };
+  if (!(p.epsilon >= 0.0) || !std::isfinite(p.epsilon)) bad("epsilon", "finite and >= 0");
+  if (p.max_iterations < 1) bad("max_iterations", ">= 1");
+  if (!(p.redundancy_tolerance >= 0.0) || !std::isfinite(p.redundancy_tolerance))
+    bad("redundancy_tolerance", "finite and >= 0");
+  if (!(p.feasibility_tolerance >= 0.0) || !std::isfinite(p.feasibility_tolerance))
+    bad("feasibility_tolerance", "finite and >= 0");
+  if (p.sweeps < 1) bad("sweeps", ">= 1");
+}
+
+std::unique_ptr<Projector> make_projector(std::string_view name, const ProjectorParams& params) {
+  for (const auto& e : kProjectors)
+    if (e.name == name) {
+      validate(params);
+      return e.make(params);
+    }
+  std::string valid;
+  for (const auto& e : kProjectors) {
+    if (!valid.empty()) valid += ", ";
+    valid += e.name;
+  }
+  throw Error("unknown projector '" + std::string(name) + "'; valid projectors: " + valid);
+}
+
+std::vector<std::string> projector_names() {
+  std::vector<std::string> out;
+  for (const auto& e : kProjectors) out.emplace_back(e.name);
+  return out;
+}
+
+BatchStats& BatchStats::operator+=(const BatchStats& o) {
+  violated += o.violated;
+  projected += o.projected;
+  remaining += o.remaining;
+  halted += o.halted;
+  infeasible += o.infeasible;
+  iterations += o.iterations;
+  return *this;
+}
+
+double min_value(const Vec3& x_anchor, const Vec3& x, std::span<const HalfSpace> planes) {
+  double lo = std::numeric_limits<double>::infinity();
+  for (const auto& h : planes) {
+    const double r = h.value(x_anchor, x);
+    if (std::isnan(r)) return std::numeric_limits<double>::quiet_NaN();
+    lo = std::min(lo, r);
+  }
+  return lo;
+}
+
+BatchStats project_all(const Projector& projector, const RegionSet& regions, const Positions& anchor, Positions& x,
+                       std::span<const double> inv_mass) {
+  const Index n = regions.num_vertices();
+  if (static_cast<Index>(anchor.size()) != n || static_cast<Index>(x.size()) != n ||
+      (!inv_mass.empty() && static_cast<Index>(inv_mass.size()) != n))
+    throw std::invalid_argument("project_all: anchor, x and inv_mass must have one entry per region vertex");
+
+  const Index chunks = default_chunk_count(n);
+  std::vector<BatchStats> per_chunk(static_cast<size_t>(std::max<Index>(chunks, 1)));
+  parallel_chunks(n, chunks, [&](Index c, Index begin, Index end) {
+    BatchStats s;
+    for (Index v = begin; v < end; ++v) {
+      if (!inv_mass.empty() && !(inv_mass[v] > 0.0)) continue;
+      const auto planes = regions.of(v);
+      if (planes.empty()) continue;
+      // Cheap pre-check: most vertices are inside their region and skip the projector.
+      const double lo = min_value(anchor[v], x[v], planes);
+      if (lo >= 0.0) continue;
+      const ProjectResult r = projector.project(anchor[v], x[v], planes);
+      if (r.status == ProjectStatus::feasible) continue;  // within the projector's tolerance
+      ++s.violated;
+      s.iterations += r.iterations;
+      if (r.status == ProjectStatus::projected) ++s.projected;
+      if (r.status == ProjectStatus::halted) ++s.halted;
+      if (r.status == ProjectStatus::infeasible) ++s.infeasible;
+      x[v] = r.x;
+      // Independent re-check of the output, with a slack above every projector's rounding tolerance.
+      const double out = min_value(anchor[v], x[v], planes);
+      if (!(out >= -kRemainingSlack)) ++s.remaining;
+    }
+    per_chunk[static_cast<size_t>(c)] = s;
+  });
+  BatchStats total;
+  for (const auto& s : per_chunk) total += s;
+  return total;
+}
+
+}  // namespace ccfr

@@ -1,0 +1,54 @@
+#include "ccfr/feasibility/successive_projection.hpp"
+
+#include <cmath>
+
+namespace ccfr {
+
+SuccessiveProjectionProjector::SuccessiveProjectionProjector(const ProjectorParams& params) : params_(params) {
+  validate(params_);
+}
+
+ProjectResult SuccessiveProjectionProjector::project(const Vec3& x_anchor, const Vec3& x_candidate,
+                                                     std::span<const HalfSpace> planes) const {
+  ProjectResult res;
+  res.x = x_candidate;
+  const double tol = params_.feasibility_tolerance;
+  if (!x_candidate.allFinite() || !x_anchor.allFinite()) {
+    res.status = ProjectStatus::infeasible;
+    res.x = x_anchor;
+    return res;
+  }
+  Vec3 p = x_candidate - x_anchor;
+  for (const auto& h : planes) {
+    const double rho = h.n.dot(p) + h.d;
+    if (std::isnan(rho)) {
+      res.status = ProjectStatus::infeasible;
+      res.x = x_anchor;
+      return res;
+    }
+    if (rho < -tol) ++res.active;
+  }
+  if (res.active == 0) return res;
+
+  bool clean = false;
+  for (int sweep = 1; sweep <= params_.sweeps && !clean; ++sweep) {
+    clean = true;
+    res.iterations = sweep;
+    for (const auto& h : planes) {
+      const double rho = h.n.dot(p) + h.d;
+      if (rho >= -tol) continue;
+      const double nn = h.n.dot(h.n);
+      if (!(nn > 0.0)) continue;  // a zero normal cannot be projected onto
+      clean = false;
+      p -= (rho / nn) * h.n;
+    }
+  }
+  // A sweep that moved the point may have broken earlier planes: judge the final point itself.
+  bool inside = true;
+  for (const auto& h : planes) inside = inside && h.n.dot(p) + h.d >= -tol;
+  res.x = x_anchor + p;
+  res.status = inside ? ProjectStatus::projected : ProjectStatus::infeasible;
+  return res;
+}
+
+}  // namespace ccfr

@@ -1,0 +1,204 @@
+// Plesník's recursion against the closed-form affine projection, and the CCFR projector's own rules
+// (sorting, ε retraction, re-check, halting, d < 0).
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+
+#include <cmath>
+#include <random>
+
+#include "ccfr/feasibility/plesnik.hpp"
+#include "random_regions.hpp"
+#include "test_support.hpp"
+
+namespace ccfr {
+namespace {
+
+/// x0 - A^T (A A^T)^{-1} (A x0 - b), solved with Eigen's LDLT.
+Vec3 closed_form(const Vec3& x0, const std::vector<Vec3>& normals, const std::vector<double>& b) {
+  const auto m = static_cast<Eigen::Index>(normals.size());
+  Eigen::MatrixXd a(m, 3);
+  Eigen::VectorXd bb(m);
+  for (Eigen::Index i = 0; i < m; ++i) {
+    a.row(i) = normals[static_cast<size_t>(i)].transpose();
+    bb(i) = b[static_cast<size_t>(i)];
+  }
+  const Eigen::MatrixXd g = a * a.transpose();
+  return x0 - a.transpose() * g.ldlt().solve(a * x0 - bb);
+}
+
+TEST(PlesnikRecursion, MatchesClosedFormForOneToThreeIndependentPlanes) {
+  auto g = test::rng(1234);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  double worst = 0.0;
+  for (int trial = 0; trial < 3000; ++trial) {
+    const int m = 1 + trial % 3;
+    std::vector<Vec3> normals;
+    std::vector<double> b;
+    for (int i = 0; i < m; ++i) {
+      normals.push_back(test::random_unit(g));
+      b.push_back(u(g));
+    }
+    // Keep the system well conditioned so the comparison measures the recursion, not the data.
+    Eigen::Matrix3d a = Eigen::Matrix3d::Identity();
+    for (int i = 0; i < m; ++i) a.row(i) = normals[static_cast<size_t>(i)].transpose();
+    if (m == 2 && normals[0].cross(normals[1]).norm() < 0.2) continue;
+    if (m == 3 && std::abs(a.determinant()) < 0.1) continue;
+    const Vec3 x0(u(g), u(g), u(g));
+
+    PlesnikRecursion rec;
+    rec.reset(x0);
+    for (int i = 0; i < m; ++i)
+      ASSERT_EQ(rec.add(normals[static_cast<size_t>(i)], b[static_cast<size_t>(i)], 1e-12),
+                PlesnikRecursion::Step::added);
+    const Vec3 ref = closed_form(x0, normals, b);
+    worst = std::max(worst, (rec.x - ref).norm());
+    ASSERT_LT((rec.x - ref).norm(), 1e-10) << "trial " << trial << " m=" << m;
+    // Every intermediate system too: the projection onto the first k planes.
+    for (int i = 0; i < m; ++i) EXPECT_NEAR(normals[static_cast<size_t>(i)].dot(rec.x), b[static_cast<size_t>(i)], 1e-10);
+  }
+  std::printf("[plesnik affine] worst |x - closed form| = %.3e\n", worst);
+}
+
+TEST(PlesnikRecursion, DenominatorThatVanishesForAnIndependentPlaneIsHandledBySignFlip) {
+  // After e_x and e_y the ERO direction is c(1,1,0); a_2 = (0.5, 0.5, sqrt(0.5)) has a_2.v = a_0.v,
+  // so line 14's denominator is zero although the three normals are independent.
+  const std::vector<Vec3> normals = {Vec3::UnitX(), Vec3::UnitY(), Vec3(0.5, 0.5, std::sqrt(0.5))};
+  const std::vector<double> b = {0.3, -0.2, 0.7};
+  const Vec3 x0(1.0, 2.0, -1.0);
+  PlesnikRecursion rec;
+  rec.reset(x0);
+  for (int i = 0; i < 3; ++i)
+    EXPECT_EQ(rec.add(normals[static_cast<size_t>(i)], b[static_cast<size_t>(i)], 1e-12), PlesnikRecursion::Step::added);
+  EXPECT_LT((rec.x - closed_form(x0, normals, b)).norm(), 1e-12);
+}
+
+TEST(PlesnikRecursion, DependentEquationsAreSkipped) {
+  PlesnikRecursion rec;
+  rec.reset(Vec3(1, 1, 1));
+  EXPECT_EQ(rec.add(Vec3::UnitZ(), 0.5, 1e-12), PlesnikRecursion::Step::added);
+  EXPECT_EQ(rec.add(Vec3::UnitX(), 0.0, 1e-12), PlesnikRecursion::Step::added);
+  // In the span of the two: (x + z)/sqrt2 = c, consistent with x = 0, z = 0.5 for c = 0.5/sqrt2.
+  EXPECT_EQ(rec.add(Vec3(1, 0, 1).normalized(), 0.5 / std::sqrt(2.0), 1e-12), PlesnikRecursion::Step::redundant);
+  EXPECT_LT((rec.x - Vec3(0, 1, 0.5)).norm(), 1e-14);
+  EXPECT_EQ(rec.add(Vec3::UnitY(), 0.25, 1e-12), PlesnikRecursion::Step::added);
+  EXPECT_EQ(rec.add(Vec3(1, 1, 1).normalized(), 0.0, 1e-12), PlesnikRecursion::Step::redundant);  // 4th in R^3
+  EXPECT_LT((rec.x - Vec3(0, 0.25, 0.5)).norm(), 1e-14);
+  EXPECT_EQ(rec.add(Vec3::Zero(), 1.0, 1e-12), PlesnikRecursion::Step::redundant);
+}
+
+TEST(PlesnikProjector, SinglePlaneIsProjectionRetractedByEpsilonTowardTheAnchor) {
+  const PlesnikProjector proj;
+  const Vec3 anchor(0.1, 0.2, 0.3);
+  const HalfSpace floor{Vec3::UnitZ(), 0.01, 0.01};  // z' >= z - 0.01
+  const Vec3 cand = anchor + Vec3(0.05, 0.0, -0.03);
+  const auto r = proj.project(anchor, cand, std::span(&floor, 1));
+  ASSERT_EQ(r.status, ProjectStatus::projected);
+  EXPECT_EQ(r.active, 1);
+  EXPECT_EQ(r.iterations, 1);
+  const Vec3 on_plane(0.05, 0.0, -0.01);  // relative to the anchor
+  const Vec3 expected = anchor + on_plane * ((on_plane.norm() - 1e-6) / on_plane.norm());
+  EXPECT_LT((r.x - expected).norm(), 1e-15);
+  EXPECT_GT(floor.value(anchor, r.x), 0.0);
+}
+
+TEST(PlesnikProjector, EpsilonIsConfigurableAndZeroGivesTheExactProjection) {
+  ProjectorParams p;
+  p.epsilon = 0.0;
+  const PlesnikProjector proj(p);
+  const HalfSpace floor{Vec3::UnitZ(), 0.0, 0.0};
+  const auto r = proj.project(Vec3::Zero(), Vec3(0.3, -0.2, -0.5), std::span(&floor, 1));
+  ASSERT_EQ(r.status, ProjectStatus::projected);
+  EXPECT_LT((r.x - Vec3(0.3, -0.2, 0.0)).norm(), 1e-16);
+}
+
+TEST(PlesnikProjector, CandidateInsideIsReturnedUnchanged) {
+  const PlesnikProjector proj;
+  const std::vector<HalfSpace> planes = {{Vec3::UnitZ(), 0.01, 0.0}, {Vec3::UnitX(), 0.02, 0.0}};
+  const Vec3 cand(0.003, -0.004, 0.005);
+  const auto r = proj.project(Vec3::Zero(), cand, planes);
+  EXPECT_EQ(r.status, ProjectStatus::feasible);
+  EXPECT_EQ(r.x, cand);
+  EXPECT_EQ(r.active, 0);
+  EXPECT_EQ(r.iterations, 0);
+}
+
+TEST(PlesnikProjector, WedgeNeedsTheSecondEquationAndLandsOnTheEdge) {
+  // Two planes through the anchor at a right angle: the projection of (-1, -1, 0.5) is (0, 0, 0.5).
+  ProjectorParams p;
+  p.epsilon = 0.0;
+  const PlesnikProjector proj(p);
+  const std::vector<HalfSpace> planes = {{Vec3::UnitX(), 0.0, 0.0}, {Vec3::UnitY(), 0.0, 0.0}};
+  const auto r = proj.project(Vec3::Zero(), Vec3(-1.0, -2.0, 0.5), planes);
+  ASSERT_EQ(r.status, ProjectStatus::projected);
+  EXPECT_LT((r.x - Vec3(0.0, 0.0, 0.5)).norm(), 1e-14);
+  EXPECT_EQ(r.active, 2);
+}
+
+TEST(PlesnikProjector, DeepestPlaneFirstMakesStackedCardsOneProjection) {
+  // Parallel planes (stacked cards): projecting onto the deepest satisfies the others. In the
+  // stored order the shallow one comes first; the sort must put the deep one first.
+  ProjectorParams p;
+  p.epsilon = 0.0;
+  p.max_iterations = 1;
+  const PlesnikProjector proj(p);
+  const std::vector<HalfSpace> planes = {{Vec3::UnitZ(), 0.05, 0.0}, {Vec3::UnitZ(), 0.01, 0.0},
+                                         {Vec3::UnitZ(), 0.03, 0.0}};
+  const auto r = proj.project(Vec3::Zero(), Vec3(0.2, 0.0, -0.1), planes);
+  ASSERT_EQ(r.status, ProjectStatus::projected);
+  EXPECT_EQ(r.active, 3);
+  EXPECT_LT((r.x - Vec3(0.2, 0.0, -0.01)).norm(), 1e-15);
+}
+
+TEST(PlesnikProjector, BudgetExhaustedFallsBackToTheAnchorAsHalted) {
+  // One pass fixes the planes violated at its start, in depth order, as equalities; planes it
+  // breaks along the way are left for the next pass. Seeded random sets contain such cases: with a
+  // budget of one pass they must halt at the anchor, and a larger budget must recover some.
+  auto g = test::rng(99);
+  ProjectorParams one;
+  one.max_iterations = 1;
+  const PlesnikProjector short_budget(one);
+  ProjectorParams many;
+  many.max_iterations = 50;
+  const PlesnikProjector long_budget(many);
+  int halted = 0, recovered = 0;
+  for (int trial = 0; trial < 4000; ++trial) {
+    const auto prob = test::random_problem(g, 8);
+    const auto r1 = short_budget.project(prob.anchor, prob.candidate, prob.planes);
+    if (r1.status != ProjectStatus::halted) continue;
+    ++halted;
+    EXPECT_EQ(r1.x, prob.anchor);  // the fallback is the anchor, bit for bit
+    EXPECT_EQ(r1.iterations, 1);
+    EXPECT_GE(min_value(prob.anchor, r1.x, prob.planes), 0.0);
+    const auto r50 = long_budget.project(prob.anchor, prob.candidate, prob.planes);
+    if (r50.status == ProjectStatus::projected) ++recovered;
+  }
+  EXPECT_GT(halted, 0) << "the seeded set should contain single-pass halting cases";
+  EXPECT_GT(recovered, 0) << "more passes should recover some of them";
+}
+
+TEST(PlesnikProjector, NegativeDIsProjectedExactlyNotFallenBackToTheInfeasibleAnchor) {
+  // The anchor is 0.01 inside the offset of the floor: d = -0.01. The closest admissible point of a
+  // candidate that stays put is 0.01 (+ ε margin) up.
+  const PlesnikProjector proj;
+  const HalfSpace floor{Vec3::UnitZ(), -0.01, -0.01};
+  const Vec3 anchor(0, 0, 0);
+  const auto r = proj.project(anchor, Vec3(0.02, 0.0, 0.0), std::span(&floor, 1));
+  ASSERT_EQ(r.status, ProjectStatus::projected);
+  EXPECT_NEAR(r.x.z(), 0.01 + 1e-6, 1e-15);
+  EXPECT_NEAR(r.x.x(), 0.02, 1e-15);
+  EXPECT_GE(floor.value(anchor, r.x), 0.0);
+}
+
+TEST(PlesnikProjector, NegativeDWithEmptyRegionIsInfeasibleAndKeepsTheAnchor) {
+  // Squeezed: z' >= 0.01 and z' <= 0 at once.
+  const PlesnikProjector proj;
+  const std::vector<HalfSpace> planes = {{Vec3::UnitZ(), -0.01, 0.0}, {-Vec3::UnitZ(), 0.0, 0.0}};
+  const Vec3 anchor(1, 2, 3);
+  const auto r = proj.project(anchor, anchor + Vec3(0, 0, -0.5), planes);
+  EXPECT_EQ(r.status, ProjectStatus::infeasible);
+  EXPECT_EQ(r.x, anchor);
+}
+
+}  // namespace
+}  // namespace ccfr
