@@ -1,0 +1,259 @@
+#include "ccfr/geometry_exact/audit.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <utility>
+
+#include "ccfr/core/error.hpp"
+#include "ccfr/core/parallel.hpp"
+#include "ccfr/geometry/aabb.hpp"
+#include "ccfr/geometry/bvh.hpp"
+#include "ccfr/geometry/distance.hpp"
+#include "ccfr/geometry_exact/predicates.hpp"
+
+namespace ccfr::exact {
+
+namespace {
+
+enum SubPair : std::uint64_t { kVF = 0, kEE = 1, kVE = 2, kVV = 3 };
+
+std::uint64_t key(std::uint64_t type, Index a, Index b) {
+  return (type << 62) | (static_cast<std::uint64_t>(a) << 31) | static_cast<std::uint64_t>(b);
+}
+std::uint64_t sym_key(std::uint64_t type, Index a, Index b) { return key(type, std::min(a, b), std::max(a, b)); }
+
+bool contains(const std::vector<std::uint64_t>& sorted, std::uint64_t k) {
+  return std::binary_search(sorted.begin(), sorted.end(), k);
+}
+
+bool face_has(const Vec3i& f, Index v) { return f[0] == v || f[1] == v || f[2] == v; }
+bool edge_has(const Vec2i& e, Index v) { return e[0] == v || e[1] == v; }
+bool faces_share(const Vec3i& f, const Vec3i& g) { return face_has(g, f[0]) || face_has(g, f[1]) || face_has(g, f[2]); }
+bool edges_share(const Vec2i& e, const Vec2i& g) { return edge_has(g, e[0]) || edge_has(g, e[1]); }
+bool edge_face_share(const Vec2i& e, const Vec3i& f) { return face_has(f, e[0]) || face_has(f, e[1]); }
+
+// The double prefilter only decides which sub-pairs are "within range" (a report of the minimum
+// distance); the close/not-close verdict is always the exact comparison. This slack keeps a
+// sub-pair whose exact distance is just below xi from being dropped by double rounding.
+constexpr double kRangeSlack = 1e-6;
+
+void check_finite(const Topology& topo, const Positions& x, const char* what) {
+  if (static_cast<Index>(x.size()) != topo.num_vertices())
+    throw Error(std::string("audit: ") + what + " has " + std::to_string(x.size()) + " vertices, the topology has " +
+                std::to_string(topo.num_vertices()));
+  for (Index v = 0; v < static_cast<Index>(x.size()); ++v)
+    if (!x[v].allFinite())
+      throw Error(std::string("audit: ") + what + ": vertex " + std::to_string(v) + " (object '" +
+                  topo.object_of_vertex(v).name + "') has a non-finite coordinate");
+}
+
+}  // namespace
+
+const char* to_string(AuditExample::Kind kind) {
+  switch (kind) {
+    case AuditExample::Kind::triangle_triangle: return "triangle-triangle intersection";
+    case AuditExample::Kind::segment_triangle: return "segment through triangle";
+    case AuditExample::Kind::vertex_face: return "vertex-face";
+    case AuditExample::Kind::edge_edge: return "edge-edge";
+    case AuditExample::Kind::vertex_edge: return "vertex-edge";
+    case AuditExample::Kind::vertex_vertex: return "vertex-vertex";
+  }
+  return "?";
+}
+
+std::string AuditExample::describe() const {
+  static const char* names[][2] = {{"face", "face"},     {"edge", "face"},   {"vertex", "face"},
+                                   {"edge", "edge"},     {"vertex", "edge"}, {"vertex", "vertex"}};
+  const auto k = static_cast<int>(kind);
+  std::ostringstream s;
+  s << to_string(kind) << ": " << names[k][0] << ' ' << a << " - " << names[k][1] << ' ' << b;
+  if (kind != Kind::triangle_triangle && kind != Kind::segment_triangle) s << " at distance " << distance;
+  return s.str();
+}
+
+PenetrationAudit::PenetrationAudit(Topology topology, const Positions& reference, AuditOptions options)
+    : topo_(std::move(topology)), opt_(options) {
+  if (!(opt_.offset > 0.0) || !std::isfinite(opt_.offset))
+    throw Error("audit: the offset xi must be positive and finite (got " + std::to_string(opt_.offset) + ")");
+  if (!(opt_.tolerance >= 0.0 && opt_.tolerance < 1.0))
+    throw Error("audit: the tolerance must lie in [0, 1) (got " + std::to_string(opt_.tolerance) + ")");
+  check_finite(topo_, reference, "the reference configuration");
+
+  vertex_role_.assign(static_cast<size_t>(topo_.num_vertices()), 0);
+  for (const Vec3i& f : topo_.faces)
+    for (int k = 0; k < 3; ++k) vertex_role_[f[k]] = 1;
+  for (const Vec2i& e : topo_.edges) vertex_role_[e[0]] = vertex_role_[e[1]] = 1;
+  for (const ObjectInfo& o : topo_.objects)
+    if (o.kind == ObjectKind::particles)
+      for (Index v = o.vertex_begin; v < o.vertex_end; ++v) vertex_role_[v] = 2;
+  strand_edge_.assign(static_cast<size_t>(topo_.num_edges()), 0);
+  for (Index e = 0; e < topo_.num_edges(); ++e)
+    strand_edge_[e] = topo_.objects[topo_.edge_object[e]].kind == ObjectKind::strand;
+
+  run(reference, true, &excluded_close_, &excluded_tt_, &excluded_st_);
+  for (auto* v : {&excluded_close_, &excluded_tt_, &excluded_st_}) {
+    std::sort(v->begin(), v->end());
+    v->erase(std::unique(v->begin(), v->end()), v->end());
+  }
+}
+
+Index PenetrationAudit::excluded_close_pairs() const { return static_cast<Index>(excluded_close_.size()); }
+
+FrameAudit PenetrationAudit::audit(const Positions& x) const {
+  check_finite(topo_, x, "the configuration");
+  return run(x, false, nullptr, nullptr, nullptr);
+}
+
+// Per-chunk results, merged in chunk order so that the report is deterministic.
+struct PenetrationAudit::Scan {
+  FrameAudit result;
+  std::vector<std::uint64_t> close, tt, st;
+};
+
+FrameAudit PenetrationAudit::run(const Positions& x, bool reference_pass, std::vector<std::uint64_t>* close_keys,
+                                 std::vector<std::uint64_t>* tt_keys, std::vector<std::uint64_t>* st_keys) const {
+  const Index nv = topo_.num_vertices(), ne = topo_.num_edges(), nf = topo_.num_faces();
+  const double xi = opt_.offset;
+  // Close verdicts need candidates within xi only; the minimum-distance report looks further
+  // (report_range xi) so that a clean run shows how much margin it kept.
+  const double xi_range_sq = xi * xi * (1.0 + kRangeSlack);
+  const double reach = (reference_pass ? 1.0 : std::max(opt_.report_range, 1.0)) * xi;
+  const double range_sq = reach * reach * (1.0 + kRangeSlack);
+  const double limit = (1.0 - opt_.tolerance) * xi;
+  const double limit_sq = limit * limit;
+  const double grow = 0.5 * reach * (1.0 + kRangeSlack);
+
+  // One box per element: vertices [0, nv), edges [nv, nv + ne), faces [nv + ne, ...), grown by
+  // xi / 2 so every pair of primitives within xi has overlapping boxes.
+  std::vector<AABB> boxes(static_cast<size_t>(nv + ne + nf));
+  parallel_for(nv + ne + nf, [&](Index begin, Index end) {
+    for (Index i = begin; i < end; ++i) {
+      AABB b;
+      if (i < nv) {
+        if (vertex_role_[i] == 0) continue;  // tet interiors and unused vertices: no primitive
+        b = AABB::of(x[i]);
+      } else if (i < nv + ne) {
+        const Vec2i& e = topo_.edges[i - nv];
+        b = AABB::of(x[e[0]], x[e[1]]);
+      } else {
+        const Vec3i& f = topo_.faces[i - nv - ne];
+        b = AABB::of(x[f[0]], x[f[1]], x[f[2]]);
+      }
+      b.inflate(grow);
+      boxes[i] = b;
+    }
+  });
+  Bvh bvh;
+  bvh.build(boxes, 4);
+  std::vector<std::pair<Index, Index>> pairs;
+  bvh.self_pairs(pairs);
+
+  const Index num_pairs = static_cast<Index>(pairs.size());
+  const Index chunks = default_chunk_count(std::max<Index>(num_pairs, 1));
+  std::vector<Scan> scans(static_cast<size_t>(chunks));
+  const auto max_examples = static_cast<size_t>(std::max(opt_.max_examples, 0));
+
+  parallel_chunks(num_pairs, chunks, [&](Index c, Index begin, Index end) {
+    Scan& sc = scans[c];
+    FrameAudit& r = sc.result;
+    auto example = [&](AuditExample::Kind kind, Index a, Index b, double d) {
+      if (r.examples.size() < max_examples) r.examples.push_back(AuditExample{kind, a, b, d});
+    };
+    // A distance sub-pair: range filter in double, exclusions, then the exact verdict.
+    auto distance_pair = [&](std::uint64_t k, double d2, AuditExample::Kind kind, Index a, Index b, auto&& exact_cmp) {
+      if (!(d2 < (reference_pass ? xi_range_sq : range_sq))) return;
+      if (reference_pass) {
+        // The same exact comparison as the verdict, so the reference itself always audits clean.
+        if (d2 < xi_range_sq && exact_cmp(xi * xi) < 0) sc.close.push_back(k);
+        return;
+      }
+      if (contains(excluded_close_, k)) return;
+      ++r.checked_pairs;
+      const double d = std::sqrt(d2);
+      r.min_distance = std::min(r.min_distance, d);
+      if (d2 < xi_range_sq && exact_cmp(limit_sq) < 0) {
+        ++r.close_pairs;
+        example(kind, a, b, d);
+      }
+    };
+
+    for (Index p = begin; p < end; ++p) {
+      const auto [i, j] = pairs[p];  // i < j, so i's element type comes first: V < E < F
+      if (j < nv) {
+        // vertex-vertex: only between particles (meshes and strands: covered by VF / EE)
+        if (vertex_role_[i] != 2 || vertex_role_[j] != 2) continue;
+        distance_pair(sym_key(kVV, i, j), (x[i] - x[j]).squaredNorm(), AuditExample::Kind::vertex_vertex, i, j,
+                      [&](double t) { return compare_point_point_distance_sq(x[i], x[j], t); });
+      } else if (i < nv && j < nv + ne) {
+        const Index e = j - nv;
+        const Vec2i& ev = topo_.edges[e];
+        if (vertex_role_[i] != 2 || edge_has(ev, i)) continue;
+        const Vec3 &a = x[ev[0]], &b = x[ev[1]];
+        distance_pair(key(kVE, i, e), point_edge(x[i], a, b).distance_sq, AuditExample::Kind::vertex_edge, i, e,
+                      [&](double t) { return compare_point_edge_distance_sq(x[i], a, b, t); });
+      } else if (i < nv) {
+        const Index f = j - nv - ne;
+        const Vec3i& fv = topo_.faces[f];
+        if (face_has(fv, i)) continue;
+        const Vec3 &a = x[fv[0]], &b = x[fv[1]], &cc = x[fv[2]];
+        distance_pair(key(kVF, i, f), point_triangle(x[i], a, b, cc).distance_sq, AuditExample::Kind::vertex_face,
+                      i, f, [&](double t) { return compare_point_triangle_distance_sq(x[i], a, b, cc, t); });
+      } else if (j < nv + ne) {
+        const Index e = i - nv, g = j - nv;
+        const Vec2i &ev = topo_.edges[e], &gv = topo_.edges[g];
+        if (edges_share(ev, gv)) continue;
+        const Vec3 &a0 = x[ev[0]], &a1 = x[ev[1]], &b0 = x[gv[0]], &b1 = x[gv[1]];
+        distance_pair(sym_key(kEE, e, g), edge_edge(a0, a1, b0, b1).distance_sq, AuditExample::Kind::edge_edge, e,
+                      g, [&](double t) { return compare_edge_edge_distance_sq(a0, a1, b0, b1, t); });
+      } else if (i < nv + ne) {
+        // A strand segment through a triangle; face edges are covered by triangle-triangle tests.
+        const Index e = i - nv, f = j - nv - ne;
+        if (!strand_edge_[e]) continue;
+        const Vec2i& ev = topo_.edges[e];
+        const Vec3i& fv = topo_.faces[f];
+        if (edge_face_share(ev, fv)) continue;
+        if (!segment_triangle_intersect(x[ev[0]], x[ev[1]], x[fv[0]], x[fv[1]], x[fv[2]])) continue;
+        const std::uint64_t k = key(0, e, f);
+        if (reference_pass) {
+          sc.st.push_back(k);
+        } else if (!contains(excluded_st_, k)) {
+          ++r.segment_crossings;
+          example(AuditExample::Kind::segment_triangle, e, f, 0.0);
+        }
+      } else {
+        const Index f = i - nv - ne, g = j - nv - ne;
+        const Vec3i &fv = topo_.faces[f], &gv = topo_.faces[g];
+        if (faces_share(fv, gv)) continue;  // do_intersect is slowest exactly on these
+        if (!triangles_intersect(x[fv[0]], x[fv[1]], x[fv[2]], x[gv[0]], x[gv[1]], x[gv[2]])) continue;
+        const std::uint64_t k = key(0, f, g);
+        if (reference_pass) {
+          sc.tt.push_back(k);
+        } else if (!contains(excluded_tt_, k)) {
+          ++r.triangle_intersections;
+          example(AuditExample::Kind::triangle_triangle, f, g, 0.0);
+        }
+      }
+    }
+  });
+
+  FrameAudit out;
+  for (Scan& sc : scans) {
+    const FrameAudit& r = sc.result;
+    out.triangle_intersections += r.triangle_intersections;
+    out.segment_crossings += r.segment_crossings;
+    out.close_pairs += r.close_pairs;
+    out.checked_pairs += r.checked_pairs;
+    out.min_distance = std::min(out.min_distance, r.min_distance);
+    for (const AuditExample& ex : r.examples)
+      if (out.examples.size() < max_examples) out.examples.push_back(ex);
+    if (reference_pass) {
+      close_keys->insert(close_keys->end(), sc.close.begin(), sc.close.end());
+      tt_keys->insert(tt_keys->end(), sc.tt.begin(), sc.tt.end());
+      st_keys->insert(st_keys->end(), sc.st.begin(), sc.st.end());
+    }
+  }
+  return out;
+}
+
+}  // namespace ccfr::exact

@@ -1,0 +1,204 @@
+// The penetration audit on constructed scenes: clean stacked sheets at xi + 1e-9, a vertex pulled
+// through a sheet, a strand through a sheet, sheets closer than xi, particles, and the frame-0
+// exclusions.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <optional>
+
+#include "ccfr/core/error.hpp"
+#include "ccfr/core/parallel.hpp"
+#include "ccfr/geometry_exact/audit.hpp"
+#include "test_support.hpp"
+
+namespace ccfr::exact {
+namespace {
+
+constexpr double kXi = 0.01;
+
+struct Scene {
+  TopologyBuilder builder;
+  Positions x;
+
+  // An n x n cell sheet of side `size` in the x-y plane at height z, offset by (ox, oy).
+  void sheet(const std::string& name, int n, double size, double z, double ox = 0, double oy = 0) {
+      std::vector<Vec3i> faces;
+    for (int i = 0; i <= n; ++i)
+      for (int j = 0; j <= n; ++j) x.emplace_back(ox + size * i / n, oy + size * j / n, z);
+    auto id = [&](int i, int j) { return static_cast<Index>(i * (n + 1) + j); };
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) {
+        faces.emplace_back(id(i, j), id(i + 1, j), id(i + 1, j + 1));
+        faces.emplace_back(id(i, j), id(i + 1, j + 1), id(i, j + 1));
+      }
+    builder.add_object(name, ObjectKind::cloth, (n + 1) * (n + 1), faces);
+  }
+  void strand(const std::string& name, const std::vector<Vec3>& pts) {
+    std::vector<Index> line;
+    for (const Vec3& p : pts) {
+      line.push_back(static_cast<Index>(line.size()));
+      x.push_back(p);
+    }
+    builder.add_object(name, ObjectKind::strand, static_cast<Index>(pts.size()), {}, {}, {line});
+  }
+  void particles(const std::string& name, const std::vector<Vec3>& pts) {
+    for (const Vec3& p : pts) x.push_back(p);
+    builder.add_object(name, ObjectKind::particles, static_cast<Index>(pts.size()));
+  }
+  std::optional<Topology> topo;
+  PenetrationAudit audit(double tol = 0.0) {
+    if (!topo) topo = builder.finish();
+    AuditOptions o;
+    o.offset = kXi;
+    o.tolerance = tol;
+    return PenetrationAudit(*topo, x, o);
+  }
+};
+
+TEST(Audit, StackedSheetsJustAboveOffsetAreClean) {
+  Scene s;
+  s.sheet("bottom", 10, 1.0, 0.0);
+  s.sheet("top", 10, 1.0, kXi + 1e-9);
+  const PenetrationAudit a = s.audit();
+  const FrameAudit r = a.audit(s.x);
+  EXPECT_TRUE(r.clean()) << (r.examples.empty() ? "" : r.examples[0].describe());
+  EXPECT_EQ(r.penetrations(), 0);
+  EXPECT_GT(r.checked_pairs, 0);
+  EXPECT_NEAR(r.min_distance, kXi + 1e-9, 1e-15);
+  EXPECT_EQ(a.excluded_close_pairs(), 0);
+}
+
+TEST(Audit, SheetsCloserThanOffset) {
+  Scene s;
+  s.sheet("bottom", 10, 1.0, 0.0);
+  s.sheet("top", 10, 1.0, 2 * kXi);
+  const PenetrationAudit a = s.audit();
+  EXPECT_TRUE(a.audit(s.x).clean());
+  EXPECT_EQ(a.audit(s.x).min_distance, std::numeric_limits<double>::infinity());  // nothing within 1.5 xi
+  Positions x = s.x;
+  for (size_t v = 121; v < x.size(); ++v) x[v].z() = 0.5 * kXi;
+  const FrameAudit r = a.audit(x);
+  EXPECT_EQ(r.triangle_intersections, 0);
+  EXPECT_EQ(r.segment_crossings, 0);
+  EXPECT_GT(r.close_pairs, 0);
+  EXPECT_NEAR(r.min_distance, 0.5 * kXi, 1e-12);
+  ASSERT_FALSE(r.examples.empty());
+  EXPECT_LE(r.examples.size(), 5u);
+  EXPECT_NE(r.examples[0].describe().find("distance"), std::string::npos);
+  // With a 60% tolerance, 0.5 xi is accepted.
+  EXPECT_TRUE(s.audit(0.6).audit(x).clean());
+}
+
+TEST(Audit, VertexPulledThroughSheet) {
+  Scene s;
+  s.sheet("bottom", 10, 1.0, 0.0);
+  s.sheet("top", 10, 1.0, 0.05, 0.03, 0.02);
+  const PenetrationAudit a = s.audit();
+  ASSERT_TRUE(a.audit(s.x).clean());
+  Positions x = s.x;
+  x[121 + 5 * 11 + 5].z() = -0.02;  // a middle vertex of the top sheet, pulled below the bottom sheet
+  const FrameAudit r = a.audit(x);
+  EXPECT_GT(r.triangle_intersections, 0);
+  EXPECT_GT(r.close_pairs, 0);
+  EXPECT_GT(r.penetrations(), r.close_pairs);
+  EXPECT_FALSE(r.examples.empty());
+}
+
+TEST(Audit, StrandThroughSheet) {
+  Scene s;
+  s.sheet("cloth", 8, 1.0, 0.0);
+  s.strand("hair", {Vec3(0.33, 0.41, 0.3), Vec3(0.33, 0.41, 0.2), Vec3(0.33, 0.41, 0.1)});
+  const PenetrationAudit a = s.audit();
+  ASSERT_TRUE(a.audit(s.x).clean());
+  Positions x = s.x;
+  for (size_t v = 81; v < 84; ++v) x[v].z() -= 0.25;  // segments now at z in [-0.15, 0.05]
+  const FrameAudit r = a.audit(x);
+  EXPECT_GT(r.segment_crossings, 0);
+  EXPECT_EQ(r.triangle_intersections, 0);
+  // A strand attached to a sheet vertex shares it: never reported as crossing through it.
+  Scene t;
+  t.sheet("cloth", 2, 1.0, 0.0);
+  t.x.push_back(Vec3(0.5, 0.5, 0.3));
+  t.builder.add_object("hair", ObjectKind::strand, 1, {}, {}, {});
+  const PenetrationAudit b = t.audit();
+  EXPECT_TRUE(b.audit(t.x).clean());
+}
+
+TEST(Audit, Particles) {
+  Scene s;
+  s.strand("wire", {Vec3(0, 0, 0), Vec3(1, 0, 0)});
+  s.particles("grains", {Vec3(0.5, 0.02, 0), Vec3(0.5, 0.05, 0), Vec3(0.7, 0.05, 0)});
+  const PenetrationAudit a = s.audit();
+  ASSERT_TRUE(a.audit(s.x).clean());
+  Positions x = s.x;
+  x[2].y() = 0.005;   // particle within xi of the wire: vertex-edge
+  x[4].x() = 0.504;   // two particles 4 mm apart: vertex-vertex
+  const FrameAudit r = a.audit(x);
+  EXPECT_EQ(r.close_pairs, 2);
+  bool ve = false, vv = false;
+  for (const AuditExample& e : r.examples) {
+    ve |= e.kind == AuditExample::Kind::vertex_edge;
+    vv |= e.kind == AuditExample::Kind::vertex_vertex;
+  }
+  EXPECT_TRUE(ve && vv);
+}
+
+TEST(Audit, FrameZeroExclusions) {
+  // A fine sheet (cells of 0.5 xi): in-sheet sub-pairs closer than xi are excluded at frame 0.
+  Scene s;
+  s.sheet("fine", 20, 20 * 0.5 * kXi, 0.0);
+  const PenetrationAudit a = s.audit();
+  EXPECT_GT(a.excluded_close_pairs(), 0);
+  EXPECT_TRUE(a.audit(s.x).clean());
+  // Two triangles already crossing at frame 0 are not reported, in frame 0 or later.
+  Scene t;
+  t.sheet("a", 1, 1.0, 0.0);
+  t.x.insert(t.x.end(), {Vec3(0.2, 0.2, -1), Vec3(0.3, 0.2, 1), Vec3(0.2, 0.4, 1)});
+  t.builder.add_object("b", ObjectKind::cloth, 3, {Vec3i(0, 1, 2)});
+  const PenetrationAudit b = t.audit();
+  EXPECT_GT(b.excluded_intersections(), 0);
+  Positions y = t.x;
+  y[4].z() += 0.001;
+  const FrameAudit r = b.audit(y);
+  EXPECT_EQ(r.triangle_intersections, 0);
+}
+
+TEST(Audit, DeterministicAcrossThreadCounts) {
+  Scene s;
+  s.sheet("bottom", 30, 1.0, 0.0);
+  s.sheet("top", 30, 1.0, 0.004);
+  const PenetrationAudit a = s.audit();
+  Positions x = s.x;
+  set_thread_count(1);
+  const FrameAudit r1 = a.audit(x);
+  set_thread_count(2);
+  const FrameAudit r2 = a.audit(x);
+  set_thread_count(0);
+  EXPECT_EQ(r1.close_pairs, r2.close_pairs);
+  EXPECT_EQ(r1.min_distance, r2.min_distance);
+  ASSERT_EQ(r1.examples.size(), r2.examples.size());
+  for (size_t i = 0; i < r1.examples.size(); ++i) EXPECT_EQ(r1.examples[i].describe(), r2.examples[i].describe());
+}
+
+TEST(Audit, RejectsBadInput) {
+  Scene s;
+  s.sheet("cloth", 2, 1.0, 0.0);
+  const PenetrationAudit a = s.audit();
+  Positions x = s.x;
+  x[3].y() = std::numeric_limits<double>::quiet_NaN();
+  try {
+    a.audit(x);
+    FAIL() << "expected ccfr::Error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("vertex 3"), std::string::npos) << e.what();
+  }
+  x.pop_back();
+  EXPECT_THROW(a.audit(x), Error);
+  AuditOptions o;
+  o.offset = 0;
+  EXPECT_THROW(PenetrationAudit(TopologyBuilder().finish(), {}, o), Error);
+}
+
+}  // namespace
+}  // namespace ccfr::exact
