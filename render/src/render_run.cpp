@@ -1,0 +1,209 @@
+#include "ccfr/render/render_run.hpp"
+
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <sstream>
+
+#include "ccfr/core/error.hpp"
+#include "ccfr/core/log.hpp"
+
+extern char** environ;
+
+namespace ccfr::render {
+
+namespace fs = std::filesystem;
+
+std::vector<size_t> select_frames(size_t count, int every) {
+  std::vector<size_t> picked;
+  if (count == 0) return picked;
+  const size_t k = static_cast<size_t>(std::max(every, 1));
+  for (size_t i = 0; i < count; i += k) picked.push_back(i);
+  if (picked.back() != count - 1) picked.push_back(count - 1);
+  return picked;
+}
+
+Bounds scan_obj_bounds(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error("cannot open '" + path.string() + "'");
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  Bounds b;
+  const char* s = text.c_str();
+  const char* end = s + text.size();
+  // Only "v x y z" lines matter for bounds; everything else is skipped line by line.
+  while (s < end) {
+    if (s[0] == 'v' && s + 1 < end && (s[1] == ' ' || s[1] == '\t')) {
+      const char* q = s + 2;
+      Vec3 p = Vec3::Zero();
+      bool ok = true;
+      for (int c = 0; c < 3 && ok; ++c) {
+        char* next = nullptr;
+        p[c] = std::strtod(q, &next);
+        ok = next != q && std::isfinite(p[c]);
+        q = next;
+      }
+      if (ok) b.extend(p);
+    }
+    const void* nl = std::memchr(s, '\n', static_cast<size_t>(end - s));
+    s = nl ? static_cast<const char*>(nl) + 1 : end;
+  }
+  return b;
+}
+
+namespace {
+/// "frame_00012" -> "frame 12"; other stems are shown as they are.
+std::string label_of(const fs::path& obj) {
+  const std::string stem = obj.stem().string();
+  const size_t digits = stem.find_last_not_of("0123456789");
+  if (digits != std::string::npos && digits + 1 < stem.size()) {
+    const std::string number = stem.substr(digits + 1);
+    const size_t nz = number.find_first_not_of('0');
+    return "frame " + (nz == std::string::npos ? std::string("0") : number.substr(nz));
+  }
+  return stem;
+}
+
+int run_process(const std::vector<std::string>& args) {
+  std::vector<char*> argv;
+  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  if (posix_spawnp(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0) return -1;
+  int status = 0;
+  if (waitpid(pid, &status, 0) < 0) return -1;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+}  // namespace
+
+std::optional<fs::path> find_program(std::string_view name) {
+  const char* path = std::getenv("PATH");
+  if (path == nullptr) return std::nullopt;
+  std::stringstream ss(path);
+  std::string dir;
+  while (std::getline(ss, dir, ':')) {
+    if (dir.empty()) continue;
+    const fs::path candidate = fs::path(dir) / std::string(name);
+    if (::access(candidate.c_str(), X_OK) == 0 && fs::is_regular_file(candidate)) return candidate;
+  }
+  return std::nullopt;
+}
+
+bool make_video(const std::vector<fs::path>& images, double fps, const fs::path& mp4, std::string& message) {
+  const auto ffmpeg = find_program("ffmpeg");
+  if (!ffmpeg) {
+    message = "ffmpeg is not installed (apt-get install ffmpeg): no video written";
+    return false;
+  }
+  if (images.empty()) {
+    message = "no frames to put in a video";
+    return false;
+  }
+  // ffmpeg's image2 demuxer wants consecutive numbers; the PNGs keep their frame numbers, so
+  // link them under consecutive names in a scratch folder.
+  const fs::path scratch = mp4.parent_path() / (".video-" + std::to_string(::getpid()));
+  std::error_code ec;
+  fs::remove_all(scratch, ec);
+  fs::create_directories(scratch);
+  for (size_t i = 0; i < images.size(); ++i) {
+    char name[32];
+    std::snprintf(name, sizeof name, "%06zu.png", i);
+    fs::create_symlink(fs::absolute(images[i]), scratch / name, ec);
+    if (ec) fs::copy_file(images[i], scratch / name, fs::copy_options::overwrite_existing);
+  }
+  char rate[32];
+  std::snprintf(rate, sizeof rate, "%.6g", fps > 0 ? fps : 30.0);
+  const fs::path tmp = mp4.parent_path() / (".tmp-" + std::to_string(::getpid()) + "-" + mp4.filename().string());
+  auto encode = [&](const std::string& codec) {
+    return run_process({ffmpeg->string(), "-y", "-loglevel", "error", "-framerate", rate, "-i",
+                        (scratch / "%06d.png").string(), "-c:v", codec, "-pix_fmt", "yuv420p", "-vf",
+                        "pad=ceil(iw/2)*2:ceil(ih/2)*2", tmp.string()});
+  };
+  // libx264 is the common H.264 encoder; builds without it still have the native mpeg4 one.
+  int rc = encode("libx264");
+  if (rc != 0) rc = encode("mpeg4");
+  fs::remove_all(scratch, ec);
+  if (rc != 0) {
+    fs::remove(tmp, ec);
+    message = "ffmpeg failed (exit code " + std::to_string(rc) + "): no video written";
+    return false;
+  }
+  fs::rename(tmp, mp4, ec);
+  if (ec) {
+    message = "cannot move the video to '" + mp4.string() + "': " + ec.message();
+    return false;
+  }
+  return true;
+}
+
+RunRenderSummary render_frames(const std::vector<fs::path>& frames, const RunRenderOptions& options,
+                               const ProgressCallback& progress) {
+  RunRenderSummary summary;
+  if (frames.empty()) throw Error("no frames to render");
+  if (options.out.empty()) throw Error("no output folder given for the pictures");
+  std::error_code ec;
+  fs::create_directories(options.out, ec);
+  if (ec || !fs::is_directory(options.out))
+    throw Error("cannot create the output folder '" + options.out.string() + "'");
+
+  const std::vector<size_t> picked = select_frames(frames.size(), options.every);
+  Bounds bounds;
+  for (size_t i : picked) bounds.extend(scan_obj_bounds(frames[i]));
+
+  const io::Frame first = io::read_frame_obj(frames[picked.front()]);
+  summary.view = resolve_view(bounds, first, options.render, options.camera);
+
+  // Tiles of the contact sheet: evenly spaced over the drawn frames, the first and last included.
+  std::vector<size_t> sheet_slots;
+  if (options.sheet) {
+    const size_t n = std::min<size_t>(picked.size(), static_cast<size_t>(std::max(options.sheet_frames, 1)));
+    for (size_t k = 0; k < n; ++k)
+      sheet_slots.push_back(n == 1 ? 0 : static_cast<size_t>(std::lround(static_cast<double>(k) * (picked.size() - 1) / (n - 1))));
+  }
+  std::vector<Image> tiles;
+  std::vector<std::string> labels;
+  const int tile_w = std::max(16, std::min(options.sheet_tile_width, options.render.width));
+  const int tile_h = std::max(1, static_cast<int>(std::lround(static_cast<double>(tile_w) * options.render.height /
+                                                              std::max(options.render.width, 1))));
+
+  Renderer renderer;
+  double render_seconds = 0.0;
+  for (size_t j = 0; j < picked.size(); ++j) {
+    const fs::path& obj = frames[picked[j]];
+    const io::Frame frame = j == 0 ? first : io::read_frame_obj(obj);
+    const auto t0 = std::chrono::steady_clock::now();
+    RenderResult result = renderer.render(frame, summary.view, options.render);
+    render_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const fs::path png = options.out / (obj.stem().string() + ".png");
+    write_png(png, result.image);
+    summary.images.push_back(png);
+    if (std::find(sheet_slots.begin(), sheet_slots.end(), j) != sheet_slots.end()) {
+      tiles.push_back(resize(result.image, tile_w, tile_h));
+      labels.push_back(label_of(obj));
+    }
+    if (progress) progress(static_cast<int>(j + 1), static_cast<int>(picked.size()), png);
+  }
+  summary.seconds_per_frame = render_seconds / static_cast<double>(picked.size());
+
+  if (options.sheet && !tiles.empty()) {
+    summary.sheet = options.out / "sheet.png";
+    write_png(summary.sheet, contact_sheet(tiles, labels, options.sheet_columns));
+  }
+  if (options.video) {
+    const fs::path mp4 = options.out / "video.mp4";
+    const double rate = options.fps / std::max(options.every, 1);
+    if (make_video(summary.images, rate, mp4, summary.video_note))
+      summary.video = mp4;
+  }
+  return summary;
+}
+
+}  // namespace ccfr::render
