@@ -46,8 +46,8 @@ BENCHMARK_CAPTURE(BM_Project, successive_projection, "successive_projection")->A
 BENCHMARK_CAPTURE(BM_Project, exact, "exact")->Arg(1)->Arg(2)->Arg(4)->Arg(8)->Arg(16);
 
 /// A 16k-vertex batch shaped like a contact-rich cloth frame: 40 % of the vertices without
-/// half-spaces, the others with 1-12 (mean about 4), normals clustered half of the time, and the
-/// candidate within 1.5 r of the anchor so that about a third of the constrained vertices violate.
+/// half-spaces, the others with 1-12 (mean about 3), normals clustered half of the time, and the
+/// candidate within 1.5 r of the anchor so that about half of the constrained vertices violate.
 struct Batch {
   RegionSet regions;
   Positions anchor, candidate;
