@@ -1,5 +1,7 @@
 #include "ccfr/geometry/bvh.hpp"
 
+#include <tbb/parallel_invoke.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -24,6 +26,20 @@ constexpr int kMaxStack = 128;
 
 }  // namespace
 
+namespace {
+
+// Nodes of the subtree over `count` boxes: median splits make the shape a function of the count
+// alone, so subtrees can be laid out (and built in parallel) before they exist.
+Index subtree_nodes(Index count, int leaf_size) {
+  if (count <= leaf_size) return 1;
+  return 1 + subtree_nodes(count / 2, leaf_size) + subtree_nodes(count - count / 2, leaf_size);
+}
+
+// Subtrees at least this large are split across tasks.
+constexpr Index kParallelBuild = 8192;
+
+}  // namespace
+
 void Bvh::build(std::span<const AABB> boxes, int leaf_size) {
   leaf_size = std::max(leaf_size, 1);
   num_boxes_ = static_cast<Index>(boxes.size());
@@ -37,39 +53,45 @@ void Bvh::build(std::span<const AABB> boxes, int leaf_size) {
     sorted_.clear();
     return;
   }
-  nodes_.reserve(2 * static_cast<size_t>(num_boxes_ / leaf_size + 1));
-  build_node(0, num_boxes_, leaf_size, boxes);
+  // Centres once, contiguous; an empty box (inf + -inf) gets +inf so every key stays ordered.
+  std::vector<Vec3> centres(boxes.size());
+  parallel_for(num_boxes_, [&](Index b, Index e) {
+    for (Index i = b; i < e; ++i) {
+      const Vec3 c = boxes[i].lo + boxes[i].hi;
+      centres[i] = c.hasNaN() ? Vec3::Constant(std::numeric_limits<double>::infinity()) : c;
+    }
+  });
+  nodes_.resize(static_cast<size_t>(subtree_nodes(num_boxes_, leaf_size)));
+  build_node(0, 0, num_boxes_, leaf_size, centres);
   for (Index n = 0; n < static_cast<Index>(nodes_.size()); ++n)
     if (nodes_[n].right < 0) leaves_.push_back(n);
   gather(boxes);
 }
 
-Index Bvh::build_node(Index first, Index count, int leaf_size, std::span<const AABB> boxes) {
-  const Index id = static_cast<Index>(nodes_.size());
-  nodes_.push_back(Node{AABB{}, -1, first, count});
-  if (count <= leaf_size) return id;
-  // Split at the median centre along the longest axis of the centre bounds. Empty boxes have
-  // non-finite centres; they sort to one end, which is harmless.
+void Bvh::build_node(Index id, Index first, Index count, int leaf_size, const std::vector<Vec3>& centres) {
+  nodes_[id] = Node{AABB{}, -1, first, count};
+  if (count <= leaf_size) return;
+  // Split at the median centre along the longest axis of the (finite) centre bounds.
   AABB cb;
-  for (Index k = first; k < first + count; ++k) {
-    const Vec3 c = boxes[order_[k]].center();
-    if (c.allFinite()) cb.expand(c);
-  }
+  for (Index k = first; k < first + count; ++k)
+    if (centres[order_[k]].allFinite()) cb.expand(centres[order_[k]]);
   int axis = 0;
   if (cb.valid()) cb.extent().maxCoeff(&axis);
   const auto begin = order_.begin() + first, end = begin + count, mid = begin + count / 2;
-  auto key = [&](Index i) {
-    const double k = boxes[i].lo[axis] + boxes[i].hi[axis];
-    return std::isnan(k) ? std::numeric_limits<double>::infinity() : k;  // empty box: inf + -inf
-  };
   std::nth_element(begin, mid, end, [&](Index a, Index b) {
-    const double ka = key(a), kb = key(b);
+    const double ka = centres[a][axis], kb = centres[b][axis];
     return ka < kb || (ka == kb && a < b);  // ties by id: a strict total order, reproducible splits
   });
-  build_node(first, count / 2, leaf_size, boxes);
-  const Index right = build_node(first + count / 2, count - count / 2, leaf_size, boxes);
+  const Index left = id + 1, right = id + 1 + subtree_nodes(count / 2, leaf_size);
   nodes_[id].right = right;
-  return id;
+  auto build_left = [&] { build_node(left, first, count / 2, leaf_size, centres); };
+  auto build_right = [&] { build_node(right, first + count / 2, count - count / 2, leaf_size, centres); };
+  if (count >= kParallelBuild) {
+    tbb::parallel_invoke(build_left, build_right);
+  } else {
+    build_left();
+    build_right();
+  }
 }
 
 void Bvh::gather(std::span<const AABB> boxes) {

@@ -37,7 +37,7 @@ class Bvh {
     Index right = -1;             ///< right child, -1 for a leaf
     Index first = 0, count = 0;   ///< range in order_
   };
-  Index build_node(Index first, Index count, int leaf_size, std::span<const AABB> boxes);
+  void build_node(Index id, Index first, Index count, int leaf_size, const std::vector<Vec3>& centres);
   void gather(std::span<const AABB> boxes);
   void leaf_pairs(Index leaf, std::vector<std::pair<Index, Index>>& out) const;
 
