@@ -219,9 +219,16 @@ struct DetectSink {
     }
     // Lines 8, 23-24: barycentric-weighted inverse masses of each side.
     double w_a = 0.0, w_b = 0.0;
-    for (int i = 0; i < c.na; ++i) w_a += c.wa[i] * w[c.va[i]];
-    for (int j = 0; j < c.nb; ++j) w_b += c.wb[j] * w[c.vb[j]];
-    if (!(w_a + w_b > 0.0)) return;  // both sides immovable: nothing can be constrained
+    bool movable_a = false, movable_b = false;
+    for (int i = 0; i < c.na; ++i) {
+      w_a += c.wa[i] * w[c.va[i]];
+      movable_a = movable_a || w[c.va[i]] > 0.0;
+    }
+    for (int j = 0; j < c.nb; ++j) {
+      w_b += c.wb[j] * w[c.vb[j]];
+      movable_b = movable_b || w[c.vb[j]] > 0.0;
+    }
+    if (!movable_a && !movable_b) return;  // nothing here can move: nothing to constrain
     ++within;
     const Vec3 diff = c.pa - c.pb;
     const double dist = std::sqrt(c.dist_sq);
@@ -235,7 +242,13 @@ struct DetectSink {
     // satisfy all half-spaces, every vertex of A stays at n·x ≥ n·x_A − s_A φ and every vertex of
     // B at n·x ≤ n·x_B + s_B φ (the closest points are extreme along n over each primitive), so
     // the plane in between keeps the primitives ≥ ‖x_A − x_B‖ − φ = ξ apart.
-    const double s_a = w_a / (w_a + w_b);
+    //
+    // When both closest points sit on immovable vertices (w_A = w_B = 0) the other vertices of
+    // the primitives may still move: the shares are then split between the sides that have a
+    // movable vertex. Any split summing to 1 keeps the argument (the immovable closest points
+    // stay put), whereas emitting nothing would let a free vertex swing its edge or face
+    // through the pair.
+    const double s_a = w_a + w_b > 0.0 ? w_a / (w_a + w_b) : (movable_a ? (movable_b ? 0.5 : 1.0) : 0.0);
     const double s_b = 1.0 - s_a;
     // Lines 10/26/41: d_k = s φ, kept even when negative (clarification 7). Side B's normal
     // points from A toward B (clarification 3 for the face-vertex branch).

@@ -54,7 +54,7 @@ struct ContactPair {
 /// Counts and timings of one detect() pass.
 struct DetectionStats {
   Index candidates = 0;          ///< primitive pairs reported by the broad phase
-  Index pairs_within_range = 0;  ///< sub-pairs with φ < 2r, not excluded, with a movable side
+  Index pairs_within_range = 0;  ///< sub-pairs with φ < 2r, not excluded, with a movable vertex
   Index constraints = 0;         ///< half-spaces written to the RegionSet
   Index excluded_initial = 0;    ///< sub-pairs with φ < 2r skipped by the initial-configuration exclusions
   Index degenerate = 0;          ///< sub-pairs at (numerically) zero distance: no normal, no half-space
@@ -106,7 +106,7 @@ class CollisionDetector {
   /// Broad and narrow phase at positions `x` (#V, the regions' anchors) with inverse masses
   /// `inv_mass` (#V; 0 = kinematic or pinned). Fills `regions` with every vertex's half-spaces
   /// (Alg. NarrowPhase lines 10, 26, 41; Eq. 3) and `contacts` with every sub-pair within range
-  /// that has a movable side; overwrites `stats`. Vertices of inverse mass 0 get no half-spaces
+  /// that has a movable vertex; overwrites `stats`. Vertices of inverse mass 0 get no half-spaces
   /// (the solver does not move them; their side's share is 0). Deterministic for any thread count.
   void detect(const Positions& x, std::span<const double> inv_mass, RegionSet& regions,
               std::vector<ContactPair>& contacts, DetectionStats& stats);

@@ -1,0 +1,338 @@
+// The narrow phase against an all-pairs loop over the same distance kernels, the half-space
+// properties, exclusions, determinism, degenerate input and the separating-plane guarantee.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <map>
+#include <set>
+
+#include "ccfr/collision/narrow_phase.hpp"
+#include "ccfr/core/error.hpp"
+#include "ccfr/core/parallel.hpp"
+#include "ccfr/geometry/distance.hpp"
+#include "scenes.hpp"
+#include "test_support.hpp"
+
+namespace ccfr {
+namespace {
+
+constexpr double kR = 0.005, kXi = 0.01, kDelta = 0.0005;
+const CollisionParams kParams{kR, kXi, kDelta};
+
+/// A sub-pair named by its vertices: kind, side A (sorted, padded), side B (sorted, padded);
+/// the two sides of the symmetric kinds (ee, vv) in lexicographic order.
+using SubPairName = std::array<Index, 6>;
+
+SubPairName name_of(ContactKind kind, std::vector<Index> a, std::vector<Index> b) {
+  std::sort(a.begin(), a.end());
+  std::sort(b.begin(), b.end());
+  if ((kind == ContactKind::ee || kind == ContactKind::vv) && b < a) std::swap(a, b);
+  a.resize(2, -1);
+  b.resize(3, -1);
+  return {static_cast<Index>(kind), a[0], a[1], b[0], b[1], b[2]};
+}
+
+SubPairName name_of(const ContactPair& c) {
+  std::vector<Index> a(c.v.begin(), c.v.begin() + c.side_a()), b(c.v.begin() + c.side_a(), c.v.begin() + c.size());
+  return name_of(c.kind, a, b);
+}
+
+bool no_self(const Topology& t, Index object) {
+  const ObjectKind k = t.objects[object].kind;
+  return k == ObjectKind::rigid || k == ObjectKind::obstacle;
+}
+
+/// Every sub-pair of the scene, tested directly: vertex-face for every collision vertex against
+/// every face, edge-edge for every pair of edges, vertex-edge for points against strand segments,
+/// vertex-vertex between points. Calls fn(kind, a, b, sideA, weightsA, sideB, weightsB, dist_sq)
+/// for the sub-pairs that share no vertex and are not inside one rigid or obstacle object.
+template <class Fn>
+void for_each_sub_pair(const test::TestScene& s, const Positions& x, Fn fn) {
+  const Topology& t = s.topo;
+  std::vector<bool> is_point(static_cast<size_t>(t.num_vertices()), false), collides(is_point.size(), false);
+  std::vector<bool> is_segment(static_cast<size_t>(t.num_edges()), false);
+  for (Index e = 0; e < t.num_edges(); ++e) {
+    is_segment[e] = t.objects[t.edge_object[e]].kind == ObjectKind::strand;
+    if (is_segment[e]) collides[t.edges[e][0]] = collides[t.edges[e][1]] = true;
+  }
+  for (Index v = 0; v < t.num_vertices(); ++v) {
+    const ObjectKind k = t.object_of_vertex(v).kind;
+    if (t.vertex_faces.row(v).size() > 0) collides[v] = true;
+    if (k == ObjectKind::particles || (k == ObjectKind::strand && t.vertex_edges.row(v).empty())) {
+      is_point[v] = true;
+      collides[v] = true;
+    }
+  }
+  for (Index v = 0; v < t.num_vertices(); ++v) {
+    if (!collides[v]) continue;
+    for (Index f = 0; f < t.num_faces(); ++f) {
+      const Vec3i& tri = t.faces[f];
+      if (tri[0] == v || tri[1] == v || tri[2] == v) continue;
+      if (t.vertex_object[v] == t.face_object[f] && no_self(t, t.face_object[f])) continue;
+      const PointTriangleResult r = point_triangle(x[v], x[tri[0]], x[tri[1]], x[tri[2]]);
+      fn(ContactKind::vf, v, f, std::vector<Index>{v}, std::vector<double>{1.0},
+         std::vector<Index>{tri[0], tri[1], tri[2]}, std::vector<double>{r.bary[0], r.bary[1], r.bary[2]}, r.distance_sq);
+    }
+  }
+  for (Index e0 = 0; e0 < t.num_edges(); ++e0)
+    for (Index e1 = e0 + 1; e1 < t.num_edges(); ++e1) {
+      const Vec2i &a = t.edges[e0], &b = t.edges[e1];
+      if (a[0] == b[0] || a[0] == b[1] || a[1] == b[0] || a[1] == b[1]) continue;
+      if (t.edge_object[e0] == t.edge_object[e1] && no_self(t, t.edge_object[e0])) continue;
+      const EdgeEdgeResult r = edge_edge(x[a[0]], x[a[1]], x[b[0]], x[b[1]]);
+      fn(ContactKind::ee, e0, e1, std::vector<Index>{a[0], a[1]}, std::vector<double>{1 - r.s, r.s},
+         std::vector<Index>{b[0], b[1]}, std::vector<double>{1 - r.t, r.t}, r.distance_sq);
+    }
+  for (Index v = 0; v < t.num_vertices(); ++v) {
+    if (!is_point[v]) continue;
+    for (Index e = 0; e < t.num_edges(); ++e) {
+      if (!is_segment[e]) continue;
+      const Vec2i& seg = t.edges[e];
+      const PointEdgeResult r = point_edge(x[v], x[seg[0]], x[seg[1]]);
+      fn(ContactKind::ve, v, e, std::vector<Index>{v}, std::vector<double>{1.0}, std::vector<Index>{seg[0], seg[1]},
+         std::vector<double>{1 - r.t, r.t}, r.distance_sq);
+    }
+    for (Index u = v + 1; u < t.num_vertices(); ++u)
+      if (is_point[u])
+        fn(ContactKind::vv, v, u, std::vector<Index>{v}, std::vector<double>{1.0}, std::vector<Index>{u},
+           std::vector<double>{1.0}, point_point_distance_sq(x[v], x[u]));
+  }
+}
+
+/// The sub-pairs within range (φ < 2r) that are not excluded and have a movable vertex.
+std::multiset<SubPairName> brute_force_contacts(const test::TestScene& s, const Positions& x, const CollisionDetector& det) {
+  std::multiset<SubPairName> out;
+  const double reach = 2 * kR + kXi;
+  for_each_sub_pair(s, x, [&](ContactKind kind, Index a, Index b, const std::vector<Index>& va, const std::vector<double>& wa,
+                              const std::vector<Index>& vb, const std::vector<double>& wb, double dist_sq) {
+    if (dist_sq >= reach * reach || det.is_excluded(kind, a, b)) return;
+    bool movable = false;
+    for (Index v : va) movable = movable || s.inv_mass[v] > 0;
+    for (Index v : vb) movable = movable || s.inv_mass[v] > 0;
+    if (movable && std::sqrt(dist_sq) >= 1e-12) out.insert(name_of(kind, va, vb));
+  });
+  return out;
+}
+
+test::TestScene folded_cloth_scene() {
+  return test::SceneBuilder().mesh("cloth", ObjectKind::cloth, test::accordion_cloth(0.2, 18, 2, 0.011, 0.003)).finish();
+}
+
+test::TestScene strand_scene() {
+  return test::SceneBuilder().strands("hair", gen::curly_strands(16, 16, 0.15, 0.03, 0.008, 2.0)).finish();
+}
+
+test::TestScene mixed_scene() {
+  gen::TriMesh cloth = test::accordion_cloth(0.12, 10, 1, 0.011, 0.002);
+  gen::TriMesh ball = gen::sphere(0.05, 1);
+  for (auto& p : ball.v) p += Vec3(0, -0.062, 0);
+  gen::PolylineSet hair = gen::curly_strands(6, 12, 0.08, 0.02, 0.006, 1.5);
+  for (auto& p : hair.v) p += Vec3(0.02, 0.12, 0.0);
+  Positions dust = gen::particle_block(4, 2, 4, 0.011);
+  for (auto& p : dust) p += Vec3(0.0, 0.04, 0.0);
+  gen::TetMesh jelly = gen::tet_box(Vec3(0.03, 0.03, 0.03), Vec3i(2, 2, 2));
+  for (auto& p : jelly.v) p += Vec3(-0.03, 0.045, 0.03);
+  gen::TriMesh crate = gen::box(Vec3(0.02, 0.02, 0.02));
+  for (auto& p : crate.v) p += Vec3(0.04, 0.035, -0.03);
+  gen::PolylineSet lone;
+  lone.v = {Vec3(0.03, 0.03, 0.0)};
+  lone.lines = {{0}};
+  return test::SceneBuilder()
+      .mesh("cloth", ObjectKind::cloth, cloth)
+      .mesh("ball", ObjectKind::obstacle, ball, 0.0)
+      .strands("hair", hair)
+      .particles("dust", dust, 2.0)
+      .tets("jelly", jelly, 0.5)
+      .mesh("crate", ObjectKind::rigid, crate, 0.25)
+      .strands("lone", lone)
+      .finish();
+}
+
+void perturb(Positions& x, std::uint64_t seed, double r) {
+  auto g = test::rng(seed);
+  for (auto& p : x) p += test::random_in_ball(g, r);
+}
+
+struct Detection {
+  RegionSet regions;
+  std::vector<ContactPair> contacts;
+  DetectionStats stats;
+};
+
+Detection run(CollisionDetector& det, const Positions& x, const std::vector<double>& w) {
+  Detection d;
+  det.detect(x, w, d.regions, d.contacts, d.stats);
+  return d;
+}
+
+class NarrowPhaseScenes : public ::testing::TestWithParam<int> {
+ protected:
+  test::TestScene scene() const {
+    switch (GetParam()) {
+      case 0: return folded_cloth_scene();
+      case 1: return strand_scene();
+      default: return mixed_scene();
+    }
+  }
+};
+
+TEST_P(NarrowPhaseScenes, MatchesAllPairsLoopEachSubPairOnce) {
+  const test::TestScene s = scene();
+  CollisionDetector det(s.topo, s.x, kParams, make_broad_phase(default_broad_phase_name()));
+  Positions x = s.x;
+  for (int pass = 0; pass < 3; ++pass) {
+    if (pass > 0) perturb(x, 40 + pass, 0.004);
+    const Detection d = run(det, x, s.inv_mass);
+    std::multiset<SubPairName> found;
+    for (const auto& c : d.contacts) found.insert(name_of(c));
+    const std::multiset<SubPairName> expected = brute_force_contacts(s, x, det);
+    EXPECT_GT(expected.size(), 0u);
+    EXPECT_EQ(found, expected) << "pass " << pass << ": " << found.size() << " found, " << expected.size() << " expected";
+    EXPECT_EQ(std::set<SubPairName>(found.begin(), found.end()).size(), found.size()) << "a sub-pair came up twice";
+    EXPECT_EQ(d.stats.pairs_within_range, static_cast<Index>(d.contacts.size()) + d.stats.degenerate);
+  }
+}
+
+TEST_P(NarrowPhaseScenes, HalfSpacesAreConsistentWithContacts) {
+  const test::TestScene s = scene();
+  CollisionDetector det(s.topo, s.x, kParams, make_broad_phase("bvh"));
+  Positions x = s.x;
+  perturb(x, 9, 0.003);
+  const Detection d = run(det, x, s.inv_mass);
+  ASSERT_EQ(d.regions.num_vertices(), s.topo.num_vertices());
+  Index expected_planes = 0;
+  for (const auto& c : d.contacts) {
+    // Σ w_k x_k = x_A − x_B = distance · n, and side weights sum to ±1.
+    Vec3 diff = Vec3::Zero();
+    double sum_a = 0, sum_b = 0;
+    for (int k = 0; k < c.size(); ++k) {
+      diff += c.w[k] * x[c.v[k]];
+      (k < c.side_a() ? sum_a : sum_b) += c.w[k];
+      if (s.inv_mass[c.v[k]] > 0) ++expected_planes;
+    }
+    EXPECT_NEAR(sum_a, 1.0, 1e-12);
+    EXPECT_NEAR(sum_b, -1.0, 1e-12);
+    EXPECT_LT((diff - c.distance * c.n).norm(), 1e-12);
+    EXPECT_NEAR(c.n.norm(), 1.0, 1e-12);
+    EXPECT_LT(c.distance - kXi, 2 * kR);
+  }
+  EXPECT_EQ(d.stats.constraints, expected_planes);
+  EXPECT_EQ(static_cast<Index>(d.regions.total()), expected_planes);
+  for (Index v = 0; v < s.topo.num_vertices(); ++v) {
+    if (s.inv_mass[v] == 0) EXPECT_EQ(d.regions.count(v), 0) << "kinematic vertex " << v << " got half-spaces";
+    for (const HalfSpace& h : d.regions.of(v)) {
+      EXPECT_NEAR(h.n.norm(), 1.0, 1e-12);
+      EXPECT_LT(h.phi, 2 * kR);
+      // The anchor itself is admissible whenever the pair is not already inside the offset.
+      if (h.phi >= 0) EXPECT_GE(h.value(x[v], x[v]), 0.0);
+      // d = s φ with a share s in [0, 1].
+      EXPECT_LE(std::abs(h.d), std::abs(h.phi) + 1e-15);
+      EXPECT_GE(h.d * h.phi, 0.0);
+    }
+  }
+}
+
+TEST_P(NarrowPhaseScenes, DeterministicForAnyThreadCountAndBroadPhase) {
+  const test::TestScene s = scene();
+  Positions x = s.x;
+  perturb(x, 3, 0.003);
+  std::vector<Detection> results;
+  for (const auto& name : broad_phase_names())
+    for (int threads : {1, 2}) {
+      set_thread_count(threads);
+      CollisionDetector det(s.topo, s.x, kParams, make_broad_phase(name));
+      results.push_back(run(det, x, s.inv_mass));
+    }
+  set_thread_count(0);
+  const Detection& ref = results.front();
+  std::vector<SubPairName> ref_names;
+  for (const auto& c : ref.contacts) ref_names.push_back(name_of(c));
+  std::sort(ref_names.begin(), ref_names.end());
+  for (size_t i = 1; i < results.size(); ++i) {
+    const Detection& d = results[i];
+    EXPECT_EQ(d.regions.offsets, ref.regions.offsets) << "run " << i;
+    ASSERT_EQ(d.regions.planes.size(), ref.regions.planes.size()) << "run " << i;
+    for (size_t k = 0; k < d.regions.planes.size(); ++k) {
+      EXPECT_EQ(d.regions.planes[k].n, ref.regions.planes[k].n);
+      EXPECT_EQ(d.regions.planes[k].d, ref.regions.planes[k].d);
+      EXPECT_EQ(d.regions.planes[k].phi, ref.regions.planes[k].phi);
+    }
+    std::vector<SubPairName> names;
+    for (const auto& c : d.contacts) names.push_back(name_of(c));
+    // One broad phase at two thread counts: the very same list; across broad phases: the same set.
+    if (i % 2 == 1) {
+      std::vector<SubPairName> unsorted_ref;
+      for (const auto& c : results[i - 1].contacts) unsorted_ref.push_back(name_of(c));
+      EXPECT_EQ(names, unsorted_ref) << "contact order depends on the thread count";
+    }
+    std::sort(names.begin(), names.end());
+    EXPECT_EQ(names, ref_names) << "run " << i;
+  }
+}
+
+std::string scene_name(const ::testing::TestParamInfo<int>& info) {
+  static const char* const names[] = {"folded_cloth", "strands", "mixed"};
+  return names[info.param];
+}
+INSTANTIATE_TEST_SUITE_P(Collision, NarrowPhaseScenes, ::testing::Values(0, 1, 2), scene_name);
+
+TEST(NarrowPhaseExclusions, SubPairsCloserThanOffsetInitially) {
+  // Fine cloth: 2.5 mm edges, far below ξ = 10 mm (design clarification 5).
+  const test::TestScene s = test::SceneBuilder()
+                                .mesh("cloth", ObjectKind::cloth, test::accordion_cloth(0.06, 24, 1, 0.011, 0.002))
+                                .finish();
+  CollisionDetector det(s.topo, s.x, kParams, make_broad_phase("bvh"));
+  std::set<std::pair<int, std::pair<Index, Index>>> close;
+  for_each_sub_pair(s, s.x, [&](ContactKind kind, Index a, Index b, auto&&, auto&&, auto&&, auto&&, double dist_sq) {
+    if (dist_sq < kXi * kXi) close.insert({static_cast<int>(kind), {a, b}});
+  });
+  EXPECT_EQ(det.num_initially_intersecting(), 0);
+  EXPECT_EQ(det.num_excluded(), static_cast<Index>(close.size()));
+  for (const auto& [kind, ab] : close) EXPECT_TRUE(det.is_excluded(static_cast<ContactKind>(kind), ab.first, ab.second));
+
+  const Detection d = run(det, s.x, s.inv_mass);
+  EXPECT_GT(d.stats.excluded_initial, 0);
+  for (const auto& c : d.contacts) EXPECT_GE(c.distance, kXi) << "an initially close sub-pair was not excluded";
+  for (const HalfSpace& h : d.regions.planes) EXPECT_GE(h.d, 0.0);
+}
+
+TEST(NarrowPhaseExclusions, PrimitivesIntersectingInitially) {
+  // Triangle b pierces triangle a 13 mm from a's edges (between ξ and 2r + ξ), with all vertices
+  // far away; a strand segment pierces a elsewhere. Every sub-pair of both primitive pairs is
+  // excluded, so the crossing edges never produce (inverted) half-spaces.
+  gen::TriMesh a{{Vec3(-1, 0, -1), Vec3(1, 0, -1), Vec3(0, 0, 1)}, {Vec3i(0, 1, 2)}};
+  gen::TriMesh b{{Vec3(0, -1, 0.97), Vec3(0, 1, 0.97), Vec3(-0.5, 0.2, 2)}, {Vec3i(0, 1, 2)}};
+  gen::PolylineSet pin;
+  pin.v = {Vec3(0.3, -0.5, -0.2), Vec3(0.3, 0.5, -0.2)};
+  pin.lines = {{0, 1}};
+  const test::TestScene s =
+      test::SceneBuilder().mesh("a", ObjectKind::cloth, a).mesh("b", ObjectKind::cloth, b).strands("pin", pin).finish();
+  for (const auto& name : broad_phase_names()) {
+    CollisionDetector det(s.topo, s.x, kParams, make_broad_phase(name));
+    EXPECT_EQ(det.num_initially_intersecting(), 2) << name;
+    const Detection d = run(det, s.x, s.inv_mass);
+    EXPECT_GT(d.stats.excluded_initial, 0) << name;
+    EXPECT_TRUE(d.contacts.empty()) << name;
+    // Without the exclusions the crossing edge of b is within range of a's edges.
+    Index in_range = 0;
+    for_each_sub_pair(s, s.x, [&](ContactKind, Index, Index, auto&&, auto&&, auto&&, auto&&, double dist_sq) {
+      in_range += dist_sq < (2 * kR + kXi) * (2 * kR + kXi) ? 1 : 0;
+    });
+    EXPECT_GT(in_range, 0);
+  }
+}
+
+TEST(NarrowPhase, RejectsNonFinitePositions) {
+  const test::TestScene s = folded_cloth_scene();
+  CollisionDetector det(s.topo, s.x, kParams, make_broad_phase("bvh"));
+  Positions x = s.x;
+  x[11].z() = std::numeric_limits<double>::quiet_NaN();
+  Detection d;
+  EXPECT_THROW(det.detect(x, s.inv_mass, d.regions, d.contacts, d.stats), Error);
+  EXPECT_THROW(det.detect(s.x, std::vector<double>(3, 1.0), d.regions, d.contacts, d.stats), Error);
+}
+
+}  // namespace
+}  // namespace ccfr
