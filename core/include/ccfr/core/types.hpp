@@ -2,6 +2,7 @@
 /// @file types.hpp
 /// Scalar, index and small fixed-size vector types shared by every ccfr module.
 #include <Eigen/Core>
+#include <Eigen/Geometry>  // cross products are used everywhere
 
 #include <cstdint>
 #include <vector>

@@ -1,0 +1,26 @@
+#include "audit_hook.hpp"
+
+#include <memory>
+
+#include "ccfr/core/log.hpp"
+#include "ccfr/geometry_exact/audit.hpp"
+
+namespace ccfr::app {
+
+AuditHook make_audit_hook(const Topology& topo, const Positions& initial, const SimulationParams& params) {
+  exact::AuditOptions opt;
+  opt.offset = params.contact.offset;
+  opt.tolerance = params.debug.audit_tolerance;
+  if (opt.offset <= 0.0) {
+    spdlog::warn("debug.audit needs contact.offset > 0; the audit is off for this run");
+    return {};
+  }
+  auto audit = std::make_shared<exact::PenetrationAudit>(topo, initial, opt);
+  return [audit](const Positions& x) {
+    const exact::FrameAudit fa = audit->audit(x);
+    if (!fa.clean() && !fa.examples.empty()) spdlog::debug("audit: {}", fa.examples.front().describe());
+    return fa.penetrations();
+  };
+}
+
+}  // namespace ccfr::app

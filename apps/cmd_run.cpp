@@ -1,0 +1,32 @@
+// `ccfr run CONFIG`: simulate a scene and write the output directory of the contract.
+#include <filesystem>
+
+#include "ccfr/core/log.hpp"
+#include "commands.hpp"
+#include "run_driver.hpp"
+
+namespace ccfr::app {
+
+void register_run(CLI::App& app) {
+  auto opts = std::make_shared<RunOptions>();
+  auto log_level = std::make_shared<std::string>("info");
+  auto* cmd = app.add_subcommand("run", "Simulate a scene file and write run.json, frames/ and stats.csv");
+  cmd->add_option("config", opts->config, "Scene file (YAML)")->required();
+  cmd->add_option("--out", opts->out, "Output directory (default: out/<scene file name>)");
+  add_run_options(cmd, *opts);
+  cmd->add_option("--log-level", *log_level, "trace, debug, info, warn, error or off")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "off"}));
+  cmd->callback([opts, log_level, &app] {
+    init_logging(*log_level);
+    guarded([&] {
+      if (opts->out.empty()) opts->out = std::filesystem::path("out") / opts->config.stem();
+      opts->command_line = "ccfr run " + opts->config.string();
+      const RunSummary s = run_scene(*opts);
+      std::fprintf(stderr, "%s: %zu frames, output in %s\n", s.status.c_str(), s.frames.size(),
+                   std::filesystem::absolute(s.out).string().c_str());
+      return s.failed ? 1 : 0;
+    });
+  });
+}
+
+}  // namespace ccfr::app

@@ -1,0 +1,41 @@
+#include "commands.hpp"
+
+#include <cstdio>
+#include <exception>
+
+#include "ccfr/core/error.hpp"
+#include "ccfr/io/output.hpp"
+
+namespace ccfr::app {
+
+namespace {
+int g_exit_code = 0;
+}
+
+std::string_view version_string() {
+  static const std::string v = io::version() + " (" + io::git_commit() + ")";
+  return v;
+}
+
+int exit_code() { return g_exit_code; }
+void set_exit_code(int code) { g_exit_code = code; }
+
+void guarded(const std::function<int()>& body, int user_error_code) {
+  try {
+    set_exit_code(body());
+  } catch (const Error& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    set_exit_code(user_error_code);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "internal error: %s\n", e.what());
+    set_exit_code(3);
+  }
+}
+
+// The subcommand table: one line per subcommand, each defined in its own cmd_<name>.cpp.
+void register_commands(CLI::App& app) {
+  register_run(app);
+  register_schema(app);
+}
+
+}  // namespace ccfr::app

@@ -1,0 +1,103 @@
+#include "run_driver.hpp"
+
+#include <unistd.h>
+
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+
+#include "ccfr/core/error.hpp"
+#include "ccfr/core/log.hpp"
+#include "ccfr/core/parallel.hpp"
+#include "ccfr/io/output.hpp"
+#include "ccfr/io/scene_loader.hpp"
+#include "audit_hook.hpp"
+
+namespace ccfr::app {
+
+namespace {
+std::atomic<bool> g_interrupted{false};
+extern "C" void on_sigint(int) { g_interrupted = true; }
+
+void progress_bar(int done, int total, double last_s, const FrameStats& fs) {
+  const int width = 30;
+  const int filled = total > 0 ? width * done / total : width;
+  std::fprintf(stderr, "\r[%.*s%*s] %d/%d  %.3f s/frame  viol %d/%d  halted %d ", filled,
+               "##############################", width - filled, "", done, total, last_s, fs.violations_detected,
+               fs.violations_remaining, fs.halted_vertices);
+  if (done == total) std::fputc('\n', stderr);
+  std::fflush(stderr);
+}
+}  // namespace
+
+void add_run_options(CLI::App* cmd, RunOptions& opts) {
+  cmd->add_option("--frames", opts.frames, "Frames to simulate (default: time.frames of the scene)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--solver", opts.solver, "Contact solver (overrides contact.solver)");
+  cmd->add_option("--set", opts.overrides, "Override a scene key: key.path=value (repeatable), e.g. --set contact.radius=0.01");
+  cmd->add_option("--threads", opts.threads, "Worker threads (default: all cores)")->check(CLI::NonNegativeNumber);
+}
+
+RunSummary run_scene(const RunOptions& opts) {
+  std::vector<std::string> overrides = opts.overrides;
+  if (opts.frames >= 0) overrides.push_back("time.frames=" + std::to_string(opts.frames));
+  if (!opts.solver.empty()) overrides.push_back("contact.solver=" + opts.solver);
+  set_thread_count(opts.threads);
+
+  io::LoadedScene loaded = io::load_scene(opts.config, overrides);
+  const SimulationParams params = loaded.scene.params;
+  RunSummary summary;
+  summary.out = opts.out;
+  summary.offset = params.contact.offset;
+  summary.solver = params.contact.solver;
+  summary.vertices = loaded.scene.topo.num_vertices();
+  summary.substeps = params.time.substeps;
+  summary.iterations = params.time.iterations;
+
+  Simulation sim(std::move(loaded.scene));
+  if (params.debug.audit != AuditMode::off) sim.set_audit(make_audit_hook(sim.topology(), sim.positions(), params));
+
+  std::unique_ptr<io::RunWriter> writer;
+  if (!opts.out.empty()) {
+    io::RunMeta meta{params.scene_name, params.contact.solver, params.collision.broad_phase, params.contact.radius,
+                     params.contact.offset, params.contact.repulsion_range, params.time.fps, thread_count(), opts.command_line};
+    writer = std::make_unique<io::RunWriter>(opts.out, sim.topology(), loaded.resolved_json, meta);
+    if (params.output.frames) writer->write_frame(0, sim.positions());
+  }
+  const bool tty = opts.progress && ::isatty(STDERR_FILENO);
+  g_interrupted = false;
+  auto old_handler = std::signal(SIGINT, on_sigint);
+  const int total = params.time.frames;
+  for (int f = 1; f <= total; ++f) {
+    if (g_interrupted) {
+      summary.status = "interrupted after frame " + std::to_string(f - 1);
+      summary.failed = true;
+      spdlog::warn("{}", summary.status);
+      break;
+    }
+    FrameStats fs;
+    try {
+      fs = sim.step_frame();
+    } catch (const NumericalError& e) {
+      summary.status = std::string("failed: ") + e.what();
+      summary.failed = true;
+      spdlog::error("{}", e.what());
+      break;
+    }
+    summary.frames.push_back(fs);
+    if (writer) {
+      if (params.output.frames && (f % params.output.every == 0 || f == total)) writer->write_frame(f, sim.positions());
+      writer->write_stats(fs);
+    }
+    if (tty) progress_bar(f, total, fs.wall_s, fs);
+    else if (opts.progress)
+      spdlog::info("frame {}/{}: {:.3f} s (xpbd {:.3f}, broad {:.3f}, narrow {:.3f}, resolution {:.3f}); violations {}/{}; halted {}{}", f,
+                   total, fs.wall_s, fs.times.xpbd, fs.times.broad, fs.times.narrow, fs.times.resolution, fs.violations_detected,
+                   fs.violations_remaining, fs.halted_vertices,
+                   fs.penetrations >= 0 ? "; penetrations " + std::to_string(fs.penetrations) : std::string());
+  }
+  std::signal(SIGINT, old_handler);
+  if (writer) writer->finish(summary.status);
+  return summary;
+}
+
+}  // namespace ccfr::app

@@ -1,0 +1,42 @@
+#pragma once
+// Running one scene into an output directory: shared by `ccfr run`, `ccfr ablate` and `ccfr bench`.
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "ccfr/solvers/simulation.hpp"
+
+namespace ccfr::app {
+
+struct RunOptions {
+  std::filesystem::path config;
+  std::filesystem::path out;          ///< empty: no output directory (bench)
+  int frames = -1;                    ///< -1: from the scene
+  std::string solver;                 ///< empty: from the scene
+  std::vector<std::string> overrides; ///< --set key.path=value
+  int threads = 0;                    ///< 0: all hardware threads
+  bool progress = true;
+  std::string command_line;
+};
+
+struct RunSummary {
+  std::vector<FrameStats> frames;
+  std::string status = "completed";
+  bool failed = false;
+  std::filesystem::path out;
+  double offset = 0.0;
+  std::string solver;
+  Index vertices = 0;
+  int substeps = 0, iterations = 0;
+};
+
+/// Loads, simulates and (if opts.out is set) writes the run. Numerical failures end the run with
+/// `failed` set and the frames so far kept; configuration errors throw ccfr::Error.
+RunSummary run_scene(const RunOptions& opts);
+
+/// Adds --frames, --solver, --set and --threads to a subcommand.
+void add_run_options(CLI::App* cmd, RunOptions& opts);
+
+}  // namespace ccfr::app

@@ -1,0 +1,54 @@
+#include "ccfr/io/run_info.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+
+#include "ccfr/core/error.hpp"
+
+namespace ccfr::io {
+
+namespace fs = std::filesystem;
+
+std::vector<fs::path> list_frames(const fs::path& dir) {
+  std::vector<fs::path> frames;
+  const fs::path fdir = dir / "frames";
+  if (!fs::is_directory(fdir)) return frames;
+  for (const auto& e : fs::directory_iterator(fdir)) {
+    const std::string n = e.path().filename().string();
+    if (n.rfind("frame_", 0) == 0 && e.path().extension() == ".obj") frames.push_back(e.path());
+  }
+  std::sort(frames.begin(), frames.end());  // zero-padded names sort in frame order
+  return frames;
+}
+
+RunInfo read_run_info(const fs::path& dir, bool require_run_json) {
+  if (!fs::is_directory(dir)) throw Error("run directory '" + dir.string() + "' does not exist");
+  RunInfo info;
+  info.dir = dir;
+  info.frames = list_frames(dir);
+  const fs::path rj = dir / "run.json";
+  if (!fs::exists(rj)) {
+    if (require_run_json) throw Error("'" + rj.string() + "' is missing (not a ccfr run directory?)");
+    return info;
+  }
+  try {
+    // JSON is valid YAML flow syntax, so yaml-cpp reads run.json directly.
+    const YAML::Node n = YAML::LoadFile(rj.string());
+    auto num = [&](const char* key) {
+      if (!n[key]) throw Error("'" + rj.string() + "' has no '" + key + "'");
+      return n[key].as<double>();
+    };
+    info.scene = n["scene"] ? n["scene"].as<std::string>() : "";
+    info.solver = n["solver"] ? n["solver"].as<std::string>() : "";
+    info.radius = num("radius");
+    info.offset = num("offset");
+    info.repulsion_range = num("repulsion_range");
+    info.fps = num("fps");
+  } catch (const YAML::Exception& e) {
+    throw Error("'" + rj.string() + "' is not valid JSON: " + e.msg);
+  }
+  return info;
+}
+
+}  // namespace ccfr::io

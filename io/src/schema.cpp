@@ -1,0 +1,576 @@
+#include "schema.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <sstream>
+
+#include "ccfr/core/error.hpp"
+
+namespace ccfr::io::schema {
+
+namespace {
+
+NodePtr make(Kind k, std::string doc) {
+  auto n = std::make_shared<Node>();
+  n->kind = k;
+  n->doc = std::move(doc);
+  return n;
+}
+
+std::string fmt_double(double v) {
+  char buf[64];
+  auto res = std::to_chars(buf, buf + sizeof buf, v);
+  std::string s(buf, res.ptr);
+  return s;
+}
+
+template <size_t N, class T>
+std::string fmt_array(const std::array<T, N>& a) {
+  std::string s = "[";
+  for (size_t i = 0; i < N; ++i) {
+    if (i) s += ", ";
+    if constexpr (std::is_floating_point_v<T>) s += fmt_double(a[i]);
+    else s += std::to_string(a[i]);
+  }
+  return s + "]";
+}
+
+size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<size_t> prev(b.size() + 1), cur(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) prev[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    cur[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j)
+      cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (a[i - 1] == b[j - 1] ? 0u : 1u)});
+    std::swap(prev, cur);
+  }
+  return prev[b.size()];
+}
+
+std::string suggest(const std::string& key, const std::vector<std::string>& valid) {
+  std::string best;
+  size_t best_d = 3;  // suggest only close matches
+  for (const auto& v : valid) {
+    const size_t d = edit_distance(key, v);
+    if (d < best_d) best_d = d, best = v;
+  }
+  std::string msg;
+  if (!best.empty()) msg += " (did you mean '" + best + "'?)";
+  std::string list;
+  for (const auto& v : valid) list += (list.empty() ? "" : ", ") + v;
+  return msg + "; valid: " + list;
+}
+
+std::string join(const std::string& path, const std::string& key) { return path.empty() ? key : path + "." + key; }
+
+std::string kind_name(Kind k) {
+  switch (k) {
+    case Kind::map: return "map";
+    case Kind::list: return "list";
+    case Kind::number: return "number";
+    case Kind::integer: return "integer";
+    case Kind::boolean: return "boolean";
+    case Kind::string: return "string";
+    case Kind::choice: return "choice";
+    case Kind::vec3: return "[x, y, z]";
+    case Kind::vec2: return "[a, b]";
+    case Kind::ivec3: return "[i, j, k]";
+    case Kind::ivec2: return "[i, j]";
+    case Kind::index_list: return "list of indices";
+    case Kind::dict: return "map of name -> entry";
+    case Kind::variant: return "map";
+  }
+  return "?";
+}
+
+bool parse_double(const YAML::Node& n, double& out) {
+  if (!n.IsScalar()) return false;
+  const std::string& s = n.Scalar();
+  if (s.empty()) return false;
+  const char* b = s.c_str();
+  char* e = nullptr;
+  out = std::strtod(b, &e);
+  if (e == b || *e != '\0') {
+    // YAML spellings of infinity / NaN parse but are rejected later as non-finite.
+    if (s == ".inf" || s == "+.inf" || s == ".Inf") out = INFINITY;
+    else if (s == "-.inf" || s == "-.Inf") out = -INFINITY;
+    else if (s == ".nan" || s == ".NaN" || s == "nan" || s == "NaN") out = NAN;
+    else return false;
+  }
+  return true;
+}
+
+bool parse_integer(const YAML::Node& n, long long& out) {
+  if (!n.IsScalar()) return false;
+  const std::string& s = n.Scalar();
+  auto res = std::from_chars(s.data(), s.data() + s.size(), out);
+  return res.ec == std::errc() && res.ptr == s.data() + s.size();
+}
+
+YAML::Node scalar_number(const YAML::Node& in, const NodePtr& sch, const Context& ctx, const std::string& path) {
+  double v;
+  if (!parse_double(in, v)) ctx.fail(path, in, "expected a number, got " + (in.IsScalar() ? "'" + in.Scalar() + "'" : std::string("a ") + (in.IsSequence() ? "list" : in.IsMap() ? "map" : "null value")));
+  if (!std::isfinite(v)) ctx.fail(path, in, "must be finite, got '" + in.Scalar() + "'");
+  if (!sch->range.contains(v)) ctx.fail(path, in, "value " + in.Scalar() + " out of range: must be " + sch->range.describe());
+  return YAML::Node(fmt_double(v));  // shortest round-trip text, so run.json shows 0.005, not 0.0050000000000000001
+}
+
+YAML::Node scalar_integer(const YAML::Node& in, const NodePtr& sch, const Context& ctx, const std::string& path) {
+  long long v;
+  if (!parse_integer(in, v)) ctx.fail(path, in, "expected an integer, got " + (in.IsScalar() ? "'" + in.Scalar() + "'" : std::string("a ") + (in.IsSequence() ? "list" : in.IsMap() ? "map" : "null value")));
+  if (!sch->range.contains(static_cast<double>(v))) ctx.fail(path, in, "value " + in.Scalar() + " out of range: must be " + sch->range.describe());
+  return YAML::Node(v);
+}
+
+YAML::Node fixed_vector(const YAML::Node& in, const NodePtr& sch, const Context& ctx, const std::string& path, size_t n, bool integral) {
+  if (!in.IsSequence() || in.size() != n)
+    ctx.fail(path, in, "expected a list of " + std::to_string(n) + (integral ? " integers" : " numbers") + " like " + kind_name(sch->kind));
+  YAML::Node out(YAML::NodeType::Sequence);
+  for (size_t i = 0; i < n; ++i) {
+    const std::string p = path + "[" + std::to_string(i) + "]";
+    out.push_back(integral ? scalar_integer(in[i], sch, ctx, p) : scalar_number(in[i], sch, ctx, p));
+  }
+  return out;
+}
+
+std::vector<std::string> field_keys(const Node& n) {
+  std::vector<std::string> k;
+  for (const auto& f : n.fields) k.push_back(f.key);
+  return k;
+}
+
+YAML::Node resolve_map_fields(const YAML::Node& in, const Node& sch, const Context& ctx, const std::string& path,
+                              const std::string& skip_key = "") {
+  if (in.IsDefined() && !in.IsNull() && !in.IsMap()) ctx.fail(path, in, "expected a map of keys");
+  YAML::Node out(YAML::NodeType::Map);
+  if (in.IsMap()) {
+    for (auto it = in.begin(); it != in.end(); ++it) {
+      const std::string key = it->first.as<std::string>();
+      if (key == skip_key) continue;
+      const bool known = std::any_of(sch.fields.begin(), sch.fields.end(), [&](const Field& f) { return f.key == key; });
+      if (!known) {
+        auto valid = field_keys(sch);
+        ctx.fail(join(path, key), it->first, "unknown key '" + key + "'" + suggest(key, valid));
+      }
+    }
+  }
+  for (const auto& f : sch.fields) {
+    const std::string p = join(path, f.key);
+    const bool present = in.IsMap() && in[f.key].IsDefined();
+    if (present) {
+      out[f.key] = resolve(in[f.key], f.node, ctx, p);
+    } else if (f.node->required) {
+      ctx.fail(p, in, "missing required key '" + f.key + "'");
+    } else if (f.node->default_yaml) {
+      out[f.key] = resolve(YAML::Load(*f.node->default_yaml), f.node, ctx, p);
+    } else if (f.node->kind == Kind::map || f.node->kind == Kind::dict || f.node->kind == Kind::list) {
+      if (!f.node->optional_absent) out[f.key] = resolve(YAML::Node(), f.node, ctx, p);
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+bool Range::contains(double v) const {
+  if (lo_open ? !(v > lo) : !(v >= lo)) return false;
+  if (hi_open ? !(v < hi) : !(v <= hi)) return false;
+  return true;
+}
+
+std::string Range::describe() const {
+  const bool has_lo = std::isfinite(lo), has_hi = std::isfinite(hi);
+  if (has_lo && has_hi) return std::string("in ") + (lo_open ? "(" : "[") + fmt_double(lo) + ", " + fmt_double(hi) + (hi_open ? ")" : "]");
+  if (has_lo) return std::string(lo_open ? "> " : ">= ") + fmt_double(lo);
+  if (has_hi) return std::string(hi_open ? "< " : "<= ") + fmt_double(hi);
+  return "";
+}
+
+NodePtr number(double def, std::string doc, Range r) {
+  auto n = make(Kind::number, std::move(doc));
+  n->default_yaml = fmt_double(def);
+  n->range = r;
+  return n;
+}
+NodePtr required_number(std::string doc, Range r) {
+  auto n = make(Kind::number, std::move(doc));
+  n->required = true;
+  n->range = r;
+  return n;
+}
+NodePtr integer(long long def, std::string doc, Range r) {
+  auto n = make(Kind::integer, std::move(doc));
+  n->default_yaml = std::to_string(def);
+  n->range = r;
+  return n;
+}
+NodePtr boolean(bool def, std::string doc) {
+  auto n = make(Kind::boolean, std::move(doc));
+  n->default_yaml = def ? "true" : "false";
+  return n;
+}
+NodePtr string(std::optional<std::string> def, std::string doc) {
+  auto n = make(Kind::string, std::move(doc));
+  if (def) n->default_yaml = "'" + *def + "'";
+  else n->required = true;
+  return n;
+}
+NodePtr optional_string(std::string doc) {
+  auto n = make(Kind::string, std::move(doc));
+  n->optional_absent = true;
+  return n;
+}
+NodePtr choice(std::string def, std::function<std::vector<std::string>()> choices, std::string doc) {
+  auto n = make(Kind::choice, std::move(doc));
+  n->default_yaml = "'" + def + "'";
+  n->choices = std::move(choices);
+  return n;
+}
+NodePtr vec3(std::optional<std::array<double, 3>> def, std::string doc) {
+  auto n = make(Kind::vec3, std::move(doc));
+  if (def) n->default_yaml = fmt_array(*def);
+  else n->optional_absent = true;
+  return n;
+}
+NodePtr vec2(std::optional<std::array<double, 2>> def, std::string doc, Range r) {
+  auto n = make(Kind::vec2, std::move(doc));
+  if (def) n->default_yaml = fmt_array(*def);
+  else n->required = true;
+  n->range = r;
+  return n;
+}
+NodePtr ivec3(std::optional<std::array<long long, 3>> def, std::string doc, Range r) {
+  auto n = make(Kind::ivec3, std::move(doc));
+  if (def) n->default_yaml = fmt_array(*def);
+  else n->required = true;
+  n->range = r;
+  return n;
+}
+NodePtr ivec2(std::optional<std::array<long long, 2>> def, std::string doc, Range r) {
+  auto n = make(Kind::ivec2, std::move(doc));
+  if (def) n->default_yaml = fmt_array(*def);
+  else n->required = true;
+  n->range = r;
+  return n;
+}
+NodePtr index_list(std::string doc) {
+  auto n = make(Kind::index_list, std::move(doc));
+  n->optional_absent = true;
+  n->range = Range::non_negative();
+  return n;
+}
+NodePtr map(std::string doc, std::vector<Field> fields) {
+  auto n = make(Kind::map, std::move(doc));
+  n->fields = std::move(fields);
+  return n;
+}
+NodePtr optional_map(std::string doc, std::vector<Field> fields) {
+  auto n = map(std::move(doc), std::move(fields));
+  n->optional_absent = true;
+  return n;
+}
+NodePtr list(std::string doc, NodePtr item) {
+  auto n = make(Kind::list, std::move(doc));
+  n->item = std::move(item);
+  n->optional_absent = true;
+  return n;
+}
+NodePtr dict(std::string doc, NodePtr value) {
+  auto n = make(Kind::dict, std::move(doc));
+  n->item = std::move(value);
+  return n;
+}
+NodePtr variant(std::string doc, std::string discriminator, std::vector<std::pair<std::string, NodePtr>> variants) {
+  auto n = make(Kind::variant, std::move(doc));
+  n->discriminator = std::move(discriminator);
+  n->variants = std::move(variants);
+  n->required = true;
+  return n;
+}
+
+void Context::fail(const std::string& path, const YAML::Node& at, const std::string& message) const {
+  for (const auto& [opath, text] : overrides) {
+    if (path == opath || path.rfind(opath + ".", 0) == 0 || path.rfind(opath + "[", 0) == 0)
+      throw ConfigError("command line (" + text + ")", path, 0, message);
+  }
+  int line = 0;
+  if (at.IsDefined() && !at.Mark().is_null()) line = at.Mark().line + 1;
+  throw ConfigError(file, path, line, message);
+}
+
+YAML::Node resolve(const YAML::Node& in, const NodePtr& sch, const Context& ctx, const std::string& path) {
+  switch (sch->kind) {
+    case Kind::map:
+      return resolve_map_fields(in, *sch, ctx, path);
+    case Kind::list: {
+      if (in.IsNull() || !in.IsDefined()) return YAML::Node(YAML::NodeType::Sequence);
+      if (!in.IsSequence()) ctx.fail(path, in, "expected a list");
+      YAML::Node out(YAML::NodeType::Sequence);
+      for (size_t i = 0; i < in.size(); ++i) out.push_back(resolve(in[i], sch->item, ctx, path + "[" + std::to_string(i) + "]"));
+      return out;
+    }
+    case Kind::dict: {
+      if (in.IsNull() || !in.IsDefined()) return YAML::Node(YAML::NodeType::Map);
+      if (!in.IsMap()) ctx.fail(path, in, "expected a map of named entries");
+      YAML::Node out(YAML::NodeType::Map);
+      for (auto it = in.begin(); it != in.end(); ++it) {
+        const std::string key = it->first.as<std::string>();
+        out[key] = resolve(it->second, sch->item, ctx, join(path, key));
+      }
+      return out;
+    }
+    case Kind::variant: {
+      if (!in.IsMap()) ctx.fail(path, in, "expected a map with a '" + sch->discriminator + "' key");
+      const YAML::Node tag = in[sch->discriminator];
+      std::vector<std::string> names;
+      for (const auto& v : sch->variants) names.push_back(v.first);
+      if (!tag.IsDefined()) ctx.fail(join(path, sch->discriminator), in, "missing required key '" + sch->discriminator + "'; valid: " + suggest("", names).substr(9));
+      const std::string t = tag.IsScalar() ? tag.Scalar() : "";
+      for (const auto& [name, vsch] : sch->variants) {
+        if (name != t) continue;
+        YAML::Node out = resolve_map_fields(in, *vsch, ctx, path, sch->discriminator);
+        YAML::Node tagged(YAML::NodeType::Map);
+        tagged[sch->discriminator] = t;
+        for (auto it = out.begin(); it != out.end(); ++it) tagged[it->first] = it->second;
+        return tagged;
+      }
+      ctx.fail(join(path, sch->discriminator), tag, "unknown " + sch->discriminator + " '" + t + "'" + suggest(t, names));
+    }
+    case Kind::number:
+      return scalar_number(in, sch, ctx, path);
+    case Kind::integer:
+      return scalar_integer(in, sch, ctx, path);
+    case Kind::boolean: {
+      bool b = false;
+      if (!in.IsScalar() || !YAML::convert<bool>::decode(in, b)) ctx.fail(path, in, "expected true or false");
+      return YAML::Node(b);
+    }
+    case Kind::string:
+      if (!in.IsScalar()) ctx.fail(path, in, "expected a string");
+      return YAML::Node(in.Scalar());
+    case Kind::choice: {
+      const auto valid = sch->choices();
+      if (!in.IsScalar()) ctx.fail(path, in, "expected one of the names" + suggest("", valid).substr(0));
+      if (std::find(valid.begin(), valid.end(), in.Scalar()) == valid.end())
+        ctx.fail(path, in, "unknown value '" + in.Scalar() + "'" + suggest(in.Scalar(), valid));
+      return YAML::Node(in.Scalar());
+    }
+    case Kind::vec3: return fixed_vector(in, sch, ctx, path, 3, false);
+    case Kind::vec2: return fixed_vector(in, sch, ctx, path, 2, false);
+    case Kind::ivec3: return fixed_vector(in, sch, ctx, path, 3, true);
+    case Kind::ivec2: return fixed_vector(in, sch, ctx, path, 2, true);
+    case Kind::index_list: {
+      if (!in.IsSequence()) ctx.fail(path, in, "expected a list of vertex indices");
+      YAML::Node out(YAML::NodeType::Sequence);
+      for (size_t i = 0; i < in.size(); ++i) out.push_back(scalar_integer(in[i], sch, ctx, path + "[" + std::to_string(i) + "]"));
+      return out;
+    }
+  }
+  ctx.fail(path, in, "internal: unhandled schema kind");
+}
+
+std::string apply_override(YAML::Node& root, const std::string& assignment) {
+  const auto eq = assignment.find('=');
+  if (eq == std::string::npos || eq == 0)
+    throw Error("--set '" + assignment + "': expected key.path=value");
+  std::string key = assignment.substr(0, eq);
+  const std::string value = assignment.substr(eq + 1);
+  for (char& c : key)
+    if (c == '[' || c == ']') c = '.';
+  std::vector<std::string> segs;
+  std::stringstream ss(key);
+  for (std::string s; std::getline(ss, s, '.');)
+    if (!s.empty()) segs.push_back(s);
+  if (segs.empty()) throw Error("--set '" + assignment + "': empty key path");
+
+  std::string norm;
+  YAML::Node cur;
+  cur.reset(root);
+  for (size_t i = 0; i < segs.size(); ++i) {
+    const std::string& seg = segs[i];
+    const bool last = i + 1 == segs.size();
+    if (cur.IsSequence()) {
+      long long idx = -1;
+      if (!parse_integer(YAML::Node(seg), idx)) {
+        for (size_t k = 0; k < cur.size(); ++k)
+          if (cur[k].IsMap() && cur[k]["name"] && cur[k]["name"].Scalar() == seg) idx = static_cast<long long>(k);
+        if (idx < 0) throw Error("--set '" + assignment + "': no list element named '" + seg + "' at '" + norm + "'");
+      }
+      if (idx < 0 || idx >= static_cast<long long>(cur.size()))
+        throw Error("--set '" + assignment + "': index " + seg + " out of range at '" + norm + "' (" + std::to_string(cur.size()) + " elements)");
+      norm += "[" + std::to_string(idx) + "]";
+      if (last) {
+        cur[static_cast<size_t>(idx)] = YAML::Load(value);
+      } else {
+        YAML::Node next = cur[static_cast<size_t>(idx)];
+        cur.reset(next);
+      }
+    } else {
+      if (!cur.IsMap() && !cur.IsNull() && cur.IsDefined())
+        throw Error("--set '" + assignment + "': '" + norm + "' is not a map");
+      norm = join(norm, seg);
+      if (last) {
+        cur[seg] = YAML::Load(value);
+      } else {
+        YAML::Node next = cur[seg];
+        cur.reset(next);
+      }
+    }
+  }
+  return norm;
+}
+
+namespace {
+std::string json_escape(const std::string& s) {
+  std::string o = "\"";
+  for (char c : s) {
+    switch (c) {
+      case '"': o += "\\\""; break;
+      case '\\': o += "\\\\"; break;
+      case '\n': o += "\\n"; break;
+      case '\t': o += "\\t"; break;
+      default:
+        if (static_cast<unsigned char>(c) < 0x20) {
+          char b[8];
+          std::snprintf(b, sizeof b, "\\u%04x", c);
+          o += b;
+        } else {
+          o += c;
+        }
+    }
+  }
+  return o + "\"";
+}
+
+void emit(std::string& o, const YAML::Node& n, const Node& sch, int ind);
+
+void emit_map(std::string& o, const YAML::Node& n, const std::vector<Field>& fields, int ind, const std::string& disc = "") {
+  const std::string pad(static_cast<size_t>(ind + 2), ' ');
+  o += "{";
+  bool first = true;
+  if (!disc.empty() && n[disc]) {
+    o += "\n" + pad + json_escape(disc) + ": " + json_escape(n[disc].Scalar());
+    first = false;
+  }
+  for (const auto& f : fields) {
+    if (!n[f.key]) continue;
+    o += first ? "\n" : ",\n";
+    first = false;
+    o += pad + json_escape(f.key) + ": ";
+    emit(o, n[f.key], *f.node, ind + 2);
+  }
+  o += first ? "}" : "\n" + std::string(static_cast<size_t>(ind), ' ') + "}";
+}
+
+void emit(std::string& o, const YAML::Node& n, const Node& sch, int ind) {
+  const std::string pad(static_cast<size_t>(ind + 2), ' ');
+  switch (sch.kind) {
+    case Kind::map: emit_map(o, n, sch.fields, ind); return;
+    case Kind::variant:
+      for (const auto& [name, v] : sch.variants)
+        if (n[sch.discriminator] && n[sch.discriminator].Scalar() == name) return emit_map(o, n, v->fields, ind, sch.discriminator);
+      o += "{}";
+      return;
+    case Kind::dict: {
+      o += "{";
+      bool first = true;
+      for (auto it = n.begin(); it != n.end(); ++it) {
+        o += first ? "\n" : ",\n";
+        first = false;
+        o += pad + json_escape(it->first.as<std::string>()) + ": ";
+        emit(o, it->second, *sch.item, ind + 2);
+      }
+      o += first ? "}" : "\n" + std::string(static_cast<size_t>(ind), ' ') + "}";
+      return;
+    }
+    case Kind::list: {
+      o += "[";
+      for (size_t i = 0; i < n.size(); ++i) {
+        o += i ? ",\n" : "\n";
+        o += pad;
+        emit(o, n[i], *sch.item, ind + 2);
+      }
+      o += n.size() ? "\n" + std::string(static_cast<size_t>(ind), ' ') + "]" : "]";
+      return;
+    }
+    case Kind::vec3: case Kind::vec2: case Kind::ivec3: case Kind::ivec2: case Kind::index_list: {
+      o += "[";
+      for (size_t i = 0; i < n.size(); ++i) o += (i ? ", " : "") + n[i].Scalar();
+      o += "]";
+      return;
+    }
+    case Kind::number: {
+      double v = 0;
+      parse_double(n, v);
+      o += fmt_double(v);
+      return;
+    }
+    case Kind::integer: case Kind::boolean: o += n.Scalar(); return;
+    case Kind::string: case Kind::choice: o += json_escape(n.Scalar()); return;
+  }
+}
+
+void reference_rows(std::string& o, const Node& sch, const std::string& path, const std::string& note) {
+  auto row = [&](const std::string& p, const Node& n) {
+    std::string type = kind_name(n.kind), allowed = n.range.describe(), def;
+    if (n.kind == Kind::choice) {
+      allowed.clear();
+      for (const auto& c : n.choices()) allowed += (allowed.empty() ? "`" : ", `") + c + "`";
+      type = "choice";
+    }
+    if (n.required) def = "required";
+    else if (n.default_yaml) def = "`" + *n.default_yaml + "`";
+    else def = "absent";
+    if (!def.empty() && def.front() == '`') {
+      // strip the YAML quotes of string defaults for readability
+      std::string inner = def.substr(1, def.size() - 2);
+      if (inner.size() >= 2 && inner.front() == '\'' && inner.back() == '\'') inner = inner.substr(1, inner.size() - 2);
+      def = "`" + inner + "`";
+    }
+    o += "| `" + p + "` | " + type + " | " + def + " | " + allowed + " | " + n.doc + (note.empty() ? "" : " " + note) + " |\n";
+  };
+  switch (sch.kind) {
+    case Kind::map:
+      for (const auto& f : sch.fields) {
+        const std::string p = path.empty() ? f.key : path + "." + f.key;
+        if (f.node->kind == Kind::map || f.node->kind == Kind::list || f.node->kind == Kind::dict || f.node->kind == Kind::variant) {
+          if (f.node->kind != Kind::map || f.node->optional_absent) row(p, *f.node);
+          reference_rows(o, *f.node, p, note);
+        } else {
+          row(p, *f.node);
+        }
+      }
+      return;
+    case Kind::list:
+      reference_rows(o, *sch.item, path + "[]", note);
+      return;
+    case Kind::dict:
+      reference_rows(o, *sch.item, path + ".<name>", note);
+      return;
+    case Kind::variant: {
+      std::string names;
+      for (const auto& v : sch.variants) names += (names.empty() ? "`" : ", `") + v.first + "`";
+      o += "| `" + path + "." + sch.discriminator + "` | choice | required | " + names + " | selects the variant |\n";
+      for (const auto& [name, v] : sch.variants) reference_rows(o, *v, path, "(" + sch.discriminator + ": " + name + ")");
+      return;
+    }
+    default:
+      row(path, sch);
+  }
+}
+}  // namespace
+
+std::string to_json(const YAML::Node& resolved, const NodePtr& sch, int indent) {
+  std::string o;
+  emit(o, resolved, *sch, indent);
+  return o;
+}
+
+std::string reference_markdown(const NodePtr& sch) {
+  std::string o = "| key | type | default | allowed | meaning |\n|---|---|---|---|---|\n";
+  reference_rows(o, *sch, "", "");
+  return o;
+}
+
+}  // namespace ccfr::io::schema

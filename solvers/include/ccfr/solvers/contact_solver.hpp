@@ -1,0 +1,71 @@
+#pragma once
+/// @file contact_solver.hpp
+/// The pluggable part of the substep (DESIGN "Data flow of one substep"): detection at the anchors,
+/// contact response inside XPBD, and the resolution that keeps every vertex in its region.
+/// Implementations are chosen by `contact.solver` through make_contact_solver()'s factory table.
+#include <limits>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "ccfr/core/scene.hpp"
+#include "ccfr/core/state.hpp"
+#include "ccfr/core/timer.hpp"
+#include "ccfr/solvers/params.hpp"
+
+namespace ccfr {
+
+/// What a solver sees of the current substep.
+struct StepContext {
+  const Topology& topo;
+  const SimulationParams& params;
+  double dt = 0.0;  ///< substep length
+  int frame = 0, substep = 0, iteration = 0;
+  StageTimes& times;  ///< solvers add their broad / narrow / resolution seconds here
+};
+
+/// Counts of one detection pass.
+struct DetectionSummary {
+  Index candidates = 0;   ///< broad-phase pairs
+  Index constraints = 0;  ///< half-spaces (or contact constraints) produced
+  double min_distance = std::numeric_limits<double>::infinity();  ///< closest pair seen, |x_A - x_B|
+};
+
+/// Counts of one resolution pass.
+struct SolveResult {
+  Index violations_detected = 0;   ///< vertices outside their region before resolution
+  Index violations_remaining = 0;  ///< vertices still outside after resolution
+  Index halted_vertices = 0;       ///< vertices that fell back to their anchor (halting events)
+};
+
+class ContactSolver {
+ public:
+  virtual ~ContactSolver() = default;
+  virtual std::string_view name() const = 0;
+  /// Once, with the initial configuration (exclusions of pairs already close at rest).
+  virtual void initialize(const Topology& topo, const SimState& state, const SimulationParams& params) {}
+  /// Start of an outer iteration: detection at `anchor`, the last feasible positions (#V).
+  virtual DetectionSummary detect(const Positions& anchor, const SimState& state, StepContext& ctx) { return {}; }
+  /// Contact response (repulsion within δ) and friction applied to the candidate positions `x`.
+  virtual void respond(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) {}
+  /// Brings `x` back into the feasible set anchored at `anchor`.
+  virtual SolveResult resolve(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) = 0;
+  /// Whether the substep clamps every vertex to the step bound r around its anchor (CCFR family).
+  virtual bool clamps_to_radius() const { return false; }
+};
+
+/// Creates the solver registered under `name`; throws ccfr::Error listing the valid names.
+std::unique_ptr<ContactSolver> make_contact_solver(std::string_view name);
+/// Names accepted by make_contact_solver(), in factory-table order.
+std::vector<std::string> contact_solver_names();
+
+/// `none`: no deformable contact at all (obstacles still collide through their SDF when
+/// contact.analytic_obstacles is on). The ablation's lower bound on cost.
+class NoContactSolver final : public ContactSolver {
+ public:
+  std::string_view name() const override { return "none"; }
+  SolveResult resolve(Positions&, const Positions&, const SimState&, StepContext&) override { return {}; }
+};
+
+}  // namespace ccfr

@@ -1,0 +1,100 @@
+#pragma once
+/// @file params.hpp
+/// Typed, validated parameters of a simulation. Solvers see only these structs, never YAML;
+/// io/ fills them from a scene file (defaults documented in docs/config.md, generated from the schema).
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "ccfr/core/types.hpp"
+#include "ccfr/solvers/kinematics.hpp"
+
+namespace ccfr {
+
+struct TimeParams {
+  double fps = 60.0;            ///< frames per second; frame time Δt_frame = 1/fps
+  int frames = 120;             ///< frames to simulate
+  int substeps = 10;            ///< substeps per frame; Δt = Δt_frame / substeps
+  int iterations = 4;           ///< outer solver iterations per substep (paper Alg. "simulation loop", line 3)
+  int xpbd_sweeps = 1;          ///< material constraint sweeps per outer iteration
+  Vec3 gravity = Vec3(0, -9.81, 0);
+  double damping = 0.0;         ///< fraction of velocity removed per second (0: none)
+  double advance_tolerance = 0.01;  ///< outer iterations stop once every vertex reached (1 - tol) of its intended advance
+};
+
+enum class AuditMode { off, every_frame, every_substep };
+
+struct ContactParams {
+  std::string solver = "none";        ///< contact solver (factory name)
+  double radius = 0.005;              ///< r: search radius and per-iteration step bound
+  double offset = 0.01;               ///< ξ: minimum separation
+  double repulsion_range = 0.0005;    ///< δ: repulsion acts while the gap beyond ξ is below δ
+  double stiffness = 1e4;             ///< k: repulsion stiffness, XPBD compliance 1/k
+  double visibility_width = 0.0;      ///< δ_v: occlusion smoothstep width (0: δ)
+  double friction_static = 0.0;       ///< μ_s
+  double friction_kinetic = 0.0;      ///< μ_k
+  double epsilon = 1e-6;              ///< ε: Plesník retraction (absolute, not scaled per scene)
+  int max_projection_iterations = 4;  ///< Alg. projectOntoConvexRegion budget before halting
+  double redundancy_tolerance = 1e-12;  ///< Alg. orthogonalProjection redundancy test
+  int projection_sweeps = 16;         ///< successive_projection: cyclic sweeps
+  bool analytic_obstacles = false;    ///< obstacles with an analytic shape also collide through their SDF
+};
+
+struct CollisionSettings {
+  std::string broad_phase = "bvh";  ///< broad phase (factory name)
+};
+
+struct DebugParams {
+  AuditMode audit = AuditMode::off;
+  double audit_tolerance = 1e-3;  ///< audit flags pairs closer than (1 - tol) ξ
+};
+
+struct OutputParams {
+  bool frames = true;  ///< write frames/frame_*.obj
+  int every = 1;       ///< write every k-th frame (frame 0 always)
+};
+
+struct MaterialParams {
+  double density = 0.1;              ///< kg/m² (cloth, shell), kg/m (strand), kg/m³ (solids, rigid), kg per particle
+  double stretch_compliance = 0.0;   ///< m/N, XPBD compliance of edge length constraints
+  double bend_compliance = 1.0;      ///< bending compliance (1/(N·m)) for dihedral / strand bending
+  double volume_compliance = 0.0;    ///< tet volume compliance
+  double shear_compliance = 1e-6;    ///< tet deviatoric (shape) compliance
+  double friction = -1.0;            ///< per-object friction override (<0: use contact.friction)
+};
+
+/// Analytic shape of an obstacle, used for SDF collision when contact.analytic_obstacles is on.
+struct AnalyticShape {
+  enum class Type { none, sphere, plane, box, cylinder } type = Type::none;
+  Vec3 center = Vec3::Zero();   ///< rest position of the shape's centre
+  Vec3 half_extent = Vec3::Zero();  ///< box half sizes
+  double radius = 0.0;          ///< sphere / cylinder radius
+  double half_height = 0.0;     ///< cylinder half height (axis y in the shape's rest frame)
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  ///< rest orientation
+};
+
+/// A set of pinned vertices (local indices of their object) with an optional scripted motion.
+struct PinGroup {
+  std::vector<Index> vertices;
+  Motion motion;
+};
+
+struct ObjectParams {
+  MaterialParams material;
+  std::vector<PinGroup> pins;
+  Motion motion;                      ///< obstacles: whole-object scripted motion
+  Vec3 initial_velocity = Vec3::Zero();
+  AnalyticShape shape;
+};
+
+struct SimulationParams {
+  std::string scene_name;
+  TimeParams time;
+  ContactParams contact;
+  CollisionSettings collision;
+  DebugParams debug;
+  OutputParams output;
+  std::vector<ObjectParams> objects;  ///< parallel to Topology::objects
+};
+
+}  // namespace ccfr

@@ -1,0 +1,71 @@
+#pragma once
+/// @file simulation.hpp
+/// The substep loop of DESIGN "Data flow of one substep" (paper Alg. "Our simulation loop at
+/// substep n"), with the contact solver as the pluggable stage.
+#include <functional>
+#include <limits>
+#include <memory>
+
+#include "ccfr/solvers/contact_solver.hpp"
+#include "ccfr/solvers/scene.hpp"
+#include "ccfr/solvers/xpbd.hpp"
+
+namespace ccfr {
+
+/// One row of stats.csv.
+struct FrameStats {
+  int frame = 0;
+  double sim_time = 0.0;
+  double wall_s = 0.0;
+  StageTimes times;
+  Index candidates = 0;            ///< largest broad-phase pair count of the frame
+  Index constraints = 0;           ///< largest half-space / contact-constraint count of the frame
+  Index violations_detected = 0;   ///< summed over all resolution passes of the frame
+  Index violations_remaining = 0;  ///< largest count left after a substep's last pass
+  Index halted_vertices = 0;       ///< summed over all resolution passes (halting events)
+  double min_distance = std::numeric_limits<double>::infinity();  ///< closest pair seen by detection
+  Index penetrations = -1;         ///< audit count (-1: audit off)
+  Index clamped_vertices = 0;      ///< vertices held back by the step bound r (summed)
+  int outer_iterations = 0;        ///< outer iterations run in the frame (summed over substeps)
+};
+
+/// A hook that audits positions (penetration count), e.g. the exact audit of geometry_exact.
+using AuditHook = std::function<Index(const Positions& x)>;
+
+class Simulation {
+ public:
+  explicit Simulation(Scene scene);
+  ~Simulation();
+  Simulation(const Simulation&) = delete;
+  Simulation& operator=(const Simulation&) = delete;
+
+  /// Advances one frame (all substeps). Throws NumericalError naming the frame, vertex and stage
+  /// when a position becomes non-finite; the state is then that of the last finished substep.
+  FrameStats step_frame();
+
+  const Scene& scene() const { return scene_; }
+  const Topology& topology() const { return scene_.topo; }
+  const Positions& positions() const { return scene_.state.x; }
+  int frames_done() const { return frame_; }
+  ContactSolver& contact_solver() { return *contact_; }
+  /// Installs an audit run per frame or per substep according to debug.audit.
+  void set_audit(AuditHook hook) { audit_ = std::move(hook); }
+
+ private:
+  void substep(FrameStats& fs, int substep_index);
+  void move_kinematic(double t);
+  void check_finite(const Positions& x, const char* stage) const;
+  void collide_analytic(Positions& x, double t) const;
+
+  Scene scene_;
+  std::unique_ptr<ContactSolver> contact_;
+  DistanceBatch distance_;
+  std::vector<Index> kinematic_;          ///< kinematic vertex ids
+  std::vector<const Motion*> kin_motion_;  ///< motion of each kinematic vertex (nullptr: static)
+  std::vector<Index> analytic_obstacles_;  ///< objects with an analytic shape
+  Positions predicted_, anchor_, solve_;
+  AuditHook audit_;
+  int frame_ = 0;
+};
+
+}  // namespace ccfr

@@ -1,0 +1,38 @@
+#include "ccfr/solvers/contact_solver.hpp"
+
+#include <functional>
+
+#include "ccfr/core/error.hpp"
+
+namespace ccfr {
+
+namespace {
+struct SolverEntry {
+  const char* name;
+  std::function<std::unique_ptr<ContactSolver>()> make;
+};
+
+// The factory table: adding a contact solver is one new file plus one line here.
+const std::vector<SolverEntry>& solver_table() {
+  static const std::vector<SolverEntry> table = {
+      {"none", [] { return std::make_unique<NoContactSolver>(); }},
+  };
+  return table;
+}
+}  // namespace
+
+std::unique_ptr<ContactSolver> make_contact_solver(std::string_view name) {
+  for (const auto& e : solver_table())
+    if (name == e.name) return e.make();
+  std::string list;
+  for (const auto& n : contact_solver_names()) list += (list.empty() ? "" : ", ") + n;
+  throw Error("unknown contact solver '" + std::string(name) + "'; available: " + list);
+}
+
+std::vector<std::string> contact_solver_names() {
+  std::vector<std::string> names;
+  for (const auto& e : solver_table()) names.emplace_back(e.name);
+  return names;
+}
+
+}  // namespace ccfr
