@@ -68,7 +68,7 @@ int run_audit(const AuditCliOptions& o) {
               audit.topology().num_edges(), xi, o.tolerance, picks.size(), info.frames.size());
   std::printf("frame-0 exclusions: %d sub-pairs closer than xi, %d intersecting pairs\n",
               audit.excluded_close_pairs(), audit.excluded_intersections());
-  std::printf("%8s %12s %12s %12s %14s %10s\n", "frame", "tri_isect", "seg_cross", "close", "min_dist", "min/xi");
+  std::printf("%8s %12s %12s %12s %16s %12s\n", "frame", "tri_isect", "seg_cross", "close", "min_dist", "min/xi");
 
   size_t bad_frames = 0;
   long first_bad = -1;
@@ -83,7 +83,7 @@ int run_audit(const AuditCliOptions& o) {
     const long n = frame_number(info.frames[i], i);
     overall_min = std::min(overall_min, r.min_distance);
     total += r.penetrations();
-    std::printf("%8ld %12d %12d %12d %14.6g %10.6f\n", n, r.triangle_intersections, r.segment_crossings,
+    std::printf("%8ld %12d %12d %12d %16.10g %12.9f\n", n, r.triangle_intersections, r.segment_crossings,
                 r.close_pairs, r.min_distance, std::isfinite(r.min_distance) ? r.min_distance / xi : INFINITY);
     if (!r.clean()) {
       ++bad_frames;
@@ -97,7 +97,7 @@ int run_audit(const AuditCliOptions& o) {
   }
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (bad_frames == 0) {
-    std::printf("PASS: %zu frames free of penetrations; min distance %.6g (%.6f xi) in %.2f s\n", picks.size(),
+    std::printf("PASS: %zu frames free of penetrations; min distance %.10g (%.9f xi) in %.2f s\n", picks.size(),
                 overall_min, std::isfinite(overall_min) ? overall_min / xi : INFINITY, secs);
     return 0;
   }
