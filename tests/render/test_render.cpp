@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <set>
 #include <string>
 
@@ -411,4 +412,53 @@ TEST(RenderRun, WritesPngsSheetAndReportsVideo) {
   const Image first = read_png(s.images[0]);
   EXPECT_EQ(first.width, 64);
   EXPECT_THROW(render_frames({}, opt), Error);
+}
+
+TEST(RenderRun, VideoCallsFfmpegWithConsecutiveFrames) {
+  // A stand-in ffmpeg on PATH: records its arguments and the frames it was given, refuses
+  // libx264 (as a build without it would), and writes the output file.
+  ScratchDir dir;
+  const fs::path bin = dir.path() / "bin";
+  fs::create_directories(bin);
+  {
+    std::ofstream script(bin / "ffmpeg");
+    script << "#!/bin/sh\n"
+              "case \"$*\" in *libx264*) exit 1;; esac\n"
+              "echo \"$@\" > '" << (dir.path() / "args.txt").string() << "'\n"
+              "ls \"$(dirname \"$7\")\" > '" << (dir.path() / "inputs.txt").string() << "'\n"
+              "for last; do :; done\n"
+              "echo video > \"$last\"\n";
+  }
+  fs::permissions(bin / "ffmpeg", fs::perms::owner_all);
+  const std::string old_path = std::getenv("PATH") ? std::getenv("PATH") : "";
+  ::setenv("PATH", (bin.string() + ":" + old_path).c_str(), 1);
+
+  std::vector<fs::path> images;
+  for (const int f : {0, 5, 10}) {
+    images.push_back(dir.path() / ("frame_0000" + std::to_string(f) + ".png"));
+    write_png(images.back(), Image(8, 8, 1, 2, 3));
+  }
+  std::string message;
+  const bool ok = make_video(images, 12.0, dir.path() / "video.mp4", message);
+  ::setenv("PATH", old_path.c_str(), 1);
+  ASSERT_TRUE(ok) << message;
+  EXPECT_TRUE(fs::exists(dir.path() / "video.mp4"));
+  std::ifstream args_in(dir.path() / "args.txt");
+  const std::string args((std::istreambuf_iterator<char>(args_in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(args.find("-framerate 12"), std::string::npos) << args;
+  EXPECT_NE(args.find("mpeg4"), std::string::npos) << args;
+  std::ifstream inputs_in(dir.path() / "inputs.txt");
+  const std::string inputs((std::istreambuf_iterator<char>(inputs_in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(inputs, "000000.png\n000001.png\n000002.png\n");
+  // The scratch folder of numbered links is gone.
+  for (const auto& e : fs::directory_iterator(dir.path()))
+    EXPECT_EQ(e.path().filename().string().rfind(".video-", 0), std::string::npos) << e.path();
+
+  // Without ffmpeg on PATH the reason is reported and nothing is written.
+  ::setenv("PATH", (dir.path() / "empty").c_str(), 1);
+  std::string why;
+  EXPECT_FALSE(make_video(images, 12.0, dir.path() / "none.mp4", why));
+  ::setenv("PATH", old_path.c_str(), 1);
+  EXPECT_NE(why.find("ffmpeg"), std::string::npos);
+  EXPECT_FALSE(fs::exists(dir.path() / "none.mp4"));
 }
