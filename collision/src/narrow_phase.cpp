@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <atomic>
-#include <bit>
 #include <cmath>
 
 #include "ccfr/core/error.hpp"
@@ -26,38 +25,30 @@ std::string_view to_string(ContactKind kind) {
 
 namespace detail {
 
-namespace {
-constexpr std::uint64_t kEmptySlot = ~std::uint64_t{0};  // not a valid key: vv with ids 2^31-1 twice
-
-std::uint64_t mix(std::uint64_t k) {  // splitmix64 finaliser: keys are highly structured
-  k ^= k >> 30;
-  k *= 0xbf58476d1ce4e5b9ULL;
-  k ^= k >> 27;
-  k *= 0x94d049bb133111ebULL;
-  return k ^ (k >> 31);
-}
-}  // namespace
-
-void KeySet::assign(std::vector<std::uint64_t> keys) {
+void ExclusionSet::assign(std::vector<std::uint64_t> keys) {
   std::sort(keys.begin(), keys.end());
   keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
   size_ = keys.size();
-  const std::uint64_t capacity = std::bit_ceil(std::max<std::uint64_t>(16, 2 * keys.size()));
-  mask_ = capacity - 1;
-  slots_.assign(capacity, kEmptySlot);
+  constexpr std::uint64_t kMask = (std::uint64_t{1} << 31) - 1;
+  for (auto& r : rows_) {
+    r.offsets.assign(1, 0);
+    r.cols.clear();
+  }
+  // Sorted keys are grouped by kind, then by first id, then by second id.
   for (std::uint64_t k : keys) {
-    std::uint64_t i = mix(k) & mask_;
-    while (slots_[i] != kEmptySlot) i = (i + 1) & mask_;
-    slots_[i] = k;
+    Rows& r = rows_[k >> 62];
+    const Index a = static_cast<Index>((k >> 31) & kMask), b = static_cast<Index>(k & kMask);
+    while (static_cast<Index>(r.offsets.size()) <= a + 1) r.offsets.push_back(static_cast<Index>(r.cols.size()));
+    r.cols.push_back(b);
+    r.offsets.back() = static_cast<Index>(r.cols.size());
   }
 }
 
-bool KeySet::contains(std::uint64_t key) const {
-  if (size_ == 0) return false;
-  for (std::uint64_t i = mix(key) & mask_;; i = (i + 1) & mask_) {
-    if (slots_[i] == key) return true;
-    if (slots_[i] == kEmptySlot) return false;
-  }
+bool ExclusionSet::contains(ContactKind kind, Index a, Index b) const {
+  const Rows& r = rows_[static_cast<size_t>(kind)];
+  if (a + 1 >= static_cast<Index>(r.offsets.size())) return false;
+  const auto first = r.cols.begin() + r.offsets[a], last = r.cols.begin() + r.offsets[a + 1];
+  return std::binary_search(first, last, b);
 }
 
 }  // namespace detail
@@ -131,7 +122,7 @@ void visit_sub_pairs(const Topology& topo, const CollisionPrimitives& prims, Ind
 /// Closest points of one sub-pair: side A and side B vertices with barycentric weights.
 struct Closest {
   ContactKind kind;
-  std::uint64_t key;
+  Index id_a, id_b;  ///< canonical ids of the sub-pair (see sub_pair_key)
   int na, nb;
   Index va[2], vb[3];
   double wa[2], wb[3];
@@ -158,7 +149,7 @@ struct ClosestPoints {
     const Vec3 lo = a.cwiseMin(b).cwiseMin(d), hi = a.cwiseMax(b).cwiseMax(d);
     if (!boxes_within(p, p, lo, hi, reach)) return false;
     const PointTriangleResult r = point_triangle(p, a, b, d);
-    c = {ContactKind::vf, sub_pair_key(ContactKind::vf, v, f), 1, 3, {v, -1}, {t[0], t[1], t[2]},
+    c = {ContactKind::vf, v, f, 1, 3, {v, -1}, {t[0], t[1], t[2]},
          {1.0, 0.0}, {r.bary[0], r.bary[1], r.bary[2]}, p, r.closest, r.distance_sq};
     return true;
   }
@@ -168,7 +159,7 @@ struct ClosestPoints {
     const Vec3 &a0 = x[ea[0]], &a1 = x[ea[1]], &b0 = x[eb[0]], &b1 = x[eb[1]];
     if (!boxes_within(a0.cwiseMin(a1), a0.cwiseMax(a1), b0.cwiseMin(b1), b0.cwiseMax(b1), reach)) return false;
     const EdgeEdgeResult r = edge_edge(a0, a1, b0, b1);
-    c = {ContactKind::ee, sub_pair_key(ContactKind::ee, e0, e1), 2, 2, {ea[0], ea[1]}, {eb[0], eb[1], -1},
+    c = {ContactKind::ee, e0, e1, 2, 2, {ea[0], ea[1]}, {eb[0], eb[1], -1},
          {1.0 - r.s, r.s}, {1.0 - r.t, r.t, 0.0}, r.pa, r.pb, r.distance_sq};
     return true;
   }
@@ -178,7 +169,7 @@ struct ClosestPoints {
     const Vec3 &a = x[s[0]], &b = x[s[1]];
     if (!boxes_within(p, p, a.cwiseMin(b), a.cwiseMax(b), reach)) return false;
     const PointEdgeResult r = point_edge(p, a, b);
-    c = {ContactKind::ve, sub_pair_key(ContactKind::ve, v, e), 1, 2, {v, -1}, {s[0], s[1], -1},
+    c = {ContactKind::ve, v, e, 1, 2, {v, -1}, {s[0], s[1], -1},
          {1.0, 0.0}, {1.0 - r.t, r.t, 0.0}, p, r.closest, r.distance_sq};
     return true;
   }
@@ -186,19 +177,18 @@ struct ClosestPoints {
     if (v0 > v1) std::swap(v0, v1);
     const Vec3 &p = x[v0], &q = x[v1];
     if (!boxes_within(p, p, q, q, reach)) return false;
-    c = {ContactKind::vv, sub_pair_key(ContactKind::vv, v0, v1), 1, 1, {v0, -1}, {v1, -1, -1},
+    c = {ContactKind::vv, v0, v1, 1, 1, {v0, -1}, {v1, -1, -1},
          {1.0, 0.0}, {1.0, 0.0, 0.0}, p, q, point_point_distance_sq(p, q)};
     return true;
   }
 };
 
-/// Sink of the detection pass: turns each sub-pair within range into half-spaces and a contact.
+/// Sink of the detection pass: records each sub-pair within range as a contact; the
+/// half-spaces are derived from the contacts afterwards (assemble_regions).
 struct DetectSink {
   ClosestPoints cp;
-  const detail::KeySet& excluded;
+  const detail::ExclusionSet& excluded;
   std::span<const double> w;
-  double offset;
-  std::vector<TaggedHalfSpace>& planes;
   std::vector<ContactPair>& contacts;
   Index within = 0, excluded_count = 0, degenerate = 0;
 
@@ -213,63 +203,61 @@ struct DetectSink {
     if (!(cp.*fn)(a, b, c)) return;
     // Alg. NarrowPhase lines 7/22/38: φ = ‖x_A − x_B‖ − ξ < 2r  ⇔  ‖x_A − x_B‖ < 2r + ξ.
     if (c.dist_sq >= cp.reach * cp.reach) return;
-    if (excluded.contains(c.key)) {
+    if (excluded.contains(c.kind, c.id_a, c.id_b)) {
       ++excluded_count;
       return;
     }
-    // Lines 8, 23-24: barycentric-weighted inverse masses of each side.
-    double w_a = 0.0, w_b = 0.0;
-    bool movable_a = false, movable_b = false;
-    for (int i = 0; i < c.na; ++i) {
-      w_a += c.wa[i] * w[c.va[i]];
-      movable_a = movable_a || w[c.va[i]] > 0.0;
-    }
-    for (int j = 0; j < c.nb; ++j) {
-      w_b += c.wb[j] * w[c.vb[j]];
-      movable_b = movable_b || w[c.vb[j]] > 0.0;
-    }
-    if (!movable_a && !movable_b) return;  // nothing here can move: nothing to constrain
+    bool movable = false;
+    for (int i = 0; i < c.na; ++i) movable = movable || w[c.va[i]] > 0.0;
+    for (int j = 0; j < c.nb; ++j) movable = movable || w[c.vb[j]] > 0.0;
+    if (!movable) return;  // nothing here can move: nothing to constrain
     ++within;
-    const Vec3 diff = c.pa - c.pb;
     const double dist = std::sqrt(c.dist_sq);
     if (dist < kMinNormalDistance) {
       ++degenerate;
       return;
     }
-    const Vec3 n = diff / dist;  // lines 9/25/40: unit normal from B to A
-    const double phi = dist - offset;
-    // Mass shares that add up to 1 (design clarification 4). Then for any displacements that
-    // satisfy all half-spaces, every vertex of A stays at n·x ≥ n·x_A − s_A φ and every vertex of
-    // B at n·x ≤ n·x_B + s_B φ (the closest points are extreme along n over each primitive), so
-    // the plane in between keeps the primitives ≥ ‖x_A − x_B‖ − φ = ξ apart.
-    //
-    // When both closest points sit on immovable vertices (w_A = w_B = 0) the other vertices of
-    // the primitives may still move: the shares are then split between the sides that have a
-    // movable vertex. Any split summing to 1 keeps the argument (the immovable closest points
-    // stay put), whereas emitting nothing would let a free vertex swing its edge or face
-    // through the pair.
-    const double s_a = w_a + w_b > 0.0 ? w_a / (w_a + w_b) : (movable_a ? (movable_b ? 0.5 : 1.0) : 0.0);
-    const double s_b = 1.0 - s_a;
-    // Lines 10/26/41: d_k = s φ, kept even when negative (clarification 7). Side B's normal
-    // points from A toward B (clarification 3 for the face-vertex branch).
-    for (int i = 0; i < c.na; ++i)
-      if (w[c.va[i]] > 0.0) planes.push_back({c.va[i], c.key, HalfSpace{n, s_a * phi, phi}});
-    for (int j = 0; j < c.nb; ++j)
-      if (w[c.vb[j]] > 0.0) planes.push_back({c.vb[j], c.key, HalfSpace{-n, s_b * phi, phi}});
-    ContactPair& cp_out = contacts.emplace_back();
-    cp_out.kind = c.kind;
+    ContactPair& out = contacts.emplace_back();
+    out.kind = c.kind;
     for (int i = 0; i < c.na; ++i) {
-      cp_out.v[i] = c.va[i];
-      cp_out.w[i] = c.wa[i];
+      out.v[i] = c.va[i];
+      out.w[i] = c.wa[i];
     }
     for (int j = 0; j < c.nb; ++j) {
-      cp_out.v[c.na + j] = c.vb[j];
-      cp_out.w[c.na + j] = -c.wb[j];
+      out.v[c.na + j] = c.vb[j];
+      out.w[c.na + j] = -c.wb[j];
     }
-    cp_out.n = n;
-    cp_out.distance = dist;
+    out.n = (c.pa - c.pb) / dist;  // lines 9/25/40: unit normal from B to A
+    out.distance = dist;
   }
 };
+
+/// Share of side A of a contact's gap (design clarification 4): \f$ s_A = w_A / (w_A + w_B) \f$
+/// with \f$ w_{side} = \sum_i \beta_i w_i \f$ (Alg. NarrowPhase lines 8, 23-24), so s_A + s_B = 1.
+/// Then for displacements inside all half-spaces every vertex of A stays at
+/// n·x ≥ n·x_A − s_A φ and every vertex of B at n·x ≤ n·x_B + s_B φ (the closest points are
+/// extreme along n over each primitive): the plane in between keeps the primitives
+/// ≥ ‖x_A − x_B‖ − φ = ξ apart.
+///
+/// When both closest points sit on immovable vertices (w_A = w_B = 0) the other vertices may
+/// still move: the gap is then split between the sides that have a movable vertex. Any split
+/// summing to 1 keeps the argument (the immovable closest points stay put), whereas emitting
+/// nothing would let a free vertex swing its edge or face through the pair.
+double share_a(const ContactPair& c, std::span<const double> w) {
+  double w_a = 0.0, w_b = 0.0;
+  bool movable_a = false, movable_b = false;
+  const int na = c.side_a(), n = c.size();
+  for (int k = 0; k < na; ++k) {
+    w_a += c.w[k] * w[c.v[k]];
+    movable_a = movable_a || w[c.v[k]] > 0.0;
+  }
+  for (int k = na; k < n; ++k) {
+    w_b -= c.w[k] * w[c.v[k]];
+    movable_b = movable_b || w[c.v[k]] > 0.0;
+  }
+  if (w_a + w_b > 0.0) return w_a / (w_a + w_b);
+  return movable_a ? (movable_b ? 0.5 : 1.0) : 0.0;
+}
 
 /// Sink of the initial pass: collects sub-pairs closer than ξ (clarification 5).
 struct CloserThanOffsetSink {
@@ -283,7 +271,7 @@ struct CloserThanOffsetSink {
   template <class Fn>
   void run(Fn fn, Index a, Index b) {
     Closest c;
-    if ((cp.*fn)(a, b, c) && c.dist_sq < cp.reach * cp.reach) keys.push_back(c.key);
+    if ((cp.*fn)(a, b, c) && c.dist_sq < cp.reach * cp.reach) keys.push_back(sub_pair_key(c.kind, c.id_a, c.id_b));
   }
 };
 
@@ -435,15 +423,13 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
 
   const Index n = stats.candidates;
   const Index chunks = default_chunk_count(n);
-  plane_buffers_.resize(static_cast<size_t>(chunks));
   contact_buffers_.resize(static_cast<size_t>(chunks));
+  for (auto& b : contact_buffers_) b.clear();
   std::vector<Index> within(static_cast<size_t>(chunks), 0), excluded(static_cast<size_t>(chunks), 0),
       degenerate(static_cast<size_t>(chunks), 0);
   const ClosestPoints cp{topo_, x, 2.0 * params_.radius + params_.offset};
   parallel_chunks(n, chunks, [&](Index chunk, Index begin, Index end) {
-    plane_buffers_[chunk].clear();
-    contact_buffers_[chunk].clear();
-    DetectSink sink{cp, excluded_, inv_mass, params_.offset, plane_buffers_[chunk], contact_buffers_[chunk]};
+    DetectSink sink{cp, excluded_, inv_mass, contact_buffers_[chunk]};
     for (Index i = begin; i < end; ++i) {
       const auto [p, q] = candidates_[i];
       if (movable_[p] || movable_[q]) visit_sub_pairs(topo_, prims_, p, q, sink);
@@ -452,25 +438,90 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
     excluded[chunk] = sink.excluded_count;
     degenerate[chunk] = sink.degenerate;
   });
-  // An empty candidate list runs no chunk; keep stale buffers out of the result.
-  if (n == 0) {
-    plane_buffers_.clear();
-    contact_buffers_.clear();
-  }
 
-  size_t total_contacts = 0;
-  for (Index c = 0; c < static_cast<Index>(contact_buffers_.size()); ++c) {
-    total_contacts += contact_buffers_[c].size();
+  // Contacts in chunk order: deterministic for any thread count.
+  std::vector<size_t> start(static_cast<size_t>(chunks) + 1, 0);
+  for (Index c = 0; c < chunks; ++c) {
+    start[c + 1] = start[c] + contact_buffers_[c].size();
     stats.pairs_within_range += within[c];
     stats.excluded_initial += excluded[c];
     stats.degenerate += degenerate[c];
   }
-  contacts.clear();
-  contacts.reserve(total_contacts);
-  for (const auto& b : contact_buffers_) contacts.insert(contacts.end(), b.begin(), b.end());
-  build_region_set(nv, plane_buffers_, regions);
+  contacts.resize(start.back());
+  parallel_chunks(chunks, chunks, [&](Index, Index begin, Index end) {
+    for (Index c = begin; c < end; ++c) std::copy(contact_buffers_[c].begin(), contact_buffers_[c].end(), contacts.begin() + start[c]);
+  });
+  assemble_regions(contacts, inv_mass, regions);
   stats.constraints = static_cast<Index>(regions.total());
   stats.narrow_s = watch.seconds();
+}
+
+/// Alg. NarrowPhase lines 10, 26 and 41 for every contact at once: each movable vertex of side A
+/// gets \f$ (\mathbf{n}, s_A\varphi, \varphi) \f$, each of side B \f$ (-\mathbf{n}, s_B\varphi, \varphi) \f$ (the normal
+/// points from the other primitive toward the vertex's own, clarification 3); d stays negative
+/// for a pair already inside the offset (clarification 7).
+///
+/// The CSR is filled in parallel without sorting: the contacts are split into fixed blocks, each
+/// block counts its planes per vertex, and prefix sums over (vertex, block) give every block its
+/// own write cursor per vertex. A vertex's planes thus appear in contact order, which depends
+/// neither on the thread count nor on timing.
+void CollisionDetector::assemble_regions(std::span<const ContactPair> contacts, std::span<const double> inv_mass,
+                                         RegionSet& regions) {
+  const Index nv = topo_.num_vertices();
+  const Index nc = static_cast<Index>(contacts.size());
+  regions.offsets.assign(static_cast<size_t>(nv) + 1, 0);
+  if (nc == 0) {
+    regions.planes.clear();
+    return;
+  }
+  const Index blocks = std::min<Index>(nc, 32);
+  block_cursor_.resize(static_cast<size_t>(blocks) * nv);
+  parallel_chunks(nc, blocks, [&](Index b, Index begin, Index end) {
+    Index* count = block_cursor_.data() + static_cast<size_t>(b) * nv;
+    std::fill(count, count + nv, 0);
+    for (Index i = begin; i < end; ++i) {
+      const ContactPair& c = contacts[i];
+      for (int k = 0; k < c.size(); ++k)
+        if (inv_mass[c.v[k]] > 0.0) ++count[c.v[k]];
+    }
+  });
+  parallel_for(nv, [&](Index begin, Index end) {
+    for (Index v = begin; v < end; ++v) {
+      Index total = 0;
+      for (Index b = 0; b < blocks; ++b) total += block_cursor_[static_cast<size_t>(b) * nv + v];
+      regions.offsets[v + 1] = total;
+    }
+  }, 4096);
+  for (Index v = 0; v < nv; ++v) regions.offsets[v + 1] += regions.offsets[v];
+  parallel_for(nv, [&](Index begin, Index end) {
+    for (Index v = begin; v < end; ++v) {
+      Index cursor = regions.offsets[v];
+      for (Index b = 0; b < blocks; ++b) {
+        Index& slot = block_cursor_[static_cast<size_t>(b) * nv + v];
+        const Index count = slot;
+        slot = cursor;
+        cursor += count;
+      }
+    }
+  }, 4096);
+  regions.planes.resize(static_cast<size_t>(regions.offsets.back()));
+  parallel_chunks(nc, blocks, [&](Index b, Index begin, Index end) {
+    Index* cursor = block_cursor_.data() + static_cast<size_t>(b) * nv;
+    for (Index i = begin; i < end; ++i) {
+      const ContactPair& c = contacts[i];
+      const double phi = c.distance - params_.offset;
+      const double s_a = share_a(c, inv_mass), s_b = 1.0 - s_a;
+      const int na = c.side_a();
+      for (int k = 0; k < c.size(); ++k) {
+        const Index v = c.v[k];
+        if (!(inv_mass[v] > 0.0)) continue;
+        HalfSpace& h = regions.planes[static_cast<size_t>(cursor[v]++)];
+        h.n = k < na ? c.n : Vec3(-c.n);
+        h.d = (k < na ? s_a : s_b) * phi;
+        h.phi = phi;
+      }
+    }
+  });
 }
 
 }  // namespace ccfr
