@@ -1,6 +1,8 @@
 #!/usr/bin/python3
 """Plots a run's stats.csv: per-frame timing breakdown, contact violations, halted vertices.
 
+A fourth panel shows min_distance (with the offset xi from run.json) when the column holds values.
+
 Usage: plot_stats.py RUN_DIR_OR_STATS_CSV [--out PNG] [--title TEXT]
 
 Writes RUN_DIR/stats.png by default (next to stats.csv). Works on every stats.csv ccfr writes,
@@ -10,6 +12,7 @@ Uses Debian's python3-matplotlib only (no pip). Exit codes: 0 written, 2 bad inp
 """
 import argparse
 import csv
+import json
 import math
 import os
 import sys
@@ -137,6 +140,28 @@ def plot_halted(ax, frames, columns):
     ax.set_ylim(bottom=0)
 
 
+def run_offset(csv_path):
+    """The contact offset xi from run.json next to stats.csv, or None."""
+    try:
+        with open(os.path.join(os.path.dirname(os.path.abspath(csv_path)), "run.json")) as f:
+            v = float(json.load(f).get("offset", "nan"))
+        return v if math.isfinite(v) and v > 0 else None
+    except (OSError, ValueError, TypeError, AttributeError):
+        return None
+
+
+def plot_min_distance(ax, frames, columns, offset):
+    ax.set_title("Minimum distance between primitives")
+    ax.set_ylabel("distance")
+    ax.plot(frames, columns["min_distance"], color="#4c72b0", marker="." if len(frames) <= 120 else None,
+            label="min distance (empty cells: no pair in range)")
+    if offset is not None:
+        ax.axhline(offset, color="#c44e52", linestyle="--", linewidth=1, label=f"offset ξ = {offset:g}")
+    ax.legend(loc="upper left", fontsize=8, ncol=2)
+    top = max([v for v in columns["min_distance"] if not math.isnan(v)] + [offset or 0.0])
+    ax.set_ylim(0, 1.4 * top if top > 0 else 1.0)
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("path", help="run directory holding stats.csv, or the CSV file itself")
@@ -157,11 +182,16 @@ def main(argv=None):
     out = a.out or os.path.join(os.path.dirname(os.path.abspath(csv_path)), "stats.png")
     title = a.title or os.path.basename(os.path.dirname(os.path.abspath(csv_path)))
 
-    fig, axes = plt.subplots(3, 1, figsize=(10, 9), sharex=True, constrained_layout=True)
+    # A fourth panel when distances were measured: the guarantee is min distance >= xi.
+    has_distance = any(not math.isnan(v) for v in columns.get("min_distance", []))
+    panels = 4 if has_distance else 3
+    fig, axes = plt.subplots(panels, 1, figsize=(10, 3 * panels), sharex=True, constrained_layout=True)
     plot_timing(axes[0], frames, columns)
     plot_violations(axes[1], frames, columns)
     plot_halted(axes[2], frames, columns)
-    axes[2].set_xlabel("frame")
+    if has_distance:
+        plot_min_distance(axes[3], frames, columns, run_offset(csv_path))
+    axes[-1].set_xlabel("frame")
     if not header:
         note(axes[0], "empty stats.csv")
     fig.suptitle(f"{title}: {len(frames)} frame{'s' if len(frames) != 1 else ''}")
