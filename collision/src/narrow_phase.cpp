@@ -135,19 +135,29 @@ bool boxes_within(const Vec3& alo, const Vec3& ahi, const Vec3& blo, const Vec3&
 }
 
 /// Computes the closest points of sub-pairs in canonical orientation (so the result does not
-/// depend on which primitive of the pair came first), after a box pre-check against `reach`.
-/// Returns false when the sub-pair is certainly farther than `reach`.
+/// depend on which primitive of the pair came first), after a box pre-check against `reach`
+/// and, when `skip` is set, a look-up in the exclusions (cheaper than the distance kernel).
+/// Returns false when the sub-pair is certainly farther than `reach` or excluded; `excluded`
+/// counts the latter.
 struct ClosestPoints {
   const Topology& topo;
   const Positions& x;
   double reach;
+  const detail::ExclusionSet* skip = nullptr;
+  mutable Index excluded = 0;
+
+  bool skipped(ContactKind kind, Index a, Index b) const {
+    if (skip == nullptr || !skip->contains(kind, a, b)) return false;
+    ++excluded;
+    return true;
+  }
 
   bool vf(Index v, Index f, Closest& c) const {
     const Vec3& p = x[v];
     const Vec3i& t = topo.faces[f];
     const Vec3 &a = x[t[0]], &b = x[t[1]], &d = x[t[2]];
     const Vec3 lo = a.cwiseMin(b).cwiseMin(d), hi = a.cwiseMax(b).cwiseMax(d);
-    if (!boxes_within(p, p, lo, hi, reach)) return false;
+    if (!boxes_within(p, p, lo, hi, reach) || skipped(ContactKind::vf, v, f)) return false;
     const PointTriangleResult r = point_triangle(p, a, b, d);
     c = {ContactKind::vf, v, f, 1, 3, {v, -1}, {t[0], t[1], t[2]},
          {1.0, 0.0}, {r.bary[0], r.bary[1], r.bary[2]}, p, r.closest, r.distance_sq};
@@ -157,7 +167,9 @@ struct ClosestPoints {
     if (e0 > e1) std::swap(e0, e1);
     const Vec2i &ea = topo.edges[e0], &eb = topo.edges[e1];
     const Vec3 &a0 = x[ea[0]], &a1 = x[ea[1]], &b0 = x[eb[0]], &b1 = x[eb[1]];
-    if (!boxes_within(a0.cwiseMin(a1), a0.cwiseMax(a1), b0.cwiseMin(b1), b0.cwiseMax(b1), reach)) return false;
+    if (!boxes_within(a0.cwiseMin(a1), a0.cwiseMax(a1), b0.cwiseMin(b1), b0.cwiseMax(b1), reach) ||
+        skipped(ContactKind::ee, e0, e1))
+      return false;
     const EdgeEdgeResult r = edge_edge(a0, a1, b0, b1);
     c = {ContactKind::ee, e0, e1, 2, 2, {ea[0], ea[1]}, {eb[0], eb[1], -1},
          {1.0 - r.s, r.s}, {1.0 - r.t, r.t, 0.0}, r.pa, r.pb, r.distance_sq};
@@ -167,7 +179,7 @@ struct ClosestPoints {
     const Vec3& p = x[v];
     const Vec2i& s = topo.edges[e];
     const Vec3 &a = x[s[0]], &b = x[s[1]];
-    if (!boxes_within(p, p, a.cwiseMin(b), a.cwiseMax(b), reach)) return false;
+    if (!boxes_within(p, p, a.cwiseMin(b), a.cwiseMax(b), reach) || skipped(ContactKind::ve, v, e)) return false;
     const PointEdgeResult r = point_edge(p, a, b);
     c = {ContactKind::ve, v, e, 1, 2, {v, -1}, {s[0], s[1], -1},
          {1.0, 0.0}, {1.0 - r.t, r.t, 0.0}, p, r.closest, r.distance_sq};
@@ -176,7 +188,7 @@ struct ClosestPoints {
   bool vv(Index v0, Index v1, Closest& c) const {
     if (v0 > v1) std::swap(v0, v1);
     const Vec3 &p = x[v0], &q = x[v1];
-    if (!boxes_within(p, p, q, q, reach)) return false;
+    if (!boxes_within(p, p, q, q, reach) || skipped(ContactKind::vv, v0, v1)) return false;
     c = {ContactKind::vv, v0, v1, 1, 1, {v0, -1}, {v1, -1, -1},
          {1.0, 0.0}, {1.0, 0.0, 0.0}, p, q, point_point_distance_sq(p, q)};
     return true;
@@ -186,11 +198,10 @@ struct ClosestPoints {
 /// Sink of the detection pass: records each sub-pair within range as a contact; the
 /// half-spaces are derived from the contacts afterwards (assemble_regions).
 struct DetectSink {
-  ClosestPoints cp;
-  const detail::ExclusionSet& excluded;
+  ClosestPoints cp;  // with `skip` set to the exclusions
   std::span<const double> w;
   std::vector<ContactPair>& contacts;
-  Index within = 0, excluded_count = 0, degenerate = 0;
+  Index within = 0, degenerate = 0;
 
   void vf(Index v, Index f) { run(&ClosestPoints::vf, v, f); }
   void ee(Index a, Index b) { run(&ClosestPoints::ee, a, b); }
@@ -203,10 +214,6 @@ struct DetectSink {
     if (!(cp.*fn)(a, b, c)) return;
     // Alg. NarrowPhase lines 7/22/38: φ = ‖x_A − x_B‖ − ξ < 2r  ⇔  ‖x_A − x_B‖ < 2r + ξ.
     if (c.dist_sq >= cp.reach * cp.reach) return;
-    if (excluded.contains(c.kind, c.id_a, c.id_b)) {
-      ++excluded_count;
-      return;
-    }
     bool movable = false;
     for (int i = 0; i < c.na; ++i) movable = movable || w[c.va[i]] > 0.0;
     for (int j = 0; j < c.nb; ++j) movable = movable || w[c.vb[j]] > 0.0;
@@ -427,15 +434,15 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
   for (auto& b : contact_buffers_) b.clear();
   std::vector<Index> within(static_cast<size_t>(chunks), 0), excluded(static_cast<size_t>(chunks), 0),
       degenerate(static_cast<size_t>(chunks), 0);
-  const ClosestPoints cp{topo_, x, 2.0 * params_.radius + params_.offset};
   parallel_chunks(n, chunks, [&](Index chunk, Index begin, Index end) {
-    DetectSink sink{cp, excluded_, inv_mass, contact_buffers_[chunk]};
+    DetectSink sink{ClosestPoints{topo_, x, 2.0 * params_.radius + params_.offset, &excluded_}, inv_mass,
+                    contact_buffers_[chunk]};
     for (Index i = begin; i < end; ++i) {
       const auto [p, q] = candidates_[i];
       if (movable_[p] || movable_[q]) visit_sub_pairs(topo_, prims_, p, q, sink);
     }
     within[chunk] = sink.within;
-    excluded[chunk] = sink.excluded_count;
+    excluded[chunk] = sink.cp.excluded;
     degenerate[chunk] = sink.degenerate;
   });
 

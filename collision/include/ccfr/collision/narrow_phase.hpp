@@ -56,7 +56,7 @@ struct DetectionStats {
   Index candidates = 0;          ///< primitive pairs reported by the broad phase
   Index pairs_within_range = 0;  ///< sub-pairs with φ < 2r, not excluded, with a movable vertex
   Index constraints = 0;         ///< half-spaces written to the RegionSet
-  Index excluded_initial = 0;    ///< sub-pairs with φ < 2r skipped by the initial-configuration exclusions
+  Index excluded_initial = 0;    ///< sub-pairs skipped by the initial-configuration exclusions (box within range)
   Index degenerate = 0;          ///< sub-pairs at (numerically) zero distance: no normal, no half-space
   double broad_s = 0.0;          ///< boxes + refit + pair query
   double narrow_s = 0.0;         ///< closest points + half-spaces + RegionSet assembly
