@@ -35,6 +35,8 @@ void guarded(const std::function<int()>& body, int user_error_code) {
 // The subcommand table: one line per subcommand, each defined in its own cmd_<name>.cpp.
 void register_commands(CLI::App& app) {
   register_run(app);
+  register_audit(app);
+  register_render(app);
   register_schema(app);
 }
 

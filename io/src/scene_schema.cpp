@@ -113,7 +113,7 @@ NodePtr build_scene_schema() {
           {"damping", number(0.0, "fraction of velocity removed per second", Range{0, 1e3, false, false})},
           {"advance_tolerance", number(0.01, "outer iterations stop when every vertex reached (1 - tol) of its intended advance", Range::unit())}})},
       {"contact", map("contact handling", {
-          {"solver", choice("none", contact_solver_names, "contact solver")},
+          {"solver", choice("ccfr", contact_solver_names, "contact solver")},
           {"radius", number(0.005, "r: search radius and per-iteration step bound (m)", pos)},
           {"offset", number(0.01, "ξ: minimum separation between primitives (m)", nonneg)},
           {"repulsion_range", number(0.0005, "δ: repulsion acts while the gap beyond ξ is below δ (m)", nonneg)},
@@ -132,7 +132,7 @@ NodePtr build_scene_schema() {
       {"debug", map("diagnostics", {
           {"audit", choice("off", [] { return std::vector<std::string>{"off", "every_frame", "every_substep"}; },
                            "exact penetration audit during the run; fills the `penetrations` column of stats.csv")},
-          {"audit_tolerance", number(1e-3, "the audit flags pairs closer than (1 - tol) ξ", Range::unit())}})},
+          {"audit_tolerance", number(1e-6, "the audit flags pairs closer than (1 - tol) ξ", Range::unit())}})},
       {"output", map("what is written", {
           {"frames", boolean(true, "write frames/frame_*.obj")},
           {"every", integer(1, "write every k-th frame (frame 0 always)", one)}})},

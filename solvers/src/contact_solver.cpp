@@ -3,6 +3,7 @@
 #include <functional>
 
 #include "ccfr/core/error.hpp"
+#include "ccfr/solvers/contact_solvers.hpp"
 
 namespace ccfr {
 
@@ -15,6 +16,10 @@ struct SolverEntry {
 // The factory table: adding a contact solver is one new file plus one line here.
 const std::vector<SolverEntry>& solver_table() {
   static const std::vector<SolverEntry> table = {
+      {"ccfr", [] { return std::make_unique<RegionProjectionSolver>("ccfr", "plesnik"); }},
+      {"exact_projection", [] { return std::make_unique<RegionProjectionSolver>("exact_projection", "exact"); }},
+      {"successive_projection", [] { return std::make_unique<RegionProjectionSolver>("successive_projection", "successive_projection"); }},
+      {"post_process", [] { return std::make_unique<PostProcessSolver>(); }},
       {"none", [] { return std::make_unique<NoContactSolver>(); }},
   };
   return table;

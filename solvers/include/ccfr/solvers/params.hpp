@@ -25,7 +25,7 @@ struct TimeParams {
 enum class AuditMode { off, every_frame, every_substep };
 
 struct ContactParams {
-  std::string solver = "none";        ///< contact solver (factory name)
+  std::string solver = "ccfr";        ///< contact solver (factory name)
   double radius = 0.005;              ///< r: search radius and per-iteration step bound
   double offset = 0.01;               ///< ξ: minimum separation
   double repulsion_range = 0.0005;    ///< δ: repulsion acts while the gap beyond ξ is below δ
@@ -46,7 +46,7 @@ struct CollisionSettings {
 
 struct DebugParams {
   AuditMode audit = AuditMode::off;
-  double audit_tolerance = 1e-3;  ///< audit flags pairs closer than (1 - tol) ξ
+  double audit_tolerance = 1e-6;  ///< audit flags pairs closer than (1 - tol) ξ (as `ccfr audit`)
 };
 
 struct OutputParams {

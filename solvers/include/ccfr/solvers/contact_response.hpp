@@ -1,0 +1,48 @@
+#pragma once
+/// @file contact_response.hpp
+/// Physically active contact response inside XPBD (paper §3.3): a quadratic repulsion within δ
+/// beyond the offset, attenuated by visibility weights, and position-based friction on the same
+/// contacts (Macklin et al. 2014). Solved Jacobi-style with per-vertex averaging, so it runs in
+/// parallel and deterministically.
+#include <span>
+#include <vector>
+
+#include "ccfr/collision/narrow_phase.hpp"
+#include "ccfr/solvers/params.hpp"
+
+namespace ccfr {
+
+/// Cubic smoothstep \f$S(t) = 3t^2 - 2t^3\f$ on [0, 1], clamped outside.
+inline double smoothstep(double t) {
+  if (t <= 0.0) return 0.0;
+  if (t >= 1.0) return 1.0;
+  return t * t * (3.0 - 2.0 * t);
+}
+
+/// Gap of a contact beyond the offset at positions x: \f$d_c = \mathbf{n}^\top\sum_k w_k \mathbf{x}_k - \xi\f$.
+double contact_gap(const ContactPair& c, const Positions& x, double offset);
+
+/// Visibility weights \f$w_c = \prod_{j \ne c} (1 - S((d_c - d_j)/\delta_v))\f$ over the contacts j
+/// that share c's query vertex (its first side-A vertex), from the gaps at detection time.
+std::vector<double> visibility_weights(std::span<const ContactPair> contacts, double offset, double width);
+
+class ContactResponse {
+ public:
+  /// Indexes the contacts of a new detection pass (#V vertices).
+  void prepare(std::span<const ContactPair> contacts, Index num_vertices, const ContactParams& params);
+  /// One Jacobi pass of repulsion then friction on candidate positions `x`; `x_start` are the
+  /// positions at the start of the substep (friction acts on the substep's tangential motion).
+  /// `friction_of(vertex)` gives (μ_s, μ_k) for a contact by its query vertex.
+  void apply(Positions& x, const Positions& x_start, std::span<const double> inv_mass, const ContactParams& params,
+             double dt, std::span<const double> friction_override) ;
+  Index active() const { return active_; }
+
+ private:
+  std::span<const ContactPair> contacts_;
+  std::vector<double> visibility_;
+  std::vector<Index> vertex_offsets_, vertex_contacts_;  ///< CSR vertex -> contacts
+  std::vector<Vec3> corr_;                               ///< per contact slot: correction of each vertex (4 per contact)
+  Index active_ = 0;
+};
+
+}  // namespace ccfr

@@ -1,0 +1,62 @@
+#pragma once
+/// @file contact_solvers.hpp
+/// The contact solvers of the ablation, all on the same detection (CollisionDetector):
+/// - `ccfr`: per-vertex convex regions, Plesník projection, halting fallback (the paper);
+/// - `exact_projection`: the same regions, the exact Euclidean projection;
+/// - `successive_projection`: the same regions, naive cyclic projection (related work);
+/// - `post_process`: conventional XPBD thickness constraints on pairs inside ξ, no regions.
+/// All share the contact response (repulsion within δ, friction).
+#include <memory>
+
+#include "ccfr/collision/narrow_phase.hpp"
+#include "ccfr/feasibility/projector.hpp"
+#include "ccfr/feasibility/region.hpp"
+#include "ccfr/solvers/contact_response.hpp"
+#include "ccfr/solvers/contact_solver.hpp"
+
+namespace ccfr {
+
+/// Detection and response shared by every solver that uses the CCFR narrow phase.
+class DetectingSolver : public ContactSolver {
+ public:
+  void initialize(const Topology& topo, const SimState& state, const SimulationParams& params) override;
+  DetectionSummary detect(const Positions& anchor, const SimState& state, StepContext& ctx) override;
+  void respond(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) override;
+
+  const RegionSet& regions() const { return regions_; }
+  const std::vector<ContactPair>& contacts() const { return contacts_; }
+  const CollisionDetector& detector() const { return *detector_; }
+
+ protected:
+  std::unique_ptr<CollisionDetector> detector_;
+  RegionSet regions_;
+  std::vector<ContactPair> contacts_;
+  ContactResponse response_;
+  std::vector<double> friction_override_;  ///< #V: material friction of the vertex's object (< 0: global)
+};
+
+/// Projects every vertex that left its region back onto it with a Projector.
+class RegionProjectionSolver final : public DetectingSolver {
+ public:
+  /// `solver_name` is the factory name; `projector_name` one of projector_names().
+  RegionProjectionSolver(std::string solver_name, std::string projector_name);
+  std::string_view name() const override { return name_; }
+  void initialize(const Topology& topo, const SimState& state, const SimulationParams& params) override;
+  SolveResult resolve(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) override;
+  bool clamps_to_radius() const override { return true; }
+
+ private:
+  std::string name_, projector_name_;
+  std::unique_ptr<Projector> projector_;
+};
+
+/// The paper's baseline: after XPBD, every detected pair whose gap along its detection normal is
+/// below ξ gets a thickness constraint \f$C = \mathbf{n}^\top\sum_k w_k\mathbf{x}_k - \xi \ge 0\f$,
+/// solved Gauss-Seidel in pair order for `contact.projection_sweeps` sweeps. No regions, no step bound.
+class PostProcessSolver final : public DetectingSolver {
+ public:
+  std::string_view name() const override { return "post_process"; }
+  SolveResult resolve(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) override;
+};
+
+}  // namespace ccfr
