@@ -168,7 +168,7 @@ TEST(SceneLoader, PinsByBoxAndIndicesBecomeKinematic) {
   const auto s = io::load_scene_text(y, "scene.yaml", ".");
   Index pinned = 0;
   for (double w : s.scene.state.inv_mass) pinned += w == 0.0;
-  EXPECT_EQ(pinned, 2 + 5 - 1);  // vertex 0 and 4 lie on the z = -0.5 side; the z = +0.5 row has 5
+  EXPECT_EQ(pinned, 2 + 5);  // vertices 0 and 4 lie on the z = -0.5 row; the z = +0.5 row has 5 more
   y = std::string(kBase) + "    pins:\n      - indices: [25]\n";
   const auto e = config_error(y);
   EXPECT_EQ(e.key_path(), "objects[0].pins[0].indices[0]");
