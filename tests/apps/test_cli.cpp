@@ -1,0 +1,173 @@
+// End-to-end checks of the ccfr executable against the output-directory contract.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "ccfr/io/obj.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+struct Result {
+  int code;
+  std::string out;  // stdout + stderr
+};
+
+Result run(const std::string& args) {
+  const std::string cmd = std::string(CCFR_EXE) + " " + args + " 2>&1";
+  Result r{0, ""};
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return {-1, "popen failed"};
+  std::array<char, 4096> buf;
+  while (size_t n = fread(buf.data(), 1, buf.size(), p)) r.out.append(buf.data(), n);
+  const int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+fs::path scratch(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("ccfr_cli_" + name);
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+std::string read(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+const char* kScene = R"(scene: tiny
+time: {fps: 60, frames: 3, substeps: 2, iterations: 2, xpbd_sweeps: 4}
+contact: {solver: ccfr, radius: 0.01, offset: 0.005, repulsion_range: 0.001}
+objects:
+  - name: sheet
+    kind: cloth
+    shape: {type: grid, size: [0.2, 0.2], resolution: [4, 4]}
+    transform: {translate: [0, 0.02, 0]}
+  - name: floor
+    kind: obstacle
+    shape: {type: plane, size: 1.0, resolution: 2}
+  - name: hair
+    kind: strand
+    shape: {type: strands, count: 2, vertices: 5, length: 0.1, spread: 0.05}
+    transform: {translate: [0, 0.2, 0]}
+  - name: dust
+    kind: particles
+    shape: {type: particles, counts: [2, 1, 2], spacing: 0.02}
+    transform: {translate: [0, 0.3, 0]}
+)";
+}  // namespace
+
+TEST(Cli, RunWritesTheOutputContractAndAuditPasses) {
+  const fs::path d = scratch("run");
+  std::ofstream(d / "scene.yaml") << kScene;
+  const auto r = run("run " + (d / "scene.yaml").string() + " --out " + (d / "out").string() + " --threads 2");
+  ASSERT_EQ(r.code, 0) << r.out;
+  ASSERT_TRUE(fs::exists(d / "out" / "run.json"));
+  for (int f = 0; f <= 3; ++f) {
+    char name[32];
+    std::snprintf(name, sizeof name, "frame_%05d.obj", f);
+    ASSERT_TRUE(fs::exists(d / "out" / "frames" / name)) << name;
+  }
+  const auto frame = ccfr::io::read_frame_obj(d / "out" / "frames" / "frame_00003.obj");
+  ASSERT_EQ(frame.objects.size(), 4u);
+  EXPECT_EQ(frame.objects[0].name, "sheet");
+  EXPECT_EQ(frame.lines.size(), 2u);
+  EXPECT_EQ(frame.points.size(), 4u);
+  const std::string json = read(d / "out" / "run.json");
+  for (const char* key : {"\"solver\": \"ccfr\"", "\"radius\": 0.01", "\"offset\": 0.005", "\"repulsion_range\": 0.001",
+                          "\"threads\": 2", "\"git_commit\"", "\"start_time\"", "\"end_time\": \"", "\"status\": \"completed\"",
+                          "\"stiffness\": 10000"})
+    EXPECT_NE(json.find(key), std::string::npos) << key << "\n" << json;
+  std::ifstream stats(d / "out" / "stats.csv");
+  std::string header, line;
+  std::getline(stats, header);
+  EXPECT_EQ(header.rfind("frame,sim_time,wall_s,xpbd_s,broad_s,narrow_s,resolution_s,candidates,constraints,"
+                         "violations_detected,violations_remaining,halted_vertices,min_distance", 0), 0u) << header;
+  int rows = 0;
+  while (std::getline(stats, line)) ++rows;
+  EXPECT_EQ(rows, 3);
+  const auto a = run("audit " + (d / "out").string());
+  EXPECT_EQ(a.code, 0) << a.out;
+  EXPECT_NE(a.out.find("PASS"), std::string::npos) << a.out;
+}
+
+TEST(Cli, MisspeltKeyFailsWithKeyAndLine) {
+  const fs::path d = scratch("typo");
+  std::string s = kScene;
+  s.replace(s.find("radius: 0.01"), 12, "raduis: 0.01");
+  std::ofstream(d / "scene.yaml") << s;
+  const auto r = run("run " + (d / "scene.yaml").string() + " --out " + (d / "out").string());
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.out.find("scene.yaml:3:"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("contact.raduis"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(d / "out" / "run.json")) << "a rejected config must not start a run";
+}
+
+TEST(Cli, SetAndSolverOptionsOverrideTheScene) {
+  const fs::path d = scratch("set");
+  std::ofstream(d / "scene.yaml") << kScene;
+  const auto r = run("run " + (d / "scene.yaml").string() + " --out " + (d / "out").string() +
+                     " --frames 1 --solver post_process --set contact.offset=0.004");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string json = read(d / "out" / "run.json");
+  EXPECT_NE(json.find("\"solver\": \"post_process\""), std::string::npos);
+  EXPECT_NE(json.find("\"offset\": 0.004"), std::string::npos);
+  EXPECT_NE(json.find("\"frames\": 1"), std::string::npos);
+  const auto bad = run("run " + (d / "scene.yaml").string() + " --out " + (d / "out2").string() + " --solver magic");
+  EXPECT_NE(bad.code, 0);
+  EXPECT_NE(bad.out.find("ccfr, exact_projection"), std::string::npos) << bad.out;  // lists the valid solvers
+}
+
+TEST(Cli, NonFiniteStateStopsTheRunAndKeepsFrames) {
+  const fs::path d = scratch("nan");
+  std::string s = kScene;
+  // Without contact handling (no step bound r), gravity this large overflows to infinity in the
+  // second frame (dt = 1 s); frame 1 is still finite and must stay on disk.
+  s.replace(s.find("time: {fps: 60"), 14, "time: {fps: 1, gravity: [0, -1.0e308, 0]");
+  s.replace(s.find("substeps: 2"), 11, "substeps: 1");
+  std::ofstream(d / "scene.yaml") << s;
+  const auto r = run("run " + (d / "scene.yaml").string() + " --out " + (d / "out").string() + " --solver none");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("at frame 2"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("vertex"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("after stage"), std::string::npos) << r.out;
+  for (const char* f : {"frame_00000.obj", "frame_00001.obj"}) {
+    ASSERT_TRUE(fs::exists(d / "out" / "frames" / f)) << f;
+    EXPECT_NO_THROW(ccfr::io::read_frame_obj(d / "out" / "frames" / f));
+  }
+  EXPECT_FALSE(fs::exists(d / "out" / "frames" / "frame_00002.obj"));
+  EXPECT_NE(read(d / "out" / "run.json").find("\"status\": \"failed: non-finite"), std::string::npos);
+}
+
+TEST(Cli, AuditExitCodes) {
+  const fs::path d = scratch("audit");
+  EXPECT_EQ(run("audit " + (d / "missing").string()).code, 2);
+  // A sheet pushed through another: audit must fail with exit 1.
+  fs::create_directories(d / "run" / "frames");
+  std::ofstream(d / "run" / "run.json") << R"({"scene": "x", "solver": "none", "radius": 0.01, "offset": 0.01, "repulsion_range": 0, "fps": 60})";
+  const char* f0 = "o a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\no b\nv 0.2 0.2 1\nv 0.3 0.2 1\nv 0.2 0.3 1\nf 4 5 6\n";
+  const char* f1 = "o a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\no b\nv 0.2 0.2 -0.5\nv 0.3 0.2 0.5\nv 0.2 0.3 0.5\nf 4 5 6\n";
+  std::ofstream(d / "run" / "frames" / "frame_00000.obj") << f0;
+  std::ofstream(d / "run" / "frames" / "frame_00001.obj") << f1;
+  const auto r = run("audit " + (d / "run").string());
+  EXPECT_EQ(r.code, 1) << r.out;
+  std::ofstream(d / "run" / "frames" / "frame_00001.obj") << "o a\nv 0 0 0\nv nan 0 0\n";
+  EXPECT_EQ(run("audit " + (d / "run").string()).code, 2);
+}
+
+TEST(Cli, EverySubcommandHasHelp) {
+  for (const char* sub : {"run", "audit", "render", "schema"}) {
+    const auto r = run(std::string(sub) + " --help");
+    EXPECT_EQ(r.code, 0) << sub << ": " << r.out;
+    EXPECT_NE(r.out.find("Usage"), std::string::npos) << sub;
+  }
+}
