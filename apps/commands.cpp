@@ -36,6 +36,8 @@ void guarded(const std::function<int()>& body, int user_error_code) {
 void register_commands(CLI::App& app) {
   register_run(app);
   register_audit(app);
+  register_ablate(app);
+  register_bench(app);
   register_render(app);
   register_schema(app);
 }
