@@ -1,6 +1,7 @@
 #include "ccfr/geometry/generators.hpp"
 
 #include <cmath>
+#include <array>
 #include <map>
 #include <numbers>
 #include <stdexcept>
@@ -183,5 +184,90 @@ TriMesh open_box(const Vec3& size) {
 }
 
 TriMesh plane(double size, Index res) { return grid(size, size, res, res); }
+
+TetMesh tet_voxels(const std::vector<Vec3i>& cells, double h) {
+  if (cells.empty()) throw std::invalid_argument("tet_voxels needs at least one cell");
+  TetMesh m;
+  std::map<std::array<Index, 3>, Index> corner_id;
+  auto corner = [&](Index i, Index j, Index k) {
+    auto [it, added] = corner_id.try_emplace({i, j, k}, static_cast<Index>(m.v.size()));
+    if (added) m.v.emplace_back(h * i, h * j, h * k);
+    return it->second;
+  };
+  static constexpr int kTets[6][4] = {{0, 1, 3, 7}, {0, 1, 5, 7}, {0, 2, 3, 7}, {0, 2, 6, 7}, {0, 4, 5, 7}, {0, 4, 6, 7}};
+  std::map<std::array<Index, 3>, bool> seen;
+  for (const auto& cell : cells) {
+    if (!seen.try_emplace({cell.x(), cell.y(), cell.z()}, true).second) continue;  // duplicates are harmless
+    Index c[8];
+    for (int b = 0; b < 8; ++b) c[b] = corner(cell.x() + (b & 1), cell.y() + ((b >> 1) & 1), cell.z() + ((b >> 2) & 1));
+    for (const auto& t : kTets) {
+      Vec4i tet(c[t[0]], c[t[1]], c[t[2]], c[t[3]]);
+      if ((m.v[tet[1]] - m.v[tet[0]]).cross(m.v[tet[2]] - m.v[tet[0]]).dot(m.v[tet[3]] - m.v[tet[0]]) < 0) std::swap(tet[2], tet[3]);
+      m.t.push_back(tet);
+    }
+  }
+  return m;
+}
+
+TetMesh octopus(double h, Index body, Index legs, Index leg_length) {
+  if (body < 2 || legs < 0 || leg_length < 0) throw std::invalid_argument("octopus needs body >= 2, legs >= 0, leg_length >= 0");
+  std::vector<Vec3i> cells;
+  for (Index i = 0; i < body; ++i)
+    for (Index j = 0; j < body; ++j)
+      for (Index k = 0; k < body; ++k) cells.emplace_back(i, j, k);
+  const double c = 0.5 * (body - 1);
+  for (Index l = 0; l < legs; ++l) {
+    const double a = 2.0 * std::numbers::pi * l / std::max<Index>(legs, 1);
+    const double dx = std::cos(a), dz = std::sin(a);
+    // Start under the body's rim in this direction, then alternate outward and downward steps
+    // (face-adjacent cells, so the leg stays one connected solid).
+    Vec3i cur(static_cast<Index>(std::lround(c + c * dx)), -1, static_cast<Index>(std::lround(c + c * dz)));
+    double fx = cur.x(), fz = cur.z();
+    cells.push_back(cur);
+    for (Index s = 1; s < leg_length; ++s) {
+      if (s % 2) {
+        fx += 0.8 * dx;
+        fz += 0.8 * dz;
+        const Vec3i target(static_cast<Index>(std::lround(fx)), cur.y(), static_cast<Index>(std::lround(fz)));
+        if (target.x() != cur.x()) cur.x() = target.x(), cells.push_back(cur);
+        if (target.z() != cur.z()) cur.z() = target.z(), cells.push_back(cur);
+      } else {
+        cur.y() -= 1;
+        cells.push_back(cur);
+      }
+    }
+  }
+  TetMesh m = tet_voxels(cells, h);
+  Vec3 lo = m.v.front(), hi = m.v.front();
+  for (const auto& p : m.v) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  const Vec3 centre = 0.5 * (lo + hi);
+  for (auto& p : m.v) p -= centre;
+  return m;
+}
+
+TriMesh merge(const std::vector<TriMesh>& parts) {
+  TriMesh m;
+  for (const auto& p : parts) {
+    const Index base = static_cast<Index>(m.v.size());
+    m.v.insert(m.v.end(), p.v.begin(), p.v.end());
+    for (const auto& f : p.f) m.f.emplace_back(f[0] + base, f[1] + base, f[2] + base);
+  }
+  return m;
+}
+
+TriMesh comb(double length, double width, double spine_height, Index teeth, double tooth_length, double tooth_width) {
+  if (teeth < 1) throw std::invalid_argument("a comb needs at least one tooth");
+  std::vector<TriMesh> parts;
+  TriMesh spine = box(Vec3(length, spine_height, width));
+  for (auto& v : spine.v) v.y() += 0.5 * spine_height;
+  parts.push_back(spine);
+  for (Index t = 0; t < teeth; ++t) {
+    TriMesh tooth = box(Vec3(tooth_width, tooth_length, width));
+    const double x = teeth == 1 ? 0.0 : -0.5 * (length - tooth_width) + (length - tooth_width) * t / (teeth - 1);
+    for (auto& v : tooth.v) v += Vec3(x, -0.5 * tooth_length, 0.0);
+    parts.push_back(tooth);
+  }
+  return merge(parts);
+}
 
 }  // namespace ccfr::gen

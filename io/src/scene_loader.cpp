@@ -213,6 +213,15 @@ class Builder {
       auto m = gen::tet_box(v3(s["size"]), Vec3i(r[0].as<Index>(), r[1].as<Index>(), r[2].as<Index>()));
       g.v = std::move(m.v);
       g.tets = std::move(m.t);
+    } else if (type == "octopus") {
+      require(kind == ObjectKind::tet_solid, "use kind tet_solid");
+      auto m = gen::octopus(s["cell"].as<double>(), s["body"].as<Index>(), s["legs"].as<Index>(), s["leg_length"].as<Index>());
+      g.v = std::move(m.v);
+      g.tets = std::move(m.t);
+    } else if (type == "comb") {
+      require(surface_kind, "use kind obstacle, rigid, shell or cloth");
+      take(gen::comb(s["length"].as<double>(), s["width"].as<double>(), s["spine_height"].as<double>(), s["teeth"].as<Index>(),
+                     s["tooth_length"].as<double>(), s["tooth_width"].as<double>()));
     } else if (type == "sphere") {
       require(surface_kind, "use kind obstacle, rigid, shell or cloth");
       take(gen::sphere(s["radius"].as<double>(), s["subdivisions"].as<int>()));

@@ -62,6 +62,18 @@ NodePtr shape_schema() {
       {"plane", map("square plane in the x-z plane, normal +y", {
           {"size", number(10.0, "side length (m)", pos)},
           {"resolution", integer(1, "cells per side", one)}})},
+      {"octopus", map("procedural octopus-like tet solid: a cubic body with tentacles (the paper's octopus mesh is not published)", {
+          {"cell", number(0.05, "edge of the voxel cells (m)", pos)},
+          {"body", integer(4, "body cells per axis", Range::at_least(2))},
+          {"legs", integer(8, "number of tentacles", nonneg)},
+          {"leg_length", integer(8, "cells per tentacle", nonneg)}})},
+      {"comb", map("procedural comb: a spine box with teeth hanging below (the paper's comb mesh is not published)", {
+          {"length", number(1.0, "spine length along x (m)", pos)},
+          {"width", number(0.05, "thickness along z (m)", pos)},
+          {"spine_height", number(0.1, "spine height (m)", pos)},
+          {"teeth", integer(12, "number of teeth", one)},
+          {"tooth_length", number(0.4, "tooth length below the spine (m)", pos)},
+          {"tooth_width", number(0.02, "tooth width along x (m)", pos)}})},
       {"mesh", map("a Wavefront OBJ file (triangles; `l` lines for strands)", {
           {"path", string(std::nullopt, "path, relative to the scene file")}})},
   });

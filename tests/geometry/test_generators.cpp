@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <numbers>
 
 #include "ccfr/core/scene.hpp"
@@ -78,4 +79,35 @@ TEST(Generators, DegenerateParametersThrow) {
   EXPECT_THROW(gen::grid(1, 1, 0, 1), std::invalid_argument);
   EXPECT_THROW(gen::curly_strands(1, 1, 1, 0, 0, 0), std::invalid_argument);
   EXPECT_THROW(gen::cylinder(1, 1, 2, true), std::invalid_argument);
+}
+
+TEST(Generators, VoxelTetsAreConformingAndOctopusIsOneSolid) {
+  // Two face-adjacent cells: shared face merged, boundary = 10 cell faces = 20 triangles.
+  const auto two = gen::tet_voxels({{0, 0, 0}, {1, 0, 0}}, 0.5);
+  EXPECT_EQ(two.v.size(), 12u);
+  EXPECT_EQ(tet_boundary(two.t).size(), 20u);
+  const auto o = gen::octopus(0.1, 3, 8, 5);
+  double vol = 0.0;
+  for (const auto& t : o.t) {
+    const double v6 = (o.v[t[1]] - o.v[t[0]]).cross(o.v[t[2]] - o.v[t[0]]).dot(o.v[t[3]] - o.v[t[0]]);
+    EXPECT_GT(v6, 0.0);
+    vol += v6 / 6.0;
+  }
+  EXPECT_NEAR(vol, 0.001 * static_cast<double>(o.t.size()) / 6.0, 1e-12);  // 6 tets per 0.1^3 cell
+  // Connected: a union-find over tets sharing vertices finds one component.
+  std::vector<Index> parent(o.v.size());
+  for (size_t i = 0; i < parent.size(); ++i) parent[i] = static_cast<Index>(i);
+  std::function<Index(Index)> find = [&](Index i) { return parent[i] == i ? i : parent[i] = find(parent[i]); };
+  for (const auto& t : o.t)
+    for (int k = 1; k < 4; ++k) parent[find(t[k])] = find(t[0]);
+  const Index root = find(0);
+  for (size_t i = 0; i < parent.size(); ++i) EXPECT_EQ(find(static_cast<Index>(i)), root);
+  // The boundary is a closed surface enclosing the same volume.
+  EXPECT_NEAR(signed_volume(o.v, tet_boundary(o.t)), vol, 1e-12);
+}
+
+TEST(Generators, CombEnclosesSpineAndTeeth) {
+  const auto c = gen::comb(1.0, 0.05, 0.1, 10, 0.4, 0.02);
+  EXPECT_EQ(c.v.size(), 8u * 11u);
+  EXPECT_NEAR(signed_volume(c.v, c.f), 1.0 * 0.1 * 0.05 + 10 * 0.02 * 0.4 * 0.05, 1e-12);
 }

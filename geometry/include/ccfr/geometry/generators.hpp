@@ -45,4 +45,18 @@ TriMesh open_box(const Vec3& size);
 /// Square plane in the x-z plane, normal +y, split into res x res cells.
 TriMesh plane(double size, Index res);
 
+/// Tetrahedralises a union of lattice cells of edge `h` (cell (i,j,k) spans [i,i+1]h x ...): shared
+/// corners are merged and every cell gets the same 6-tet Kuhn subdivision, which is conforming
+/// across cells, so the result is one connected tet mesh per connected cell set.
+TetMesh tet_voxels(const std::vector<Vec3i>& cells, double h);
+/// An octopus-like solid (the paper does not give its mesh): a `body`^3 block of cells with
+/// `legs` tentacles of `leg_length` cells that leave the bottom of the body outward and down,
+/// tetrahedralised with tet_voxels; centred at the origin, body on top.
+TetMesh octopus(double h, Index body, Index legs, Index leg_length);
+/// A comb (the paper does not give its mesh): a spine box of `length` x `spine_height` x `width`
+/// along x with `teeth` boxes hanging below it, each `tooth_length` long and `tooth_width` wide.
+TriMesh comb(double length, double width, double spine_height, Index teeth, double tooth_length, double tooth_width);
+/// Concatenates meshes (indices shifted).
+TriMesh merge(const std::vector<TriMesh>& parts);
+
 }  // namespace ccfr::gen
