@@ -1,0 +1,440 @@
+#include "ccfr/solvers/materials.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+#include <Eigen/LU>
+#include <Eigen/SVD>
+
+#include "ccfr/core/log.hpp"
+#include "ccfr/core/parallel.hpp"
+
+namespace ccfr {
+
+namespace xpbd {
+
+namespace {
+/// Wraps an angle difference into (-π, π], so a dihedral angle crossing ±π does not jump by 2π.
+double wrap_angle(double a) {
+  constexpr double pi = std::numbers::pi;
+  while (a > pi) a -= 2.0 * pi;
+  while (a <= -pi) a += 2.0 * pi;
+  return a;
+}
+
+/// A triangle whose doubled area |n| is below this fraction of |e|² has a numerically meaningless
+/// normal; its dihedral gradient (∝ 1/height) is then skipped rather than amplified.
+constexpr double kRelativeArea = 1e-12;
+}  // namespace
+
+double dihedral_angle(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Vec3& x3) {
+  const Vec3 e = x1 - x0;
+  const Vec3 n1 = e.cross(x2 - x0), n2 = (x3 - x0).cross(e);
+  const double l = e.norm(), a1 = n1.norm(), a2 = n2.norm();
+  if (!(l > 0.0) || !(a1 > kRelativeArea * l * l) || !(a2 > kRelativeArea * l * l)) return 0.0;
+  // atan2 of unnormalised sine and cosine: both carry the same factor |n1||n2|.
+  return std::atan2(n1.cross(n2).dot(e) / l, n1.dot(n2));
+}
+
+bool dihedral_angle_gradient(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Vec3& x3, double& theta,
+                             std::array<Vec3, 4>& grad) {
+  const Vec3 e = x1 - x0;
+  const Vec3 n1 = e.cross(x2 - x0), n2 = (x3 - x0).cross(e);
+  const double l2 = e.squaredNorm(), a1 = n1.squaredNorm(), a2 = n2.squaredNorm();
+  const double l = std::sqrt(l2);
+  const double min_area2 = kRelativeArea * kRelativeArea * l2 * l2;
+  if (!(l > 0.0) || !(a1 > min_area2) || !(a2 > min_area2) || !std::isfinite(a1 + a2)) return false;
+  theta = std::atan2(n1.cross(n2).dot(e) / l, n1.dot(n2));
+  const Vec3 m1 = n1 / a1, m2 = n2 / a2;  // n / |n|²
+  grad[2] = -l * m1;
+  grad[3] = -l * m2;
+  grad[0] = -((x2 - x1).dot(e) / l) * m1 - ((x3 - x1).dot(e) / l) * m2;
+  grad[1] = -grad[0] - grad[2] - grad[3];
+  return true;
+}
+
+void solve_dihedral_bending(const std::array<Vec3*, 4>& x, const std::array<double, 4>& w, double rest_angle, double alpha_tilde,
+                            double& lambda) {
+  double theta = 0.0;
+  std::array<Vec3, 4> g;
+  if (!dihedral_angle_gradient(*x[0], *x[1], *x[2], *x[3], theta, g)) return;
+  apply_update<4>(x, w, g, wrap_angle(theta - rest_angle), alpha_tilde, lambda);
+}
+
+double turning_angle(const Vec3& x0, const Vec3& x1, const Vec3& x2) {
+  const Vec3 e1 = x1 - x0, e2 = x2 - x1;
+  if (!(e1.squaredNorm() > 0.0) || !(e2.squaredNorm() > 0.0)) return 0.0;
+  return std::atan2(e1.cross(e2).norm(), e1.dot(e2));
+}
+
+bool turning_angle_gradient(const Vec3& x0, const Vec3& x1, const Vec3& x2, double& phi, std::array<Vec3, 3>& grad) {
+  const Vec3 e1 = x1 - x0, e2 = x2 - x1;
+  const double l1 = e1.norm(), l2 = e2.norm();
+  if (!(l1 > 0.0) || !(l2 > 0.0) || !std::isfinite(l1 + l2)) return false;
+  const Vec3 u = e1 / l1, v = e2 / l2;
+  const double s = u.cross(v).norm(), c = u.dot(v);
+  // Below this sine the direction of the in-plane normal is round-off; the angle is a cone point.
+  if (!(s > 1e-12)) return false;
+  phi = std::atan2(s, c);
+  const Vec3 p1 = (v - c * u) / s, p2 = (u - c * v) / s;
+  grad[0] = p1 / l1;
+  grad[2] = -p2 / l2;
+  grad[1] = -grad[0] - grad[2];
+  return true;
+}
+
+void solve_strand_bending(const std::array<Vec3*, 3>& x, const std::array<double, 3>& w, double rest_angle, double alpha_tilde,
+                          double& lambda) {
+  double phi = 0.0;
+  std::array<Vec3, 3> g;
+  if (!turning_angle_gradient(*x[0], *x[1], *x[2], phi, g)) return;
+  apply_update<3>(x, w, g, phi - rest_angle, alpha_tilde, lambda);
+}
+
+double tet_six_volume(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Vec3& x3) {
+  return (x1 - x0).dot((x2 - x0).cross(x3 - x0));
+}
+
+double tet_volume_constraint(const std::array<Vec3, 4>& x, double rest_volume, std::array<Vec3, 4>& grad) {
+  const Vec3 d1 = x[1] - x[0], d2 = x[2] - x[0], d3 = x[3] - x[0];
+  grad[1] = d2.cross(d3);
+  grad[2] = d3.cross(d1);
+  grad[3] = d1.cross(d2);
+  grad[0] = -grad[1] - grad[2] - grad[3];
+  return d1.dot(grad[1]) - 6.0 * rest_volume;
+}
+
+void solve_tet_volume(const std::array<Vec3*, 4>& x, const std::array<double, 4>& w, double rest_volume, double alpha_tilde,
+                      double& lambda) {
+  std::array<Vec3, 4> g;
+  const double c = tet_volume_constraint({*x[0], *x[1], *x[2], *x[3]}, rest_volume, g);
+  apply_update<4>(x, w, g, c, alpha_tilde, lambda);
+}
+
+bool tet_deviatoric_constraint(const std::array<Vec3, 4>& x, const Eigen::Matrix3d& rest_inverse, double& c,
+                               std::array<Vec3, 4>& grad) {
+  Eigen::Matrix3d ds;
+  ds.col(0) = x[1] - x[0];
+  ds.col(1) = x[2] - x[0];
+  ds.col(2) = x[3] - x[0];
+  const Eigen::Matrix3d f = ds * rest_inverse;
+  if (!f.allFinite()) return false;
+  const Eigen::Matrix3d diff = f - polar_rotation(f);
+  const double norm = diff.norm();
+  // At (or within round-off of) a rotation the constraint holds and its direction is undefined.
+  if (!(norm > 1e-14)) return false;
+  c = norm;
+  const Eigen::Matrix3d h = (diff / norm) * rest_inverse.transpose();
+  grad[1] = h.col(0);
+  grad[2] = h.col(1);
+  grad[3] = h.col(2);
+  grad[0] = -grad[1] - grad[2] - grad[3];
+  return true;
+}
+
+void solve_tet_deviatoric(const std::array<Vec3*, 4>& x, const std::array<double, 4>& w, const Eigen::Matrix3d& rest_inverse,
+                          double alpha_tilde, double& lambda) {
+  double c = 0.0;
+  std::array<Vec3, 4> g;
+  if (!tet_deviatoric_constraint({*x[0], *x[1], *x[2], *x[3]}, rest_inverse, c, g)) return;
+  apply_update<4>(x, w, g, c, alpha_tilde, lambda);
+}
+
+Eigen::Matrix3d polar_rotation(const Eigen::Matrix3d& a) {
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(a, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Eigen::Matrix3d& u = svd.matrixU();
+  const Eigen::Matrix3d& v = svd.matrixV();
+  // Flip the axis of the smallest singular value (last in Eigen's order) when U Vᵀ is a
+  // reflection: the closest rotation, and the right answer for flat bodies (rank 2).
+  Eigen::Vector3d d(1.0, 1.0, (u * v.transpose()).determinant() < 0.0 ? -1.0 : 1.0);
+  return u * d.asDiagonal() * v.transpose();
+}
+
+void solve_shape_matching(std::span<Vec3> x, std::span<const double> w, std::span<const Vec3> q, std::span<const double> m) {
+  const size_t n = x.size();
+  double total = 0.0;
+  Vec3 c = Vec3::Zero();
+  for (size_t i = 0; i < n; ++i) {
+    total += m[i];
+    c += m[i] * x[i];
+  }
+  if (!(total > 0.0)) return;
+  c /= total;
+  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+  for (size_t i = 0; i < n; ++i) a.noalias() += m[i] * (x[i] - c) * q[i].transpose();
+  if (!a.allFinite()) return;
+  const Eigen::Matrix3d r = polar_rotation(a);
+  for (size_t i = 0; i < n; ++i)
+    if (w[i] > 0.0) x[i] = r * q[i] + c;
+}
+
+}  // namespace xpbd
+
+namespace {
+
+/// Runs body(constraint) over every constraint, colour after colour, each colour in parallel.
+template <class Body>
+void for_each_coloured(const Colouring& col, Body&& body) {
+  for (Index k = 0; k < col.colours(); ++k) {
+    const Index b = col.offsets[k], e = col.offsets[k + 1];
+    parallel_for(e - b, [&](Index lo, Index hi) {
+      for (Index t = lo; t < hi; ++t) body(col.order[b + t]);
+    }, 256);
+  }
+}
+
+template <int N>
+Colouring colour(const std::vector<Eigen::Matrix<Index, N, 1>>& ids, Index num_vertices, std::span<const double> inv_mass) {
+  return colour_constraints(num_vertices, {ids.empty() ? nullptr : ids.front().data(), ids.size() * N}, N, inv_mass);
+}
+
+}  // namespace
+
+// ---- BendingBatch -------------------------------------------------------------------------------
+
+void BendingBatch::add(const Vec4i& v, double theta0, double alpha) {
+  ids.push_back(v);
+  rest_angle.push_back(theta0);
+  compliance.push_back(alpha);
+  lambda.push_back(0.0);
+}
+
+void BendingBatch::finalize(Index num_vertices, std::span<const double> inv_mass) { colouring = colour<4>(ids, num_vertices, inv_mass); }
+
+void BendingBatch::reset_multipliers() { std::fill(lambda.begin(), lambda.end(), 0.0); }
+
+void BendingBatch::solve(Positions& x, std::span<const double> w, double dt) {
+  const double inv_dt2 = 1.0 / (dt * dt);
+  for_each_coloured(colouring, [&](Index c) {
+    const Vec4i& v = ids[c];
+    xpbd::solve_dihedral_bending({&x[v[0]], &x[v[1]], &x[v[2]], &x[v[3]]}, {w[v[0]], w[v[1]], w[v[2]], w[v[3]]}, rest_angle[c],
+                                 compliance[c] * inv_dt2, lambda[c]);
+  });
+}
+
+// ---- StrandBendingBatch -------------------------------------------------------------------------
+
+void StrandBendingBatch::add(const Vec3i& v, double phi0, double alpha) {
+  ids.push_back(v);
+  rest_angle.push_back(phi0);
+  compliance.push_back(alpha);
+  lambda.push_back(0.0);
+}
+
+void StrandBendingBatch::finalize(Index num_vertices, std::span<const double> inv_mass) {
+  colouring = colour<3>(ids, num_vertices, inv_mass);
+}
+
+void StrandBendingBatch::reset_multipliers() { std::fill(lambda.begin(), lambda.end(), 0.0); }
+
+void StrandBendingBatch::solve(Positions& x, std::span<const double> w, double dt) {
+  const double inv_dt2 = 1.0 / (dt * dt);
+  for_each_coloured(colouring, [&](Index c) {
+    const Vec3i& v = ids[c];
+    xpbd::solve_strand_bending({&x[v[0]], &x[v[1]], &x[v[2]]}, {w[v[0]], w[v[1]], w[v[2]]}, rest_angle[c], compliance[c] * inv_dt2,
+                               lambda[c]);
+  });
+}
+
+// ---- TetBatch -----------------------------------------------------------------------------------
+
+bool TetBatch::add(const Vec4i& v, const Positions& rest, double volume_compliance_per_volume, double shear_compliance_per_volume) {
+  Eigen::Matrix3d dm;
+  dm.col(0) = rest[v[1]] - rest[v[0]];
+  dm.col(1) = rest[v[2]] - rest[v[0]];
+  dm.col(2) = rest[v[3]] - rest[v[0]];
+  const double six_v = dm.determinant();
+  // Scale-free degeneracy test: 6V against the cube of the longest edge of the rest tet.
+  double lmax = std::max({dm.col(0).norm(), dm.col(1).norm(), dm.col(2).norm(), (dm.col(1) - dm.col(0)).norm(),
+                          (dm.col(2) - dm.col(0)).norm(), (dm.col(2) - dm.col(1)).norm()});
+  if (!(std::abs(six_v) > 1e-12 * lmax * lmax * lmax)) return false;
+  const double v0 = six_v / 6.0;
+  ids.push_back(v);
+  rest_volume.push_back(v0);
+  rest_inverse.push_back(dm.inverse());
+  // Energy densities λ/2 (J-1)² and μ/2 ‖F-R‖² integrated over V_0 give these per-tet compliances,
+  // so the stiffness does not depend on the mesh resolution.
+  volume_compliance.push_back(36.0 * std::abs(v0) * volume_compliance_per_volume);
+  deviatoric_compliance.push_back(shear_compliance_per_volume / std::abs(v0));
+  lambda_volume.push_back(0.0);
+  lambda_deviatoric.push_back(0.0);
+  return true;
+}
+
+void TetBatch::finalize(Index num_vertices, std::span<const double> inv_mass) { colouring = colour<4>(ids, num_vertices, inv_mass); }
+
+void TetBatch::reset_multipliers() {
+  std::fill(lambda_volume.begin(), lambda_volume.end(), 0.0);
+  std::fill(lambda_deviatoric.begin(), lambda_deviatoric.end(), 0.0);
+}
+
+void TetBatch::solve(Positions& x, std::span<const double> w, double dt) {
+  const double inv_dt2 = 1.0 / (dt * dt);
+  for_each_coloured(colouring, [&](Index c) {
+    const Vec4i& v = ids[c];
+    const std::array<Vec3*, 4> p{&x[v[0]], &x[v[1]], &x[v[2]], &x[v[3]]};
+    const std::array<double, 4> wv{w[v[0]], w[v[1]], w[v[2]], w[v[3]]};
+    xpbd::solve_tet_deviatoric(p, wv, rest_inverse[c], deviatoric_compliance[c] * inv_dt2, lambda_deviatoric[c]);
+    xpbd::solve_tet_volume(p, wv, rest_volume[c], volume_compliance[c] * inv_dt2, lambda_volume[c]);
+  });
+}
+
+// ---- ShapeMatchingBatch -------------------------------------------------------------------------
+
+void ShapeMatchingBatch::add(Index first, Index last, const Positions& rest, std::span<const double> inv_mass) {
+  if (offset.empty()) offset.push_back(0);
+  begin.push_back(first);
+  end.push_back(last);
+  double max_mass = 0.0;
+  for (Index i = first; i < last; ++i) {
+    if (inv_mass[i] > 0.0) max_mass = std::max(max_mass, 1.0 / inv_mass[i]);
+  }
+  // A kinematic vertex has infinite mass: the body must follow it. A weight 1e9 times the heaviest
+  // dynamic vertex reproduces that limit to round-off while the dynamic vertices still fix the
+  // rotation about axes the kinematic ones leave free (one or two pins, or collinear pins).
+  const double kinematic_weight = max_mass > 0.0 ? 1e9 * max_mass : 1.0;
+  const size_t base = weight.size();
+  double total = 0.0;
+  Vec3 centre = Vec3::Zero();
+  for (Index i = first; i < last; ++i) {
+    const double m = inv_mass[i] > 0.0 ? 1.0 / inv_mass[i] : kinematic_weight;
+    weight.push_back(m);
+    total += m;
+    centre += m * rest[i];
+  }
+  centre /= total > 0.0 ? total : 1.0;
+  for (Index i = first; i < last; ++i) rest_offset.push_back(rest[i] - centre);
+  offset.push_back(static_cast<Index>(base) + (last - first));
+}
+
+void ShapeMatchingBatch::solve(Positions& x, std::span<const double> w) const {
+  parallel_for(size(), [&](Index lo, Index hi) {
+    for (Index b = lo; b < hi; ++b) {
+      const size_t n = static_cast<size_t>(end[b] - begin[b]);
+      const size_t o = static_cast<size_t>(offset[b]);
+      xpbd::solve_shape_matching(std::span<Vec3>(x.data() + begin[b], n), w.subspan(static_cast<size_t>(begin[b]), n),
+                                 std::span<const Vec3>(rest_offset.data() + o, n), std::span<const double>(weight.data() + o, n));
+    }
+  }, 1);
+}
+
+// ---- MaterialSystem -----------------------------------------------------------------------------
+
+MaterialSystem::MaterialSystem(const Topology& topo, const SimState& state, const SimulationParams& params) {
+  if (params.objects.size() != topo.objects.size())
+    throw std::logic_error("MaterialSystem: params.objects has " + std::to_string(params.objects.size()) + " entries for " +
+                           std::to_string(topo.objects.size()) + " objects");
+  const auto& rest = state.rest;
+  const std::span<const double> inv_mass = state.inv_mass;
+  const Index nv = topo.num_vertices();
+
+  // Edges by object kind, one pass over the global edge array (edge order kept for determinism).
+  for (Index e = 0; e < topo.num_edges(); ++e) {
+    const Index oi = topo.edge_object[e];
+    switch (topo.objects[oi].kind) {
+      case ObjectKind::cloth:
+      case ObjectKind::shell:
+      case ObjectKind::strand: {
+        const Index i = topo.edges[e][0], j = topo.edges[e][1];
+        distance_.add(i, j, (rest[i] - rest[j]).norm(), params.objects[oi].material.stretch_compliance);
+        break;
+      }
+      default:
+        break;
+    }
+  }
+
+  // Interior edges of cloth and shells: the two faces incident to an edge, from face_edges.
+  // Boundary edges (one face) get no bending; non-manifold edges (three or more faces) are skipped
+  // because no single dihedral angle describes them.
+  std::vector<Index> edge_face_count(static_cast<size_t>(topo.num_edges()), 0);
+  std::vector<Vec2i> edge_faces(static_cast<size_t>(topo.num_edges()), Vec2i(-1, -1));
+  for (Index f = 0; f < topo.num_faces(); ++f) {
+    const auto kind = topo.objects[topo.face_object[f]].kind;
+    if (kind != ObjectKind::cloth && kind != ObjectKind::shell) continue;
+    for (int k = 0; k < 3; ++k) {
+      const Index e = topo.face_edges[f][k];
+      if (edge_face_count[e] < 2) edge_faces[e][edge_face_count[e]] = f;
+      ++edge_face_count[e];
+    }
+  }
+  Index skipped_bending = 0;
+  for (Index e = 0; e < topo.num_edges(); ++e) {
+    if (edge_face_count[e] != 2) continue;
+    const Index a = topo.edges[e][0], b = topo.edges[e][1];
+    auto opposite = [&](Index f) {
+      const Vec3i& t = topo.faces[f];
+      for (int k = 0; k < 3; ++k)
+        if (t[k] != a && t[k] != b) return t[k];
+      return Index{-1};
+    };
+    const Index c = opposite(edge_faces[e][0]), d = opposite(edge_faces[e][1]);
+    std::array<Vec3, 4> g;
+    double theta0 = 0.0;
+    if (c < 0 || d < 0 || c == d || !xpbd::dihedral_angle_gradient(rest[a], rest[b], rest[c], rest[d], theta0, g)) {
+      ++skipped_bending;
+      continue;
+    }
+    bending_.add(Vec4i(a, b, c, d), theta0, params.objects[topo.edge_object[e]].material.bend_compliance);
+  }
+
+  for (size_t oi = 0; oi < topo.objects.size(); ++oi) {
+    const auto& o = topo.objects[oi];
+    const auto& mat = params.objects[oi].material;
+    if (o.kind == ObjectKind::strand) {
+      for (Index p = o.polyline_begin; p < o.polyline_end; ++p) {
+        const auto row = topo.polylines.row(p);
+        for (size_t k = 1; k + 1 < row.size(); ++k) {
+          const Vec3i v(row[k - 1], row[k], row[k + 1]);
+          strand_bending_.add(v, xpbd::turning_angle(rest[v[0]], rest[v[1]], rest[v[2]]), mat.bend_compliance);
+        }
+      }
+    } else if (o.kind == ObjectKind::tet_solid) {
+      Index skipped = 0;
+      for (Index t = o.tet_begin; t < o.tet_end; ++t)
+        if (!tets_.add(topo.tets[t], rest, mat.volume_compliance, mat.shear_compliance)) ++skipped;
+      if (skipped > 0) spdlog::warn("object '{}': {} degenerate rest tets get no material constraint", o.name, skipped);
+    } else if (o.kind == ObjectKind::rigid && o.num_vertices() > 0) {
+      rigid_.add(o.vertex_begin, o.vertex_end, rest, inv_mass);
+    }
+  }
+  if (skipped_bending > 0) spdlog::warn("{} interior edges with degenerate rest triangles get no bending constraint", skipped_bending);
+
+  distance_.finalize(nv, inv_mass);
+  bending_.finalize(nv, inv_mass);
+  strand_bending_.finalize(nv, inv_mass);
+  tets_.finalize(nv, inv_mass);
+}
+
+void MaterialSystem::reset_multipliers() {
+  distance_.reset_multipliers();
+  bending_.reset_multipliers();
+  strand_bending_.reset_multipliers();
+  tets_.reset_multipliers();
+}
+
+void MaterialSystem::solve(Positions& x, std::span<const double> inv_mass, double dt) {
+  distance_.solve(x, inv_mass, dt);
+  bending_.solve(x, inv_mass, dt);
+  strand_bending_.solve(x, inv_mass, dt);
+  tets_.solve(x, inv_mass, dt);
+  rigid_.solve(x, inv_mass);
+}
+
+MaterialSystem::Counts MaterialSystem::counts() const {
+  Counts c;
+  c.distance = distance_.size();
+  c.bending = bending_.size();
+  c.strand_bending = strand_bending_.size();
+  c.tet_volume = tets_.size();
+  c.tet_deviatoric = tets_.size();
+  c.rigid_bodies = rigid_.size();
+  c.colours = distance_.colouring.colours() + bending_.colouring.colours() + strand_bending_.colouring.colours() +
+              tets_.colouring.colours();
+  return c;
+}
+
+}  // namespace ccfr
