@@ -497,14 +497,13 @@ struct MixedScene {
   SimulationParams params;
 };
 
-/// A 4x4-vertex cloth with its top-left corner pinned, a 6-vertex curly strand, a 2x2x2-cell tet
-/// block (5 tets per cell) and a rigid cube surface; all with unit-ish masses.
-MixedScene make_mixed_scene() {
+/// An n-by-n-vertex cloth with its first corner pinned, a 6-vertex curly strand, a 2x2x2-cell tet
+/// block (5 tets per cell), a rigid cube surface, a particle and an obstacle; masses in [0.5, 2].
+MixedScene make_mixed_scene(int n = 4) {
   MixedScene s;
   TopologyBuilder b;
   std::vector<Vec3> pos;
   // Cloth.
-  const int n = 4;
   std::vector<Vec3i> cloth_faces;
   for (int j = 0; j + 1 < n; ++j)
     for (int i = 0; i + 1 < n; ++i) {
@@ -513,7 +512,7 @@ MixedScene make_mixed_scene() {
       cloth_faces.emplace_back(v, v + n + 1, v + n);
     }
   for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i) pos.emplace_back(0.1 * i, 0.02 * std::sin(i + j), 0.1 * j);
+    for (int i = 0; i < n; ++i) pos.emplace_back(0.4 * i / (n - 1), 0.02 * std::sin(i + j), 0.4 * j / (n - 1));
   b.add_object("cloth", ObjectKind::cloth, n * n, cloth_faces);
   // Strand (a helix).
   std::vector<Index> line;
@@ -635,7 +634,8 @@ Positions perturbed(const MixedScene& s, std::uint64_t seed) {
 }
 
 TEST(MaterialSystem, DeterministicAcrossThreadCounts) {
-  const auto s = make_mixed_scene();
+  // A 60x60 cloth makes colours of several hundred constraints, so the 2-thread run really splits them.
+  const auto s = make_mixed_scene(60);
   std::vector<Positions> results;
   for (int threads : {1, 2}) {
     set_thread_count(threads);
