@@ -56,8 +56,8 @@ bool dihedral_angle_gradient(const Vec3& x0, const Vec3& x1, const Vec3& x2, con
   return true;
 }
 
-void solve_dihedral_bending(const std::array<Vec3*, 4>& x, const std::array<double, 4>& w, double rest_angle, double alpha_tilde,
-                            double& lambda) {
+void solve_dihedral_bending(const std::array<Vec3*, 4>& x, const std::array<double, 4>& w, double rest_angle,
+                            double alpha_tilde, double& lambda) {
   double theta = 0.0;
   std::array<Vec3, 4> g;
   if (!dihedral_angle_gradient(*x[0], *x[1], *x[2], *x[3], theta, g)) return;
@@ -86,8 +86,8 @@ bool turning_angle_gradient(const Vec3& x0, const Vec3& x1, const Vec3& x2, doub
   return true;
 }
 
-void solve_strand_bending(const std::array<Vec3*, 3>& x, const std::array<double, 3>& w, double rest_angle, double alpha_tilde,
-                          double& lambda) {
+void solve_strand_bending(const std::array<Vec3*, 3>& x, const std::array<double, 3>& w, double rest_angle,
+                          double alpha_tilde, double& lambda) {
   double phi = 0.0;
   std::array<Vec3, 3> g;
   if (!turning_angle_gradient(*x[0], *x[1], *x[2], phi, g)) return;
@@ -107,8 +107,8 @@ double tet_volume_constraint(const std::array<Vec3, 4>& x, double rest_volume, s
   return d1.dot(grad[1]) - 6.0 * rest_volume;
 }
 
-void solve_tet_volume(const std::array<Vec3*, 4>& x, const std::array<double, 4>& w, double rest_volume, double alpha_tilde,
-                      double& lambda) {
+void solve_tet_volume(const std::array<Vec3*, 4>& x, const std::array<double, 4>& w, double rest_volume,
+                      double alpha_tilde, double& lambda) {
   std::array<Vec3, 4> g;
   const double c = tet_volume_constraint({*x[0], *x[1], *x[2], *x[3]}, rest_volume, g);
   apply_update<4>(x, w, g, c, alpha_tilde, lambda);
@@ -135,8 +135,8 @@ bool tet_deviatoric_constraint(const std::array<Vec3, 4>& x, const Eigen::Matrix
   return true;
 }
 
-void solve_tet_deviatoric(const std::array<Vec3*, 4>& x, const std::array<double, 4>& w, const Eigen::Matrix3d& rest_inverse,
-                          double alpha_tilde, double& lambda) {
+void solve_tet_deviatoric(const std::array<Vec3*, 4>& x, const std::array<double, 4>& w,
+                          const Eigen::Matrix3d& rest_inverse, double alpha_tilde, double& lambda) {
   double c = 0.0;
   std::array<Vec3, 4> g;
   if (!tet_deviatoric_constraint({*x[0], *x[1], *x[2], *x[3]}, rest_inverse, c, g)) return;
@@ -153,7 +153,8 @@ Eigen::Matrix3d polar_rotation(const Eigen::Matrix3d& a) {
   return u * d.asDiagonal() * v.transpose();
 }
 
-void solve_shape_matching(std::span<Vec3> x, std::span<const double> w, std::span<const Vec3> q, std::span<const double> m) {
+void solve_shape_matching(std::span<Vec3> x, std::span<const double> w, std::span<const Vec3> q,
+                          std::span<const double> m) {
   const size_t n = x.size();
   double total = 0.0;
   Vec3 c = Vec3::Zero();
@@ -180,14 +181,18 @@ template <class Body>
 void for_each_coloured(const Colouring& col, Body&& body) {
   for (Index k = 0; k < col.colours(); ++k) {
     const Index b = col.offsets[k], e = col.offsets[k + 1];
-    parallel_for(e - b, [&](Index lo, Index hi) {
-      for (Index t = lo; t < hi; ++t) body(col.order[b + t]);
-    }, 256);
+    parallel_for(
+        e - b,
+        [&](Index lo, Index hi) {
+          for (Index t = lo; t < hi; ++t) body(col.order[b + t]);
+        },
+        256);
   }
 }
 
 template <int N>
-Colouring colour(const std::vector<Eigen::Matrix<Index, N, 1>>& ids, Index num_vertices, std::span<const double> inv_mass) {
+Colouring colour(const std::vector<Eigen::Matrix<Index, N, 1>>& ids, Index num_vertices,
+                 std::span<const double> inv_mass) {
   return colour_constraints(num_vertices, {ids.empty() ? nullptr : ids.front().data(), ids.size() * N}, N, inv_mass);
 }
 
@@ -202,7 +207,9 @@ void BendingBatch::add(const Vec4i& v, double theta0, double alpha) {
   lambda.push_back(0.0);
 }
 
-void BendingBatch::finalize(Index num_vertices, std::span<const double> inv_mass) { colouring = colour<4>(ids, num_vertices, inv_mass); }
+void BendingBatch::finalize(Index num_vertices, std::span<const double> inv_mass) {
+  colouring = colour<4>(ids, num_vertices, inv_mass);
+}
 
 void BendingBatch::reset_multipliers() { std::fill(lambda.begin(), lambda.end(), 0.0); }
 
@@ -210,8 +217,8 @@ void BendingBatch::solve(Positions& x, std::span<const double> w, double dt) {
   const double inv_dt2 = 1.0 / (dt * dt);
   for_each_coloured(colouring, [&](Index c) {
     const Vec4i& v = ids[c];
-    xpbd::solve_dihedral_bending({&x[v[0]], &x[v[1]], &x[v[2]], &x[v[3]]}, {w[v[0]], w[v[1]], w[v[2]], w[v[3]]}, rest_angle[c],
-                                 compliance[c] * inv_dt2, lambda[c]);
+    xpbd::solve_dihedral_bending({&x[v[0]], &x[v[1]], &x[v[2]], &x[v[3]]}, {w[v[0]], w[v[1]], w[v[2]], w[v[3]]},
+                                 rest_angle[c], compliance[c] * inv_dt2, lambda[c]);
   });
 }
 
@@ -234,14 +241,15 @@ void StrandBendingBatch::solve(Positions& x, std::span<const double> w, double d
   const double inv_dt2 = 1.0 / (dt * dt);
   for_each_coloured(colouring, [&](Index c) {
     const Vec3i& v = ids[c];
-    xpbd::solve_strand_bending({&x[v[0]], &x[v[1]], &x[v[2]]}, {w[v[0]], w[v[1]], w[v[2]]}, rest_angle[c], compliance[c] * inv_dt2,
-                               lambda[c]);
+    xpbd::solve_strand_bending({&x[v[0]], &x[v[1]], &x[v[2]]}, {w[v[0]], w[v[1]], w[v[2]]}, rest_angle[c],
+                               compliance[c] * inv_dt2, lambda[c]);
   });
 }
 
 // ---- TetBatch -----------------------------------------------------------------------------------
 
-bool TetBatch::add(const Vec4i& v, const Positions& rest, double volume_compliance_per_volume, double shear_compliance_per_volume) {
+bool TetBatch::add(const Vec4i& v, const Positions& rest, double volume_compliance_per_volume,
+                   double shear_compliance_per_volume) {
   Eigen::Matrix3d dm;
   dm.col(0) = rest[v[1]] - rest[v[0]];
   dm.col(1) = rest[v[2]] - rest[v[0]];
@@ -264,7 +272,9 @@ bool TetBatch::add(const Vec4i& v, const Positions& rest, double volume_complian
   return true;
 }
 
-void TetBatch::finalize(Index num_vertices, std::span<const double> inv_mass) { colouring = colour<4>(ids, num_vertices, inv_mass); }
+void TetBatch::finalize(Index num_vertices, std::span<const double> inv_mass) {
+  colouring = colour<4>(ids, num_vertices, inv_mass);
+}
 
 void TetBatch::reset_multipliers() {
   std::fill(lambda_volume.begin(), lambda_volume.end(), 0.0);
@@ -311,22 +321,26 @@ void ShapeMatchingBatch::add(Index first, Index last, const Positions& rest, std
 }
 
 void ShapeMatchingBatch::solve(Positions& x, std::span<const double> w) const {
-  parallel_for(size(), [&](Index lo, Index hi) {
-    for (Index b = lo; b < hi; ++b) {
-      const size_t n = static_cast<size_t>(end[b] - begin[b]);
-      const size_t o = static_cast<size_t>(offset[b]);
-      xpbd::solve_shape_matching(std::span<Vec3>(x.data() + begin[b], n), w.subspan(static_cast<size_t>(begin[b]), n),
-                                 std::span<const Vec3>(rest_offset.data() + o, n), std::span<const double>(weight.data() + o, n));
-    }
-  }, 1);
+  parallel_for(
+      size(),
+      [&](Index lo, Index hi) {
+        for (Index b = lo; b < hi; ++b) {
+          const size_t n = static_cast<size_t>(end[b] - begin[b]);
+          const size_t o = static_cast<size_t>(offset[b]);
+          xpbd::solve_shape_matching(
+              std::span<Vec3>(x.data() + begin[b], n), w.subspan(static_cast<size_t>(begin[b]), n),
+              std::span<const Vec3>(rest_offset.data() + o, n), std::span<const double>(weight.data() + o, n));
+        }
+      },
+      1);
 }
 
 // ---- MaterialSystem -----------------------------------------------------------------------------
 
 MaterialSystem::MaterialSystem(const Topology& topo, const SimState& state, const SimulationParams& params) {
   if (params.objects.size() != topo.objects.size())
-    throw std::logic_error("MaterialSystem: params.objects has " + std::to_string(params.objects.size()) + " entries for " +
-                           std::to_string(topo.objects.size()) + " objects");
+    throw std::logic_error("MaterialSystem: params.objects has " + std::to_string(params.objects.size()) +
+                           " entries for " + std::to_string(topo.objects.size()) + " objects");
   const auto& rest = state.rest;
   const std::span<const double> inv_mass = state.inv_mass;
   const Index nv = topo.num_vertices();
@@ -401,7 +415,8 @@ MaterialSystem::MaterialSystem(const Topology& topo, const SimState& state, cons
       rigid_.add(o.vertex_begin, o.vertex_end, rest, inv_mass);
     }
   }
-  if (skipped_bending > 0) spdlog::warn("{} interior edges with degenerate rest triangles get no bending constraint", skipped_bending);
+  if (skipped_bending > 0)
+    spdlog::warn("{} interior edges with degenerate rest triangles get no bending constraint", skipped_bending);
 
   distance_.finalize(nv, inv_mass);
   bending_.finalize(nv, inv_mass);

@@ -36,7 +36,8 @@ Mat3 random_rotation(std::mt19937_64& g) {
 
 /// Central finite-difference gradient of f with respect to each of the N points.
 template <int N>
-std::array<Vec3, N> fd_gradient(std::array<Vec3, N> x, const std::function<double(const std::array<Vec3, N>&)>& f, double h = 1e-6) {
+std::array<Vec3, N> fd_gradient(std::array<Vec3, N> x, const std::function<double(const std::array<Vec3, N>&)>& f,
+                                double h = 1e-6) {
   std::array<Vec3, N> g;
   for (int k = 0; k < N; ++k)
     for (int d = 0; d < 3; ++d) {
@@ -102,7 +103,8 @@ TEST(MaterialGradients, DihedralAngleMatchesFiniteDifferences) {
     std::array<Vec3, 4> grad;
     ASSERT_TRUE(xpbd::dihedral_angle_gradient(x[0], x[1], x[2], x[3], theta, grad));
     EXPECT_NEAR(theta, xpbd::dihedral_angle(x[0], x[1], x[2], x[3]), 1e-14);
-    const auto fd = fd_gradient<4>(x, [](const std::array<Vec3, 4>& p) { return xpbd::dihedral_angle(p[0], p[1], p[2], p[3]); });
+    const auto fd =
+        fd_gradient<4>(x, [](const std::array<Vec3, 4>& p) { return xpbd::dihedral_angle(p[0], p[1], p[2], p[3]); });
     EXPECT_LT(max_abs_diff<4>(grad, fd), 1e-6) << "trial " << trial;
   }
 }
@@ -111,8 +113,8 @@ TEST(MaterialGradients, DihedralAngleSignAndRange) {
   // Flat pair: 0. Lifting the second wing by h gives θ ≈ -h; a right-angle fold gives ±π/2.
   EXPECT_NEAR(xpbd::dihedral_angle(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, -1, 0)), 0.0, 1e-15);
   EXPECT_NEAR(xpbd::dihedral_angle(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, -1, 1e-4)), -1e-4, 1e-10);
-  EXPECT_NEAR(std::abs(xpbd::dihedral_angle(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1))), std::numbers::pi / 2,
-              1e-14);
+  EXPECT_NEAR(std::abs(xpbd::dihedral_angle(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1))),
+              std::numbers::pi / 2, 1e-14);
 }
 
 TEST(MaterialGradients, TurningAngleMatchesFiniteDifferences) {
@@ -124,7 +126,8 @@ TEST(MaterialGradients, TurningAngleMatchesFiniteDifferences) {
     std::array<Vec3, 3> grad;
     ASSERT_TRUE(xpbd::turning_angle_gradient(x[0], x[1], x[2], phi, grad));
     EXPECT_NEAR(phi, xpbd::turning_angle(x[0], x[1], x[2]), 1e-14);
-    const auto fd = fd_gradient<3>(x, [](const std::array<Vec3, 3>& p) { return xpbd::turning_angle(p[0], p[1], p[2]); });
+    const auto fd =
+        fd_gradient<3>(x, [](const std::array<Vec3, 3>& p) { return xpbd::turning_angle(p[0], p[1], p[2]); });
     EXPECT_LT(max_abs_diff<3>(grad, fd), 1e-6) << "trial " << trial;
   }
   EXPECT_NEAR(xpbd::turning_angle(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0)), std::numbers::pi / 2, 1e-15);
@@ -335,7 +338,9 @@ TEST(MaterialInvariance, RigidMotionsGiveZeroConstraintAndZeroCorrection) {
     // C_D is zero up to round-off: either reported as satisfied (false) or as a round-off value.
     double c = 0.0;
     std::array<Vec3, 4> grad;
-    if (xpbd::tet_deviatoric_constraint(xt, dm_inv, c, grad)) EXPECT_NEAR(c, 0.0, 1e-12);
+    if (xpbd::tet_deviatoric_constraint(xt, dm_inv, c, grad)) {
+      EXPECT_NEAR(c, 0.0, 1e-12);
+    }
     EXPECT_NEAR(xpbd::tet_volume_constraint(xt, v0, grad), 0.0, 1e-12);
     double l1 = 0.0, l2 = 0.0;
     xpbd::solve_tet_deviatoric(ptrs<4>(xt), {1, 1, 1, 1}, dm_inv, 0.0, l1);
@@ -370,10 +375,10 @@ TEST(MaterialDegenerate, ZeroAreaTrianglesAreSkipped) {
 
 TEST(MaterialDegenerate, CollinearAndCoincidentStrandPoints) {
   const std::vector<std::array<Vec3, 3>> cases{
-      {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(2, 0, 0)},   // straight
-      {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 0, 0)},   // folded back
-      {Vec3(0, 0, 0), Vec3(0, 0, 0), Vec3(1, 1, 0)},   // zero-length segment
-      {Vec3(1, 1, 1), Vec3(1, 1, 1), Vec3(1, 1, 1)},   // all coincident
+      {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(2, 0, 0)},  // straight
+      {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 0, 0)},  // folded back
+      {Vec3(0, 0, 0), Vec3(0, 0, 0), Vec3(1, 1, 0)},  // zero-length segment
+      {Vec3(1, 1, 1), Vec3(1, 1, 1), Vec3(1, 1, 1)},  // all coincident
   };
   for (const auto& c : cases) {
     auto x = c;
@@ -464,7 +469,7 @@ TEST(ShapeMatching, PolarRotationIsAProperRotation) {
   for (int trial = 0; trial < 50; ++trial) {
     Mat3 a = Mat3::Random();
     if (trial % 3 == 0) a.col(2) = a.col(0) * 0.5;  // rank deficient
-    if (trial % 5 == 0) a = -a;                      // reflection part
+    if (trial % 5 == 0) a = -a;                     // reflection part
     const Mat3 r = xpbd::polar_rotation(a);
     EXPECT_NEAR(r.determinant(), 1.0, 1e-12);
     EXPECT_LT((r.transpose() * r - Mat3::Identity()).norm(), 1e-12);
@@ -531,8 +536,10 @@ MixedScene make_mixed_scene(int n = 4) {
         Index c[8];
         for (int a = 0; a < 8; ++a) c[a] = gid(i + (a & 1), j + ((a >> 1) & 1), k + ((a >> 2) & 1));
         const bool flip = (i + j + k) % 2 == 1;
-        const std::array<std::array<int, 4>, 5> even{{{0, 1, 2, 4}, {1, 3, 2, 7}, {1, 4, 5, 7}, {2, 7, 6, 4}, {1, 2, 4, 7}}};
-        const std::array<std::array<int, 4>, 5> odd{{{0, 1, 3, 5}, {0, 3, 2, 6}, {0, 5, 4, 6}, {3, 5, 7, 6}, {0, 3, 5, 6}}};
+        const std::array<std::array<int, 4>, 5> even{
+            {{0, 1, 2, 4}, {1, 3, 2, 7}, {1, 4, 5, 7}, {2, 7, 6, 4}, {1, 2, 4, 7}}};
+        const std::array<std::array<int, 4>, 5> odd{
+            {{0, 1, 3, 5}, {0, 3, 2, 6}, {0, 5, 4, 6}, {3, 5, 7, 6}, {0, 3, 5, 6}}};
         for (const auto& t : flip ? odd : even) tets.emplace_back(c[t[0]], c[t[1]], c[t[2]], c[t[3]]);
       }
   std::vector<Vec3> block;
@@ -593,7 +600,8 @@ TEST(MaterialSystem, CountsFollowObjectKinds) {
 
 /// No two constraints of one colour share a dynamic vertex (brute force over pairs).
 template <int N>
-void expect_valid_colouring(const std::vector<Eigen::Matrix<Index, N, 1>>& ids, const Colouring& col, std::span<const double> w) {
+void expect_valid_colouring(const std::vector<Eigen::Matrix<Index, N, 1>>& ids, const Colouring& col,
+                            std::span<const double> w) {
   ASSERT_EQ(static_cast<size_t>(col.offsets.back()), ids.size());
   std::set<Index> seen(col.order.begin(), col.order.end());
   EXPECT_EQ(seen.size(), ids.size());
@@ -659,7 +667,9 @@ TEST(MaterialSystem, SweepsRestoreShapesAndKeepKinematicVertices) {
   for (int sweep = 0; sweep < 60; ++sweep) ms.solve(x, s.state.inv_mass, 1e-2);
   for (size_t i = 0; i < x.size(); ++i) {
     ASSERT_TRUE(x[i].allFinite());
-    if (s.state.inv_mass[i] == 0.0) EXPECT_EQ(x[i], x0[i]);
+    if (s.state.inv_mass[i] == 0.0) {
+      EXPECT_EQ(x[i], x0[i]);
+    }
   }
   // The rigid cube is exactly congruent to its rest shape after the sweep.
   const auto& ball = s.topo.objects[3];
@@ -694,6 +704,53 @@ TEST(MaterialSystem, PinnedRigidBodyFollowsItsPins) {
   for (Index i = ball.vertex_begin; i < ball.vertex_end; ++i)
     for (Index j = i + 1; j < ball.vertex_end; ++j)
       EXPECT_NEAR((x[i] - x[j]).norm(), (s.state.rest[i] - s.state.rest[j]).norm(), 1e-7);
+}
+
+/// Tip drop of a horizontal 11-vertex strand clamped at its first two vertices after 1 s under
+/// gravity with a plain XPBD integrator and MaterialSystem (damped, so it settles).
+double cantilever_tip_drop(double bend_compliance) {
+  TopologyBuilder b;
+  std::vector<Index> line;
+  for (Index k = 0; k < 11; ++k) line.push_back(k);
+  b.add_object("wire", ObjectKind::strand, 11, {}, {}, {line});
+  const Topology topo = b.finish();
+  SimState st;
+  st.resize(11);
+  for (Index k = 0; k < 11; ++k) st.rest[k] = st.x[k] = Vec3(0.02 * k, 0, 0);
+  st.inv_mass.assign(11, 1.0 / 0.002);
+  st.inv_mass[0] = st.inv_mass[1] = 0.0;
+  SimulationParams p;
+  p.objects.resize(1);
+  p.objects[0].material.bend_compliance = bend_compliance;
+  MaterialSystem ms(topo, st, p);
+  const double dt = 1.0 / 600.0;
+  const Vec3 gravity(0, -9.81, 0);
+  for (int step = 0; step < 600; ++step) {
+    Positions x = st.x;
+    for (Index k = 0; k < 11; ++k)
+      if (st.inv_mass[k] > 0.0) x[k] += dt * st.v[k] + dt * dt * gravity;
+    ms.reset_multipliers();
+    for (int sweep = 0; sweep < 10; ++sweep) ms.solve(x, st.inv_mass, dt);
+    for (Index k = 0; k < 11; ++k) {
+      st.v[k] = 0.98 * (x[k] - st.x[k]) / dt;
+      st.x[k] = x[k];
+    }
+  }
+  for (const auto& v : st.x) EXPECT_TRUE(v.allFinite());
+  // Inextensible segments stay at their rest length.
+  for (Index k = 0; k < 10; ++k) EXPECT_NEAR((st.x[k + 1] - st.x[k]).norm(), 0.02, 1e-3);
+  return -st.x[10].y();
+}
+
+TEST(MaterialSystem, CantileverDroopsMoreWithLargerBendCompliance) {
+  double previous = -1.0;
+  for (double alpha : {1e-4, 1e-2, 1.0, 100.0}) {
+    const double drop = cantilever_tip_drop(alpha);
+    EXPECT_GT(drop, previous) << "bend_compliance " << alpha;
+    previous = drop;
+  }
+  EXPECT_LT(cantilever_tip_drop(1e-6), 0.01);  // stiff wire: nearly straight (sag of 10 sweeps only)
+  EXPECT_GT(cantilever_tip_drop(1e4), 0.15);   // limp wire: hangs nearly straight down (length 0.2)
 }
 
 TEST(MaterialSystem, RejectsMismatchedParameters) {

@@ -32,8 +32,8 @@ namespace xpbd {
 /// Applies one XPBD update for a scalar constraint of `N` vertices given its value and gradient.
 /// Returns Δλ (0 when every vertex is kinematic or the gradient vanishes).
 template <int N>
-double apply_update(const std::array<Vec3*, N>& x, const std::array<double, N>& w, const std::array<Vec3, N>& grad, double c,
-                    double alpha_tilde, double& lambda) {
+double apply_update(const std::array<Vec3*, N>& x, const std::array<double, N>& w, const std::array<Vec3, N>& grad,
+                    double c, double alpha_tilde, double& lambda) {
   double denom = alpha_tilde;
   for (int k = 0; k < N; ++k) denom += w[k] * grad[k].squaredNorm();
   if (!(denom > 0.0)) return 0.0;
@@ -48,10 +48,10 @@ double apply_update(const std::array<Vec3*, N>& x, const std::array<double, N>& 
 // Cloth and shell bending
 
 /// Signed dihedral angle \f$\theta \in (-\pi, \pi]\f$ across the edge \f$(\mathbf{x}_0, \mathbf{x}_1)\f$
-/// shared by the triangles \f$(\mathbf{x}_0, \mathbf{x}_1, \mathbf{x}_2)\f$ and \f$(\mathbf{x}_0, \mathbf{x}_3, \mathbf{x}_1)\f$:
-/// with \f$\mathbf{e} = \mathbf{x}_1 - \mathbf{x}_0\f$, \f$\mathbf{n}_1 = \mathbf{e} \times (\mathbf{x}_2 - \mathbf{x}_0)\f$,
-/// \f$\mathbf{n}_2 = (\mathbf{x}_3 - \mathbf{x}_0) \times \mathbf{e}\f$,
-/// \f[ \theta = \operatorname{atan2}\big((\hat{\mathbf{n}}_1 \times \hat{\mathbf{n}}_2) \cdot \hat{\mathbf{e}},\;
+/// shared by the triangles \f$(\mathbf{x}_0, \mathbf{x}_1, \mathbf{x}_2)\f$ and \f$(\mathbf{x}_0, \mathbf{x}_3,
+/// \mathbf{x}_1)\f$: with \f$\mathbf{e} = \mathbf{x}_1 - \mathbf{x}_0\f$, \f$\mathbf{n}_1 = \mathbf{e} \times
+/// (\mathbf{x}_2 - \mathbf{x}_0)\f$, \f$\mathbf{n}_2 = (\mathbf{x}_3 - \mathbf{x}_0) \times \mathbf{e}\f$, \f[ \theta =
+/// \operatorname{atan2}\big((\hat{\mathbf{n}}_1 \times \hat{\mathbf{n}}_2) \cdot \hat{\mathbf{e}},\;
 ///     \hat{\mathbf{n}}_1 \cdot \hat{\mathbf{n}}_2\big). \f]
 /// A flat pair (x_2 and x_3 on opposite sides of the edge) has θ = 0. Returns 0 for degenerate triangles.
 double dihedral_angle(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Vec3& x3);
@@ -59,8 +59,10 @@ double dihedral_angle(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Vec3
 /// θ (as `dihedral_angle`) and its gradient with respect to (x_0, x_1, x_2, x_3) (Bridson et al. 2003):
 /// \f[ \nabla_2\theta = -\frac{|\mathbf{e}|}{|\mathbf{n}_1|^2}\mathbf{n}_1,\quad
 ///     \nabla_3\theta = -\frac{|\mathbf{e}|}{|\mathbf{n}_2|^2}\mathbf{n}_2,\quad
-///     \nabla_0\theta = -\frac{(\mathbf{x}_2 - \mathbf{x}_1)\cdot\mathbf{e}}{|\mathbf{e}|\,|\mathbf{n}_1|^2}\mathbf{n}_1
-///                      -\frac{(\mathbf{x}_3 - \mathbf{x}_1)\cdot\mathbf{e}}{|\mathbf{e}|\,|\mathbf{n}_2|^2}\mathbf{n}_2,\quad
+///     \nabla_0\theta = -\frac{(\mathbf{x}_2 -
+///     \mathbf{x}_1)\cdot\mathbf{e}}{|\mathbf{e}|\,|\mathbf{n}_1|^2}\mathbf{n}_1
+///                      -\frac{(\mathbf{x}_3 -
+///                      \mathbf{x}_1)\cdot\mathbf{e}}{|\mathbf{e}|\,|\mathbf{n}_2|^2}\mathbf{n}_2,\quad
 ///     \nabla_1\theta = -\nabla_0\theta - \nabla_2\theta - \nabla_3\theta. \f]
 /// Returns false (grad untouched) when the edge or either triangle is degenerate: the gradient
 /// grows as 1/height and is undefined at zero area.
@@ -70,22 +72,24 @@ bool dihedral_angle_gradient(const Vec3& x0, const Vec3& x1, const Vec3& x2, con
 /// Dihedral bending (Müller et al. 2007, in XPBD form): \f$C = \operatorname{wrap}(\theta - \theta_0)\f$ with
 /// wrap into \f$(-\pi, \pi]\f$, compliance α in rad²/J = 1/(N·m). x = (x_0, x_1, x_2, x_3) as in
 /// `dihedral_angle`. Skips degenerate triangles.
-void solve_dihedral_bending(const std::array<Vec3*, 4>& x, const std::array<double, 4>& w, double rest_angle, double alpha_tilde,
-                            double& lambda);
+void solve_dihedral_bending(const std::array<Vec3*, 4>& x, const std::array<double, 4>& w, double rest_angle,
+                            double alpha_tilde, double& lambda);
 
 // ---------------------------------------------------------------------------------------------
 // Strand bending
 
-/// Turning angle at x_1 of the polyline x_0, x_1, x_2: the angle between \f$\mathbf{e}_1 = \mathbf{x}_1 - \mathbf{x}_0\f$
-/// and \f$\mathbf{e}_2 = \mathbf{x}_2 - \mathbf{x}_1\f$, \f$\varphi = \operatorname{atan2}(|\mathbf{e}_1 \times \mathbf{e}_2|,
-/// \mathbf{e}_1 \cdot \mathbf{e}_2) \in [0, \pi]\f$ (0 for a straight strand). Returns 0 for zero-length segments.
+/// Turning angle at x_1 of the polyline x_0, x_1, x_2: the angle between \f$\mathbf{e}_1 = \mathbf{x}_1 -
+/// \mathbf{x}_0\f$ and \f$\mathbf{e}_2 = \mathbf{x}_2 - \mathbf{x}_1\f$, \f$\varphi =
+/// \operatorname{atan2}(|\mathbf{e}_1 \times \mathbf{e}_2|, \mathbf{e}_1 \cdot \mathbf{e}_2) \in [0, \pi]\f$ (0 for a
+/// straight strand). Returns 0 for zero-length segments.
 double turning_angle(const Vec3& x0, const Vec3& x1, const Vec3& x2);
 
 /// φ (as `turning_angle`) and its gradient with respect to (x_0, x_1, x_2): with unit directions
 /// \f$\mathbf{u} = \hat{\mathbf{e}}_1\f$, \f$\mathbf{v} = \hat{\mathbf{e}}_2\f$,
 /// \f$\mathbf{p}_1 = (\mathbf{v} - (\mathbf{u}\cdot\mathbf{v})\mathbf{u}) / \sin\varphi\f$,
 /// \f$\mathbf{p}_2 = (\mathbf{u} - (\mathbf{u}\cdot\mathbf{v})\mathbf{v}) / \sin\varphi\f$:
-/// \f[ \nabla_0\varphi = \frac{\mathbf{p}_1}{|\mathbf{e}_1|},\quad \nabla_2\varphi = -\frac{\mathbf{p}_2}{|\mathbf{e}_2|},\quad
+/// \f[ \nabla_0\varphi = \frac{\mathbf{p}_1}{|\mathbf{e}_1|},\quad \nabla_2\varphi =
+/// -\frac{\mathbf{p}_2}{|\mathbf{e}_2|},\quad
 ///     \nabla_1\varphi = -\nabla_0\varphi - \nabla_2\varphi. \f]
 /// Returns false when a segment has zero length or the points are collinear (sin φ = 0): φ is not
 /// differentiable there (a cone point, like a distance constraint at zero length).
@@ -94,14 +98,14 @@ bool turning_angle_gradient(const Vec3& x0, const Vec3& x1, const Vec3& x2, doub
 /// Strand bending: \f$C = \varphi - \varphi_0\f$ on consecutive segments, compliance α in rad²/J = 1/(N·m).
 /// For a straight rest shape (φ_0 = 0) this is a cone constraint whose correction always straightens
 /// the strand; collinear current points have C = -φ_0 ≤ 0 with no defined direction and are skipped.
-void solve_strand_bending(const std::array<Vec3*, 3>& x, const std::array<double, 3>& w, double rest_angle, double alpha_tilde,
-                          double& lambda);
+void solve_strand_bending(const std::array<Vec3*, 3>& x, const std::array<double, 3>& w, double rest_angle,
+                          double alpha_tilde, double& lambda);
 
 // ---------------------------------------------------------------------------------------------
 // Tetrahedral solids
 
-/// Six times the signed volume, \f$6V = (\mathbf{x}_1 - \mathbf{x}_0) \cdot ((\mathbf{x}_2 - \mathbf{x}_0) \times (\mathbf{x}_3 - \mathbf{x}_0))\f$
-/// (positive for a positively oriented tet).
+/// Six times the signed volume, \f$6V = (\mathbf{x}_1 - \mathbf{x}_0) \cdot ((\mathbf{x}_2 - \mathbf{x}_0) \times
+/// (\mathbf{x}_3 - \mathbf{x}_0))\f$ (positive for a positively oriented tet).
 double tet_six_volume(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Vec3& x3);
 
 /// Volume constraint \f$C_V = 6(V - V_0)\f$ and its gradient:
@@ -114,15 +118,16 @@ double tet_volume_constraint(const std::array<Vec3, 4>& x, double rest_volume, s
 /// Volume preservation: \f$C_V = 6(V - V_0)\f$, compliance α in m⁶/J (MaterialSystem uses
 /// α = 36 V_0 · volume_compliance with volume_compliance = 1/λ in 1/Pa). Inverted tets are pushed back
 /// toward V_0 > 0; a flat tet with a vanishing gradient (all points coincident or collinear) is skipped.
-void solve_tet_volume(const std::array<Vec3*, 4>& x, const std::array<double, 4>& w, double rest_volume, double alpha_tilde,
-                      double& lambda);
+void solve_tet_volume(const std::array<Vec3*, 4>& x, const std::array<double, 4>& w, double rest_volume,
+                      double alpha_tilde, double& lambda);
 
 /// Deviatoric (co-rotational shape) constraint \f$C_D = \|\mathbf{F} - \mathbf{R}\|_F\f$ with
-/// \f$\mathbf{F} = \mathbf{D}_s \mathbf{D}_m^{-1}\f$, \f$\mathbf{D}_s = [\mathbf{x}_1 - \mathbf{x}_0,\ \mathbf{x}_2 - \mathbf{x}_0,\ \mathbf{x}_3 - \mathbf{x}_0]\f$
-/// (3 by 3), `rest_inverse` = \f$\mathbf{D}_m^{-1}\f$ of the rest shape and R = `polar_rotation`(F) (det R = +1).
-/// Its energy \f$\tfrac12 C_D^2/\alpha\f$ is the as-rigid-as-possible / co-rotational energy; since R minimises
-/// \f$\|\mathbf{F} - \mathbf{R}\|\f$ over rotations, \f$\partial C_D/\partial\mathbf{F} = (\mathbf{F} - \mathbf{R})/C_D\f$, and the gradient
-/// is given by the columns of \f$\mathbf{H} = (\mathbf{F} - \mathbf{R})\mathbf{D}_m^{-T} / C_D\f$ for x_1..x_3, \f$\nabla_0 C_D = -\sum_k \mathbf{H}_{:,k}\f$.
+/// \f$\mathbf{F} = \mathbf{D}_s \mathbf{D}_m^{-1}\f$, \f$\mathbf{D}_s = [\mathbf{x}_1 - \mathbf{x}_0,\ \mathbf{x}_2 -
+/// \mathbf{x}_0,\ \mathbf{x}_3 - \mathbf{x}_0]\f$ (3 by 3), `rest_inverse` = \f$\mathbf{D}_m^{-1}\f$ of the rest shape
+/// and R = `polar_rotation`(F) (det R = +1). Its energy \f$\tfrac12 C_D^2/\alpha\f$ is the as-rigid-as-possible /
+/// co-rotational energy; since R minimises \f$\|\mathbf{F} - \mathbf{R}\|\f$ over rotations, \f$\partial
+/// C_D/\partial\mathbf{F} = (\mathbf{F} - \mathbf{R})/C_D\f$, and the gradient is given by the columns of \f$\mathbf{H}
+/// = (\mathbf{F} - \mathbf{R})\mathbf{D}_m^{-T} / C_D\f$ for x_1..x_3, \f$\nabla_0 C_D = -\sum_k \mathbf{H}_{:,k}\f$.
 /// Unlike \f$\|\mathbf{F}\|_F - \sqrt{3}\f$ (the stable Neo-Hookean term shifted to vanish at rest), it resists
 /// shear to first order. Returns false when C_D = 0 (a rotation: satisfied, direction undefined like a
 /// zero-length distance constraint); inverted tets get R with det +1 and are pushed back to positive volume.
@@ -131,24 +136,27 @@ bool tet_deviatoric_constraint(const std::array<Vec3, 4>& x, const Eigen::Matrix
 
 /// Deviatoric (shape) term: \f$C_D = \|\mathbf{F} - \mathbf{R}\|_F\f$, compliance α in 1/J (MaterialSystem uses
 /// α = shear_compliance / V_0 with shear_compliance = 1/μ in 1/Pa). Finite for inverted and flat tets.
-void solve_tet_deviatoric(const std::array<Vec3*, 4>& x, const std::array<double, 4>& w, const Eigen::Matrix3d& rest_inverse,
-                          double alpha_tilde, double& lambda);
+void solve_tet_deviatoric(const std::array<Vec3*, 4>& x, const std::array<double, 4>& w,
+                          const Eigen::Matrix3d& rest_inverse, double alpha_tilde, double& lambda);
 
 // ---------------------------------------------------------------------------------------------
 // Rigid bodies
 
 /// Rotation part of the polar decomposition \f$\mathbf{A} = \mathbf{R}\mathbf{S}\f$ from the SVD
-/// \f$\mathbf{A} = \mathbf{U}\boldsymbol{\Sigma}\mathbf{V}^T\f$: \f$\mathbf{R} = \mathbf{U}\,\mathrm{diag}(1, 1, \det(\mathbf{U}\mathbf{V}^T))\,\mathbf{V}^T\f$,
-/// so det R = +1 even for reflections or rank-deficient A (flat or collinear bodies).
+/// \f$\mathbf{A} = \mathbf{U}\boldsymbol{\Sigma}\mathbf{V}^T\f$: \f$\mathbf{R} = \mathbf{U}\,\mathrm{diag}(1, 1,
+/// \det(\mathbf{U}\mathbf{V}^T))\,\mathbf{V}^T\f$, so det R = +1 even for reflections or rank-deficient A (flat or
+/// collinear bodies).
 Eigen::Matrix3d polar_rotation(const Eigen::Matrix3d& a);
 
 /// Shape matching (Müller et al. 2005) with stiffness 1 of one body of n vertices. With weights
 /// \f$m_i\f$, rest offsets \f$\mathbf{q}_i = \bar{\mathbf{x}}_i - \bar{\mathbf{c}}\f$ about the weighted rest centre,
-/// \f$\mathbf{c} = \sum_i m_i \mathbf{x}_i / \sum_i m_i\f$, \f$\mathbf{A}_{pq} = \sum_i m_i (\mathbf{x}_i - \mathbf{c})\mathbf{q}_i^T\f$
-/// and R = `polar_rotation`(A_pq), every vertex with \f$w_i > 0\f$ moves to its goal
-/// \f$\mathbf{g}_i = \mathbf{R}\mathbf{q}_i + \mathbf{c}\f$ (the constraint \f$\mathbf{C}_i = \mathbf{x}_i - \mathbf{g}_i = 0\f$ projected exactly).
-/// x, w: #n; q, m: #n. Sums run in vertex order, so the result does not depend on threads.
-void solve_shape_matching(std::span<Vec3> x, std::span<const double> w, std::span<const Vec3> q, std::span<const double> m);
+/// \f$\mathbf{c} = \sum_i m_i \mathbf{x}_i / \sum_i m_i\f$, \f$\mathbf{A}_{pq} = \sum_i m_i (\mathbf{x}_i -
+/// \mathbf{c})\mathbf{q}_i^T\f$ and R = `polar_rotation`(A_pq), every vertex with \f$w_i > 0\f$ moves to its goal
+/// \f$\mathbf{g}_i = \mathbf{R}\mathbf{q}_i + \mathbf{c}\f$ (the constraint \f$\mathbf{C}_i = \mathbf{x}_i -
+/// \mathbf{g}_i = 0\f$ projected exactly). x, w: #n; q, m: #n. Sums run in vertex order, so the result does not depend
+/// on threads.
+void solve_shape_matching(std::span<Vec3> x, std::span<const double> w, std::span<const Vec3> q,
+                          std::span<const double> m);
 
 }  // namespace xpbd
 
@@ -157,10 +165,10 @@ void solve_shape_matching(std::span<Vec3> x, std::span<const double> w, std::spa
 
 /// Dihedral bending on interior edges: ids(c) = (edge v0, edge v1, wing of face 1, wing of face 2).
 struct BendingBatch {
-  std::vector<Vec4i> ids;           ///< #C by 4, vertex order of `xpbd::dihedral_angle`
-  std::vector<double> rest_angle;   ///< #C, θ_0 (rad) from the rest state
-  std::vector<double> compliance;   ///< #C, α (1/(N·m))
-  std::vector<double> lambda;       ///< #C
+  std::vector<Vec4i> ids;          ///< #C by 4, vertex order of `xpbd::dihedral_angle`
+  std::vector<double> rest_angle;  ///< #C, θ_0 (rad) from the rest state
+  std::vector<double> compliance;  ///< #C, α (1/(N·m))
+  std::vector<double> lambda;      ///< #C
   Colouring colouring;
 
   void add(const Vec4i& v, double theta0, double alpha);
@@ -172,10 +180,10 @@ struct BendingBatch {
 
 /// Turning-angle bending at interior polyline vertices: ids(c) = (x_{i-1}, x_i, x_{i+1}).
 struct StrandBendingBatch {
-  std::vector<Vec3i> ids;           ///< #C by 3
-  std::vector<double> rest_angle;   ///< #C, φ_0 (rad) from the rest state
-  std::vector<double> compliance;   ///< #C, α (1/(N·m))
-  std::vector<double> lambda;       ///< #C
+  std::vector<Vec3i> ids;          ///< #C by 3
+  std::vector<double> rest_angle;  ///< #C, φ_0 (rad) from the rest state
+  std::vector<double> compliance;  ///< #C, α (1/(N·m))
+  std::vector<double> lambda;      ///< #C
   Colouring colouring;
 
   void add(const Vec3i& v, double phi0, double alpha);
@@ -188,17 +196,18 @@ struct StrandBendingBatch {
 /// Volume and deviatoric constraints per tet, solved back to back (deviatoric first, volume last so
 /// the incompressibility term has the final word within a sweep); both share one colouring.
 struct TetBatch {
-  std::vector<Vec4i> ids;                        ///< #T by 4
-  std::vector<double> rest_volume;               ///< #T, V_0 (m³)
-  std::vector<Eigen::Matrix3d> rest_inverse;     ///< #T, D_m^{-1} (1/m)
-  std::vector<double> volume_compliance;         ///< #T, α_V = 36 V_0 / λ (m⁶/J)
-  std::vector<double> deviatoric_compliance;     ///< #T, α_D = 1 / (μ V_0) (1/J)
+  std::vector<Vec4i> ids;                                ///< #T by 4
+  std::vector<double> rest_volume;                       ///< #T, V_0 (m³)
+  std::vector<Eigen::Matrix3d> rest_inverse;             ///< #T, D_m^{-1} (1/m)
+  std::vector<double> volume_compliance;                 ///< #T, α_V = 36 V_0 / λ (m⁶/J)
+  std::vector<double> deviatoric_compliance;             ///< #T, α_D = 1 / (μ V_0) (1/J)
   std::vector<double> lambda_volume, lambda_deviatoric;  ///< #T each
   Colouring colouring;
 
   /// Adds a tet with per-volume compliances (1/λ and 1/μ, 1/Pa) from its rest positions `rest` (#V).
   /// Returns false and adds nothing when the rest tet is degenerate (|6 V_0| tiny against its edges³).
-  bool add(const Vec4i& v, const Positions& rest, double volume_compliance_per_volume, double shear_compliance_per_volume);
+  bool add(const Vec4i& v, const Positions& rest, double volume_compliance_per_volume,
+           double shear_compliance_per_volume);
   void finalize(Index num_vertices, std::span<const double> inv_mass);
   void reset_multipliers();
   void solve(Positions& x, std::span<const double> inv_mass, double dt);
