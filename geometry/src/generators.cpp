@@ -32,8 +32,9 @@ TriMesh grid(double size_x, double size_z, Index res_x, Index res_z) {
 }
 
 namespace {
-Vec3 strand_root(Index k, Index count, double spread) {
+Vec3 strand_root(Index k, Index count, double spread, bool row) {
   if (count <= 1) return Vec3::Zero();
+  if (row) return Vec3(-0.5 * spread + spread * k / (count - 1), 0.0, 0.0);
   const Index side = static_cast<Index>(std::ceil(std::sqrt(double(count))));
   const Index i = k % side, j = k / side;
   const double h = side > 1 ? spread / (side - 1) : 0.0;
@@ -41,11 +42,11 @@ Vec3 strand_root(Index k, Index count, double spread) {
 }
 }  // namespace
 
-PolylineSet curly_strands(Index count, Index vertices, double length, double spread, double coil_radius, double turns) {
+PolylineSet curly_strands(Index count, Index vertices, double length, double spread, double coil_radius, double turns, bool row) {
   if (count < 1 || vertices < 2) throw std::invalid_argument("strands need count >= 1 and vertices >= 2");
   PolylineSet s;
   for (Index k = 0; k < count; ++k) {
-    const Vec3 root = strand_root(k, count, spread);
+    const Vec3 root = strand_root(k, count, spread, row);
     std::vector<Index> line;
     for (Index i = 0; i < vertices; ++i) {
       const double u = double(i) / (vertices - 1);

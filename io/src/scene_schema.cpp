@@ -42,7 +42,8 @@ NodePtr shape_schema() {
           {"length", number(1.0, "strand length along -y (m)", pos)},
           {"spread", number(0.0, "roots spread on a square of this side (m)", nonneg)},
           {"coil_radius", number(0.0, "helix radius; 0 gives straight strands (m)", nonneg)},
-          {"turns", number(0.0, "helix turns per strand", nonneg)}})},
+          {"turns", number(0.0, "helix turns per strand", nonneg)},
+          {"layout", choice("grid", [] { return std::vector<std::string>{"grid", "row"}; }, "roots on a square grid, or on one row along x")}})},
       {"particles", map("a lattice block of free particles", {
           {"counts", ivec3(std::nullopt, "particles per axis [x, y, z]", one)},
           {"spacing", number(0.01, "lattice spacing (m)", pos)}})},
@@ -84,9 +85,9 @@ NodePtr build_scene_schema() {
   auto material = map("a material", {
       {"density", number(0.1, "kg/m² for cloth and shells, kg/m for strands, kg/m³ for solids and rigids, kg per particle", pos)},
       {"stretch_compliance", number(0.0, "XPBD compliance of edge lengths (m/N); 0 is inextensible", nonneg)},
-      {"bend_compliance", number(1.0, "XPBD compliance of bending (1/(N m))", nonneg)},
-      {"volume_compliance", number(0.0, "tet solids: compliance of volume preservation", nonneg)},
-      {"shear_compliance", number(1e-6, "tet solids: compliance of the deviatoric (shape) term", nonneg)},
+      {"bend_compliance", number(0.1, "XPBD compliance of bending (1/(N m)); cloth, shells and strands", nonneg)},
+      {"volume_compliance", number(0.0, "tet solids: compliance of volume preservation, 1/λ (1/Pa)", nonneg)},
+      {"shear_compliance", number(1e-6, "tet solids: compliance of the deviatoric (shape) term, 1/μ (1/Pa)", nonneg)},
       {"friction", number(-1.0, "friction coefficient of this material; < 0 uses contact.friction")},
   });
   auto pin = map("a group of pinned vertices, optionally moved by a script", {

@@ -17,22 +17,38 @@ std::vector<double> visibility_weights(std::span<const ContactPair> contacts, do
   const Index n = static_cast<Index>(contacts.size());
   std::vector<double> vis(static_cast<size_t>(n), 1.0);
   if (width <= 0.0 || n == 0) return vis;
+  // Group by query vertex (counting sort), nearest first within a group. Only contacts j with
+  // d_c - δ_v < d_j < d_c attenuate c (S vanishes for d_j >= d_c), and any j with
+  // d_j <= d_c - δ_v occludes c completely (S = 1): a window over the sorted gaps.
+  Index max_v = 0;
+  for (const auto& c : contacts) max_v = std::max(max_v, c.v[0]);
+  std::vector<Index> start(static_cast<size_t>(max_v) + 2, 0);
+  for (const auto& c : contacts) ++start[c.v[0] + 1];
+  std::partial_sum(start.begin(), start.end(), start.begin());
   std::vector<Index> order(static_cast<size_t>(n));
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](Index a, Index b) { return contacts[a].v[0] < contacts[b].v[0]; });
-  // Groups share a query vertex; within a group, closer contacts occlude farther ones.
-  for (Index b = 0; b < n;) {
-    Index e = b;
-    while (e < n && contacts[order[e]].v[0] == contacts[order[b]].v[0]) ++e;
-    for (Index i = b; i < e; ++i) {
-      const double di = contacts[order[i]].distance - offset;
-      double w = 1.0;
-      for (Index j = b; j < e; ++j)
-        if (j != i) w *= 1.0 - smoothstep((di - (contacts[order[j]].distance - offset)) / width);
-      vis[order[i]] = w;
-    }
-    b = e;
+  {
+    std::vector<Index> cursor(start.begin(), start.end() - 1);
+    for (Index i = 0; i < n; ++i) order[cursor[contacts[i].v[0]]++] = i;
   }
+  auto gap = [&](Index i) { return contacts[i].distance - offset; };
+  parallel_for(max_v + 1, [&](Index vb, Index ve) {
+    for (Index v = vb; v < ve; ++v) {
+      const Index b = start[v], e = start[v + 1];
+      if (e - b < 2) continue;
+      std::sort(order.begin() + b, order.begin() + e, [&](Index x, Index y) { return gap(x) != gap(y) ? gap(x) < gap(y) : x < y; });
+      const double nearest = gap(order[b]);
+      for (Index i = b + 1; i < e; ++i) {
+        const double di = gap(order[i]);
+        if (di - nearest >= width) {
+          for (Index k = i; k < e; ++k) vis[order[k]] = 0.0;  // sorted: all farther ones are occluded too
+          break;
+        }
+        double w = 1.0;
+        for (Index j = i - 1; j >= b; --j) w *= 1.0 - smoothstep((di - gap(order[j])) / width);
+        vis[order[i]] = w;
+      }
+    }
+  }, 256);
   return vis;
 }
 

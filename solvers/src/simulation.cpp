@@ -11,20 +11,6 @@
 
 namespace ccfr {
 
-namespace {
-std::vector<Vec2i> unique_tet_edges(const Topology& topo, const ObjectInfo& o) {
-  std::vector<Vec2i> e;
-  for (Index t = o.tet_begin; t < o.tet_end; ++t)
-    for (int a = 0; a < 4; ++a)
-      for (int b = a + 1; b < 4; ++b) {
-        const Index i = topo.tets[t][a], j = topo.tets[t][b];
-        e.emplace_back(std::min(i, j), std::max(i, j));
-      }
-  std::sort(e.begin(), e.end(), [](const Vec2i& l, const Vec2i& r) { return l[0] != r[0] ? l[0] < r[0] : l[1] < r[1]; });
-  e.erase(std::unique(e.begin(), e.end()), e.end());
-  return e;
-}
-}  // namespace
 
 Simulation::Simulation(Scene scene) : scene_(std::move(scene)) {
   const auto& topo = scene_.topo;
@@ -32,28 +18,8 @@ Simulation::Simulation(Scene scene) : scene_(std::move(scene)) {
   const auto& params = scene_.params;
   contact_ = make_contact_solver(params.contact.solver);
 
-  // Material constraints: edge lengths per object kind.
-  for (size_t oi = 0; oi < topo.objects.size(); ++oi) {
-    const auto& o = topo.objects[oi];
-    const auto& mat = params.objects[oi].material;
-    auto add_edge = [&](Index i, Index j) { distance_.add(i, j, (st.rest[i] - st.rest[j]).norm(), mat.stretch_compliance); };
-    switch (o.kind) {
-      case ObjectKind::cloth:
-      case ObjectKind::shell:
-      case ObjectKind::strand:
-      case ObjectKind::rigid:
-        for (Index e = 0; e < topo.num_edges(); ++e)
-          if (topo.edge_object[e] == static_cast<Index>(oi)) add_edge(topo.edges[e][0], topo.edges[e][1]);
-        break;
-      case ObjectKind::tet_solid:
-        for (const auto& e : unique_tet_edges(topo, o)) add_edge(e[0], e[1]);
-        break;
-      case ObjectKind::particles:
-      case ObjectKind::obstacle:
-        break;
-    }
-  }
-  distance_.finalize(topo.num_vertices(), st.inv_mass);
+  // Material constraints of every object kind (docs/materials.md); coloured with the final pins.
+  materials_ = MaterialSystem(topo, st, params);
 
   // Kinematic vertices: obstacles follow their object's motion, pins their group's motion.
   std::vector<const Motion*> motion_of(static_cast<size_t>(topo.num_vertices()), nullptr);
@@ -74,10 +40,12 @@ Simulation::Simulation(Scene scene) : scene_(std::move(scene)) {
     }
   contact_->initialize(topo, st, params);
   check_finite(st.x, "initial state");
-  spdlog::info("scene '{}': {} objects, {} vertices, {} faces, {} edges, {} tets; {} distance constraints in {} colours; "
-               "{} kinematic vertices; contact solver '{}'",
+  const auto mc = materials_.counts();
+  spdlog::info("scene '{}': {} objects, {} vertices, {} faces, {} edges, {} tets; constraints: {} distance, {} bending, "
+               "{} strand bending, {} tet, {} rigid bodies ({} colours); {} kinematic vertices; contact solver '{}'",
                params.scene_name, topo.objects.size(), topo.num_vertices(), topo.num_faces(), topo.num_edges(), topo.tets.size(),
-               distance_.size(), distance_.colouring.colours(), kinematic_.size(), contact_->name());
+               mc.distance, mc.bending, mc.strand_bending, mc.tet_volume, mc.rigid_bodies, mc.colours, kinematic_.size(),
+               contact_->name());
 }
 
 Simulation::~Simulation() = default;
@@ -154,8 +122,8 @@ void Simulation::substep(FrameStats& fs, int substep_index) {
     solve_ = predicted_;
     {
       ScopedTimer t(fs.times.xpbd);
-      distance_.reset_multipliers();
-      for (int s = 0; s < tp.xpbd_sweeps; ++s) distance_.solve(solve_, st.inv_mass, dt);
+      materials_.reset_multipliers();
+      for (int s = 0; s < tp.xpbd_sweeps; ++s) materials_.solve(solve_, st.inv_mass, dt);
       check_finite(solve_, "xpbd");
       contact_->respond(solve_, anchor_, st, ctx);
       check_finite(solve_, "contact response");

@@ -28,8 +28,9 @@ TriMesh grid(double size_x, double size_z, Index res_x, Index res_z);
 /// points spread on a square of side `spread` in the x-z plane (a single strand sits at the origin).
 PolylineSet straight_strands(Index count, Index vertices, double length, double spread);
 /// Helical ("curly") strands: like straight_strands but each is a helix of radius `coil_radius`
-/// with `turns` turns around its -y axis.
-PolylineSet curly_strands(Index count, Index vertices, double length, double spread, double coil_radius, double turns);
+/// with `turns` turns around its -y axis. With `row`, the roots lie on one line along x instead of a square.
+PolylineSet curly_strands(Index count, Index vertices, double length, double spread, double coil_radius, double turns,
+                          bool row = false);
 /// nx*ny*nz points on a regular lattice with `spacing`, centred at the origin.
 Positions particle_block(Index nx, Index ny, Index nz, double spacing);
 /// A box of `size` centred at the origin, `res` cells per axis, each cell split into 6 tets.

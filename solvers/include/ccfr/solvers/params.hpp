@@ -57,7 +57,7 @@ struct OutputParams {
 struct MaterialParams {
   double density = 0.1;              ///< kg/m² (cloth, shell), kg/m (strand), kg/m³ (solids, rigid), kg per particle
   double stretch_compliance = 0.0;   ///< m/N, XPBD compliance of edge length constraints
-  double bend_compliance = 1.0;      ///< bending compliance (1/(N·m)) for dihedral / strand bending
+  double bend_compliance = 0.1;      ///< bending compliance (1/(N·m)) for dihedral / strand bending
   double volume_compliance = 0.0;    ///< tet volume compliance
   double shear_compliance = 1e-6;    ///< tet deviatoric (shape) compliance
   double friction = -1.0;            ///< per-object friction override (<0: use contact.friction)

@@ -8,6 +8,7 @@
 
 #include "ccfr/solvers/contact_solver.hpp"
 #include "ccfr/solvers/scene.hpp"
+#include "ccfr/solvers/materials.hpp"
 #include "ccfr/solvers/xpbd.hpp"
 
 namespace ccfr {
@@ -48,6 +49,7 @@ class Simulation {
   const Positions& positions() const { return scene_.state.x; }
   int frames_done() const { return frame_; }
   ContactSolver& contact_solver() { return *contact_; }
+  const MaterialSystem& materials() const { return materials_; }
   /// Installs an audit run per frame or per substep according to debug.audit.
   void set_audit(AuditHook hook) { audit_ = std::move(hook); }
 
@@ -59,7 +61,7 @@ class Simulation {
 
   Scene scene_;
   std::unique_ptr<ContactSolver> contact_;
-  DistanceBatch distance_;
+  MaterialSystem materials_;
   std::vector<Index> kinematic_;          ///< kinematic vertex ids
   std::vector<const Motion*> kin_motion_;  ///< motion of each kinematic vertex (nullptr: static)
   std::vector<Index> analytic_obstacles_;  ///< objects with an analytic shape

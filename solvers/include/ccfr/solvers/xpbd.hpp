@@ -26,8 +26,9 @@ inline void solve_distance(Vec3& xi, Vec3& xj, double wi, double wj, double rest
   const double c = len - rest;
   const double dl = (-c - alpha_tilde * lambda) / wsum;
   lambda += dl;
-  xi += wi * dl * d;
-  xj -= wj * dl * d;
+  // Kinematic vertices (w = 0) may be shared within a colour: never write them.
+  if (wi > 0.0) xi += wi * dl * d;
+  if (wj > 0.0) xj -= wj * dl * d;
 }
 
 }  // namespace xpbd
