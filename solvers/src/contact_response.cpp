@@ -102,7 +102,8 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
       const Vec3 tangential = rel - c.n.dot(rel) * c.n;
       const double tl = tangential.norm();
       if (tl <= 0.0) continue;
-      const double depth = std::max(0.0, p.repulsion_range - gap);
+      // Coulomb bound on the normal correction this contact applied (relative displacement).
+      const double depth = std::max(0.0, dl * wsum);
       const Vec3 remove = tl < mu_s * depth ? tangential : tangential * std::min(mu_k * depth / tl, 1.0);
       for (int k = 0; k < c.size(); ++k) corr_[ci * 4 + k] -= inv_mass[c.v[k]] * c.w[k] * remove / wsum;
     }
