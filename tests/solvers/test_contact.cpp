@@ -99,7 +99,7 @@ TEST(Halting, TightRegionsReportHaltingInsteadOfHanging) {
   // sequential recursion (at most three independent planes in 3-D) cannot always finish, so some
   // projections fall back to the anchor. These halting events must be counted, nothing may stay
   // outside its region, and nothing may become non-finite.
-  const auto cage = gen::sphere(0.0106, 1);
+  const auto cage = gen::sphere(0.0112, 1);  // inradius 0.0105 > xi: every pair starts outside the offset
   TopologyBuilder tb;
   tb.add_object("cage", ObjectKind::obstacle, static_cast<Index>(cage.v.size()), cage.f);
   tb.add_object("grain", ObjectKind::particles, 1);
