@@ -44,13 +44,6 @@ void ExclusionSet::assign(std::vector<std::uint64_t> keys) {
   }
 }
 
-bool ExclusionSet::contains(ContactKind kind, Index a, Index b) const {
-  const Rows& r = rows_[static_cast<size_t>(kind)];
-  if (a + 1 >= static_cast<Index>(r.offsets.size())) return false;
-  const auto first = r.cols.begin() + r.offsets[a], last = r.cols.begin() + r.offsets[a + 1];
-  return std::binary_search(first, last, b);
-}
-
 }  // namespace detail
 
 namespace {
@@ -135,29 +128,20 @@ bool boxes_within(const Vec3& alo, const Vec3& ahi, const Vec3& blo, const Vec3&
 }
 
 /// Computes the closest points of sub-pairs in canonical orientation (so the result does not
-/// depend on which primitive of the pair came first), after a box pre-check against `reach`
-/// and, when `skip` is set, a look-up in the exclusions (cheaper than the distance kernel).
-/// Returns false when the sub-pair is certainly farther than `reach` or excluded; `excluded`
-/// counts the latter.
+/// depend on which primitive of the pair came first), after a box pre-check against `reach`.
+/// Returns false when the sub-pair is certainly farther than `reach`. Used for the exclusions of
+/// the initial configuration; the detection pass has its own inlined variant (DetectSink).
 struct ClosestPoints {
   const Topology& topo;
   const Positions& x;
   double reach;
-  const detail::ExclusionSet* skip = nullptr;
-  mutable Index excluded = 0;
-
-  bool skipped(ContactKind kind, Index a, Index b) const {
-    if (skip == nullptr || !skip->contains(kind, a, b)) return false;
-    ++excluded;
-    return true;
-  }
 
   bool vf(Index v, Index f, Closest& c) const {
     const Vec3& p = x[v];
     const Vec3i& t = topo.faces[f];
     const Vec3 &a = x[t[0]], &b = x[t[1]], &d = x[t[2]];
     const Vec3 lo = a.cwiseMin(b).cwiseMin(d), hi = a.cwiseMax(b).cwiseMax(d);
-    if (!boxes_within(p, p, lo, hi, reach) || skipped(ContactKind::vf, v, f)) return false;
+    if (!boxes_within(p, p, lo, hi, reach)) return false;
     const PointTriangleResult r = point_triangle(p, a, b, d);
     c = {ContactKind::vf, v, f, 1, 3, {v, -1}, {t[0], t[1], t[2]},
          {1.0, 0.0}, {r.bary[0], r.bary[1], r.bary[2]}, p, r.closest, r.distance_sq};
@@ -167,8 +151,7 @@ struct ClosestPoints {
     if (e0 > e1) std::swap(e0, e1);
     const Vec2i &ea = topo.edges[e0], &eb = topo.edges[e1];
     const Vec3 &a0 = x[ea[0]], &a1 = x[ea[1]], &b0 = x[eb[0]], &b1 = x[eb[1]];
-    if (!boxes_within(a0.cwiseMin(a1), a0.cwiseMax(a1), b0.cwiseMin(b1), b0.cwiseMax(b1), reach) ||
-        skipped(ContactKind::ee, e0, e1))
+    if (!boxes_within(a0.cwiseMin(a1), a0.cwiseMax(a1), b0.cwiseMin(b1), b0.cwiseMax(b1), reach))
       return false;
     const EdgeEdgeResult r = edge_edge(a0, a1, b0, b1);
     c = {ContactKind::ee, e0, e1, 2, 2, {ea[0], ea[1]}, {eb[0], eb[1], -1},
@@ -179,7 +162,7 @@ struct ClosestPoints {
     const Vec3& p = x[v];
     const Vec2i& s = topo.edges[e];
     const Vec3 &a = x[s[0]], &b = x[s[1]];
-    if (!boxes_within(p, p, a.cwiseMin(b), a.cwiseMax(b), reach) || skipped(ContactKind::ve, v, e)) return false;
+    if (!boxes_within(p, p, a.cwiseMin(b), a.cwiseMax(b), reach)) return false;
     const PointEdgeResult r = point_edge(p, a, b);
     c = {ContactKind::ve, v, e, 1, 2, {v, -1}, {s[0], s[1], -1},
          {1.0, 0.0}, {1.0 - r.t, r.t, 0.0}, p, r.closest, r.distance_sq};
@@ -188,7 +171,7 @@ struct ClosestPoints {
   bool vv(Index v0, Index v1, Closest& c) const {
     if (v0 > v1) std::swap(v0, v1);
     const Vec3 &p = x[v0], &q = x[v1];
-    if (!boxes_within(p, p, q, q, reach) || skipped(ContactKind::vv, v0, v1)) return false;
+    if (!boxes_within(p, p, q, q, reach)) return false;
     c = {ContactKind::vv, v0, v1, 1, 1, {v0, -1}, {v1, -1, -1},
          {1.0, 0.0}, {1.0, 0.0, 0.0}, p, q, point_point_distance_sq(p, q)};
     return true;
@@ -197,45 +180,89 @@ struct ClosestPoints {
 
 /// Sink of the detection pass: records each sub-pair within range as a contact; the
 /// half-spaces are derived from the contacts afterwards (assemble_regions).
+///
+/// Same tests in the same order as ClosestPoints followed by the range check (box pre-check,
+/// exclusion look-up, distance kernel, φ < 2r, movable vertex), but written per kind so that
+/// everything except the distance kernels inlines into the candidate loop and the contact is
+/// built in place, without the intermediate Closest record: this bookkeeping cost more
+/// instructions than the kernels themselves.
 struct DetectSink {
-  ClosestPoints cp;  // with `skip` set to the exclusions
+  const Topology& topo;
+  const Positions& x;
   std::span<const double> w;
+  const detail::ExclusionSet& skip;
+  double reach, reach_sq;
   std::vector<ContactPair>& contacts;
-  Index within = 0, degenerate = 0;
+  Index within = 0, degenerate = 0, excluded = 0;
 
-  void vf(Index v, Index f) { run(&ClosestPoints::vf, v, f); }
-  void ee(Index a, Index b) { run(&ClosestPoints::ee, a, b); }
-  void ve(Index v, Index e) { run(&ClosestPoints::ve, v, e); }
-  void vv(Index a, Index b) { run(&ClosestPoints::vv, a, b); }
-
-  template <class Fn>
-  void run(Fn fn, Index a, Index b) {
-    Closest c;
-    if (!(cp.*fn)(a, b, c)) return;
-    // Alg. NarrowPhase lines 7/22/38: φ = ‖x_A − x_B‖ − ξ < 2r  ⇔  ‖x_A − x_B‖ < 2r + ξ.
-    if (c.dist_sq >= cp.reach * cp.reach) return;
-    bool movable = false;
-    for (int i = 0; i < c.na; ++i) movable = movable || w[c.va[i]] > 0.0;
-    for (int j = 0; j < c.nb; ++j) movable = movable || w[c.vb[j]] > 0.0;
-    if (!movable) return;  // nothing here can move: nothing to constrain
+  bool excluded_pair(ContactKind kind, Index a, Index b) {
+    if (!skip.contains(kind, a, b)) return false;
+    ++excluded;
+    return true;
+  }
+  /// Alg. NarrowPhase lines 7/22/38: φ = ‖x_A − x_B‖ − ξ < 2r  ⇔  ‖x_A − x_B‖ < 2r + ξ; then
+  /// the movable check and the degenerate-distance check. Returns the distance, or a negative
+  /// value when the sub-pair yields no contact.
+  double accept(double dist_sq, bool movable) {
+    if (dist_sq >= reach_sq || !movable) return -1.0;  // nothing here can move: nothing to constrain
     ++within;
-    const double dist = std::sqrt(c.dist_sq);
+    const double dist = std::sqrt(dist_sq);
     if (dist < kMinNormalDistance) {
       ++degenerate;
-      return;
+      return -1.0;
     }
+    return dist;
+  }
+  void emit(ContactKind kind, const std::array<Index, 4>& v, const std::array<double, 4>& wts, const Vec3& pa,
+            const Vec3& pb, double dist) {
     ContactPair& out = contacts.emplace_back();
-    out.kind = c.kind;
-    for (int i = 0; i < c.na; ++i) {
-      out.v[i] = c.va[i];
-      out.w[i] = c.wa[i];
-    }
-    for (int j = 0; j < c.nb; ++j) {
-      out.v[c.na + j] = c.vb[j];
-      out.w[c.na + j] = -c.wb[j];
-    }
-    out.n = (c.pa - c.pb) / dist;  // lines 9/25/40: unit normal from B to A
+    out.kind = kind;
+    out.v = v;
+    out.w = wts;
+    out.n = (pa - pb) / dist;  // lines 9/25/40: unit normal from B to A
     out.distance = dist;
+  }
+
+  void vf(Index v, Index f) {
+    const Vec3& p = x[v];
+    const Vec3i& t = topo.faces[f];
+    const Vec3 &a = x[t[0]], &b = x[t[1]], &d = x[t[2]];
+    const Vec3 lo = a.cwiseMin(b).cwiseMin(d), hi = a.cwiseMax(b).cwiseMax(d);
+    if (!boxes_within(p, p, lo, hi, reach) || excluded_pair(ContactKind::vf, v, f)) return;
+    const PointTriangleResult r = point_triangle(p, a, b, d);
+    const double dist = accept(r.distance_sq, w[v] > 0.0 || w[t[0]] > 0.0 || w[t[1]] > 0.0 || w[t[2]] > 0.0);
+    if (dist < 0.0) return;
+    emit(ContactKind::vf, {v, t[0], t[1], t[2]}, {1.0, -r.bary[0], -r.bary[1], -r.bary[2]}, p, r.closest, dist);
+  }
+  void ee(Index e0, Index e1) {
+    if (e0 > e1) std::swap(e0, e1);
+    const Vec2i &ea = topo.edges[e0], &eb = topo.edges[e1];
+    const Vec3 &a0 = x[ea[0]], &a1 = x[ea[1]], &b0 = x[eb[0]], &b1 = x[eb[1]];
+    if (!boxes_within(a0.cwiseMin(a1), a0.cwiseMax(a1), b0.cwiseMin(b1), b0.cwiseMax(b1), reach) ||
+        excluded_pair(ContactKind::ee, e0, e1))
+      return;
+    const EdgeEdgeResult r = edge_edge(a0, a1, b0, b1);
+    const double dist = accept(r.distance_sq, w[ea[0]] > 0.0 || w[ea[1]] > 0.0 || w[eb[0]] > 0.0 || w[eb[1]] > 0.0);
+    if (dist < 0.0) return;
+    emit(ContactKind::ee, {ea[0], ea[1], eb[0], eb[1]}, {1.0 - r.s, r.s, -(1.0 - r.t), -r.t}, r.pa, r.pb, dist);
+  }
+  void ve(Index v, Index e) {
+    const Vec3& p = x[v];
+    const Vec2i& s = topo.edges[e];
+    const Vec3 &a = x[s[0]], &b = x[s[1]];
+    if (!boxes_within(p, p, a.cwiseMin(b), a.cwiseMax(b), reach) || excluded_pair(ContactKind::ve, v, e)) return;
+    const PointEdgeResult r = point_edge(p, a, b);
+    const double dist = accept(r.distance_sq, w[v] > 0.0 || w[s[0]] > 0.0 || w[s[1]] > 0.0);
+    if (dist < 0.0) return;
+    emit(ContactKind::ve, {v, s[0], s[1], -1}, {1.0, -(1.0 - r.t), -r.t, 0.0}, p, r.closest, dist);
+  }
+  void vv(Index v0, Index v1) {
+    if (v0 > v1) std::swap(v0, v1);
+    const Vec3 &p = x[v0], &q = x[v1];
+    if (!boxes_within(p, p, q, q, reach) || excluded_pair(ContactKind::vv, v0, v1)) return;
+    const double dist = accept(point_point_distance_sq(p, q), w[v0] > 0.0 || w[v1] > 0.0);
+    if (dist < 0.0) return;
+    emit(ContactKind::vv, {v0, v1, -1, -1}, {1.0, -1.0, 0.0, 0.0}, p, q, dist);
   }
 };
 
@@ -435,14 +462,14 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
   std::vector<Index> within(static_cast<size_t>(chunks), 0), excluded(static_cast<size_t>(chunks), 0),
       degenerate(static_cast<size_t>(chunks), 0);
   parallel_chunks(n, chunks, [&](Index chunk, Index begin, Index end) {
-    DetectSink sink{ClosestPoints{topo_, x, 2.0 * params_.radius + params_.offset, &excluded_}, inv_mass,
-                    contact_buffers_[chunk]};
+    const double reach = 2.0 * params_.radius + params_.offset;
+    DetectSink sink{topo_, x, inv_mass, excluded_, reach, reach * reach, contact_buffers_[chunk]};
     for (Index i = begin; i < end; ++i) {
       const auto [p, q] = candidates_[i];
       if (movable_[p] || movable_[q]) visit_sub_pairs(topo_, prims_, p, q, sink);
     }
     within[chunk] = sink.within;
-    excluded[chunk] = sink.cp.excluded;
+    excluded[chunk] = sink.excluded;
     degenerate[chunk] = sink.degenerate;
   });
 

@@ -4,7 +4,9 @@
 /// inflated primitive boxes, then closest points of every vertex-face, edge-edge, vertex-edge and
 /// vertex-vertex sub-pair within the search range, each turned into one half-space per involved
 /// vertex (Eq. 3) and one ContactPair for the contact response.
+#include <algorithm>
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -76,13 +78,26 @@ class ExclusionSet {
  public:
   /// Replaces the set by `keys` (sub_pair_key values; duplicates allowed).
   void assign(std::vector<std::uint64_t> keys);
-  bool contains(ContactKind kind, Index a, Index b) const;
+  /// Inline: the narrow phase looks up millions of sub-pairs per pass. Rows are short (the
+  /// sub-pairs closer than ξ around one vertex or edge), so a linear scan of the sorted row beats
+  /// a binary search up to a few dozen entries.
+  bool contains(ContactKind kind, Index a, Index b) const {
+    const Rows& r = rows_[static_cast<size_t>(kind)];
+    if (a + 1 >= static_cast<Index>(r.offsets.size())) return false;
+    const Index* first = r.cols.data() + r.offsets[a];
+    const Index* last = r.cols.data() + r.offsets[a + 1];
+    if (last - first > kLinearScan) return std::binary_search(first, last, b);
+    for (; first != last && *first < b; ++first) {
+    }
+    return first != last && *first == b;
+  }
   size_t size() const { return size_; }
 
  private:
   struct Rows {
     std::vector<Index> offsets, cols;
   };
+  static constexpr std::ptrdiff_t kLinearScan = 32;
   std::array<Rows, 4> rows_;
   size_t size_ = 0;
 };
