@@ -4,6 +4,7 @@
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/solvers/contact_solvers.hpp"
+#include "ccfr/solvers/toi_clamp.hpp"
 
 namespace ccfr {
 
@@ -20,6 +21,7 @@ const std::vector<SolverEntry>& solver_table() {
       {"exact_projection", [] { return std::make_unique<RegionProjectionSolver>("exact_projection", "exact"); }},
       {"successive_projection", [] { return std::make_unique<RegionProjectionSolver>("successive_projection", "successive_projection"); }},
       {"post_process", [] { return std::make_unique<PostProcessSolver>(); }},
+      {"toi_clamp", [] { return std::make_unique<TimeOfImpactClampSolver>(); }},
       {"none", [] { return std::make_unique<NoContactSolver>(); }},
   };
   return table;
