@@ -200,7 +200,7 @@ class Builder {
     } else if (type == "strands") {
       require(kind == ObjectKind::strand, "use kind strand");
       auto ps = gen::curly_strands(s["count"].as<Index>(), s["vertices"].as<Index>(), s["length"].as<double>(), s["spread"].as<double>(),
-                                   s["coil_radius"].as<double>(), s["turns"].as<double>());
+                                   s["coil_radius"].as<double>(), s["turns"].as<double>(), s["layout"].as<std::string>() == "row");
       g.v = std::move(ps.v);
       g.lines = std::move(ps.lines);
     } else if (type == "particles") {

@@ -50,10 +50,18 @@ Simulation::Simulation(Scene scene) : scene_(std::move(scene)) {
 
 Simulation::~Simulation() = default;
 
-void Simulation::move_kinematic(double t) {
-  auto& st = scene_.state;
-  for (size_t k = 0; k < kinematic_.size(); ++k)
-    if (kin_motion_[k]) st.x[kinematic_[k]] = kin_motion_[k]->apply(st.rest[kinematic_[k]], t);
+double Simulation::kinematic_targets(double t, Positions& target) {
+  const auto& st = scene_.state;
+  kinematic_step_.assign(st.x.size(), Vec3::Zero());
+  double largest = 0.0;
+  for (size_t k = 0; k < kinematic_.size(); ++k) {
+    if (!kin_motion_[k]) continue;
+    const Index v = kinematic_[k];
+    target[v] = kin_motion_[k]->apply(st.rest[v], t);
+    kinematic_step_[v] = target[v] - st.x[v];
+    largest = std::max(largest, kinematic_step_[v].norm());
+  }
+  return largest;
 }
 
 void Simulation::check_finite(const Positions& x, const char* stage) const {
@@ -96,16 +104,23 @@ void Simulation::substep(FrameStats& fs, int substep_index) {
   const double t1 = st.time + dt;
 
   st.x_prev = st.x;
-  // Kinematic vertices move first, to their scripted positions at t1: the regions of the dynamic
-  // vertices are then built against where the obstacles and handles actually are.
-  move_kinematic(t1);
-
   predicted_.resize(static_cast<size_t>(nv));
   const Vec3 g_dt2 = tp.gravity * dt * dt;
   parallel_for(nv, [&](Index b, Index e) {
     for (Index i = b; i < e; ++i)
       predicted_[i] = st.inv_mass[i] > 0.0 ? Vec3(st.x[i] + dt * st.v[i] + g_dt2) : st.x[i];
   }, 4096);
+  // Kinematic vertices reach their scripted positions at t1 in the first outer iteration. Their
+  // step is known, so the first detection (at the old positions) accounts for it exactly instead
+  // of letting a handle or obstacle jump into its neighbours before any region exists.
+  const double kin_step = kinematic_targets(t1, predicted_);
+  const bool kin_moves = kin_step > 0.0;
+  if (kin_step > params.contact.radius && !warned_kinematic_step_ && contact_->clamps_to_radius()) {
+    warned_kinematic_step_ = true;
+    spdlog::warn("kinematic vertices move up to {:.3g} per substep, more than the search radius r = {:.3g}: pairs farther "
+                 "than 2r may be reached unseen; raise time.substeps",
+                 kin_step, params.contact.radius);
+  }
 
   anchor_ = st.x;
   StepContext ctx{scene_.topo, params, dt, frame_ + 1, substep_index, 0, fs.times};
@@ -113,6 +128,7 @@ void Simulation::substep(FrameStats& fs, int substep_index) {
   Index remaining = 0;
   for (int it = 0; it < tp.iterations; ++it) {
     ctx.iteration = it;
+    ctx.kinematic_step = (it == 0 && kin_moves) ? std::span<const Vec3>(kinematic_step_) : std::span<const Vec3>();
     const DetectionSummary det = contact_->detect(anchor_, st, ctx);
     fs.candidates = std::max(fs.candidates, det.candidates);
     fs.constraints = std::max(fs.constraints, det.constraints);
@@ -148,6 +164,7 @@ void Simulation::substep(FrameStats& fs, int substep_index) {
       parallel_for(nv, [&](Index b, Index e) {
         Index local = 0;
         for (Index i = b; i < e; ++i) {
+          if (st.inv_mass[i] == 0.0) continue;  // scripted motion is not bounded by r
           const Vec3 d = solve_[i] - anchor_[i];
           const double len = d.norm();
           if (len > r) {

@@ -5,6 +5,7 @@
 /// Implementations are chosen by `contact.solver` through make_contact_solver()'s factory table.
 #include <limits>
 #include <memory>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -23,6 +24,11 @@ struct StepContext {
   double dt = 0.0;  ///< substep length
   int frame = 0, substep = 0, iteration = 0;
   StageTimes& times;  ///< solvers add their broad / narrow / resolution seconds here
+  /// Known displacement of every kinematic vertex during this outer iteration (#V, zero for
+  /// dynamic vertices), or empty when nothing scripted moves. Regions built at the anchors must
+  /// leave room for it: a kinematic side's motion is known, not bounded by a share (Eq. 3 with a
+  /// known \f$\Delta\mathbf{x}_B\f$).
+  std::span<const Vec3> kinematic_step = {};
 };
 
 /// Counts of one detection pass.

@@ -55,7 +55,9 @@ class Simulation {
 
  private:
   void substep(FrameStats& fs, int substep_index);
-  void move_kinematic(double t);
+  /// Writes each moving kinematic vertex's target at time t into `target` and its step into
+  /// kinematic_step_; returns the largest step.
+  double kinematic_targets(double t, Positions& target);
   void check_finite(const Positions& x, const char* stage) const;
   void collide_analytic(Positions& x, double t) const;
 
@@ -65,7 +67,8 @@ class Simulation {
   std::vector<Index> kinematic_;          ///< kinematic vertex ids
   std::vector<const Motion*> kin_motion_;  ///< motion of each kinematic vertex (nullptr: static)
   std::vector<Index> analytic_obstacles_;  ///< objects with an analytic shape
-  Positions predicted_, anchor_, solve_;
+  Positions predicted_, anchor_, solve_, kinematic_step_;
+  bool warned_kinematic_step_ = false;
   AuditHook audit_;
   int frame_ = 0;
 };
