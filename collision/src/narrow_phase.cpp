@@ -179,7 +179,7 @@ struct ClosestPoints {
 };
 
 /// Sink of the detection pass: records each sub-pair within range as a contact; the
-/// half-spaces are derived from the contacts afterwards (assemble_regions).
+/// half-spaces are derived from the contacts afterwards (assemble).
 ///
 /// Same tests in the same order as ClosestPoints followed by the range check (box pre-check,
 /// exclusion look-up, distance kernel, φ < 2r, movable vertex), but written per kind so that
@@ -473,51 +473,49 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
     degenerate[chunk] = sink.degenerate;
   });
 
-  // Contacts in chunk order: deterministic for any thread count.
-  std::vector<size_t> start(static_cast<size_t>(chunks) + 1, 0);
   for (Index c = 0; c < chunks; ++c) {
-    start[c + 1] = start[c] + contact_buffers_[c].size();
     stats.pairs_within_range += within[c];
     stats.excluded_initial += excluded[c];
     stats.degenerate += degenerate[c];
   }
-  contacts.resize(start.back());
-  parallel_chunks(chunks, chunks, [&](Index, Index begin, Index end) {
-    for (Index c = begin; c < end; ++c) std::copy(contact_buffers_[c].begin(), contact_buffers_[c].end(), contacts.begin() + start[c]);
-  });
-  assemble_regions(contacts, inv_mass, regions);
+  assemble(inv_mass, contacts, regions);
   stats.constraints = static_cast<Index>(regions.total());
   stats.narrow_s = watch.seconds();
 }
 
-/// Alg. NarrowPhase lines 10, 26 and 41 for every contact at once: each movable vertex of side A
+/// Concatenates the per-chunk contacts in chunk order (deterministic for any thread count) and
+/// applies Alg. NarrowPhase lines 10, 26 and 41 to every contact: each movable vertex of side A
 /// gets \f$ (\mathbf{n}, s_A\varphi, \varphi) \f$, each of side B \f$ (-\mathbf{n}, s_B\varphi, \varphi) \f$ (the normal
 /// points from the other primitive toward the vertex's own, clarification 3); d stays negative
 /// for a pair already inside the offset (clarification 7).
 ///
-/// The CSR is filled in parallel without sorting: the contacts are split into fixed blocks, each
-/// block counts its planes per vertex, and prefix sums over (vertex, block) give every block its
-/// own write cursor per vertex. A vertex's planes thus appear in contact order, which depends
-/// neither on the thread count nor on timing.
-void CollisionDetector::assemble_regions(std::span<const ContactPair> contacts, std::span<const double> inv_mass,
-                                         RegionSet& regions) {
+/// The CSR is filled in parallel without sorting: the chunks are grouped into at most 32 fixed
+/// blocks of consecutive chunks, each block counts its planes per vertex, and prefix sums over
+/// (vertex, block) give every block its own write cursor per vertex. A vertex's planes thus
+/// appear in contact order, which depends neither on the thread count nor on timing. The copy
+/// of the contacts into `contacts` happens in the same sweep as the plane writes, so each
+/// contact buffer is read twice (count, fill) instead of three times.
+void CollisionDetector::assemble(std::span<const double> inv_mass, std::vector<ContactPair>& contacts,
+                                 RegionSet& regions) {
   const Index nv = topo_.num_vertices();
-  const Index nc = static_cast<Index>(contacts.size());
+  const Index chunks = static_cast<Index>(contact_buffers_.size());
+  std::vector<size_t> start(static_cast<size_t>(chunks) + 1, 0);
+  for (Index c = 0; c < chunks; ++c) start[c + 1] = start[c] + contact_buffers_[c].size();
+  contacts.resize(start.back());
   regions.offsets.assign(static_cast<size_t>(nv) + 1, 0);
-  if (nc == 0) {
+  if (contacts.empty()) {
     regions.planes.clear();
     return;
   }
-  const Index blocks = std::min<Index>(nc, 32);
+  const Index blocks = std::min<Index>(chunks, 32);
   block_cursor_.resize(static_cast<size_t>(blocks) * nv);
-  parallel_chunks(nc, blocks, [&](Index b, Index begin, Index end) {
+  parallel_chunks(chunks, blocks, [&](Index b, Index chunk_begin, Index chunk_end) {
     Index* count = block_cursor_.data() + static_cast<size_t>(b) * nv;
     std::fill(count, count + nv, 0);
-    for (Index i = begin; i < end; ++i) {
-      const ContactPair& c = contacts[i];
-      for (int k = 0; k < c.size(); ++k)
-        if (inv_mass[c.v[k]] > 0.0) ++count[c.v[k]];
-    }
+    for (Index chunk = chunk_begin; chunk < chunk_end; ++chunk)
+      for (const ContactPair& c : contact_buffers_[chunk])
+        for (int k = 0; k < c.size(); ++k)
+          if (inv_mass[c.v[k]] > 0.0) ++count[c.v[k]];
   });
   parallel_for(nv, [&](Index begin, Index end) {
     for (Index v = begin; v < end; ++v) {
@@ -539,20 +537,23 @@ void CollisionDetector::assemble_regions(std::span<const ContactPair> contacts, 
     }
   }, 4096);
   regions.planes.resize(static_cast<size_t>(regions.offsets.back()));
-  parallel_chunks(nc, blocks, [&](Index b, Index begin, Index end) {
+  parallel_chunks(chunks, blocks, [&](Index b, Index chunk_begin, Index chunk_end) {
     Index* cursor = block_cursor_.data() + static_cast<size_t>(b) * nv;
-    for (Index i = begin; i < end; ++i) {
-      const ContactPair& c = contacts[i];
-      const double phi = c.distance - params_.offset;
-      const double s_a = share_a(c, inv_mass), s_b = 1.0 - s_a;
-      const int na = c.side_a();
-      for (int k = 0; k < c.size(); ++k) {
-        const Index v = c.v[k];
-        if (!(inv_mass[v] > 0.0)) continue;
-        HalfSpace& h = regions.planes[static_cast<size_t>(cursor[v]++)];
-        h.n = k < na ? c.n : Vec3(-c.n);
-        h.d = (k < na ? s_a : s_b) * phi;
-        h.phi = phi;
+    for (Index chunk = chunk_begin; chunk < chunk_end; ++chunk) {
+      ContactPair* out = contacts.data() + start[chunk];
+      for (const ContactPair& c : contact_buffers_[chunk]) {
+        *out++ = c;
+        const double phi = c.distance - params_.offset;
+        const double s_a = share_a(c, inv_mass), s_b = 1.0 - s_a;
+        const int na = c.side_a();
+        for (int k = 0; k < c.size(); ++k) {
+          const Index v = c.v[k];
+          if (!(inv_mass[v] > 0.0)) continue;
+          HalfSpace& h = regions.planes[static_cast<size_t>(cursor[v]++)];
+          h.n = k < na ? c.n : Vec3(-c.n);
+          h.d = (k < na ? s_a : s_b) * phi;
+          h.phi = phi;
+        }
       }
     }
   });

@@ -143,7 +143,7 @@ class CollisionDetector {
 
  private:
   void compute_exclusions(const Positions& initial);
-  void assemble_regions(std::span<const ContactPair> contacts, std::span<const double> inv_mass, RegionSet& regions);
+  void assemble(std::span<const double> inv_mass, std::vector<ContactPair>& contacts, RegionSet& regions);
 
   const Topology& topo_;
   CollisionParams params_;
