@@ -64,7 +64,7 @@ AccdResult additive_ccd(ContactKind kind, const std::array<Vec3, 4>& x0, const s
   const double l_p = max_a + max_b;
 
   const double gap0 = gap_of(sub_pair_distance_sq(kind, x0), xi);
-  if (!(gap0 > 0.0)) {  // at or inside ξ already (or NaN): no conservative step exists
+  if (!(gap0 > params.touch_tolerance * xi)) {  // touching or inside ξ already (or NaN): no conservative step
     res.toi = 0.0;
     res.impact = true;
     return res;
@@ -100,8 +100,8 @@ AccdResult additive_ccd(ContactKind kind, const std::array<Vec3, 4>& x0, const s
 }
 
 TimeOfImpactClampSolver::TimeOfImpactClampSolver(ToiClampParams params) : params_(params) {
-  if (!(params_.scale > 0.0 && params_.scale <= 1.0) || params_.max_iterations < 1)
-    throw Error("toi_clamp: scale must be in (0, 1] and max_iterations >= 1");
+  if (!(params_.scale > 0.0 && params_.scale <= 1.0) || params_.max_iterations < 1 || !(params_.touch_tolerance >= 0.0))
+    throw Error("toi_clamp: scale must be in (0, 1], max_iterations >= 1 and touch_tolerance >= 0");
 }
 
 SolveResult TimeOfImpactClampSolver::resolve(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) {

@@ -76,7 +76,7 @@ TEST(AdditiveCcd, PointTowardTriangleMatchesTheClosedFormWithinTheScale) {
     x1[0] -= Vec3(0, 0, vn);
     const double t_true = (0.05 - xi) / vn;
     for (double s : {0.5, 0.9, 0.99}) {
-      const AccdResult r = additive_ccd(ContactKind::vf, tri, x1, xi, {s, 1000});
+      const AccdResult r = additive_ccd(ContactKind::vf, tri, x1, xi, {s, 1000, 1e-12});
       if (t_true > 1.0) {
         EXPECT_EQ(r.toi, 1.0) << vn;
         EXPECT_FALSE(r.impact);
@@ -94,7 +94,7 @@ TEST(AdditiveCcd, PointTowardTriangleMatchesTheClosedFormWithinTheScale) {
   Stencil x1 = tri;
   x1[0] += p;
   const double t_true = (0.05 - xi) / 0.06, s = 0.9, ratio = 0.06 / p.norm();
-  const AccdResult r = additive_ccd(ContactKind::vf, tri, x1, xi, {s, 1000});
+  const AccdResult r = additive_ccd(ContactKind::vf, tri, x1, xi, {s, 1000, 1e-12});
   EXPECT_LE(r.toi, s * t_true + 1e-12);
   EXPECT_GT(r.toi, t_true * (1.0 - (1.0 - s) / (1.0 - s * ratio)));
   EXPECT_GT(r.iterations, 2);
@@ -111,11 +111,11 @@ TEST(AdditiveCcd, EdgeTowardEdgeMatchesTheClosedForm) {
   x1[0].z() -= 0.15;
   x1[1].z() -= 0.15;
   const double t_true = (0.1 - xi) / 0.15;
-  const AccdResult r = additive_ccd(ContactKind::ee, x0, x1, xi, {0.9, 1000});
+  const AccdResult r = additive_ccd(ContactKind::ee, x0, x1, xi, {0.9, 1000, 1e-12});
   EXPECT_TRUE(r.impact);
   EXPECT_NEAR(r.toi, 0.9 * t_true, 1e-12);
   // Exact in the limit of s -> 1.
-  const AccdResult fine = additive_ccd(ContactKind::ee, x0, x1, xi, {0.999999, 100000});
+  const AccdResult fine = additive_ccd(ContactKind::ee, x0, x1, xi, {0.999999, 100000, 1e-12});
   EXPECT_NEAR(fine.toi, t_true, 1e-5);
   EXPECT_LE(fine.toi, t_true);
   // Parallel edges sliding along each other at constant distance: no impact.
@@ -152,7 +152,7 @@ TEST(AdditiveCcd, NeverLaterThanTheSampledTimeOfImpactOnRandomMotions) {
                       : Vec3::Zero();
       }
       if (sub_pair_distance(kind, x0) <= xi) continue;
-      const AccdResult r = additive_ccd(kind, x0, x1, xi, {0.9, 1000});
+      const AccdResult r = additive_ccd(kind, x0, x1, xi, {0.9, 1000, 1e-12});
       const Sampled sm = sample_path(kind, x0, x1, xi, r.toi, 4000);
       EXPECT_LE(r.toi, sm.first_contact) << to_string(kind) << " trial " << trial;
       EXPECT_GT(sm.min_distance_before, xi) << to_string(kind) << " trial " << trial;

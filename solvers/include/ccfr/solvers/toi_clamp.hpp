@@ -21,6 +21,11 @@ struct ToiClampParams {
   double scale = 0.9;
   /// Advancement steps per pair before giving up with the (still safe) time reached so far.
   int max_iterations = 1000;
+  /// A pair whose initial gap d - ξ is at most this fraction of ξ counts as touching and gets
+  /// toi = 0 at once: from such a gap the advancement moves by at most ~1e-9 of the step in
+  /// max_iterations steps anyway, and the relative rounding of the distance is of this order
+  /// (ipc-toolkit stops the same way below machine epsilon).
+  double touch_tolerance = 1e-12;
 };
 
 /// Result of one Additive CCD query.
@@ -54,7 +59,8 @@ double sub_pair_distance(ContactKind kind, const std::array<Vec3, 4>& x);
 /// Never later than the true time of impact: d > ξ on [0, toi] whenever g(0) > 0. For a point
 /// approaching a plane head-on at normal speed \f$v_n\f$ the answer is
 /// \f$ s\,(d_0 - \xi)/v_n \f$. A pair already at or inside ξ (g(0) <= 0) gets toi = 0, as in
-/// ipc-toolkit: no conservative step exists from there, whatever the direction of motion.
+/// ipc-toolkit: no conservative step exists from there, whatever the direction of motion. So does
+/// a pair whose gap is below `touch_tolerance` ξ.
 AccdResult additive_ccd(ContactKind kind, const std::array<Vec3, 4>& x0, const std::array<Vec3, 4>& x1,
                         double min_separation, const ToiClampParams& params = {});
 
