@@ -421,8 +421,11 @@ void CollisionDetector::compute_exclusions(const Positions& initial) {
 }
 
 void CollisionDetector::detect(const Positions& x, std::span<const double> inv_mass, RegionSet& regions,
-                               std::vector<ContactPair>& contacts, DetectionStats& stats) {
+                               std::vector<ContactPair>& contacts, DetectionStats& stats, std::span<const Vec3> kinematic_step) {
   const Index nv = topo_.num_vertices();
+  if (!kinematic_step.empty() && static_cast<Index>(kinematic_step.size()) != nv)
+    throw Error("CollisionDetector::detect: kinematic_step has " + std::to_string(kinematic_step.size()) + " entries, expected " +
+                std::to_string(nv));
   if (static_cast<Index>(x.size()) != nv || static_cast<Index>(inv_mass.size()) != nv)
     throw Error("CollisionDetector::detect: expected " + std::to_string(nv) + " positions and inverse masses, got " +
                 std::to_string(x.size()) + " and " + std::to_string(inv_mass.size()));
@@ -478,7 +481,7 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
     stats.excluded_initial += excluded[c];
     stats.degenerate += degenerate[c];
   }
-  assemble(inv_mass, contacts, regions);
+  assemble(inv_mass, kinematic_step, contacts, regions);
   stats.constraints = static_cast<Index>(regions.total());
   stats.narrow_s = watch.seconds();
 }
@@ -495,8 +498,8 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
 /// appear in contact order, which depends neither on the thread count nor on timing. The copy
 /// of the contacts into `contacts` happens in the same sweep as the plane writes, so each
 /// contact buffer is read twice (count, fill) instead of three times.
-void CollisionDetector::assemble(std::span<const double> inv_mass, std::vector<ContactPair>& contacts,
-                                 RegionSet& regions) {
+void CollisionDetector::assemble(std::span<const double> inv_mass, std::span<const Vec3> kinematic_step,
+                                 std::vector<ContactPair>& contacts, RegionSet& regions) {
   const Index nv = topo_.num_vertices();
   const Index chunks = static_cast<Index>(contact_buffers_.size());
   std::vector<size_t> start(static_cast<size_t>(chunks) + 1, 0);
@@ -544,6 +547,14 @@ void CollisionDetector::assemble(std::span<const double> inv_mass, std::vector<C
       for (const ContactPair& c : contact_buffers_[chunk]) {
         *out++ = c;
         const double phi = c.distance - params_.offset;
+        // Gap left to the movable vertices: phi plus the known approach of kinematic vertices
+        // (their steps are zero for dynamic vertices, so the sum runs over all of c's vertices).
+        double gap = phi;
+        if (!kinematic_step.empty()) {
+          Vec3 known = Vec3::Zero();
+          for (int k = 0; k < c.size(); ++k) known += c.w[k] * kinematic_step[c.v[k]];
+          gap += c.n.dot(known);
+        }
         const double s_a = share_a(c, inv_mass), s_b = 1.0 - s_a;
         const int na = c.side_a();
         for (int k = 0; k < c.size(); ++k) {
@@ -551,7 +562,7 @@ void CollisionDetector::assemble(std::span<const double> inv_mass, std::vector<C
           if (!(inv_mass[v] > 0.0)) continue;
           HalfSpace& h = regions.planes[static_cast<size_t>(cursor[v]++)];
           h.n = k < na ? c.n : Vec3(-c.n);
-          h.d = (k < na ? s_a : s_b) * phi;
+          h.d = (k < na ? s_a : s_b) * gap;
           h.phi = phi;
         }
       }

@@ -17,9 +17,10 @@ std::vector<double> visibility_weights(std::span<const ContactPair> contacts, do
   const Index n = static_cast<Index>(contacts.size());
   std::vector<double> vis(static_cast<size_t>(n), 1.0);
   if (width <= 0.0 || n == 0) return vis;
-  // Group by query vertex (counting sort), nearest first within a group. Only contacts j with
-  // d_c - δ_v < d_j < d_c attenuate c (S vanishes for d_j >= d_c), and any j with
-  // d_j <= d_c - δ_v occludes c completely (S = 1): a window over the sorted gaps.
+  // Only contacts j with d_c - δ_v < d_j < d_c attenuate c (S vanishes for d_j >= d_c), and any j
+  // with d_j <= d_c - δ_v occludes c completely (S = 1). So within a query vertex's group every
+  // contact at least δ_v beyond the group's nearest has weight 0, and the product runs over the
+  // few contacts inside that window: O(n + k²) without sorting, k the window's size.
   Index max_v = 0;
   for (const auto& c : contacts) max_v = std::max(max_v, c.v[0]);
   std::vector<Index> start(static_cast<size_t>(max_v) + 2, 0);
@@ -32,20 +33,22 @@ std::vector<double> visibility_weights(std::span<const ContactPair> contacts, do
   }
   auto gap = [&](Index i) { return contacts[i].distance - offset; };
   parallel_for(max_v + 1, [&](Index vb, Index ve) {
+    std::vector<Index> window;
     for (Index v = vb; v < ve; ++v) {
       const Index b = start[v], e = start[v + 1];
       if (e - b < 2) continue;
-      std::sort(order.begin() + b, order.begin() + e, [&](Index x, Index y) { return gap(x) != gap(y) ? gap(x) < gap(y) : x < y; });
-      const double nearest = gap(order[b]);
-      for (Index i = b + 1; i < e; ++i) {
-        const double di = gap(order[i]);
-        if (di - nearest >= width) {
-          for (Index k = i; k < e; ++k) vis[order[k]] = 0.0;  // sorted: all farther ones are occluded too
-          break;
-        }
+      double nearest = gap(order[b]);
+      for (Index i = b + 1; i < e; ++i) nearest = std::min(nearest, gap(order[i]));
+      window.clear();
+      for (Index i = b; i < e; ++i) {
+        if (gap(order[i]) - nearest >= width) vis[order[i]] = 0.0;
+        else window.push_back(order[i]);
+      }
+      for (Index c : window) {
         double w = 1.0;
-        for (Index j = i - 1; j >= b; --j) w *= 1.0 - smoothstep((di - gap(order[j])) / width);
-        vis[order[i]] = w;
+        for (Index j : window)
+          if (j != c) w *= 1.0 - smoothstep((gap(c) - gap(j)) / width);
+        vis[c] = w;
       }
     }
   }, 256);

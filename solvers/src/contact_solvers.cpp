@@ -21,7 +21,7 @@ void DetectingSolver::initialize(const Topology& topo, const SimState& state, co
 
 DetectionSummary DetectingSolver::detect(const Positions& anchor, const SimState& state, StepContext& ctx) {
   DetectionStats ds;
-  detector_->detect(anchor, state.inv_mass, regions_, contacts_, ds);
+  detector_->detect(anchor, state.inv_mass, regions_, contacts_, ds, ctx.kinematic_step);
   ctx.times.broad += ds.broad_s;
   ctx.times.narrow += ds.narrow_s;
   {

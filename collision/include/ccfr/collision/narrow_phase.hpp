@@ -126,8 +126,15 @@ class CollisionDetector {
   /// (Alg. NarrowPhase lines 10, 26, 41; Eq. 3) and `contacts` with every sub-pair within range
   /// that has a movable vertex; overwrites `stats`. Vertices of inverse mass 0 get no half-spaces
   /// (the solver does not move them; their side's share is 0). Deterministic for any thread count.
+  ///
+  /// `kinematic_step` (#V, or empty): the known displacement of kinematic vertices during the
+  /// coming iteration. A kinematic side's motion is not bounded by a share, it is known, so the
+  /// gap left to the movable vertices is \f$G = \varphi + \mathbf{n}^\top\sum_k w_k\Delta\mathbf{x}_k\f$
+  /// (Eq. 3 with a known \f$\Delta\mathbf{x}_B\f$) and each movable vertex gets \f$d = s\,G\f$. Valid
+  /// while every kinematic step is at most r (the search range then still covers every pair
+  /// that can come within ξ).
   void detect(const Positions& x, std::span<const double> inv_mass, RegionSet& regions,
-              std::vector<ContactPair>& contacts, DetectionStats& stats);
+              std::vector<ContactPair>& contacts, DetectionStats& stats, std::span<const Vec3> kinematic_step = {});
 
   const CollisionParams& params() const { return params_; }
   const CollisionPrimitives& primitives() const { return prims_; }
@@ -143,7 +150,8 @@ class CollisionDetector {
 
  private:
   void compute_exclusions(const Positions& initial);
-  void assemble(std::span<const double> inv_mass, std::vector<ContactPair>& contacts, RegionSet& regions);
+  void assemble(std::span<const double> inv_mass, std::span<const Vec3> kinematic_step, std::vector<ContactPair>& contacts,
+                RegionSet& regions);
 
   const Topology& topo_;
   CollisionParams params_;
