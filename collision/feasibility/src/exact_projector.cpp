@@ -112,7 +112,10 @@ ExactProjection dual_active_set(const Vec3& q, std::span<const HalfSpace> planes
         if (r[i] > 1e-14 && u[i] / r[i] < t1) t1 = u[i] / r[i], drop = i;
       const double zz = z.squaredNorm();
       const bool primal = zz > 1e-20 * np.squaredNorm();
-      if (!primal && drop < 0) return out;  // the planes are inconsistent: the region is empty
+      if (!primal && drop < 0) {  // the planes are inconsistent: the region is empty
+        out.active = -1;
+        return out;
+      }
       const double t2 = primal ? -slack(p) / zz : std::numeric_limits<double>::infinity();
       const double t = std::min(t1, t2);
       if (primal) x += t * z;
@@ -162,6 +165,7 @@ ExactProjection exact_region_projection(const Vec3& q, std::span<const HalfSpace
   if (m > kEnumerationLimit) {
     ExactProjection e = dual_active_set(q, planes, margin, tolerance);
     if (e.found) return e;
+    if (e.active < 0) return ExactProjection{};  // proven empty: Hildreth would only burn its sweeps
     return hildreth(q, planes, margin, tolerance);
   }
 
