@@ -10,38 +10,15 @@
 #include "ccfr/solvers/contact_response.hpp"
 #include "ccfr/solvers/contact_solvers.hpp"
 #include "ccfr/solvers/simulation.hpp"
+#include "scenes.hpp"
 #include "test_support.hpp"
 
 using namespace ccfr;
 
 namespace {
-/// One particle on a kinematic floor (plane y = 0), moving along +x at `speed`.
+/// The puck of scenes.hpp resting in the repulsion band (at the offset plus most of δ = 0.002).
 Scene floor_scene(double speed, double mu_s, double mu_k, const std::string& solver) {
-  const auto floor = gen::plane(4.0, 4);
-  TopologyBuilder tb;
-  tb.add_object("floor", ObjectKind::obstacle, static_cast<Index>(floor.v.size()), floor.f);
-  tb.add_object("puck", ObjectKind::particles, 1);
-  Scene s;
-  s.topo = tb.finish();
-  s.state.resize(s.topo.num_vertices());
-  for (size_t i = 0; i < floor.v.size(); ++i) s.state.x[i] = floor.v[i] + Vec3(1.5, 0, 0);
-  const Index p = s.topo.num_vertices() - 1;
-  s.params.contact.offset = 0.01;
-  s.params.contact.radius = 0.01;
-  s.params.contact.repulsion_range = 0.002;
-  s.params.contact.stiffness = 1e5;
-  s.params.contact.friction_static = mu_s;
-  s.params.contact.friction_kinetic = mu_k;
-  s.params.contact.solver = solver;
-  s.params.time.substeps = 10;
-  s.params.time.iterations = 4;
-  s.state.x[p] = Vec3(0, 0.0115, 0);  // resting at the offset plus most of the repulsion band
-  s.state.v[p] = Vec3(speed, 0, 0);
-  s.state.mass[p] = 0.01;
-  s.state.inv_mass[p] = 100.0;
-  s.state.rest = s.state.x_prev = s.state.x;
-  s.params.objects.resize(2);
-  return s;
+  return ccfr::test::floor_puck_scene(0.0115, speed, solver, 0.002, mu_s, mu_k);
 }
 }  // namespace
 

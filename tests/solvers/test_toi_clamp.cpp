@@ -9,6 +9,7 @@
 #include "ccfr/solvers/contact_solver.hpp"
 #include "ccfr/solvers/simulation.hpp"
 #include "ccfr/solvers/toi_clamp.hpp"
+#include "scenes.hpp"
 #include "test_support.hpp"
 
 using namespace ccfr;
@@ -36,32 +37,9 @@ Sampled sample_path(ContactKind kind, const Stencil& x0, const Stencil& x1, doub
   return out;
 }
 
-/// One particle over a kinematic floor (plane y = 0, as floor_scene in test_contact.cpp), at
-/// height `height`, sliding along +x at `speed`, no repulsion and no friction: only the contact
-/// solver keeps it above ξ.
+/// The puck of scenes.hpp with no repulsion and no friction: only the contact solver keeps it above ξ.
 Scene puck_scene(double height, double speed, const std::string& solver) {
-  const auto floor = gen::plane(4.0, 4);
-  TopologyBuilder tb;
-  tb.add_object("floor", ObjectKind::obstacle, static_cast<Index>(floor.v.size()), floor.f);
-  tb.add_object("puck", ObjectKind::particles, 1);
-  Scene s;
-  s.topo = tb.finish();
-  s.state.resize(s.topo.num_vertices());
-  for (size_t i = 0; i < floor.v.size(); ++i) s.state.x[i] = floor.v[i] + Vec3(1.5, 0, 0);
-  const Index p = s.topo.num_vertices() - 1;
-  s.params.contact.offset = 0.01;
-  s.params.contact.radius = 0.01;
-  s.params.contact.repulsion_range = 0.0;
-  s.params.contact.solver = solver;
-  s.params.time.substeps = 10;
-  s.params.time.iterations = 4;
-  s.state.x[p] = Vec3(0, height, 0);
-  s.state.v[p] = Vec3(speed, 0, 0);
-  s.state.mass[p] = 0.01;
-  s.state.inv_mass[p] = 100.0;
-  s.state.rest = s.state.x_prev = s.state.x;
-  s.params.objects.resize(2);
-  return s;
+  return ccfr::test::floor_puck_scene(height, speed, solver);
 }
 
 }  // namespace
