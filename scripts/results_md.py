@@ -1,0 +1,76 @@
+#!/usr/bin/env python3
+"""Writes the measured part of docs/results.md from the runs of scripts/reproduce-results
+(out/results/<scene>) and the ablations (out/ablate/<scene>/ablation.csv).
+Usage: /usr/bin/python3 scripts/results_md.py [RESULTS_DIR] [ABLATE_DIR] > table.md"""
+import csv, json, os, re, statistics, subprocess, sys
+
+PAPER = {  # Table "Performance results" (seconds per frame, 8-core i9-11900)
+    "twisting_cloth": (15908, 0.902338, 3.069347, 0.844467, 0.872114, 0.250559, 0.024683),
+    "soft_wires": (40000, 0.391849, 0.555964, 0.017398, 0.149785, 0.180273, 0.022698),
+    "hair": (33095, 6.639455, 7.726633, 1.691576, 2.544423, 0.471595, 0.471512),
+    "particles": (3182, 0.026110, 0.064368, 0.008049, 0.006509, 0.007527, 0.002347),
+    "codimensional": (13586, 0.208647, 0.305605, 0.079522, 0.026361, 0.081292, 0.016530),
+}
+
+
+def rows(path):
+    with open(path) as f:
+        return list(csv.DictReader(f))
+
+
+def audit_line(exe, d):
+    out = subprocess.run([exe, "audit", d, "--stride", "5"], capture_output=True, text=True).stdout.strip().splitlines()
+    return out[-1] if out else "audit failed"
+
+
+def main():
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    res = sys.argv[1] if len(sys.argv) > 1 else os.path.join(root, "out", "results")
+    abl = sys.argv[2] if len(sys.argv) > 2 else os.path.join(root, "out", "ablate")
+    exe = os.path.join(root, "build", "apps", "ccfr")
+    print("| scene | vertices (paper) | frames | substeps x iterations | avg s/frame (paper) | max s/frame (paper) | XPBD | broad | narrow | resolution (share) | max violations / frame | max remaining | halted, total (per frame, % of vertices) | audit | min dist / ξ |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for scene in sorted(os.listdir(res)):
+        d = os.path.join(res, scene)
+        if not os.path.isfile(os.path.join(d, "stats.csv")):
+            continue
+        r = rows(os.path.join(d, "stats.csv"))
+        if not r:
+            continue
+        run = json.load(open(os.path.join(d, "run.json")))
+        t = run["config"]["time"]
+        f = lambda k: [float(x[k]) for x in r]
+        avg = statistics.mean(f("wall_s"))
+        mean = lambda k: statistics.mean(f(k))
+        p = PAPER.get(scene)
+        a = audit_line(exe, d)
+        ratio = re.search(r"\(([0-9.]+) xi\)", a)
+        verdict = a.split(":")[0]
+        halted = sum(f("halted_vertices"))
+        pv = lambda i: f" ({p[i]:.3f})" if p else ""
+        print(f"| {scene} | {run['vertices']}{' (' + format(p[0], ',') + ')' if p else ''} | {len(r)} | {t['substeps']} x {t['iterations']} | "
+              f"{avg:.3f}{pv(1)} | {max(f('wall_s')):.3f}{pv(2)} | {mean('xpbd_s'):.3f} | {mean('broad_s'):.3f} | {mean('narrow_s'):.3f} | "
+              f"{mean('resolution_s'):.4f} ({100 * mean('resolution_s') / avg:.1f} %) | {int(max(f('violations_detected')))} | "
+              f"{int(max(f('violations_remaining')))} | {int(halted)} ({halted / len(r):.0f}, {100 * halted / len(r) / run['vertices']:.2f} %) | "
+              f"{verdict} | {ratio.group(1) if ratio else ''} |")
+    if os.path.isdir(abl):
+        for scene in sorted(os.listdir(abl)):
+            path = os.path.join(abl, scene, "ablation.csv")
+            if not os.path.isfile(path):
+                continue
+            print(f"\n#### Ablation: `{scene}`\n")
+            print("| solver | frames | avg s/frame | max s/frame | resolution | violations detected | remaining (sum / max) | halted | audit (violations) | min dist / ξ |")
+            print("|---|---|---|---|---|---|---|---|---|---|")
+            for x in rows(path):
+                mdo = x["min_distance_over_offset"]
+                print(f"| `{x['solver']}` | {x['frames']} | {float(x['avg_frame_s']):.4f} | {float(x['max_frame_s']):.4f} | {float(x['resolution_s']):.4f} | "
+                      f"{x['violations_detected']} | {x['violations_remaining']} / {x['max_violations_remaining']} | {x['halted_vertices']} | "
+                      f"{x['audit']} ({x['audit_violations']}) | {float(mdo):.6f} |" if mdo else
+                      f"| `{x['solver']}` | {x['frames']} | {float(x['avg_frame_s']):.4f} | {float(x['max_frame_s']):.4f} | {float(x['resolution_s']):.4f} | "
+                      f"{x['violations_detected']} | {x['violations_remaining']} / {x['max_violations_remaining']} | {x['halted_vertices']} | "
+                      f"{x['audit']} ({x['audit_violations']}) | |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
