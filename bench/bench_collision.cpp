@@ -16,6 +16,7 @@
 #include "ccfr/collision/narrow_phase.hpp"
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/geometry/generators.hpp"
+#include "../tests/collision/scenes.hpp"
 
 namespace {
 
@@ -34,38 +35,9 @@ struct Scene {
 /// an offset surface of a curve of curvature <= 1/12 mm with smaller offsets, hence free of
 /// self-intersections, with layers 18-30 mm apart so that they interact across the 20 mm range.
 Scene crumpled_cloth() {
-  const double size = 1.0, rho = 0.012, amp = 0.003;
-  const int folds = 3;
-  gen::TriMesh m = gen::grid(size, size, 127, 127);
-  const double pi = std::numbers::pi;
-  const double straight = (size - folds * pi * rho) / (folds + 1);
-  for (Vec3& p : m.v) {
-    const double u = p.x() + 0.5 * size, z = p.z();
-    double s = u, x0 = 0.0, dir = 1.0;
-    Vec3 c, t;
-    for (int k = 0;; ++k) {
-      if (s <= straight || k == folds) {
-        c = Vec3(x0 + dir * s, 2.0 * rho * k, 0.0);
-        t = Vec3(dir, 0.0, 0.0);
-        break;
-      }
-      s -= straight;
-      const double x_end = x0 + dir * straight;
-      if (s <= pi * rho) {
-        const double th = s / rho;
-        c = Vec3(x_end + dir * rho * std::sin(th), 2.0 * rho * k + rho - rho * std::cos(th), 0.0);
-        t = Vec3(dir * std::cos(th), std::sin(th), 0.0);
-        break;
-      }
-      s -= pi * rho;
-      x0 = x_end;
-      dir = -dir;
-    }
-    const Vec3 normal(-t.y(), t.x(), 0.0);
-    const double h = amp * (0.5 * std::sin(2 * pi * 5.0 * u + 0.3) * std::sin(2 * pi * 4.0 * z) +
-                            0.3 * std::sin(2 * pi * 11.0 * z + 2.0 * u) + 0.2 * std::sin(2 * pi * 17.0 * (u + z)));
-    p = c + h * normal + Vec3(0, 0, z);
-  }
+  // The tests' accordion generator (tests/collision/scenes.hpp), so the benchmark measures the
+  // geometry the brute-force tests certify.
+  const gen::TriMesh m = ccfr::test::accordion_cloth(1.0, 127, 3, 0.012, 0.003);
   TopologyBuilder b;
   b.add_object("cloth", ObjectKind::cloth, static_cast<Index>(m.v.size()), m.f);
   return {b.finish(), m.v, std::vector<double>(m.v.size(), 1.0)};
