@@ -549,11 +549,20 @@ void CollisionDetector::assemble(std::span<const double> inv_mass, std::span<con
         const double phi = c.distance - params_.offset;
         // Gap left to the movable vertices: phi plus the known approach of kinematic vertices
         // (their steps are zero for dynamic vertices, so the sum runs over all of c's vertices).
+        // The closest points are separated by the plane normal to n; every vertex of a side must
+        // stay behind its plane, so a kinematic side is bounded by its worst-moving vertex (a
+        // rotating handle's far corner can approach faster than its closest point):
+        // G = phi - K_A - K_B with K the largest approach of a side's scripted vertices along n.
         double gap = phi;
         if (!kinematic_step.empty()) {
-          Vec3 known = Vec3::Zero();
-          for (int k = 0; k < c.size(); ++k) known += c.w[k] * kinematic_step[c.v[k]];
-          gap += c.n.dot(known);
+          const int na_k = c.side_a();
+          double k_a = 0.0, k_b = 0.0;
+          for (int k = 0; k < c.size(); ++k) {
+            const double along = c.n.dot(kinematic_step[c.v[k]]);  // zero for dynamic vertices
+            if (k < na_k) k_a = std::max(k_a, -along);
+            else k_b = std::max(k_b, along);
+          }
+          gap -= k_a + k_b;
         }
         const double s_a = share_a(c, inv_mass), s_b = 1.0 - s_a;
         const int na = c.side_a();

@@ -1,6 +1,9 @@
 #include "ccfr/solvers/contact_solvers.hpp"
 
 #include "ccfr/core/log.hpp"
+#include "ccfr/core/parallel.hpp"
+
+#include <atomic>
 
 namespace ccfr {
 
@@ -59,6 +62,25 @@ SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& ancho
   r.violations_remaining = b.remaining;
   r.halted_vertices = b.halted;
   return r;
+}
+
+Index RegionProjectionSolver::count_outside(const Positions& x, const Positions& anchor, const SimState& state,
+                                           StepContext&) const {
+  std::atomic<Index> outside{0};
+  parallel_for(regions_.num_vertices(), [&](Index b, Index e) {
+    Index local = 0;
+    for (Index v = b; v < e; ++v)
+      if (state.inv_mass[v] > 0.0 && regions_.count(v) > 0 && min_value(anchor[v], x[v], regions_.of(v)) < -1e-9) ++local;
+    outside += local;
+  }, 1024);
+  return outside.load();
+}
+
+Index PostProcessSolver::count_outside(const Positions& x, const Positions&, const SimState&, StepContext& ctx) const {
+  Index n = 0;
+  for (const auto& c : contacts_)
+    if (contact_gap(c, x, ctx.params.contact.offset) < -1e-9) ++n;
+  return n;
 }
 
 SolveResult PostProcessSolver::resolve(Positions& x, const Positions&, const SimState& state, StepContext& ctx) {

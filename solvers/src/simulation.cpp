@@ -177,6 +177,12 @@ void Simulation::substep(FrameStats& fs, int substep_index) {
       clamped = count.load();
     }
     fs.clamped_vertices += clamped;
+    {
+      // What the substep really ends with, after the clamp and the analytic push.
+      ScopedTimer t(fs.times.resolution);
+      const Index recount = contact_->count_outside(solve_, anchor_, st, ctx);
+      if (recount >= 0) remaining = recount;
+    }
     anchor_.swap(solve_);
     if (clamped == 0) break;  // every vertex reached its intended advance
   }

@@ -95,7 +95,7 @@ ExactProjection dual_active_set(const Vec3& q, std::span<const HalfSpace> planes
     }
     const Vec3& np = planes[static_cast<std::size_t>(p)].n;
     double up = 0.0;
-    for (int inner = 0; inner < 8; ++inner) {
+    for (int inner = 0; inner <= 3; ++inner) {  // at most three drops before p can be added
       // z: n_p projected onto the null space of the active normals; r: their dual direction.
       Eigen::Matrix<double, 3, Eigen::Dynamic> N(3, na);
       for (int i = 0; i < na; ++i) N.col(i) = planes[static_cast<std::size_t>(act[i])].n;
@@ -111,7 +111,9 @@ ExactProjection dual_active_set(const Vec3& q, std::span<const HalfSpace> planes
       for (int i = 0; i < na; ++i)
         if (r[i] > 1e-14 && u[i] / r[i] < t1) t1 = u[i] / r[i], drop = i;
       const double zz = z.squaredNorm();
-      const bool primal = zz > 1e-20 * np.squaredNorm();
+      // With three independent active normals nothing is left of n_p in 3-D: a nonzero z there is
+      // rounding of a nearly singular Gram matrix, and a primal step would add a fourth plane.
+      const bool primal = na < 3 && zz > 1e-20 * np.squaredNorm();
       if (!primal && drop < 0) {  // the planes are inconsistent: the region is empty
         out.active = -1;
         return out;

@@ -128,11 +128,14 @@ class CollisionDetector {
   /// (the solver does not move them; their side's share is 0). Deterministic for any thread count.
   ///
   /// `kinematic_step` (#V, or empty): the known displacement of kinematic vertices during the
-  /// coming iteration. A kinematic side's motion is not bounded by a share, it is known, so the
-  /// gap left to the movable vertices is \f$G = \varphi + \mathbf{n}^\top\sum_k w_k\Delta\mathbf{x}_k\f$
-  /// (Eq. 3 with a known \f$\Delta\mathbf{x}_B\f$) and each movable vertex gets \f$d = s\,G\f$. Valid
-  /// while every kinematic step is at most r (the search range then still covers every pair
-  /// that can come within ξ).
+  /// coming iteration. A kinematic side's motion is not bounded by a share, it is known: every
+  /// vertex of a side must stay behind the plane through its closest point, so the gap left to
+  /// the movable vertices is \f$G = \varphi - K_A - K_B\f$, with \f$K_B = \max(0, \max_j \mathbf{n}^\top\Delta\mathbf{x}_j)\f$
+  /// over side B's scripted vertices (and \f$K_A\f$ likewise along \f$-\mathbf{n}\f$), and each
+  /// movable vertex gets \f$d = s\,G\f$ (Eq. 3 with a known, bounded \f$\Delta\mathbf{x}_B\f$). The worst
+  /// vertex, not the closest point, because a rotating handle's far corner approaches faster.
+  /// Valid while every kinematic step is at most r (the search range then still covers every
+  /// pair that can come within ξ).
   void detect(const Positions& x, std::span<const double> inv_mass, RegionSet& regions,
               std::vector<ContactPair>& contacts, DetectionStats& stats, std::span<const Vec3> kinematic_step = {});
 

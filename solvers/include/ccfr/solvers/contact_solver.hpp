@@ -59,6 +59,12 @@ class ContactSolver {
   virtual SolveResult resolve(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) = 0;
   /// Whether the substep clamps every vertex to the step bound r around its anchor (CCFR family).
   virtual bool clamps_to_radius() const { return false; }
+  /// Vertices (or pairs) left outside the feasible set by `x`, recounted after the loop's own
+  /// changes (the r-clamp, the analytic-obstacle push) so that `violations_remaining` describes
+  /// the positions the substep really ends with; -1 if the solver has nothing to recount.
+  virtual Index count_outside(const Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) const {
+    return -1;
+  }
 };
 
 /// Creates the solver registered under `name`; throws ccfr::Error listing the valid names.

@@ -44,6 +44,7 @@ class RegionProjectionSolver final : public DetectingSolver {
   void initialize(const Topology& topo, const SimState& state, const SimulationParams& params) override;
   SolveResult resolve(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) override;
   bool clamps_to_radius() const override { return true; }
+  Index count_outside(const Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) const override;
 
  private:
   std::string name_, projector_name_;
@@ -57,6 +58,7 @@ class PostProcessSolver final : public DetectingSolver {
  public:
   std::string_view name() const override { return "post_process"; }
   SolveResult resolve(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) override;
+  Index count_outside(const Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) const override;
 };
 
 }  // namespace ccfr
