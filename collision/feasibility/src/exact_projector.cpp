@@ -229,28 +229,14 @@ ExactProjector::ExactProjector(const ProjectorParams& params) : params_(params) 
 
 ProjectResult ExactProjector::project(const Vec3& x_anchor, const Vec3& x_candidate,
                                       std::span<const HalfSpace> planes) const {
+  const double tol = params_.feasibility_tolerance;
+  const ScreenedInput in = screen_input(x_anchor, x_candidate, planes, tol);
+  if (!in.usable) return unusable_input(x_anchor);
   ProjectResult res;
   res.x = x_candidate;
-  const double tol = params_.feasibility_tolerance;
-  if (!x_candidate.allFinite() || !x_anchor.allFinite()) {
-    res.status = ProjectStatus::infeasible;
-    res.x = x_anchor;
-    return res;
-  }
-  const Vec3 q = x_candidate - x_anchor;
-  double d_min = 0.0;
-  double scale = q.norm();
-  for (const auto& h : planes) {
-    const double rho = h.n.dot(q) + h.d;
-    if (std::isnan(rho)) {
-      res.status = ProjectStatus::infeasible;
-      res.x = x_anchor;
-      return res;
-    }
-    if (rho < -tol) ++res.active;
-    d_min = std::min(d_min, h.d);
-    scale = std::max(scale, std::abs(h.d));
-  }
+  res.active = in.violated;
+  const Vec3& q = in.q;
+  const double d_min = in.d_min, scale = in.scale;
   if (res.active == 0) return res;
 
   // Certificate slack: the feasibility tolerance, or rounding relative to the problem's lengths.

@@ -101,6 +101,13 @@ double min_value(const Vec3& x_anchor, const Vec3& x, std::span<const HalfSpace>
   return lo;
 }
 
+ProjectResult unusable_input(const Vec3& x_anchor) {
+  ProjectResult res;
+  res.x = x_anchor;
+  res.status = ProjectStatus::infeasible;
+  return res;
+}
+
 BatchStats project_all(const Projector& projector, const RegionSet& regions, const Positions& anchor, Positions& x,
                        std::span<const double> inv_mass) {
   const Index n = regions.num_vertices();

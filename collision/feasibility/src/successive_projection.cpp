@@ -10,24 +10,13 @@ SuccessiveProjectionProjector::SuccessiveProjectionProjector(const ProjectorPara
 
 ProjectResult SuccessiveProjectionProjector::project(const Vec3& x_anchor, const Vec3& x_candidate,
                                                      std::span<const HalfSpace> planes) const {
+  const double tol = params_.feasibility_tolerance;
+  const ScreenedInput in = screen_input(x_anchor, x_candidate, planes, tol);
+  if (!in.usable) return unusable_input(x_anchor);
   ProjectResult res;
   res.x = x_candidate;
-  const double tol = params_.feasibility_tolerance;
-  if (!x_candidate.allFinite() || !x_anchor.allFinite()) {
-    res.status = ProjectStatus::infeasible;
-    res.x = x_anchor;
-    return res;
-  }
-  Vec3 p = x_candidate - x_anchor;
-  for (const auto& h : planes) {
-    const double rho = h.n.dot(p) + h.d;
-    if (std::isnan(rho)) {
-      res.status = ProjectStatus::infeasible;
-      res.x = x_anchor;
-      return res;
-    }
-    if (rho < -tol) ++res.active;
-  }
+  res.active = in.violated;
+  Vec3 p = in.q;
   if (res.active == 0) return res;
 
   bool clean = false;

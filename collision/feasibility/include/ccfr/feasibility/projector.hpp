@@ -109,4 +109,49 @@ BatchStats project_all(const Projector& projector, const RegionSet& regions, con
 /// +infinity for no planes, NaN when `x` or a plane is not finite.
 double min_value(const Vec3& x_anchor, const Vec3& x, std::span<const HalfSpace> planes);
 
+/// What every projector first learns about its input: the candidate relative to the anchor `q`,
+/// the number of planes it violates (value < -tol), the smallest offset `d_min` and the largest
+/// |d| or |q| (`scale`). `usable` is false when a position or a plane is not finite: nothing can
+/// then be certified, and the vertex stays at its anchor as infeasible (unusable_input()).
+/// `on_value(k, value)` is called with each plane's value at the candidate (inline: this runs on
+/// every projection, so the values go straight where the caller needs them).
+struct ScreenedInput {
+  Vec3 q = Vec3::Zero();
+  int violated = 0;
+  double d_min = 0.0;
+  double scale = 0.0;
+  bool usable = true;
+};
+template <class OnValue>
+inline ScreenedInput screen_input(const Vec3& x_anchor, const Vec3& x_candidate, std::span<const HalfSpace> planes,
+                                  double tol, OnValue&& on_value) {
+  ScreenedInput in;
+  if (!x_candidate.allFinite() || !x_anchor.allFinite()) {
+    in.usable = false;
+    return in;
+  }
+  in.q = x_candidate - x_anchor;
+  in.scale = in.q.norm();
+  for (std::size_t k = 0; k < planes.size(); ++k) {
+    const HalfSpace& h = planes[k];
+    const double rho = h.n.dot(in.q) + h.d;
+    if (rho != rho) {  // NaN: a non-finite plane, nothing can be certified
+      in.usable = false;
+      return in;
+    }
+    on_value(k, rho);
+    if (rho < -tol) ++in.violated;
+    in.d_min = h.d < in.d_min ? h.d : in.d_min;
+    const double ad = h.d < 0 ? -h.d : h.d;
+    in.scale = ad > in.scale ? ad : in.scale;
+  }
+  return in;
+}
+inline ScreenedInput screen_input(const Vec3& x_anchor, const Vec3& x_candidate, std::span<const HalfSpace> planes,
+                                  double tol) {
+  return screen_input(x_anchor, x_candidate, planes, tol, [](std::size_t, double) {});
+}
+/// The answer to unusable input: infeasible, at the anchor.
+ProjectResult unusable_input(const Vec3& x_anchor);
+
 }  // namespace ccfr
