@@ -20,20 +20,13 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-TIMING = [
-    ("xpbd_s", "XPBD", "#4c72b0"),
-    ("broad_s", "broad phase", "#dd8452"),
-    ("narrow_s", "narrow phase", "#55a868"),
-    ("resolution_s", "contact resolution", "#c44e52"),
-]
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from ccfr_plot_common import TIMING, parse_float  # noqa: E402
+
+num = parse_float
 
 
-def num(text):
-    try:
-        v = float(text)
-    except (TypeError, ValueError):
-        return math.nan
-    return v if math.isfinite(v) else math.nan
+
 
 
 def read_rows(path):

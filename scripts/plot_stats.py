@@ -22,22 +22,11 @@ import matplotlib
 matplotlib.use("Agg")  # files only, no display needed
 import matplotlib.pyplot as plt  # noqa: E402
 
-# Stacked in this order, bottom to top, as in the paper's timing figure.
-TIMING = [
-    ("xpbd_s", "XPBD", "#4c72b0"),
-    ("broad_s", "broad phase", "#dd8452"),
-    ("narrow_s", "narrow phase", "#55a868"),
-    ("resolution_s", "contact resolution", "#c44e52"),
-]
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from ccfr_plot_common import TIMING, parse_float  # noqa: E402
 
 
-def parse_float(text):
-    """A number, or NaN for empty, non-numeric or non-finite fields."""
-    try:
-        v = float(text)
-    except (TypeError, ValueError):
-        return math.nan
-    return v if math.isfinite(v) else math.nan
+
 
 
 def read_stats(path):
