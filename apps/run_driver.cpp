@@ -77,7 +77,9 @@ RunSummary run_scene(const RunOptions& opts) {
     FrameStats fs;
     try {
       fs = sim.step_frame();
-    } catch (const NumericalError& e) {
+    } catch (const Error& e) {
+      // Non-finite positions, a broken guarantee, scripted motion beyond the bound: the frame
+      // being computed is not written; every frame on disk stays whole and clean.
       summary.status = std::string("failed: ") + e.what();
       summary.failed = true;
       spdlog::error("{}", e.what());

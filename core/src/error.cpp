@@ -31,4 +31,7 @@ NumericalError::NumericalError(int frame, Index vertex, std::string stage)
       vertex_(vertex),
       stage_(std::move(stage)) {}
 
+GuaranteeError::GuaranteeError(int frame, std::string message)
+    : Error("frame " + std::to_string(frame) + ": " + message), frame_(frame) {}
+
 }  // namespace ccfr

@@ -130,6 +130,7 @@ class Builder {
     p.time.gravity = v3(t["gravity"]);
     p.time.damping = t["damping"].as<double>();
     p.time.advance_tolerance = t["advance_tolerance"].as<double>();
+    p.time.max_subdivision = t["max_subdivision"].as<int>();
     const auto c = cfg_["contact"];
     p.contact.solver = c["solver"].as<std::string>();
     p.contact.radius = c["radius"].as<double>();
@@ -144,6 +145,10 @@ class Builder {
     p.contact.redundancy_tolerance = c["redundancy_tolerance"].as<double>();
     p.contact.projection_sweeps = c["projection_sweeps"].as<int>();
     p.contact.analytic_obstacles = c["analytic_obstacles"].as<bool>();
+    const std::string policy = c["on_violation"].as<std::string>();
+    p.contact.on_violation = policy == "error" ? ViolationPolicy::error
+                             : policy == "warn" ? ViolationPolicy::warn
+                                                : ViolationPolicy::automatic;
     p.collision.broad_phase = cfg_["collision"]["broad_phase"].as<std::string>();
     const auto d = cfg_["debug"];
     const std::string audit = d["audit"].as<std::string>();

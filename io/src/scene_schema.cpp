@@ -124,7 +124,8 @@ NodePtr build_scene_schema() {
           {"xpbd_sweeps", integer(1, "material constraint sweeps per outer iteration", one)},
           {"gravity", vec3(std::array<double, 3>{0, -9.81, 0}, "gravity (m/s²)")},
           {"damping", number(0.0, "fraction of velocity removed per second", Range{0, 1e3, false, false})},
-          {"advance_tolerance", number(0.01, "outer iterations stop when every vertex reached (1 - tol) of its intended advance", Range::unit())}})},
+          {"advance_tolerance", number(0.01, "outer iterations stop when every vertex reached (1 - tol) of its intended advance", Range::unit())},
+          {"max_subdivision", integer(64, "most pieces a substep is split into automatically when scripted vertices move more than r or the free-flight advance exceeds (iterations - 1) r; beyond it a scripted step is an error and a dynamic one a warning naming the object", Range{1, 4096, false, false})}})},
       {"contact", map("contact handling", {
           {"solver", choice("ccfr", contact_solver_names, "contact solver")},
           {"radius", number(0.005, "r: search radius and per-iteration step bound (m)", pos)},
@@ -139,7 +140,9 @@ NodePtr build_scene_schema() {
           {"max_projection_iterations", integer(4, "projection passes before a vertex halts (falls back)", one)},
           {"redundancy_tolerance", number(1e-12, "tolerance of the redundant-constraint test", pos)},
           {"projection_sweeps", integer(16, "successive_projection: cyclic sweeps", one)},
-          {"analytic_obstacles", boolean(false, "obstacles with an analytic shape (sphere, plane, box, cylinder) also collide through their exact SDF")}})},
+          {"analytic_obstacles", boolean(false, "obstacles with an analytic shape (sphere, plane, box, cylinder) also collide through their exact SDF")},
+          {"on_violation", choice("auto", [] { return std::vector<std::string>{"auto", "error", "warn"}; },
+                                  "a substep that ends with pairs closer than their offset (or a deformed rigid body): `error` stops the run before the frame is written (non-zero exit), `warn` logs at error level and goes on, `auto` is error for the solvers that guarantee separation (ccfr, exact_projection) and warn for the baselines")}})},
       {"collision", map("collision detection", {
           {"broad_phase", choice("bvh", broad_phase_names, "broad phase")}})},
       {"debug", map("diagnostics", {

@@ -2,8 +2,10 @@
 
 #include "ccfr/core/log.hpp"
 #include "ccfr/core/parallel.hpp"
+#include "ccfr/geometry/distance.hpp"
 
 #include <atomic>
+#include <cmath>
 
 namespace ccfr {
 
@@ -38,6 +40,31 @@ DetectionSummary DetectingSolver::detect(const Positions& anchor, const SimState
   return s;
 }
 
+namespace {
+/// Exact distance of a sub-pair's primitives at x (closest points recomputed, not along n).
+double pair_distance(const ContactPair& c, const Positions& x) {
+  switch (c.kind) {
+    case ContactKind::vf: return std::sqrt(point_triangle(x[c.v[0]], x[c.v[1]], x[c.v[2]], x[c.v[3]]).distance_sq);
+    case ContactKind::ee: return std::sqrt(edge_edge(x[c.v[0]], x[c.v[1]], x[c.v[2]], x[c.v[3]]).distance_sq);
+    case ContactKind::ve: return std::sqrt(point_edge(x[c.v[0]], x[c.v[1]], x[c.v[2]]).distance_sq);
+    case ContactKind::vv: return std::sqrt(point_point_distance_sq(x[c.v[0]], x[c.v[1]]));
+  }
+  return 0.0;
+}
+}  // namespace
+
+Index DetectingSolver::count_outside(const Positions& x, const Positions&, const SimState&, StepContext& ctx) const {
+  const double limit = (1.0 - ctx.params.debug.audit_tolerance) * ctx.params.contact.offset;
+  std::atomic<Index> close{0};
+  parallel_for(static_cast<Index>(contacts_.size()), [&](Index b, Index e) {
+    Index local = 0;
+    for (Index i = b; i < e; ++i)
+      if (!(pair_distance(contacts_[i], x) >= limit)) ++local;  // NaN counts
+    close += local;
+  }, 2048);
+  return close.load();
+}
+
 void DetectingSolver::respond(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) {
   response_.apply(x, state.x_prev, state.inv_mass, ctx.params.contact, ctx.dt, friction_override_);
 }
@@ -53,34 +80,27 @@ void RegionProjectionSolver::initialize(const Topology& topo, const SimState& st
   pp.redundancy_tolerance = params.contact.redundancy_tolerance;
   pp.sweeps = params.contact.projection_sweeps;
   projector_ = make_projector(projector_name_, pp);
+  rigid_ = RigidBodies(topo, state);
 }
 
-SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& anchor, const SimState& state, StepContext&) {
+SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) {
   const BatchStats b = project_all(*projector_, regions_, anchor, x, state.inv_mass);
   SolveResult r;
   r.violations_detected = b.violated;
   r.violations_remaining = b.remaining;
   r.halted_vertices = b.halted;
+  if (!rigid_.empty()) {
+    const RigidEnforceStats rs = rigid_.enforce(x, anchor, regions_, *projector_, ctx.params.contact.radius);
+    r.halted_vertices += rs.vertices_halted;
+    r.bounded_vertices += rs.bodies_bounded;
+  }
   return r;
 }
 
 Index RegionProjectionSolver::count_outside(const Positions& x, const Positions& anchor, const SimState& state,
-                                           StepContext&) const {
-  std::atomic<Index> outside{0};
-  parallel_for(regions_.num_vertices(), [&](Index b, Index e) {
-    Index local = 0;
-    for (Index v = b; v < e; ++v)
-      if (state.inv_mass[v] > 0.0 && regions_.count(v) > 0 && min_value(anchor[v], x[v], regions_.of(v)) < -1e-9) ++local;
-    outside += local;
-  }, 1024);
-  return outside.load();
-}
-
-Index PostProcessSolver::count_outside(const Positions& x, const Positions&, const SimState&, StepContext& ctx) const {
-  Index n = 0;
-  for (const auto& c : contacts_)
-    if (contact_gap(c, x, ctx.params.contact.offset) < -1e-9) ++n;
-  return n;
+                                           StepContext& ctx) const {
+  // A rigid body is exact to round-off; 1e-9 of its extent is far above that and far below ξ.
+  return DetectingSolver::count_outside(x, anchor, state, ctx) + (rigid_.empty() ? 0 : rigid_.count_deformed(x, 1e-9));
 }
 
 SolveResult PostProcessSolver::resolve(Positions& x, const Positions&, const SimState& state, StepContext& ctx) {

@@ -95,13 +95,87 @@ void Simulation::collide_analytic(Positions& x, double t) const {
   }, 1024);
 }
 
-void Simulation::substep(FrameStats& fs, int substep_index) {
+int Simulation::subdivision(double dt) {
+  const auto& st = scene_.state;
+  const auto& tp = scene_.params.time;
+  const double r = scene_.params.contact.radius;
+  if (!contact_->clamps_to_radius()) return 1;
+  // Scripted vertices: their step must stay within r per piece (the regions leave room for a known
+  // step only within the search range). 0.9 leaves room for curved paths between the pieces.
+  predicted_.resize(st.x.size());
+  const double kin = kinematic_targets(st.time + dt, predicted_);
+  int pieces = 1;
+  Index worst_kin = -1;
+  if (kin > 0.0) {
+    pieces = std::max(pieces, static_cast<int>(std::ceil(kin / (0.9 * r))));
+    double best = 0.0;
+    for (Index v : kinematic_)
+      if (kinematic_step_[v].norm() > best) best = kinematic_step_[v].norm(), worst_kin = v;
+  }
+  // Dynamic vertices: the free-flight advance dt v + dt^2 g must fit in the outer iterations'
+  // step bounds (one iteration is kept for the corrections of constraints and contact).
+  const Vec3 g_dt2 = tp.gravity * dt * dt;
+  const Index nv = st.size();
+  std::vector<double> chunk_max(static_cast<size_t>(default_chunk_count(nv)), 0.0);
+  parallel_chunks(nv, static_cast<Index>(chunk_max.size()), [&](Index c, Index b, Index e) {
+    double m = 0.0;
+    for (Index i = b; i < e; ++i)
+      if (st.inv_mass[i] > 0.0) m = std::max(m, (dt * st.v[i] + g_dt2).norm());
+    chunk_max[c] = m;
+  });
+  const double advance = *std::max_element(chunk_max.begin(), chunk_max.end());
+  const double per_substep = 0.9 * std::max(1, tp.iterations - 1) * r;
+  if (std::isfinite(advance)) pieces = std::max(pieces, static_cast<int>(std::ceil(advance / per_substep)));
+  if (pieces > tp.max_subdivision) {
+    if (worst_kin >= 0 && kin / tp.max_subdivision > r) {
+      const auto& o = scene_.topo.object_of_vertex(worst_kin);
+      const int needed = static_cast<int>(std::ceil(tp.substeps * kin / (0.9 * r)));
+      throw GuaranteeError(frame_ + 1, "scripted vertices of object '" + o.name + "' move " + fmt::format("{:.4g}", kin) +
+                                           " per substep, more than time.max_subdivision = " +
+                                           std::to_string(tp.max_subdivision) + " pieces of r = " + fmt::format("{:.4g}", r) +
+                                           " can absorb; set time.substeps to at least " + std::to_string(needed) +
+                                           " or raise time.max_subdivision");
+    }
+    pieces = tp.max_subdivision;  // dynamic speed beyond the cap: report_capped_speed names it
+  }
+  return pieces;
+}
+
+void Simulation::report_capped_speed(Index vertex, double advance, double dt) {
+  const Index oi = scene_.topo.vertex_object[vertex];
+  if (warned_capped_.empty()) warned_capped_.assign(scene_.topo.objects.size(), false);
+  if (warned_capped_[oi]) return;
+  warned_capped_[oi] = true;
+  const auto& p = scene_.params;
+  spdlog::warn("frame {}: object '{}' wants to move {:.4g} m in a substep piece ({:.3g} m/s) but the step bound allows "
+               "{} iterations x r = {:.4g} m: it is slowed to {:.3g} m/s (counted in clamped_vertices). Raise "
+               "time.iterations, time.substeps or time.max_subdivision, or contact.radius",
+               frame_ + 1, scene_.topo.objects[oi].name, advance, advance / dt, p.time.iterations,
+               p.time.iterations * p.contact.radius, p.time.iterations * p.contact.radius / dt);
+}
+
+void Simulation::check_violations(Index remaining, int substep_index) {
+  if (remaining <= 0) return;
+  const auto& p = scene_.params;
+  const bool fatal = p.contact.on_violation == ViolationPolicy::error ||
+                     (p.contact.on_violation == ViolationPolicy::automatic && contact_->guarantees_separation());
+  const std::string what = std::to_string(remaining) + " violation(s) remain at the end of substep " +
+                           std::to_string(substep_index + 1) + " under contact solver '" + std::string(contact_->name()) +
+                           "' (pairs closer than their offset, or a deformed rigid body)";
+  if (fatal)
+    throw GuaranteeError(frame_ + 1, what + "; stopping before the frame is written (contact.on_violation: warn "
+                                            "continues, e.g. for ablations)");
+  if (!warned_violation_) spdlog::error("frame {}: {}; continuing (contact.on_violation: warn)", frame_ + 1, what);
+  warned_violation_ = true;
+}
+
+void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
   auto& st = scene_.state;
   const auto& params = scene_.params;
   const auto& tp = params.time;
   const Index nv = st.size();
-  const double dt = 1.0 / (tp.fps * tp.substeps);
   const double t1 = st.time + dt;
+  ++fs.substeps_run;
 
   st.x_prev = st.x;
   predicted_.resize(static_cast<size_t>(nv));
@@ -115,17 +189,17 @@ void Simulation::substep(FrameStats& fs, int substep_index) {
   // of letting a handle or obstacle jump into its neighbours before any region exists.
   const double kin_step = kinematic_targets(t1, predicted_);
   const bool kin_moves = kin_step > 0.0;
-  if (kin_step > params.contact.radius && !warned_kinematic_step_ && contact_->clamps_to_radius()) {
-    warned_kinematic_step_ = true;
-    spdlog::warn("kinematic vertices move up to {:.3g} per substep, more than the search radius r = {:.3g}: pairs farther "
-                 "than 2r may be reached unseen; raise time.substeps",
-                 kin_step, params.contact.radius);
-  }
+  if (kin_step > params.contact.radius * (1.0 + 1e-9) && contact_->clamps_to_radius())
+    throw GuaranteeError(frame_ + 1, fmt::format("scripted vertices move {:.4g} in one substep piece, more than r = {:.4g}, "
+                                                 "after subdivision; raise time.substeps",
+                                                 kin_step, params.contact.radius));
 
   anchor_ = st.x;
   StepContext ctx{scene_.topo, params, dt, frame_ + 1, substep_index, 0, fs.times};
   const double r = params.contact.radius;
   Index remaining = 0;
+  Index clamped = 0, worst = -1;
+  double worst_len = 0.0;
   for (int it = 0; it < tp.iterations; ++it) {
     ctx.iteration = it;
     ctx.kinematic_step = (it == 0 && kin_moves) ? std::span<const Vec3>(kinematic_step_) : std::span<const Vec3>();
@@ -158,25 +232,31 @@ void Simulation::substep(FrameStats& fs, int substep_index) {
 
     // Step bound: no vertex moves farther than r from its anchor in one outer iteration, so
     // primitives not seen by this iteration's detection cannot be reached (paper Alg. line 16).
-    Index clamped = 0;
+    clamped = res.bounded_vertices;
+    worst = -1;
+    worst_len = 0.0;
     if (contact_->clamps_to_radius()) {
-      std::atomic<Index> count{0};
-      parallel_for(nv, [&](Index b, Index e) {
-        Index local = 0;
+      std::vector<Index> chunk_count(static_cast<size_t>(default_chunk_count(nv)), 0), chunk_worst(chunk_count.size(), -1);
+      std::vector<double> chunk_len(chunk_count.size(), 0.0);
+      parallel_chunks(nv, static_cast<Index>(chunk_count.size()), [&](Index c, Index b, Index e) {
         for (Index i = b; i < e; ++i) {
           if (st.inv_mass[i] == 0.0) continue;  // scripted motion is not bounded by r
           const Vec3 d = solve_[i] - anchor_[i];
           const double len = d.norm();
           if (len > r) {
             solve_[i] = anchor_[i] + (r / len) * d;
-            if (len > r * (1.0 + tp.advance_tolerance)) ++local;
+            if (len > r * (1.0 + tp.advance_tolerance)) {
+              ++chunk_count[c];
+              if (len > chunk_len[c]) chunk_len[c] = len, chunk_worst[c] = i;
+            }
           }
         }
-        count += local;
-      }, 4096);
-      clamped = count.load();
+      });
+      for (size_t c = 0; c < chunk_count.size(); ++c) {
+        clamped += chunk_count[c];
+        if (chunk_len[c] > worst_len) worst_len = chunk_len[c], worst = chunk_worst[c];
+      }
     }
-    fs.clamped_vertices += clamped;
     {
       // What the substep really ends with, after the clamp and the analytic push.
       ScopedTimer t(fs.times.resolution);
@@ -186,7 +266,10 @@ void Simulation::substep(FrameStats& fs, int substep_index) {
     anchor_.swap(solve_);
     if (clamped == 0) break;  // every vertex reached its intended advance
   }
+  fs.clamped_vertices += clamped;
+  if (worst >= 0) report_capped_speed(worst, worst_len + (tp.iterations - 1) * r, dt);
   fs.violations_remaining = std::max(fs.violations_remaining, remaining);
+  check_violations(remaining, substep_index);
 
   // v_{n+1} = (x - x_n) / dt, then damping.
   const double keep = std::max(0.0, 1.0 - tp.damping * dt);
@@ -200,20 +283,41 @@ void Simulation::substep(FrameStats& fs, int substep_index) {
   st.time = t1;
   if (audit_ && params.debug.audit == AuditMode::every_substep) {
     ScopedTimer t(fs.times.audit);
-    fs.penetrations = std::max<Index>(fs.penetrations, 0) + audit_(st.x);
+    const Index pen = audit_(st.x);
+    fs.penetrations = std::max<Index>(fs.penetrations, 0) + pen;
+    check_audit(pen);
   }
+}
+
+void Simulation::check_audit(Index penetrations) {
+  if (penetrations <= 0) return;
+  const auto& p = scene_.params;
+  const bool fatal = p.contact.on_violation == ViolationPolicy::error ||
+                     (p.contact.on_violation == ViolationPolicy::automatic && contact_->guarantees_separation());
+  const std::string what = "the in-simulation audit (debug.audit) found " + std::to_string(penetrations) +
+                           " penetration(s) under contact solver '" + std::string(contact_->name()) + "'";
+  if (fatal) throw GuaranteeError(frame_ + 1, what + "; stopping before the frame is written");
+  spdlog::error("frame {}: {}; continuing (contact.on_violation: warn)", frame_ + 1, what);
 }
 
 FrameStats Simulation::step_frame() {
   Stopwatch wall;
   FrameStats fs;
-  for (int s = 0; s < scene_.params.time.substeps; ++s) substep(fs, s);
+  const auto& tp = scene_.params.time;
+  const double dt = 1.0 / (tp.fps * tp.substeps);
+  for (int s = 0; s < tp.substeps; ++s) {
+    const int pieces = subdivision(dt);
+    for (int k = 0; k < pieces; ++k) substep(fs, s, dt / pieces);
+  }
   ++frame_;
   fs.frame = frame_;
   fs.sim_time = scene_.state.time;
   if (audit_ && scene_.params.debug.audit == AuditMode::every_frame) {
     ScopedTimer t(fs.times.audit);
     fs.penetrations = audit_(scene_.state.x);
+    --frame_;  // messages name the frame being computed
+    check_audit(fs.penetrations);
+    ++frame_;
   }
   fs.wall_s = wall.seconds();
   return fs;

@@ -44,4 +44,16 @@ class NumericalError : public Error {
   std::string stage_;
 };
 
+/// The run cannot keep its promise: a substep ended with pairs closer than their offset under a
+/// solver that guarantees separation, or scripted motion outruns what the regions can absorb.
+/// Thrown before the frame is written, so every frame on disk stays clean.
+class GuaranteeError : public Error {
+ public:
+  GuaranteeError(int frame, std::string message);
+  int frame() const { return frame_; }
+
+ private:
+  int frame_;
+};
+
 }  // namespace ccfr

@@ -43,6 +43,9 @@ struct SolveResult {
   Index violations_detected = 0;   ///< vertices outside their region before resolution
   Index violations_remaining = 0;  ///< vertices still outside after resolution
   Index halted_vertices = 0;       ///< vertices that fell back to their anchor (halting events)
+  /// Vertices held back by the step bound r inside the solver (rigid bodies take the bound as a
+  /// whole body); the substep keeps iterating while any vertex is held back.
+  Index bounded_vertices = 0;
 };
 
 class ContactSolver {
@@ -59,9 +62,13 @@ class ContactSolver {
   virtual SolveResult resolve(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) = 0;
   /// Whether the substep clamps every vertex to the step bound r around its anchor (CCFR family).
   virtual bool clamps_to_radius() const { return false; }
-  /// Vertices (or pairs) left outside the feasible set by `x`, recounted after the loop's own
-  /// changes (the r-clamp, the analytic-obstacle push) so that `violations_remaining` describes
-  /// the positions the substep really ends with; -1 if the solver has nothing to recount.
+  /// Whether the solver promises that every pair stays at least its offset apart; a substep that
+  /// ends with a violation is then an error under contact.on_violation = auto.
+  virtual bool guarantees_separation() const { return false; }
+  /// Violations at the positions `x` the substep really ends with, recounted after the loop's own
+  /// changes (the r-clamp, the analytic-obstacle push), as the audit would count them: detected
+  /// sub-pairs whose exact distance is below (1 - debug.audit_tolerance) times their offset, plus
+  /// rigid-body vertices that left their body's rigid placement; -1 if the solver detects nothing.
   virtual Index count_outside(const Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) const {
     return -1;
   }

@@ -13,6 +13,7 @@
 #include "ccfr/feasibility/region.hpp"
 #include "ccfr/solvers/contact_response.hpp"
 #include "ccfr/solvers/contact_solver.hpp"
+#include "ccfr/solvers/rigid_projection.hpp"
 
 namespace ccfr {
 
@@ -22,6 +23,10 @@ class DetectingSolver : public ContactSolver {
   void initialize(const Topology& topo, const SimState& state, const SimulationParams& params) override;
   DetectionSummary detect(const Positions& anchor, const SimState& state, StepContext& ctx) override;
   void respond(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) override;
+  /// Detected sub-pairs closer than (1 - debug.audit_tolerance) times their offset at `x`, by their
+  /// exact closest points at `x` (not along the detection normal). Sub-pairs not detected were
+  /// farther than 2r + ξ at the anchors, and every vertex moved at most r, so they are not closer.
+  Index count_outside(const Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) const override;
 
   const RegionSet& regions() const { return regions_; }
   const std::vector<ContactPair>& contacts() const { return contacts_; }
@@ -44,11 +49,14 @@ class RegionProjectionSolver final : public DetectingSolver {
   void initialize(const Topology& topo, const SimState& state, const SimulationParams& params) override;
   SolveResult resolve(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) override;
   bool clamps_to_radius() const override { return true; }
+  bool guarantees_separation() const override { return projector_name_ != "successive_projection"; }
+  /// Close sub-pairs (DetectingSolver) plus rigid-body vertices off their body's rigid placement.
   Index count_outside(const Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) const override;
 
  private:
   std::string name_, projector_name_;
   std::unique_ptr<Projector> projector_;
+  RigidBodies rigid_;  ///< rigid bodies, whose correction is taken as a rigid motion
 };
 
 /// The paper's baseline: after XPBD, every detected pair whose gap along its detection normal is
@@ -58,7 +66,6 @@ class PostProcessSolver final : public DetectingSolver {
  public:
   std::string_view name() const override { return "post_process"; }
   SolveResult resolve(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) override;
-  Index count_outside(const Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) const override;
 };
 
 }  // namespace ccfr

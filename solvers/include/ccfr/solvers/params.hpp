@@ -20,9 +20,19 @@ struct TimeParams {
   Vec3 gravity = Vec3(0, -9.81, 0);
   double damping = 0.0;         ///< fraction of velocity removed per second (0: none)
   double advance_tolerance = 0.01;  ///< outer iterations stop once every vertex reached (1 - tol) of its intended advance
+  /// Most pieces a substep may be split into when a scripted step exceeds r or the intended
+  /// advance exceeds what the outer iterations can cover (iterations · r); see Simulation.
+  int max_subdivision = 64;
 };
 
 enum class AuditMode { off, every_frame, every_substep };
+
+/// What a substep that ends with pairs closer than their offset does.
+enum class ViolationPolicy {
+  automatic,  ///< error for solvers that guarantee separation (ccfr, exact_projection), warn for the baselines
+  error,      ///< stop the run before the frame is written (non-zero exit)
+  warn,       ///< log at error level, count in stats.csv and go on (ablations of the baselines)
+};
 
 struct ContactParams {
   std::string solver = "ccfr";        ///< contact solver (factory name)
@@ -38,6 +48,7 @@ struct ContactParams {
   double redundancy_tolerance = 1e-12;  ///< Alg. orthogonalProjection redundancy test
   int projection_sweeps = 16;         ///< successive_projection: cyclic sweeps
   bool analytic_obstacles = false;    ///< obstacles with an analytic shape also collide through their SDF
+  ViolationPolicy on_violation = ViolationPolicy::automatic;  ///< see ViolationPolicy
 };
 
 struct CollisionSettings {

@@ -28,6 +28,7 @@ struct FrameStats {
   Index penetrations = -1;         ///< audit count (-1: audit off)
   Index clamped_vertices = 0;      ///< vertices held back by the step bound r (summed)
   int outer_iterations = 0;        ///< outer iterations run in the frame (summed over substeps)
+  int substeps_run = 0;            ///< substeps actually run, after automatic subdivision
 };
 
 /// A hook that audits positions (penetration count), e.g. the exact audit of geometry_exact.
@@ -54,7 +55,17 @@ class Simulation {
   void set_audit(AuditHook hook) { audit_ = std::move(hook); }
 
  private:
-  void substep(FrameStats& fs, int substep_index);
+  /// One substep of length dt (a piece of a subdivided substep, or a whole one).
+  void substep(FrameStats& fs, int substep_index, double dt);
+  /// Pieces the next substep of length dt must be split into so that scripted vertices move at
+  /// most r per piece and the intended advance fits in the outer iterations' step bounds.
+  int subdivision(double dt);
+  /// Applies contact.on_violation to a substep that ended with `remaining` violations.
+  void check_violations(Index remaining, int substep_index);
+  /// Applies contact.on_violation to a failed in-simulation audit.
+  void check_audit(Index penetrations);
+  /// Warns (once per object) when the step bound held vertices back at the end of a substep.
+  void report_capped_speed(Index vertex, double advance, double dt);
   /// Writes each moving kinematic vertex's target at time t into `target` and its step into
   /// kinematic_step_; returns the largest step.
   double kinematic_targets(double t, Positions& target);
@@ -68,7 +79,8 @@ class Simulation {
   std::vector<const Motion*> kin_motion_;  ///< motion of each kinematic vertex (nullptr: static)
   std::vector<Index> analytic_obstacles_;  ///< objects with an analytic shape
   Positions predicted_, anchor_, solve_, kinematic_step_;
-  bool warned_kinematic_step_ = false;
+  bool warned_violation_ = false;
+  std::vector<bool> warned_capped_;  ///< per object: the capped-speed warning was given
   AuditHook audit_;
   int frame_ = 0;
 };

@@ -1,0 +1,66 @@
+#pragma once
+/// @file rigid_projection.hpp
+/// Contact resolution for rigid bodies taken as a rigid motion. A region projection moves single
+/// vertices; applied to a rigid body it crushes it (vertices pushed in by a floor, the rest left
+/// where XPBD put them), and its pairs with itself are never detected, so nothing would report
+/// the crushed body. Here a body's corrected positions are re-fitted by the best rigid transform,
+/// re-checked against every vertex's region and step bound, and iterated; a body that still does
+/// not fit moves only part of the way along the rigid interpolation from its anchor pose (a line
+/// search that is exact for the half-spaces of a linear blend and verified for the rigid pose), or
+/// halts as a whole at its anchor pose.
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "ccfr/core/scene.hpp"
+#include "ccfr/core/state.hpp"
+#include "ccfr/core/types.hpp"
+#include "ccfr/feasibility/projector.hpp"
+#include "ccfr/feasibility/region.hpp"
+
+namespace ccfr {
+
+/// Counts of one RigidBodies::enforce pass.
+struct RigidEnforceStats {
+  Index bodies_refitted = 0;  ///< bodies whose projected positions were replaced by a rigid fit
+  Index bodies_shortened = 0;  ///< bodies that moved only part of their rigid step (line search)
+  Index bodies_halted = 0;     ///< bodies left at their anchor pose
+  Index vertices_halted = 0;   ///< vertices of the halted bodies
+  Index bodies_bounded = 0;    ///< bodies whose step was shortened by the step bound r alone
+};
+
+/// The rigid objects of a scene with their rest shapes about their centres of mass.
+class RigidBodies {
+ public:
+  RigidBodies() = default;
+  /// Every object of kind `rigid` with at least one vertex. Bodies with kinematic (pinned)
+  /// vertices follow their pins through shape matching and are refitted without a line search.
+  RigidBodies(const Topology& topo, const SimState& state);
+
+  bool empty() const { return bodies_.empty(); }
+  Index size() const { return static_cast<Index>(bodies_.size()); }
+
+  /// Makes every rigid body a rigid placement that keeps each of its vertices inside its region
+  /// (anchored at `anchor`) and within `step_bound` of its anchor. `x` holds the candidate
+  /// positions (#V, already projected vertex by vertex); rigid bodies' vertices are overwritten.
+  /// `projector` re-projects the fitted positions in the refit iterations.
+  RigidEnforceStats enforce(Positions& x, const Positions& anchor, const RegionSet& regions, const Projector& projector,
+                            double step_bound) const;
+
+  /// Vertices of rigid bodies farther than `tolerance` from the best rigid fit of their body:
+  /// a deformed rigid body, which detection cannot see (its pairs with itself are not tested).
+  Index count_deformed(const Positions& x, double tolerance) const;
+
+ private:
+  struct Body {
+    Index begin = 0, end = 0;
+    bool pinned = false;
+    std::vector<Vec3> rest;      ///< rest offsets about the weighted rest centre
+    std::vector<double> weight;  ///< fitting weights (masses; kinematic vertices dominate)
+    std::vector<std::uint8_t> kinematic;  ///< 1 for pinned vertices, which keep their scripted positions
+    double extent = 0.0;         ///< largest |rest offset|, the lever arm of a rotation
+  };
+  std::vector<Body> bodies_;
+};
+
+}  // namespace ccfr
