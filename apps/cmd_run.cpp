@@ -24,7 +24,17 @@ void register_run(CLI::App& app) {
       const RunSummary s = run_scene(*opts);
       std::fprintf(stderr, "%s: %zu frames, output in %s\n", s.status.c_str(), s.frames.size(),
                    std::filesystem::absolute(s.out).string().c_str());
-      return s.failed ? 1 : 0;
+      if (s.failed) return 1;
+      if (s.violated_frames > 0 && !s.violations_opted_out) {
+        // A baseline without the guarantee ran to the end (contact.on_violation: auto); its
+        // frames are kept for comparison, but the run is not a clean one.
+        std::fprintf(stderr,
+                     "%zu frame(s) ended with violations remaining under contact solver '%s', which does not guarantee "
+                     "separation; exit 3 (set contact.on_violation: warn to accept)\n",
+                     s.violated_frames, s.solver.c_str());
+        return 3;
+      }
+      return 0;
     });
   });
 }

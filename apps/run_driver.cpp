@@ -52,6 +52,7 @@ RunSummary run_scene(const RunOptions& opts) {
   summary.vertices = loaded.scene.topo.num_vertices();
   summary.substeps = params.time.substeps;
   summary.iterations = params.time.iterations;
+  summary.violations_opted_out = params.contact.on_violation == ViolationPolicy::warn;
 
   Simulation sim(std::move(loaded.scene));
   if (params.debug.audit != AuditMode::off) sim.set_audit(make_audit_hook(sim.topology(), sim.positions(), params));
@@ -86,6 +87,7 @@ RunSummary run_scene(const RunOptions& opts) {
       break;
     }
     summary.frames.push_back(fs);
+    if (fs.violations_remaining > 0 || fs.penetrations > 0) ++summary.violated_frames;
     if (writer) {
       if (params.output.frames && (f % params.output.every == 0 || f == total)) writer->write_frame(f, sim.positions());
       writer->write_stats(fs);

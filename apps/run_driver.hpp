@@ -30,6 +30,10 @@ struct RunSummary {
   std::string solver;
   Index vertices = 0;
   int substeps = 0, iterations = 0;
+  /// Frames that ended with violations remaining or audit penetrations, which the run went on
+  /// past (contact.on_violation = warn, or auto under a solver without the guarantee).
+  size_t violated_frames = 0;
+  bool violations_opted_out = false;  ///< contact.on_violation was set to warn explicitly
 };
 
 /// Loads, simulates and (if opts.out is set) writes the run. Numerical failures end the run with

@@ -5,6 +5,7 @@
 #include "ccfr/geometry/distance.hpp"
 
 #include <atomic>
+#include <cstdint>
 #include <cmath>
 
 namespace ccfr {
@@ -51,7 +52,25 @@ double pair_distance(const ContactPair& c, const Positions& x) {
   }
   return 0.0;
 }
+Index count_contact_vertices(const RegionSet& regions, std::span<const double> inv_mass) {
+  std::atomic<Index> n{0};
+  parallel_for(regions.num_vertices(), [&](Index b, Index e) {
+    Index local = 0;
+    for (Index v = b; v < e; ++v) local += inv_mass[v] > 0.0 && regions.count(v) > 0;
+    n += local;
+  }, 4096);
+  return n.load();
+}
 }  // namespace
+
+Index DetectingSolver::contact_vertex_count(std::span<const double> inv_mass) const {
+  std::vector<std::uint8_t> seen(inv_mass.size(), 0);
+  Index n = 0;
+  for (const auto& c : contacts_)
+    for (int k = 0; k < c.size(); ++k)
+      if (inv_mass[c.v[k]] > 0.0 && !seen[c.v[k]]) seen[c.v[k]] = 1, ++n;
+  return n;
+}
 
 Index DetectingSolver::count_outside(const Positions& x, const Positions&, const SimState&, StepContext& ctx) const {
   const double limit = (1.0 - ctx.params.debug.audit_tolerance) * ctx.params.contact.offset;
@@ -89,6 +108,7 @@ SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& ancho
   r.violations_detected = b.violated;
   r.violations_remaining = b.remaining;
   r.halted_vertices = b.halted;
+  r.contact_vertices = count_contact_vertices(regions_, state.inv_mass);
   if (!rigid_.empty()) {
     const RigidEnforceStats rs = rigid_.enforce(x, anchor, regions_, *projector_, ctx.params.contact.radius);
     r.halted_vertices += rs.vertices_halted;
@@ -107,6 +127,7 @@ SolveResult PostProcessSolver::resolve(Positions& x, const Positions&, const Sim
   const auto& p = ctx.params.contact;
   const auto& w = state.inv_mass;
   SolveResult r;
+  r.contact_vertices = contact_vertex_count(w);
   for (const auto& c : contacts_)
     if (contact_gap(c, x, p.offset) < 0.0) ++r.violations_detected;
   // Sequential Gauss-Seidel: this is the conventional pass the paper compares against, whose

@@ -53,8 +53,10 @@ RigidBodies::RigidBodies(const Topology& topo, const SimState& state) {
     double max_mass = 0.0;
     for (Index v = b.begin; v < b.end; ++v) {
       b.kinematic.push_back(!(state.inv_mass[v] > 0.0));
-      if (state.inv_mass[v] > 0.0) max_mass = std::max(max_mass, 1.0 / state.inv_mass[v]);
-      else b.pinned = true;
+      if (state.inv_mass[v] > 0.0)
+        max_mass = std::max(max_mass, 1.0 / state.inv_mass[v]);
+      else
+        b.pinned = true;
     }
     const double kinematic_weight = max_mass > 0.0 ? 1e9 * max_mass : 1.0;
     double total = 0.0;
@@ -77,110 +79,113 @@ RigidBodies::RigidBodies(const Topology& topo, const SimState& state) {
 RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, const RegionSet& regions,
                                        const Projector& projector, double step_bound) const {
   std::vector<RigidEnforceStats> per(bodies_.size());
-  parallel_for(size(), [&](Index lo, Index hi) {
-    std::vector<Vec3> y;
-    for (Index bi = lo; bi < hi; ++bi) {
-      const Body& b = bodies_[bi];
-      RigidEnforceStats& st = per[bi];
-      const size_t n = b.rest.size();
-      const std::span<const Vec3> rest(b.rest);
-      auto place = [&](const Pose& p, std::vector<Vec3>& out) {
-        const Eigen::Matrix3d r = p.q.toRotationMatrix();
-        out.resize(n);
-        for (size_t i = 0; i < n; ++i) out[i] = r * b.rest[i] + p.c;
-      };
-      // Largest violation of the regions and the step bound; >= 0 means admissible.
-      auto admissible = [&](const std::vector<Vec3>& p, bool& by_bound_only) {
-        bool region_ok = true, bound_ok = true;
-        for (size_t i = 0; i < n; ++i) {
-          const Index v = b.begin + static_cast<Index>(i);
-          if (regions.count(v) > 0 && !(min_value(anchor[v], p[i], regions.of(v)) >= kOutside)) region_ok = false;
-          if (!((p[i] - anchor[v]).norm() <= step_bound * (1.0 + 1e-12))) bound_ok = false;
-          if (!region_ok) break;
-        }
-        by_bound_only = region_ok && !bound_ok;
-        return region_ok && bound_ok;
-      };
-      const std::span<Vec3> xb(x.data() + b.begin, n);
-      Pose target = fit(xb, rest, b.weight);
-      if (b.pinned) {  // pins decide the pose; only the dynamic vertices move
-        place(target, y);
-        for (size_t i = 0; i < n; ++i)
-          if (!b.kinematic[i]) xb[i] = y[i];
-        ++st.bodies_refitted;
-        continue;
-      }
-      bool bounded = false;
-      bool ok = false;
-      for (int it = 0; it < kRefitIterations && !ok; ++it) {
-        place(target, y);
-        ok = admissible(y, bounded);
-        if (ok) break;
-        // Project the fitted positions vertex by vertex, hold them within the step bound, refit.
-        for (size_t i = 0; i < n; ++i) {
-          const Index v = b.begin + static_cast<Index>(i);
-          if (regions.count(v) > 0) y[i] = projector.project(anchor[v], y[i], regions.of(v)).x;
-          const Vec3 d = y[i] - anchor[v];
-          const double len = d.norm();
-          if (len > step_bound) y[i] = anchor[v] + (step_bound / len) * d;
-          if (!y[i].allFinite()) y[i] = anchor[v];
-        }
-        target = fit(y, rest, b.weight);
-      }
-      ++st.bodies_refitted;
-      if (ok) {
-        std::copy(y.begin(), y.end(), xb.begin());
-        continue;
-      }
-      // Line search along the rigid interpolation from the anchor pose (slerp, lerp). The bound
-      // of the linear blend anchor + α (y - anchor) is exact per half-space and per step-bound
-      // ball (both convex, both hold at α = 0); the rigid pose at that α is then verified and
-      // halved until admissible, since it deviates from the blend by O(α(1-α)θ²).
-      const std::span<const Vec3> ab(anchor.data() + b.begin, n);
-      const Pose from = fit(ab, rest, b.weight);
-      place(target, y);
-      double alpha = 1.0;
-      bool bound_limits = false;
-      for (size_t i = 0; i < n; ++i) {
-        const Index v = b.begin + static_cast<Index>(i);
-        const Vec3 step = y[i] - anchor[v];
-        const double len = step.norm();
-        if (len > step_bound && step_bound / len < alpha) {
-          alpha = step_bound / len;
-          bound_limits = true;
-        }
-        for (const HalfSpace& h : regions.of(v)) {
-          const double along = h.n.dot(step);
-          if (along < 0.0 && h.d >= 0.0 && h.d / -along < alpha) {
-            alpha = h.d / -along;
-            bound_limits = false;
+  parallel_for(
+      size(),
+      [&](Index lo, Index hi) {
+        std::vector<Vec3> y;
+        for (Index bi = lo; bi < hi; ++bi) {
+          const Body& b = bodies_[bi];
+          RigidEnforceStats& st = per[bi];
+          const size_t n = b.rest.size();
+          const std::span<const Vec3> rest(b.rest);
+          auto place = [&](const Pose& p, std::vector<Vec3>& out) {
+            const Eigen::Matrix3d r = p.q.toRotationMatrix();
+            out.resize(n);
+            for (size_t i = 0; i < n; ++i) out[i] = r * b.rest[i] + p.c;
+          };
+          // Largest violation of the regions and the step bound; >= 0 means admissible.
+          auto admissible = [&](const std::vector<Vec3>& p, bool& by_bound_only) {
+            bool region_ok = true, bound_ok = true;
+            for (size_t i = 0; i < n; ++i) {
+              const Index v = b.begin + static_cast<Index>(i);
+              if (regions.count(v) > 0 && !(min_value(anchor[v], p[i], regions.of(v)) >= kOutside)) region_ok = false;
+              if (!((p[i] - anchor[v]).norm() <= step_bound * (1.0 + 1e-12))) bound_ok = false;
+              if (!region_ok) break;
+            }
+            by_bound_only = region_ok && !bound_ok;
+            return region_ok && bound_ok;
+          };
+          const std::span<Vec3> xb(x.data() + b.begin, n);
+          Pose target = fit(xb, rest, b.weight);
+          if (b.pinned) {  // pins decide the pose; only the dynamic vertices move
+            place(target, y);
+            for (size_t i = 0; i < n; ++i)
+              if (!b.kinematic[i]) xb[i] = y[i];
+            ++st.bodies_refitted;
+            continue;
+          }
+          bool bounded = false;
+          bool ok = false;
+          for (int it = 0; it < kRefitIterations && !ok; ++it) {
+            place(target, y);
+            ok = admissible(y, bounded);
+            if (ok) break;
+            // Project the fitted positions vertex by vertex, hold them within the step bound, refit.
+            for (size_t i = 0; i < n; ++i) {
+              const Index v = b.begin + static_cast<Index>(i);
+              if (regions.count(v) > 0) y[i] = projector.project(anchor[v], y[i], regions.of(v)).x;
+              const Vec3 d = y[i] - anchor[v];
+              const double len = d.norm();
+              if (len > step_bound) y[i] = anchor[v] + (step_bound / len) * d;
+              if (!y[i].allFinite()) y[i] = anchor[v];
+            }
+            target = fit(y, rest, b.weight);
+          }
+          ++st.bodies_refitted;
+          if (ok) {
+            std::copy(y.begin(), y.end(), xb.begin());
+            continue;
+          }
+          // Line search along the rigid interpolation from the anchor pose (slerp, lerp). The bound
+          // of the linear blend anchor + α (y - anchor) is exact per half-space and per step-bound
+          // ball (both convex, both hold at α = 0); the rigid pose at that α is then verified and
+          // halved until admissible, since it deviates from the blend by O(α(1-α)θ²).
+          const std::span<const Vec3> ab(anchor.data() + b.begin, n);
+          const Pose from = fit(ab, rest, b.weight);
+          place(target, y);
+          double alpha = 1.0;
+          bool bound_limits = false;
+          for (size_t i = 0; i < n; ++i) {
+            const Index v = b.begin + static_cast<Index>(i);
+            const Vec3 step = y[i] - anchor[v];
+            const double len = step.norm();
+            if (len > step_bound && step_bound / len < alpha) {
+              alpha = step_bound / len;
+              bound_limits = true;
+            }
+            for (const HalfSpace& h : regions.of(v)) {
+              const double along = h.n.dot(step);
+              if (along < 0.0 && h.d >= 0.0 && h.d / -along < alpha) {
+                alpha = h.d / -along;
+                bound_limits = false;
+              }
+            }
+          }
+          std::vector<Vec3> z;
+          bool found = false;
+          for (int k = 0; k <= kLineSearchHalvings && alpha > 0.0; ++k, alpha *= 0.5) {
+            Pose p;
+            p.q = from.q.slerp(alpha, target.q);
+            p.c = from.c + alpha * (target.c - from.c);
+            place(p, z);
+            bool dummy = false;
+            if (admissible(z, dummy)) {
+              found = true;
+              break;
+            }
+          }
+          if (found) {
+            std::copy(z.begin(), z.end(), xb.begin());
+            ++st.bodies_shortened;
+            if (bound_limits) ++st.bodies_bounded;
+          } else {
+            std::copy(ab.begin(), ab.end(), xb.begin());
+            ++st.bodies_halted;
+            st.vertices_halted += static_cast<Index>(n);
           }
         }
-      }
-      std::vector<Vec3> z;
-      bool found = false;
-      for (int k = 0; k <= kLineSearchHalvings && alpha > 0.0; ++k, alpha *= 0.5) {
-        Pose p;
-        p.q = from.q.slerp(alpha, target.q);
-        p.c = from.c + alpha * (target.c - from.c);
-        place(p, z);
-        bool dummy = false;
-        if (admissible(z, dummy)) {
-          found = true;
-          break;
-        }
-      }
-      if (found) {
-        std::copy(z.begin(), z.end(), xb.begin());
-        ++st.bodies_shortened;
-        if (bound_limits) ++st.bodies_bounded;
-      } else {
-        std::copy(ab.begin(), ab.end(), xb.begin());
-        ++st.bodies_halted;
-        st.vertices_halted += static_cast<Index>(n);
-      }
-    }
-  }, 1);
+      },
+      1);
   RigidEnforceStats total;
   for (const auto& s : per) {
     total.bodies_refitted += s.bodies_refitted;
@@ -194,19 +199,22 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
 
 Index RigidBodies::count_deformed(const Positions& x, double tolerance) const {
   std::atomic<Index> deformed{0};
-  parallel_for(size(), [&](Index lo, Index hi) {
-    for (Index bi = lo; bi < hi; ++bi) {
-      const Body& b = bodies_[bi];
-      const size_t n = b.rest.size();
-      const std::span<const Vec3> xb(x.data() + b.begin, n);
-      const Pose p = fit(xb, b.rest, b.weight);
-      const Eigen::Matrix3d r = p.q.toRotationMatrix();
-      Index local = 0;
-      for (size_t i = 0; i < n; ++i)
-        if (!((r * b.rest[i] + p.c - xb[i]).norm() <= tolerance * std::max(1.0, b.extent))) ++local;
-      deformed += local;
-    }
-  }, 1);
+  parallel_for(
+      size(),
+      [&](Index lo, Index hi) {
+        for (Index bi = lo; bi < hi; ++bi) {
+          const Body& b = bodies_[bi];
+          const size_t n = b.rest.size();
+          const std::span<const Vec3> xb(x.data() + b.begin, n);
+          const Pose p = fit(xb, b.rest, b.weight);
+          const Eigen::Matrix3d r = p.q.toRotationMatrix();
+          Index local = 0;
+          for (size_t i = 0; i < n; ++i)
+            if (!((r * b.rest[i] + p.c - xb[i]).norm() <= tolerance * std::max(1.0, b.extent))) ++local;
+          deformed += local;
+        }
+      },
+      1);
   return deformed.load();
 }
 

@@ -222,11 +222,13 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
     {
       ScopedTimer t(fs.times.resolution);
       res = contact_->resolve(solve_, anchor_, st, ctx);
-      collide_analytic(solve_, t1);
-      check_finite(solve_, "contact resolution");
     }
+    ScopedTimer check_timer(fs.times.check);
+    collide_analytic(solve_, t1);
+    check_finite(solve_, "contact resolution");
     fs.violations_detected += res.violations_detected;
     fs.halted_vertices += res.halted_vertices;
+    fs.contact_vertices += res.contact_vertices;
     remaining = res.violations_remaining;
     ++fs.outer_iterations;
 
@@ -257,12 +259,9 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
         if (chunk_len[c] > worst_len) worst_len = chunk_len[c], worst = chunk_worst[c];
       }
     }
-    {
-      // What the substep really ends with, after the clamp and the analytic push.
-      ScopedTimer t(fs.times.resolution);
-      const Index recount = contact_->count_outside(solve_, anchor_, st, ctx);
-      if (recount >= 0) remaining = recount;
-    }
+    // What the substep really ends with, after the clamp and the analytic push.
+    const Index recount = contact_->count_outside(solve_, anchor_, st, ctx);
+    if (recount >= 0) remaining = recount;
     anchor_.swap(solve_);
     if (clamped == 0) break;  // every vertex reached its intended advance
   }

@@ -150,6 +150,7 @@ SolveResult TimeOfImpactClampSolver::resolve(Positions& x, const Positions& anch
     });
   double t_star = 1.0;
   SolveResult res;
+  res.contact_vertices = contact_vertex_count(state.inv_mass);
   last_iterations_ = 0;
   for (Index c = 0; c < chunks; ++c) {
     t_star = std::min(t_star, chunk_min[c]);

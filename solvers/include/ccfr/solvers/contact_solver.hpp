@@ -46,6 +46,7 @@ struct SolveResult {
   /// Vertices held back by the step bound r inside the solver (rigid bodies take the bound as a
   /// whole body); the substep keeps iterating while any vertex is held back.
   Index bounded_vertices = 0;
+  Index contact_vertices = 0;      ///< movable vertices with at least one contact in this pass
 };
 
 class ContactSolver {

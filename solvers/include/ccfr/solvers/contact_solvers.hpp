@@ -33,6 +33,9 @@ class DetectingSolver : public ContactSolver {
   const CollisionDetector& detector() const { return *detector_; }
 
  protected:
+  /// Distinct movable vertices of the detected contacts (the paper's collision points).
+  Index contact_vertex_count(std::span<const double> inv_mass) const;
+
   std::unique_ptr<CollisionDetector> detector_;
   RegionSet regions_;
   std::vector<ContactPair> contacts_;

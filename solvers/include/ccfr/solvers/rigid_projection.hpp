@@ -22,7 +22,7 @@ namespace ccfr {
 
 /// Counts of one RigidBodies::enforce pass.
 struct RigidEnforceStats {
-  Index bodies_refitted = 0;  ///< bodies whose projected positions were replaced by a rigid fit
+  Index bodies_refitted = 0;   ///< bodies whose projected positions were replaced by a rigid fit
   Index bodies_shortened = 0;  ///< bodies that moved only part of their rigid step (line search)
   Index bodies_halted = 0;     ///< bodies left at their anchor pose
   Index vertices_halted = 0;   ///< vertices of the halted bodies
@@ -55,10 +55,10 @@ class RigidBodies {
   struct Body {
     Index begin = 0, end = 0;
     bool pinned = false;
-    std::vector<Vec3> rest;      ///< rest offsets about the weighted rest centre
-    std::vector<double> weight;  ///< fitting weights (masses; kinematic vertices dominate)
+    std::vector<Vec3> rest;               ///< rest offsets about the weighted rest centre
+    std::vector<double> weight;           ///< fitting weights (masses; kinematic vertices dominate)
     std::vector<std::uint8_t> kinematic;  ///< 1 for pinned vertices, which keep their scripted positions
-    double extent = 0.0;         ///< largest |rest offset|, the lever arm of a rotation
+    double extent = 0.0;                  ///< largest |rest offset|, the lever arm of a rotation
   };
   std::vector<Body> bodies_;
 };

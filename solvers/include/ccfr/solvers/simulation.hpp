@@ -24,6 +24,9 @@ struct FrameStats {
   Index violations_detected = 0;   ///< summed over all resolution passes of the frame
   Index violations_remaining = 0;  ///< largest count left after a substep's last pass
   Index halted_vertices = 0;       ///< summed over all resolution passes (halting events)
+  /// Vertices with at least one contact (half-space or contact pair), summed over all resolution
+  /// passes: the paper's "collision points"; halting in percent is 100 halted / contact_vertices.
+  Index contact_vertices = 0;
   double min_distance = std::numeric_limits<double>::infinity();  ///< closest pair seen by detection
   Index penetrations = -1;         ///< audit count (-1: audit off)
   Index clamped_vertices = 0;      ///< vertices held back by the step bound r (summed)
