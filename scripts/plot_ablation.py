@@ -76,6 +76,30 @@ def z(values):
     return [0.0 if math.isnan(v) else v for v in values]
 
 
+def plot_per_frame(ax_r, ax_a, rows):
+    """Per frame and solver: violations left at the end of substeps, and what the audit found."""
+    solvers = []
+    for r in rows:
+        if r.get("solver") not in solvers:
+            solvers.append(r.get("solver"))
+    for ax, column, title in ((ax_r, "violations_remaining", "Violations remaining per frame (solver's recount)"),
+                              (ax_a, "audit_penetrations", "Audit penetrations per frame (exact)")):
+        ax.set_title(title)
+        ax.set_xlabel("frame")
+        drawn = False
+        for name in solvers:
+            pts = [(num(r.get("frame", "")), num(r.get(column, ""))) for r in rows if r.get("solver") == name]
+            pts = [(f, v) for f, v in pts if not math.isnan(f) and not math.isnan(v)]
+            if pts:
+                ax.plot([f for f, _ in pts], [v for _, v in pts], label=name, linewidth=1.2)
+                drawn = drawn or any(v > 0 for _, v in pts)
+        if drawn:
+            ax.set_yscale("symlog", linthresh=1)
+        else:
+            note(ax, "none in any frame")
+        ax.legend(fontsize=8)
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("dir", help="ablation output directory holding ablation.csv (or the CSV itself)")
@@ -96,8 +120,12 @@ def main(argv=None):
     labels = labels_for(rows)
     x = list(range(len(rows)))
 
-    fig, axes = plt.subplots(2, 2, figsize=(12, 8), constrained_layout=True)
+    frames_path = os.path.join(os.path.dirname(os.path.abspath(path)), "ablation_frames.csv")
+    per_frame = read_rows(frames_path)[1] if os.path.isfile(frames_path) else []
+    fig, axes = plt.subplots(3 if per_frame else 2, 2, figsize=(12, 12 if per_frame else 8), constrained_layout=True)
     ax_t, ax_v, ax_h, ax_d = axes[0][0], axes[0][1], axes[1][0], axes[1][1]
+    if per_frame:
+        plot_per_frame(axes[2][0], axes[2][1], per_frame)
 
     ax_t.set_title("Mean time per frame")
     ax_t.set_ylabel("ms")
