@@ -136,7 +136,7 @@ NodePtr build_scene_schema() {
           {"friction", map("friction on active contacts (Macklin et al. 2014)", {
               {"static", number(0.0, "static coefficient μ_s", nonneg)},
               {"kinetic", number(0.0, "kinetic coefficient μ_k", nonneg)}})},
-          {"epsilon", number(1e-6, "ε: Plesník retraction (m), absolute, not scaled per scene", nonneg)},
+          {"epsilon", number(1e-4, "ε: retraction of a projected point toward its anchor, relative to ξ (the projectors use ε ξ; 1e-4 gives 1e-6 m at ξ = 0.01 as in the paper, and stays below the per-vertex share of a gap at small ξ)", Range{0, 0.1, false, false})},
           {"max_projection_iterations", integer(4, "projection passes before a vertex halts (falls back)", one)},
           {"redundancy_tolerance", number(1e-12, "tolerance of the redundant-constraint test", pos)},
           {"projection_sweeps", integer(16, "successive_projection: cyclic sweeps", one)},

@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <limits>
 #include <cmath>
 
 namespace ccfr {
@@ -75,12 +76,29 @@ Index DetectingSolver::contact_vertex_count(std::span<const double> inv_mass) co
 Index DetectingSolver::count_outside(const Positions& x, const Positions&, const SimState&, StepContext& ctx) const {
   const double limit = (1.0 - ctx.params.debug.audit_tolerance) * ctx.params.contact.offset;
   std::atomic<Index> close{0};
+  std::atomic<Index> first{std::numeric_limits<Index>::max()};
   parallel_for(static_cast<Index>(contacts_.size()), [&](Index b, Index e) {
     Index local = 0;
     for (Index i = b; i < e; ++i)
-      if (!(pair_distance(contacts_[i], x) >= limit)) ++local;  // NaN counts
+      if (!(pair_distance(contacts_[i], x) >= limit)) {  // NaN counts
+        ++local;
+        Index cur = first.load();
+        while (i < cur && !first.compare_exchange_weak(cur, i)) {
+        }
+      }
     close += local;
   }, 2048);
+  if (close.load() > 0) {
+    // The lowest-numbered violation, so the message does not depend on the thread count.
+    const ContactPair& c = contacts_[first.load()];
+    const auto& topo = ctx.topo;
+    auto obj = [&](Index v) { return "'" + topo.object_of_vertex(v).name + "'"; };
+    static constexpr const char* kKind[] = {"vertex-face", "edge-edge", "vertex-edge", "vertex-vertex"};
+    last_violation_ = std::string(kKind[static_cast<int>(c.kind)]) + " pair between " + obj(c.v[0]) + " (vertex " +
+                      std::to_string(c.v[0]) + ") and " + obj(c.v[c.side_a()]) + " (vertex " + std::to_string(c.v[c.side_a()]) +
+                      ") at distance " + fmt::format("{:.9g} ({:.6f} of the offset {:.6g})", pair_distance(c, x),
+                                                        pair_distance(c, x) / ctx.params.contact.offset, ctx.params.contact.offset);
+  }
   return close.load();
 }
 
@@ -94,7 +112,9 @@ RegionProjectionSolver::RegionProjectionSolver(std::string solver_name, std::str
 void RegionProjectionSolver::initialize(const Topology& topo, const SimState& state, const SimulationParams& params) {
   DetectingSolver::initialize(topo, state, params);
   ProjectorParams pp;
-  pp.epsilon = params.contact.epsilon;
+  // ε scales with ξ: an absolute 1e-6 exceeds a vertex's share of a gap at ξ = 0.001, and every
+  // projection then snapped back to the anchor (a card stack that could not move).
+  pp.epsilon = params.contact.epsilon * params.contact.offset;
   pp.max_iterations = params.contact.max_projection_iterations;
   pp.redundancy_tolerance = params.contact.redundancy_tolerance;
   pp.sweeps = params.contact.projection_sweeps;

@@ -159,9 +159,13 @@ void Simulation::check_violations(Index remaining, int substep_index) {
   const auto& p = scene_.params;
   const bool fatal = p.contact.on_violation == ViolationPolicy::error ||
                      (p.contact.on_violation == ViolationPolicy::automatic && contact_->guarantees_separation());
+  const std::string example = contact_->last_violation();
   const std::string what = std::to_string(remaining) + " violation(s) remain at the end of substep " +
                            std::to_string(substep_index + 1) + " under contact solver '" + std::string(contact_->name()) +
-                           "' (pairs closer than their offset, or a deformed rigid body)";
+                           "' (pairs closer than their offset, or a deformed rigid body)" +
+                           (example.empty() ? std::string() : "; e.g. a " + example) +
+                           ". Likely causes: objects squeezed into less room than their offsets need, or scripted motion "
+                           "pushing into other objects faster than they can move away";
   if (fatal)
     throw GuaranteeError(frame_ + 1, what + "; stopping before the frame is written (contact.on_violation: warn "
                                             "continues, e.g. for ablations)");

@@ -27,6 +27,7 @@ class DetectingSolver : public ContactSolver {
   /// exact closest points at `x` (not along the detection normal). Sub-pairs not detected were
   /// farther than 2r + ξ at the anchors, and every vertex moved at most r, so they are not closer.
   Index count_outside(const Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) const override;
+  std::string last_violation() const override { return last_violation_; }
 
   const RegionSet& regions() const { return regions_; }
   const std::vector<ContactPair>& contacts() const { return contacts_; }
@@ -41,6 +42,7 @@ class DetectingSolver : public ContactSolver {
   std::vector<ContactPair> contacts_;
   ContactResponse response_;
   std::vector<double> friction_override_;  ///< #V: material friction of the vertex's object (< 0: global)
+  mutable std::string last_violation_;
 };
 
 /// Projects every vertex that left its region back onto it with a Projector.

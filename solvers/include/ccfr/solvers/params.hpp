@@ -43,7 +43,7 @@ struct ContactParams {
   double visibility_width = 0.0;      ///< δ_v: occlusion smoothstep width (0: δ)
   double friction_static = 0.0;       ///< μ_s
   double friction_kinetic = 0.0;      ///< μ_k
-  double epsilon = 1e-6;              ///< ε: Plesník retraction (absolute, not scaled per scene)
+  double epsilon = 1e-4;              ///< ε relative to ξ: projectors retract by ε ξ (absolute 1e-6 at ξ = 0.01)
   int max_projection_iterations = 4;  ///< Alg. projectOntoConvexRegion budget before halting
   double redundancy_tolerance = 1e-12;  ///< Alg. orthogonalProjection redundancy test
   int projection_sweeps = 16;         ///< successive_projection: cyclic sweeps
