@@ -131,6 +131,7 @@ class Builder {
     p.time.damping = t["damping"].as<double>();
     p.time.advance_tolerance = t["advance_tolerance"].as<double>();
     p.time.max_subdivision = t["max_subdivision"].as<int>();
+    p.time.max_iterations = t["max_iterations"].as<int>();
     const auto c = cfg_["contact"];
     p.contact.solver = c["solver"].as<std::string>();
     p.contact.radius = c["radius"].as<double>();

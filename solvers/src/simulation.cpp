@@ -113,7 +113,8 @@ int Simulation::subdivision(double dt) {
       if (kinematic_step_[v].norm() > best) best = kinematic_step_[v].norm(), worst_kin = v;
   }
   // Dynamic vertices: the free-flight advance dt v + dt^2 g must fit in the outer iterations'
-  // step bounds (one iteration is kept for the corrections of constraints and contact).
+  // step bounds (one iteration is kept for the corrections of constraints and contact). Below
+  // that, extra outer iterations (up to time.max_iterations) cover it more cheaply than pieces.
   const Vec3 g_dt2 = tp.gravity * dt * dt;
   const Index nv = st.size();
   std::vector<double> chunk_max(static_cast<size_t>(default_chunk_count(nv)), 0.0);
@@ -124,7 +125,7 @@ int Simulation::subdivision(double dt) {
     chunk_max[c] = m;
   });
   const double advance = *std::max_element(chunk_max.begin(), chunk_max.end());
-  const double per_substep = 0.9 * std::max(1, tp.iterations - 1) * r;
+  const double per_substep = 0.9 * std::max(1, tp.iteration_bound() - 1) * r;
   if (std::isfinite(advance)) pieces = std::max(pieces, static_cast<int>(std::ceil(advance / per_substep)));
   if (pieces > tp.max_subdivision) {
     if (worst_kin >= 0 && kin / tp.max_subdivision > r) {
@@ -147,11 +148,12 @@ void Simulation::report_capped_speed(Index vertex, double advance, double dt) {
   if (warned_capped_[oi]) return;
   warned_capped_[oi] = true;
   const auto& p = scene_.params;
+  const int n = p.time.iteration_bound();
   spdlog::warn("frame {}: object '{}' wants to move {:.4g} m in a substep piece ({:.3g} m/s) but the step bound allows "
                "{} iterations x r = {:.4g} m: it is slowed to {:.3g} m/s (counted in clamped_vertices). Raise "
-               "time.iterations, time.substeps or time.max_subdivision, or contact.radius",
-               frame_ + 1, scene_.topo.objects[oi].name, advance, advance / dt, p.time.iterations,
-               p.time.iterations * p.contact.radius, p.time.iterations * p.contact.radius / dt);
+               "time.max_iterations, time.substeps or time.max_subdivision, or contact.radius",
+               frame_ + 1, scene_.topo.objects[oi].name, advance, advance / dt, n, n * p.contact.radius,
+               n * p.contact.radius / dt);
 }
 
 void Simulation::check_violations(Index remaining, int substep_index) {
@@ -204,7 +206,9 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
   Index remaining = 0;
   Index clamped = 0, worst = -1;
   double worst_len = 0.0;
-  for (int it = 0; it < tp.iterations; ++it) {
+  // time.iterations passes as in the paper; more only while a vertex is still held back by r.
+  const int bound = tp.iteration_bound();
+  for (int it = 0; it < bound; ++it) {
     ctx.iteration = it;
     ctx.kinematic_step = (it == 0 && kin_moves) ? std::span<const Vec3>(kinematic_step_) : std::span<const Vec3>();
     const DetectionSummary det = contact_->detect(anchor_, st, ctx);
@@ -270,7 +274,7 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
     if (clamped == 0) break;  // every vertex reached its intended advance
   }
   fs.clamped_vertices += clamped;
-  if (worst >= 0) report_capped_speed(worst, worst_len + (tp.iterations - 1) * r, dt);
+  if (worst >= 0) report_capped_speed(worst, worst_len + (bound - 1) * r, dt);
   fs.violations_remaining = std::max(fs.violations_remaining, remaining);
   check_violations(remaining, substep_index);
 

@@ -2,6 +2,7 @@
 /// @file params.hpp
 /// Typed, validated parameters of a simulation. Solvers see only these structs, never YAML;
 /// io/ fills them from a scene file (defaults documented in docs/config.md, generated from the schema).
+#include <algorithm>
 #include <limits>
 #include <string>
 #include <vector>
@@ -16,13 +17,18 @@ struct TimeParams {
   int frames = 120;             ///< frames to simulate
   int substeps = 10;            ///< substeps per frame; Δt = Δt_frame / substeps
   int iterations = 4;           ///< outer solver iterations per substep (paper Alg. "simulation loop", line 3)
+  /// Outer iterations continue past `iterations` while some vertex has not reached its intended
+  /// advance (the paper's convergence check), up to this many; 0 means 4 · iterations.
+  int max_iterations = 0;
   int xpbd_sweeps = 1;          ///< material constraint sweeps per outer iteration
   Vec3 gravity = Vec3(0, -9.81, 0);
   double damping = 0.0;         ///< fraction of velocity removed per second (0: none)
-  double advance_tolerance = 0.01;  ///< outer iterations stop once every vertex reached (1 - tol) of its intended advance
+  double advance_tolerance = 0.01;  ///< outer iterations stop once no vertex is held back by r by more than tol · r
   /// Most pieces a substep may be split into when a scripted step exceeds r or the intended
-  /// advance exceeds what the outer iterations can cover (iterations · r); see Simulation.
+  /// advance exceeds what the outer iterations can cover ((max_iterations - 1) · r); see Simulation.
   int max_subdivision = 64;
+  /// The effective bound of outer iterations.
+  int iteration_bound() const { return max_iterations > 0 ? std::max(max_iterations, iterations) : 4 * iterations; }
 };
 
 enum class AuditMode { off, every_frame, every_substep };
