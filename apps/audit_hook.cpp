@@ -17,7 +17,7 @@ AuditHook make_audit_hook(const Topology& topo, const Positions& initial, const 
   }
   auto audit = std::make_shared<exact::PenetrationAudit>(topo, initial, opt);
   return [audit](const Positions& x) {
-    const exact::FrameAudit fa = audit->audit(x);
+    const exact::FrameAudit fa = audit->audit_next(x);  // in order: raises the reduced offsets
     if (!fa.clean() && !fa.examples.empty()) spdlog::debug("audit: {}", fa.examples.front().describe());
     return fa.penetrations();
   };

@@ -6,12 +6,12 @@
 #include <csignal>
 #include <cstdio>
 
+#include "audit_hook.hpp"
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/io/output.hpp"
 #include "ccfr/io/scene_loader.hpp"
-#include "audit_hook.hpp"
 
 namespace ccfr::app {
 
@@ -31,9 +31,11 @@ void progress_bar(int done, int total, double last_s, const FrameStats& fs) {
 }  // namespace
 
 void add_run_options(CLI::App* cmd, RunOptions& opts) {
-  cmd->add_option("--frames", opts.frames, "Frames to simulate (default: time.frames of the scene)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--frames", opts.frames, "Frames to simulate (default: time.frames of the scene)")
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--solver", opts.solver, "Contact solver (overrides contact.solver)");
-  cmd->add_option("--set", opts.overrides, "Override a scene key: key.path=value (repeatable), e.g. --set contact.radius=0.01");
+  cmd->add_option("--set", opts.overrides,
+                  "Override a scene key: key.path=value (repeatable), e.g. --set contact.radius=0.01");
   cmd->add_option("--threads", opts.threads, "Worker threads (default: all cores)")->check(CLI::NonNegativeNumber);
 }
 
@@ -59,8 +61,12 @@ RunSummary run_scene(const RunOptions& opts) {
 
   std::unique_ptr<io::RunWriter> writer;
   if (!opts.out.empty()) {
-    io::RunMeta meta{params.scene_name, params.contact.solver, params.collision.broad_phase, params.contact.radius,
-                     params.contact.offset, params.contact.repulsion_range, params.time.fps, thread_count(), opts.command_line};
+    io::RunMeta meta{params.scene_name,     params.contact.solver, params.collision.broad_phase,
+                     params.contact.radius, params.contact.offset, params.contact.repulsion_range,
+                     params.time.fps,       thread_count(),        opts.command_line,
+                     std::nullopt};
+    if (const CollisionDetector* det = sim.contact_solver().collision_detector())
+      meta.initial_proximity = det->initial_proximity();
     writer = std::make_unique<io::RunWriter>(opts.out, sim.topology(), loaded.resolved_json, meta);
     if (params.output.frames) writer->write_frame(0, sim.positions());
   }
@@ -92,12 +98,15 @@ RunSummary run_scene(const RunOptions& opts) {
       if (params.output.frames && (f % params.output.every == 0 || f == total)) writer->write_frame(f, sim.positions());
       writer->write_stats(fs);
     }
-    if (tty) progress_bar(f, total, fs.wall_s, fs);
+    if (tty)
+      progress_bar(f, total, fs.wall_s, fs);
     else if (opts.progress)
-      spdlog::info("frame {}/{}: {:.3f} s (xpbd {:.3f}, broad {:.3f}, narrow {:.3f}, resolution {:.3f}); violations {}/{}; halted {}{}", f,
-                   total, fs.wall_s, fs.times.xpbd, fs.times.broad, fs.times.narrow, fs.times.resolution, fs.violations_detected,
-                   fs.violations_remaining, fs.halted_vertices,
-                   fs.penetrations >= 0 ? "; penetrations " + std::to_string(fs.penetrations) : std::string());
+      spdlog::info(
+          "frame {}/{}: {:.3f} s (xpbd {:.3f}, broad {:.3f}, narrow {:.3f}, resolution {:.3f}); violations {}/{}; "
+          "halted {}{}",
+          f, total, fs.wall_s, fs.times.xpbd, fs.times.broad, fs.times.narrow, fs.times.resolution,
+          fs.violations_detected, fs.violations_remaining, fs.halted_vertices,
+          fs.penetrations >= 0 ? "; penetrations " + std::to_string(fs.penetrations) : std::string());
   }
   std::signal(SIGINT, old_handler);
   if (writer) writer->finish(summary.status);

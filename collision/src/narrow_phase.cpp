@@ -5,42 +5,55 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/core/timer.hpp"
+#include "ccfr/geometry/adjacency.hpp"
 #include "ccfr/geometry/distance.hpp"
+#include "ccfr/geometry_exact/predicates.hpp"
 
 namespace ccfr {
 
 std::string_view to_string(ContactKind kind) {
   switch (kind) {
-    case ContactKind::vf: return "vf";
-    case ContactKind::ee: return "ee";
-    case ContactKind::ve: return "ve";
-    case ContactKind::vv: return "vv";
+    case ContactKind::vf:
+      return "vf";
+    case ContactKind::ee:
+      return "ee";
+    case ContactKind::ve:
+      return "ve";
+    case ContactKind::vv:
+      return "vv";
   }
   return "unknown";
 }
 
 namespace detail {
 
-void ExclusionSet::assign(std::vector<std::uint64_t> keys) {
-  std::sort(keys.begin(), keys.end());
-  keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
-  size_ = keys.size();
+void InitialPairTable::assign(std::vector<std::pair<std::uint64_t, Index>> entries) {
+  std::sort(entries.begin(), entries.end());  // by key, then smallest slot first (kExcluded < 0)
+  entries.erase(
+      std::unique(entries.begin(), entries.end(), [](const auto& x, const auto& y) { return x.first == y.first; }),
+      entries.end());
+  size_ = entries.size();
+  excluded_ = 0;
   constexpr std::uint64_t kMask = (std::uint64_t{1} << 31) - 1;
   for (auto& r : rows_) {
     r.offsets.assign(1, 0);
     r.cols.clear();
+    r.slots.clear();
   }
   // Sorted keys are grouped by kind, then by first id, then by second id.
-  for (std::uint64_t k : keys) {
+  for (const auto& [k, slot] : entries) {
     Rows& r = rows_[k >> 62];
     const Index a = static_cast<Index>((k >> 31) & kMask), b = static_cast<Index>(k & kMask);
     while (static_cast<Index>(r.offsets.size()) <= a + 1) r.offsets.push_back(static_cast<Index>(r.cols.size()));
     r.cols.push_back(b);
+    r.slots.push_back(slot);
     r.offsets.back() = static_cast<Index>(r.cols.size());
+    excluded_ += slot == kExcluded;
   }
 }
 
@@ -53,7 +66,9 @@ namespace {
 constexpr double kMinNormalDistance = 1e-12;
 
 bool has_vertex(const Vec3i& f, Index v) { return f[0] == v || f[1] == v || f[2] == v; }
-bool share_vertex(const Vec2i& a, const Vec2i& b) { return a[0] == b[0] || a[0] == b[1] || a[1] == b[0] || a[1] == b[1]; }
+bool share_vertex(const Vec2i& a, const Vec2i& b) {
+  return a[0] == b[0] || a[0] == b[1] || a[1] == b[0] || a[1] == b[1];
+}
 
 /// Calls the sink once for every sub-pair of the primitive pair (p, q) that its
 /// representatives assign to this pair (Curtis et al. 2008): a triangle tests only the vertices
@@ -143,19 +158,38 @@ struct ClosestPoints {
     const Vec3 lo = a.cwiseMin(b).cwiseMin(d), hi = a.cwiseMax(b).cwiseMax(d);
     if (!boxes_within(p, p, lo, hi, reach)) return false;
     const PointTriangleResult r = point_triangle(p, a, b, d);
-    c = {ContactKind::vf, v, f, 1, 3, {v, -1}, {t[0], t[1], t[2]},
-         {1.0, 0.0}, {r.bary[0], r.bary[1], r.bary[2]}, p, r.closest, r.distance_sq};
+    c = {ContactKind::vf,
+         v,
+         f,
+         1,
+         3,
+         {v, -1},
+         {t[0], t[1], t[2]},
+         {1.0, 0.0},
+         {r.bary[0], r.bary[1], r.bary[2]},
+         p,
+         r.closest,
+         r.distance_sq};
     return true;
   }
   bool ee(Index e0, Index e1, Closest& c) const {
     if (e0 > e1) std::swap(e0, e1);
     const Vec2i &ea = topo.edges[e0], &eb = topo.edges[e1];
     const Vec3 &a0 = x[ea[0]], &a1 = x[ea[1]], &b0 = x[eb[0]], &b1 = x[eb[1]];
-    if (!boxes_within(a0.cwiseMin(a1), a0.cwiseMax(a1), b0.cwiseMin(b1), b0.cwiseMax(b1), reach))
-      return false;
+    if (!boxes_within(a0.cwiseMin(a1), a0.cwiseMax(a1), b0.cwiseMin(b1), b0.cwiseMax(b1), reach)) return false;
     const EdgeEdgeResult r = edge_edge(a0, a1, b0, b1);
-    c = {ContactKind::ee, e0, e1, 2, 2, {ea[0], ea[1]}, {eb[0], eb[1], -1},
-         {1.0 - r.s, r.s}, {1.0 - r.t, r.t, 0.0}, r.pa, r.pb, r.distance_sq};
+    c = {ContactKind::ee,
+         e0,
+         e1,
+         2,
+         2,
+         {ea[0], ea[1]},
+         {eb[0], eb[1], -1},
+         {1.0 - r.s, r.s},
+         {1.0 - r.t, r.t, 0.0},
+         r.pa,
+         r.pb,
+         r.distance_sq};
     return true;
   }
   bool ve(Index v, Index e, Closest& c) const {
@@ -164,16 +198,26 @@ struct ClosestPoints {
     const Vec3 &a = x[s[0]], &b = x[s[1]];
     if (!boxes_within(p, p, a.cwiseMin(b), a.cwiseMax(b), reach)) return false;
     const PointEdgeResult r = point_edge(p, a, b);
-    c = {ContactKind::ve, v, e, 1, 2, {v, -1}, {s[0], s[1], -1},
-         {1.0, 0.0}, {1.0 - r.t, r.t, 0.0}, p, r.closest, r.distance_sq};
+    c = {ContactKind::ve, v, e, 1, 2, {v, -1}, {s[0], s[1], -1}, {1.0, 0.0}, {1.0 - r.t, r.t, 0.0}, p, r.closest,
+         r.distance_sq};
     return true;
   }
   bool vv(Index v0, Index v1, Closest& c) const {
     if (v0 > v1) std::swap(v0, v1);
     const Vec3 &p = x[v0], &q = x[v1];
     if (!boxes_within(p, p, q, q, reach)) return false;
-    c = {ContactKind::vv, v0, v1, 1, 1, {v0, -1}, {v1, -1, -1},
-         {1.0, 0.0}, {1.0, 0.0, 0.0}, p, q, point_point_distance_sq(p, q)};
+    c = {ContactKind::vv,
+         v0,
+         v1,
+         1,
+         1,
+         {v0, -1},
+         {v1, -1, -1},
+         {1.0, 0.0},
+         {1.0, 0.0, 0.0},
+         p,
+         q,
+         point_point_distance_sq(p, q)};
     return true;
   }
 };
@@ -190,19 +234,27 @@ struct DetectSink {
   const Topology& topo;
   const Positions& x;
   std::span<const double> w;
-  const detail::ExclusionSet& skip;
+  const detail::InitialPairTable& table;
+  const std::vector<double>& reduced;  ///< current offset per reduced slot
+  double xi;
   double reach, reach_sq;
   std::vector<ContactPair>& contacts;
-  Index within = 0, degenerate = 0, excluded = 0;
+  Index within = 0, degenerate = 0, excluded = 0, reduced_contacts = 0;
 
-  bool excluded_pair(ContactKind kind, Index a, Index b) {
-    if (!skip.contains(kind, a, b)) return false;
-    ++excluded;
-    return true;
+  /// The sub-pair's offset: ξ, its reduced offset, or a negative value when it is excluded.
+  double offset_of(ContactKind kind, Index a, Index b) {
+    const Index slot = table.find(kind, a, b);
+    if (slot == detail::InitialPairTable::kAbsent) return xi;
+    if (slot == detail::InitialPairTable::kExcluded) {
+      ++excluded;
+      return -1.0;
+    }
+    return reduced[static_cast<size_t>(slot)];
   }
   /// Alg. NarrowPhase lines 7/22/38: φ = ‖x_A − x_B‖ − ξ < 2r  ⇔  ‖x_A − x_B‖ < 2r + ξ; then
   /// the movable check and the degenerate-distance check. Returns the distance, or a negative
-  /// value when the sub-pair yields no contact.
+  /// value when the sub-pair yields no contact. A reduced offset only shrinks the range, so the
+  /// reach of ξ is conservative for it.
   double accept(double dist_sq, bool movable) {
     if (dist_sq >= reach_sq || !movable) return -1.0;  // nothing here can move: nothing to constrain
     ++within;
@@ -214,13 +266,15 @@ struct DetectSink {
     return dist;
   }
   void emit(ContactKind kind, const std::array<Index, 4>& v, const std::array<double, 4>& wts, const Vec3& pa,
-            const Vec3& pb, double dist) {
+            const Vec3& pb, double dist, double offset) {
     ContactPair& out = contacts.emplace_back();
     out.kind = kind;
     out.v = v;
     out.w = wts;
     out.n = (pa - pb) / dist;  // lines 9/25/40: unit normal from B to A
     out.distance = dist;
+    out.offset = offset;
+    reduced_contacts += offset < xi;
   }
 
   void vf(Index v, Index f) {
@@ -228,41 +282,47 @@ struct DetectSink {
     const Vec3i& t = topo.faces[f];
     const Vec3 &a = x[t[0]], &b = x[t[1]], &d = x[t[2]];
     const Vec3 lo = a.cwiseMin(b).cwiseMin(d), hi = a.cwiseMax(b).cwiseMax(d);
-    if (!boxes_within(p, p, lo, hi, reach) || excluded_pair(ContactKind::vf, v, f)) return;
+    if (!boxes_within(p, p, lo, hi, reach)) return;
+    const double off = offset_of(ContactKind::vf, v, f);
+    if (off < 0.0) return;
     const PointTriangleResult r = point_triangle(p, a, b, d);
     const double dist = accept(r.distance_sq, w[v] > 0.0 || w[t[0]] > 0.0 || w[t[1]] > 0.0 || w[t[2]] > 0.0);
     if (dist < 0.0) return;
-    emit(ContactKind::vf, {v, t[0], t[1], t[2]}, {1.0, -r.bary[0], -r.bary[1], -r.bary[2]}, p, r.closest, dist);
+    emit(ContactKind::vf, {v, t[0], t[1], t[2]}, {1.0, -r.bary[0], -r.bary[1], -r.bary[2]}, p, r.closest, dist, off);
   }
   void ee(Index e0, Index e1) {
     if (e0 > e1) std::swap(e0, e1);
     const Vec2i &ea = topo.edges[e0], &eb = topo.edges[e1];
     const Vec3 &a0 = x[ea[0]], &a1 = x[ea[1]], &b0 = x[eb[0]], &b1 = x[eb[1]];
-    if (!boxes_within(a0.cwiseMin(a1), a0.cwiseMax(a1), b0.cwiseMin(b1), b0.cwiseMax(b1), reach) ||
-        excluded_pair(ContactKind::ee, e0, e1))
-      return;
+    if (!boxes_within(a0.cwiseMin(a1), a0.cwiseMax(a1), b0.cwiseMin(b1), b0.cwiseMax(b1), reach)) return;
+    const double off = offset_of(ContactKind::ee, e0, e1);
+    if (off < 0.0) return;
     const EdgeEdgeResult r = edge_edge(a0, a1, b0, b1);
     const double dist = accept(r.distance_sq, w[ea[0]] > 0.0 || w[ea[1]] > 0.0 || w[eb[0]] > 0.0 || w[eb[1]] > 0.0);
     if (dist < 0.0) return;
-    emit(ContactKind::ee, {ea[0], ea[1], eb[0], eb[1]}, {1.0 - r.s, r.s, -(1.0 - r.t), -r.t}, r.pa, r.pb, dist);
+    emit(ContactKind::ee, {ea[0], ea[1], eb[0], eb[1]}, {1.0 - r.s, r.s, -(1.0 - r.t), -r.t}, r.pa, r.pb, dist, off);
   }
   void ve(Index v, Index e) {
     const Vec3& p = x[v];
     const Vec2i& s = topo.edges[e];
     const Vec3 &a = x[s[0]], &b = x[s[1]];
-    if (!boxes_within(p, p, a.cwiseMin(b), a.cwiseMax(b), reach) || excluded_pair(ContactKind::ve, v, e)) return;
+    if (!boxes_within(p, p, a.cwiseMin(b), a.cwiseMax(b), reach)) return;
+    const double off = offset_of(ContactKind::ve, v, e);
+    if (off < 0.0) return;
     const PointEdgeResult r = point_edge(p, a, b);
     const double dist = accept(r.distance_sq, w[v] > 0.0 || w[s[0]] > 0.0 || w[s[1]] > 0.0);
     if (dist < 0.0) return;
-    emit(ContactKind::ve, {v, s[0], s[1], -1}, {1.0, -(1.0 - r.t), -r.t, 0.0}, p, r.closest, dist);
+    emit(ContactKind::ve, {v, s[0], s[1], -1}, {1.0, -(1.0 - r.t), -r.t, 0.0}, p, r.closest, dist, off);
   }
   void vv(Index v0, Index v1) {
     if (v0 > v1) std::swap(v0, v1);
     const Vec3 &p = x[v0], &q = x[v1];
-    if (!boxes_within(p, p, q, q, reach) || excluded_pair(ContactKind::vv, v0, v1)) return;
+    if (!boxes_within(p, p, q, q, reach)) return;
+    const double off = offset_of(ContactKind::vv, v0, v1);
+    if (off < 0.0) return;
     const double dist = accept(point_point_distance_sq(p, q), w[v0] > 0.0 || w[v1] > 0.0);
     if (dist < 0.0) return;
-    emit(ContactKind::vv, {v0, v1, -1, -1}, {1.0, -1.0, 0.0, 0.0}, p, q, dist);
+    emit(ContactKind::vv, {v0, v1, -1, -1}, {1.0, -1.0, 0.0, 0.0}, p, q, dist, off);
   }
 };
 
@@ -293,10 +353,18 @@ double share_a(const ContactPair& c, std::span<const double> w) {
   return movable_a ? (movable_b ? 0.5 : 1.0) : 0.0;
 }
 
-/// Sink of the initial pass: collects sub-pairs closer than ξ (clarification 5).
+/// A sub-pair closer than ξ in the initial configuration (clarification 5).
+struct CloseSubPair {
+  std::uint64_t key;
+  double distance;
+  std::array<Index, 2> va;  ///< side A's vertices (-1 unused)
+  std::array<Index, 3> vb;  ///< side B's vertices (-1 unused)
+};
+
+/// Sink of the initial pass: collects sub-pairs closer than ξ with their distances and vertices.
 struct CloserThanOffsetSink {
   ClosestPoints cp;  // reach = ξ
-  std::vector<std::uint64_t>& keys;
+  std::vector<CloseSubPair>& out;
 
   void vf(Index v, Index f) { run(&ClosestPoints::vf, v, f); }
   void ee(Index a, Index b) { run(&ClosestPoints::ee, a, b); }
@@ -305,7 +373,12 @@ struct CloserThanOffsetSink {
   template <class Fn>
   void run(Fn fn, Index a, Index b) {
     Closest c;
-    if ((cp.*fn)(a, b, c) && c.dist_sq < cp.reach * cp.reach) keys.push_back(sub_pair_key(c.kind, c.id_a, c.id_b));
+    if (!(cp.*fn)(a, b, c) || !(c.dist_sq < cp.reach * cp.reach)) return;
+    CloseSubPair& s = out.emplace_back();
+    s.key = sub_pair_key(c.kind, c.id_a, c.id_b);
+    s.distance = std::sqrt(c.dist_sq);
+    s.va = {c.va[0], c.na > 1 ? c.va[1] : -1};
+    s.vb = {c.vb[0], c.nb > 1 ? c.vb[1] : -1, c.nb > 2 ? c.vb[2] : -1};
   }
 };
 
@@ -318,16 +391,39 @@ struct AllKeysSink {
   void vv(Index a, Index b) { keys.push_back(sub_pair_key(ContactKind::vv, std::min(a, b), std::max(a, b))); }
 };
 
-double orient(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) { return (b - a).cross(c - a).dot(d - a); }
-
-/// Whether segment (p, q) properly crosses the interior of triangle (a, b, c). Touching and
-/// coplanar contact are left out on purpose: they put a vertex-face or edge-edge sub-pair at
-/// distance 0, which the "closer than ξ" rule already excludes.
+/// Whether segment (p, q) properly crosses the interior of triangle (a, b, c), with exact
+/// orientation signs (a floating-point orient reported crossings inside a convex tet box).
+/// Touching and coplanar contact are left out on purpose: they put a vertex-face or edge-edge
+/// sub-pair at distance 0, which the initial-proximity rule handles.
 bool segment_crosses_triangle(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c) {
-  const double sp = orient(a, b, c, p), sq = orient(a, b, c, q);
-  if (!((sp > 0 && sq < 0) || (sp < 0 && sq > 0))) return false;
-  const double s0 = orient(p, q, a, b), s1 = orient(p, q, b, c), s2 = orient(p, q, c, a);
-  return (s0 > 0 && s1 > 0 && s2 > 0) || (s0 < 0 && s1 < 0 && s2 < 0);
+  const int sp = exact::orient3d(a, b, c, p), sq = exact::orient3d(a, b, c, q);
+  if (sp == 0 || sp != -sq) return false;
+  const int s0 = exact::orient3d(p, q, a, b), s1 = exact::orient3d(p, q, b, c), s2 = exact::orient3d(p, q, c, a);
+  return s0 != 0 && s0 == s1 && s1 == s2;
+}
+
+/// Squared distance of a sub-pair given by its key at positions x.
+double key_distance_sq(const Topology& topo, const Positions& x, std::uint64_t key) {
+  constexpr std::uint64_t kMask = (std::uint64_t{1} << 31) - 1;
+  const auto kind = static_cast<ContactKind>(key >> 62);
+  const Index a = static_cast<Index>((key >> 31) & kMask), b = static_cast<Index>(key & kMask);
+  switch (kind) {
+    case ContactKind::vf: {
+      const Vec3i& f = topo.faces[b];
+      return point_triangle(x[a], x[f[0]], x[f[1]], x[f[2]]).distance_sq;
+    }
+    case ContactKind::ee: {
+      const Vec2i &e = topo.edges[a], &g = topo.edges[b];
+      return edge_edge(x[e[0]], x[e[1]], x[g[0]], x[g[1]]).distance_sq;
+    }
+    case ContactKind::ve: {
+      const Vec2i& e = topo.edges[b];
+      return point_edge(x[a], x[e[0]], x[e[1]]).distance_sq;
+    }
+    case ContactKind::vv:
+      return point_point_distance_sq(x[a], x[b]);
+  }
+  return 0.0;
 }
 
 }  // namespace
@@ -353,7 +449,8 @@ void CollisionDetector::compute_exclusions(const Positions& initial) {
   broad_->query_pairs(candidates_);
   const Index n = static_cast<Index>(candidates_.size());
   const Index chunks = default_chunk_count(n);
-  std::vector<std::vector<std::uint64_t>> close(static_cast<size_t>(chunks)), crossing(static_cast<size_t>(chunks));
+  std::vector<std::vector<CloseSubPair>> close(static_cast<size_t>(chunks));
+  std::vector<std::vector<std::uint64_t>> crossing(static_cast<size_t>(chunks));
   std::atomic<Index> intersecting{0};
   const ClosestPoints cp{topo_, initial, params_.offset};
   parallel_chunks(n, chunks, [&](Index chunk, Index begin, Index end) {
@@ -405,27 +502,140 @@ void CollisionDetector::compute_exclusions(const Positions& initial) {
     }
     intersecting += local_intersecting;
   });
-  std::vector<std::uint64_t> keys;
-  size_t close_count = 0;
-  for (const auto& c : close) {
-    keys.insert(keys.end(), c.begin(), c.end());
-    close_count += c.size();
+  proximity_ = InitialProximity{};
+  proximity_.intersecting_pairs = intersecting.load();
+
+  // Crossing primitive pairs: every sub-pair excluded (paper §4.1).
+  std::vector<std::pair<std::uint64_t, Index>> entries;
+  for (const auto& c : crossing)
+    for (std::uint64_t k : c) entries.emplace_back(k, detail::InitialPairTable::kExcluded);
+  std::sort(entries.begin(), entries.end());
+  entries.erase(std::unique(entries.begin(), entries.end()), entries.end());
+  proximity_.intersecting_excluded = static_cast<Index>(entries.size());
+  auto crossing_key = [&](std::uint64_t k) {
+    return std::binary_search(entries.begin(), entries.begin() + proximity_.intersecting_excluded,
+                              std::make_pair(k, detail::InitialPairTable::kExcluded));
+  };
+
+  // Close sub-pairs in key order, so that slots do not depend on the chunking.
+  std::vector<CloseSubPair> close_all;
+  for (const auto& c : close) close_all.insert(close_all.end(), c.begin(), c.end());
+  std::sort(close_all.begin(), close_all.end(),
+            [](const CloseSubPair& x, const CloseSubPair& y) { return x.key < y.key; });
+  close_all.erase(std::unique(close_all.begin(), close_all.end(),
+                              [](const CloseSubPair& x, const CloseSubPair& y) { return x.key == y.key; }),
+                  close_all.end());
+
+  // Adjacency only around the vertices of close sub-pairs: on a fine mesh with a large ξ the
+  // neighbourhoods are big, and most vertices never need one.
+  TopologicalAdjacency adjacency;
+  if (!close_all.empty()) {
+    std::vector<std::uint8_t> sources(static_cast<size_t>(topo_.num_vertices()), 0);
+    for (const CloseSubPair& c : close_all)
+      for (Index v : c.va)
+        if (v >= 0) sources[v] = 1;
+    adjacency = TopologicalAdjacency(topo_, initial, kAdjacencyRadiusInOffsets * params_.offset, sources);
   }
-  for (const auto& c : crossing) keys.insert(keys.end(), c.begin(), c.end());
-  excluded_.assign(std::move(keys));
-  initially_intersecting_ = intersecting.load();
+  reduced_key_.clear();
+  reduced_offset_.clear();
+  auto on_obstacle = [&](std::span<const Index> vs) {
+    for (Index v : vs)
+      if (topo_.objects[topo_.vertex_object[v]].kind != ObjectKind::obstacle) return false;
+    return true;
+  };
+  for (const CloseSubPair& c : close_all) {
+    if (crossing_key(c.key)) continue;
+    const std::span<const Index> va(c.va.data(), c.va[1] >= 0 ? 2 : 1);
+    const std::span<const Index> vb(c.vb.data(), c.vb[2] >= 0 ? 3 : (c.vb[1] >= 0 ? 2 : 1));
+    if (on_obstacle(va) && on_obstacle(vb)) continue;  // scripted on both sides: never constrained
+    if (adjacency.adjacent(va, vb)) {
+      entries.emplace_back(c.key, detail::InitialPairTable::kExcluded);
+      ++proximity_.adjacent_excluded;
+      continue;
+    }
+    entries.emplace_back(c.key, static_cast<Index>(reduced_key_.size()));
+    reduced_key_.push_back(c.key);
+    reduced_offset_.push_back((1.0 - kInitialOffsetMargin) * c.distance);
+  }
+  proximity_.reduced_offset = static_cast<Index>(reduced_key_.size());
+  proximity_.min_reduced_offset =
+      reduced_offset_.empty() ? 0.0 : *std::min_element(reduced_offset_.begin(), reduced_offset_.end());
+  active_.resize(reduced_key_.size());
+  for (size_t i = 0; i < active_.size(); ++i) active_[i] = static_cast<Index>(i);
+  initial_.assign(std::move(entries));
+
+  // Shortest edge of the deformable objects, for the warning on ξ against the mesh resolution.
+  proximity_.shortest_edge = std::numeric_limits<double>::infinity();
+  Index shortest_object = -1;
+  for (Index e = 0; e < topo_.num_edges(); ++e) {
+    const Index o = topo_.edge_object[e];
+    const ObjectKind k = topo_.objects[o].kind;
+    if (k == ObjectKind::obstacle || k == ObjectKind::rigid) continue;
+    const double len = (initial[topo_.edges[e][1]] - initial[topo_.edges[e][0]]).norm();
+    if (len < proximity_.shortest_edge) proximity_.shortest_edge = len, shortest_object = o;
+  }
+
+  const InitialProximity& ip = proximity_;
   spdlog::info(
-      "collision: {} primitives, {} sub-pairs closer than the offset {} and {} intersecting primitive pairs in "
-      "the initial configuration; {} sub-pairs excluded for the run",
-      prims_.size(), close_count, params_.offset, initially_intersecting_, excluded_.size());
+      "collision: {} primitives; initial configuration: {} sub-pairs closer than the offset {} ({} adjacent, "
+      "excluded; {} kept with a reduced offset), {} intersecting primitive pairs ({} sub-pairs excluded)",
+      prims_.size(), close_all.size(), params_.offset, ip.adjacent_excluded, ip.reduced_offset, ip.intersecting_pairs,
+      ip.intersecting_excluded);
+  if (ip.reduced_offset > 0)
+    spdlog::warn(
+        "collision: {} sub-pairs that are not neighbours on a mesh start closer than the offset {} (closest "
+        "{:.4g}); they keep contact with their initial distance less {:.0f}% as offset, raised toward {} as they "
+        "separate",
+        ip.reduced_offset, params_.offset, ip.min_reduced_offset / (1.0 - kInitialOffsetMargin),
+        100.0 * kInitialOffsetMargin, params_.offset);
+  if (ip.adjacent_excluded > 0 && shortest_object >= 0)
+    spdlog::warn(
+        "collision: the offset {} is large against the mesh (shortest edge {:.4g} in object '{}'): {} sub-pairs "
+        "joined by a path of at most {:.4g} along the mesh start closer than the offset and are excluded for the "
+        "run, so folds tighter than that are not protected. Use edges of at least the offset (a coarser mesh) "
+        "or a smaller contact.offset",
+        params_.offset, ip.shortest_edge, topo_.objects[shortest_object].name, ip.adjacent_excluded,
+        kAdjacencyRadiusInOffsets * params_.offset);
+  if (ip.intersecting_pairs > 0)
+    spdlog::warn(
+        "collision: {} primitive pairs intersect in the initial configuration; their {} sub-pairs are excluded "
+        "for the run",
+        ip.intersecting_pairs, ip.intersecting_excluded);
+}
+
+double CollisionDetector::pair_offset(ContactKind kind, Index a, Index b) const {
+  const Index slot = initial_.find(kind, a, b);
+  return slot >= 0 ? reduced_offset_[static_cast<size_t>(slot)] : params_.offset;
+}
+
+/// Initial proximity: \f$\xi_p \leftarrow \min(\xi, \max(\xi_p, (1 - m)\,d))\f$ at the anchors,
+/// which are feasible (d ≥ ξ_p), so the raised offset never exceeds the distance. One slot per
+/// task: no two writes meet, and the result does not depend on the thread count.
+void CollisionDetector::raise_reduced_offsets(const Positions& x) {
+  const double xi = params_.offset;
+  parallel_for(
+      static_cast<Index>(active_.size()),
+      [&](Index b, Index e) {
+        for (Index i = b; i < e; ++i) {
+          const Index slot = active_[i];
+          const double d = std::sqrt(key_distance_sq(topo_, x, reduced_key_[slot]));
+          const double raised = std::min(xi, (1.0 - kInitialOffsetMargin) * d);
+          if (raised > reduced_offset_[slot]) reduced_offset_[slot] = raised;  // NaN compares false: kept
+        }
+      },
+      1024);
+  active_.erase(
+      std::remove_if(active_.begin(), active_.end(), [&](Index slot) { return !(reduced_offset_[slot] < xi); }),
+      active_.end());
 }
 
 void CollisionDetector::detect(const Positions& x, std::span<const double> inv_mass, RegionSet& regions,
-                               std::vector<ContactPair>& contacts, DetectionStats& stats, std::span<const Vec3> kinematic_step) {
+                               std::vector<ContactPair>& contacts, DetectionStats& stats,
+                               std::span<const Vec3> kinematic_step) {
   const Index nv = topo_.num_vertices();
   if (!kinematic_step.empty() && static_cast<Index>(kinematic_step.size()) != nv)
-    throw Error("CollisionDetector::detect: kinematic_step has " + std::to_string(kinematic_step.size()) + " entries, expected " +
-                std::to_string(nv));
+    throw Error("CollisionDetector::detect: kinematic_step has " + std::to_string(kinematic_step.size()) +
+                " entries, expected " + std::to_string(nv));
   if (static_cast<Index>(x.size()) != nv || static_cast<Index>(inv_mass.size()) != nv)
     throw Error("CollisionDetector::detect: expected " + std::to_string(nv) + " positions and inverse masses, got " +
                 std::to_string(x.size()) + " and " + std::to_string(inv_mass.size()));
@@ -439,34 +649,40 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
   stats.candidates = static_cast<Index>(candidates_.size());
 
   watch.restart();
+  if (!active_.empty()) raise_reduced_offsets(x);
   // A primitive with no movable vertex can only meet another immovable one in vain.
   movable_.resize(static_cast<size_t>(prims_.size()));
-  parallel_for(prims_.size(), [&](Index begin, Index end) {
-    for (Index p = begin; p < end; ++p) {
-      const Index e = prims_.element(p);
-      switch (prims_.kind(p)) {
-        case PrimitiveKind::triangle:
-          movable_[p] = inv_mass[topo_.faces[e][0]] > 0 || inv_mass[topo_.faces[e][1]] > 0 || inv_mass[topo_.faces[e][2]] > 0;
-          break;
-        case PrimitiveKind::edge:
-          movable_[p] = inv_mass[topo_.edges[e][0]] > 0 || inv_mass[topo_.edges[e][1]] > 0;
-          break;
-        case PrimitiveKind::point:
-          movable_[p] = inv_mass[e] > 0;
-          break;
-      }
-    }
-  }, 4096);
+  parallel_for(
+      prims_.size(),
+      [&](Index begin, Index end) {
+        for (Index p = begin; p < end; ++p) {
+          const Index e = prims_.element(p);
+          switch (prims_.kind(p)) {
+            case PrimitiveKind::triangle:
+              movable_[p] =
+                  inv_mass[topo_.faces[e][0]] > 0 || inv_mass[topo_.faces[e][1]] > 0 || inv_mass[topo_.faces[e][2]] > 0;
+              break;
+            case PrimitiveKind::edge:
+              movable_[p] = inv_mass[topo_.edges[e][0]] > 0 || inv_mass[topo_.edges[e][1]] > 0;
+              break;
+            case PrimitiveKind::point:
+              movable_[p] = inv_mass[e] > 0;
+              break;
+          }
+        }
+      },
+      4096);
 
   const Index n = stats.candidates;
   const Index chunks = default_chunk_count(n);
   contact_buffers_.resize(static_cast<size_t>(chunks));
   for (auto& b : contact_buffers_) b.clear();
   std::vector<Index> within(static_cast<size_t>(chunks), 0), excluded(static_cast<size_t>(chunks), 0),
-      degenerate(static_cast<size_t>(chunks), 0);
+      degenerate(static_cast<size_t>(chunks), 0), reduced(static_cast<size_t>(chunks), 0);
   parallel_chunks(n, chunks, [&](Index chunk, Index begin, Index end) {
     const double reach = 2.0 * params_.radius + params_.offset;
-    DetectSink sink{topo_, x, inv_mass, excluded_, reach, reach * reach, contact_buffers_[chunk]};
+    DetectSink sink{
+        topo_, x, inv_mass, initial_, reduced_offset_, params_.offset, reach, reach * reach, contact_buffers_[chunk]};
     for (Index i = begin; i < end; ++i) {
       const auto [p, q] = candidates_[i];
       if (movable_[p] || movable_[q]) visit_sub_pairs(topo_, prims_, p, q, sink);
@@ -474,12 +690,14 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
     within[chunk] = sink.within;
     excluded[chunk] = sink.excluded;
     degenerate[chunk] = sink.degenerate;
+    reduced[chunk] = sink.reduced_contacts;
   });
 
   for (Index c = 0; c < chunks; ++c) {
     stats.pairs_within_range += within[c];
     stats.excluded_initial += excluded[c];
     stats.degenerate += degenerate[c];
+    stats.reduced_offset += reduced[c];
   }
   assemble(inv_mass, kinematic_step, contacts, regions);
   stats.constraints = static_cast<Index>(regions.total());
@@ -488,9 +706,9 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
 
 /// Concatenates the per-chunk contacts in chunk order (deterministic for any thread count) and
 /// applies Alg. NarrowPhase lines 10, 26 and 41 to every contact: each movable vertex of side A
-/// gets \f$ (\mathbf{n}, s_A\varphi, \varphi) \f$, each of side B \f$ (-\mathbf{n}, s_B\varphi, \varphi) \f$ (the normal
-/// points from the other primitive toward the vertex's own, clarification 3); d stays negative
-/// for a pair already inside the offset (clarification 7).
+/// gets \f$ (\mathbf{n}, s_A\varphi, \varphi) \f$, each of side B \f$ (-\mathbf{n}, s_B\varphi, \varphi) \f$ (the
+/// normal points from the other primitive toward the vertex's own, clarification 3); d stays negative for a pair
+/// already inside the offset (clarification 7).
 ///
 /// The CSR is filled in parallel without sorting: the chunks are grouped into at most 32 fixed
 /// blocks of consecutive chunks, each block counts its planes per vertex, and prefix sums over
@@ -520,25 +738,31 @@ void CollisionDetector::assemble(std::span<const double> inv_mass, std::span<con
         for (int k = 0; k < c.size(); ++k)
           if (inv_mass[c.v[k]] > 0.0) ++count[c.v[k]];
   });
-  parallel_for(nv, [&](Index begin, Index end) {
-    for (Index v = begin; v < end; ++v) {
-      Index total = 0;
-      for (Index b = 0; b < blocks; ++b) total += block_cursor_[static_cast<size_t>(b) * nv + v];
-      regions.offsets[v + 1] = total;
-    }
-  }, 4096);
+  parallel_for(
+      nv,
+      [&](Index begin, Index end) {
+        for (Index v = begin; v < end; ++v) {
+          Index total = 0;
+          for (Index b = 0; b < blocks; ++b) total += block_cursor_[static_cast<size_t>(b) * nv + v];
+          regions.offsets[v + 1] = total;
+        }
+      },
+      4096);
   for (Index v = 0; v < nv; ++v) regions.offsets[v + 1] += regions.offsets[v];
-  parallel_for(nv, [&](Index begin, Index end) {
-    for (Index v = begin; v < end; ++v) {
-      Index cursor = regions.offsets[v];
-      for (Index b = 0; b < blocks; ++b) {
-        Index& slot = block_cursor_[static_cast<size_t>(b) * nv + v];
-        const Index count = slot;
-        slot = cursor;
-        cursor += count;
-      }
-    }
-  }, 4096);
+  parallel_for(
+      nv,
+      [&](Index begin, Index end) {
+        for (Index v = begin; v < end; ++v) {
+          Index cursor = regions.offsets[v];
+          for (Index b = 0; b < blocks; ++b) {
+            Index& slot = block_cursor_[static_cast<size_t>(b) * nv + v];
+            const Index count = slot;
+            slot = cursor;
+            cursor += count;
+          }
+        }
+      },
+      4096);
   regions.planes.resize(static_cast<size_t>(regions.offsets.back()));
   parallel_chunks(chunks, blocks, [&](Index b, Index chunk_begin, Index chunk_end) {
     Index* cursor = block_cursor_.data() + static_cast<size_t>(b) * nv;
@@ -546,7 +770,7 @@ void CollisionDetector::assemble(std::span<const double> inv_mass, std::span<con
       ContactPair* out = contacts.data() + start[chunk];
       for (const ContactPair& c : contact_buffers_[chunk]) {
         *out++ = c;
-        const double phi = c.distance - params_.offset;
+        const double phi = c.distance - c.offset;
         // Gap left to the movable vertices: phi plus the known approach of kinematic vertices
         // (their steps are zero for dynamic vertices, so the sum runs over all of c's vertices).
         // The closest points are separated by the plane normal to n; every vertex of a side must
@@ -559,8 +783,10 @@ void CollisionDetector::assemble(std::span<const double> inv_mass, std::span<con
           double k_a = 0.0, k_b = 0.0;
           for (int k = 0; k < c.size(); ++k) {
             const double along = c.n.dot(kinematic_step[c.v[k]]);  // zero for dynamic vertices
-            if (k < na_k) k_a = std::max(k_a, -along);
-            else k_b = std::max(k_b, along);
+            if (k < na_k)
+              k_a = std::max(k_a, -along);
+            else
+              k_b = std::max(k_b, along);
           }
           gap -= k_a + k_b;
         }

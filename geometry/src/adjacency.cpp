@@ -9,8 +9,15 @@
 namespace ccfr {
 
 TopologicalAdjacency::TopologicalAdjacency(const Topology& topo, const Positions& rest, double radius)
+    : TopologicalAdjacency(topo, rest, radius, {}) {}
+
+TopologicalAdjacency::TopologicalAdjacency(const Topology& topo, const Positions& rest, double radius,
+                                           std::span<const std::uint8_t> sources)
     : radius_(radius) {
   const Index nv = topo.num_vertices();
+  if (!sources.empty() && static_cast<Index>(sources.size()) != nv)
+    throw Error("TopologicalAdjacency: " + std::to_string(sources.size()) + " source flags for " + std::to_string(nv) +
+                " vertices");
   if (static_cast<Index>(rest.size()) != nv)
     throw Error("TopologicalAdjacency: " + std::to_string(rest.size()) + " positions for " + std::to_string(nv) +
                 " vertices");
@@ -25,6 +32,10 @@ TopologicalAdjacency::TopologicalAdjacency(const Topology& topo, const Positions
   using Item = std::pair<double, Index>;
   std::priority_queue<Item, std::vector<Item>, std::greater<>> heap;
   for (Index s = 0; s < nv; ++s) {
+    if (!sources.empty() && !sources[s]) {
+      near_.offsets[s + 1] = static_cast<Index>(near_.indices.size());
+      continue;
+    }
     dist[s] = 0.0;
     touched.push_back(s);
     heap.emplace(0.0, s);
@@ -37,8 +48,10 @@ TopologicalAdjacency::TopologicalAdjacency(const Topology& topo, const Positions
         const Index w = topo.edges[e][0] == v ? topo.edges[e][1] : topo.edges[e][0];
         const double nd = d + (rest[w] - rest[v]).norm();
         if (nd > radius) continue;
-        if (dist[w] < 0.0) touched.push_back(w);
-        else if (nd >= dist[w]) continue;
+        if (dist[w] < 0.0)
+          touched.push_back(w);
+        else if (nd >= dist[w])
+          continue;
         dist[w] = nd;
         heap.emplace(nd, w);
       }
@@ -55,8 +68,8 @@ TopologicalAdjacency::TopologicalAdjacency(const Topology& topo, const Positions
 bool TopologicalAdjacency::vertices_adjacent(Index a, Index b) const {
   if (a == b) return true;
   if (near_.offsets.size() <= 1) return false;
-  const auto row = near_.row(a);
-  return std::binary_search(row.begin(), row.end(), b);
+  const auto ra = near_.row(a), rb = near_.row(b);
+  return std::binary_search(ra.begin(), ra.end(), b) || std::binary_search(rb.begin(), rb.end(), a);
 }
 
 bool TopologicalAdjacency::adjacent(std::span<const Index> a, std::span<const Index> b) const {

@@ -39,10 +39,10 @@ std::string stats_row(const FrameStats& s) {
   if (std::isfinite(s.min_distance)) std::snprintf(md, sizeof md, "%.9g", s.min_distance);
   char pen[24] = "";
   if (s.penetrations >= 0) std::snprintf(pen, sizeof pen, "%d", s.penetrations);
-  std::snprintf(buf, sizeof buf, "%d,%.9g,%.6f,%.6f,%.6f,%.6f,%.6f,%d,%d,%d,%d,%d,%s,%s,%.6f,%d,%d,%.6f,%d,%d", s.frame, s.sim_time, s.wall_s,
-                s.times.xpbd, s.times.broad, s.times.narrow, s.times.resolution, s.candidates, s.constraints,
-                s.violations_detected, s.violations_remaining, s.halted_vertices, md, pen, s.times.audit, s.outer_iterations,
-                s.clamped_vertices, s.times.check, s.contact_vertices, s.substeps_run);
+  std::snprintf(buf, sizeof buf, "%d,%.9g,%.6f,%.6f,%.6f,%.6f,%.6f,%d,%d,%d,%d,%d,%s,%s,%.6f,%d,%d,%.6f,%d,%d", s.frame,
+                s.sim_time, s.wall_s, s.times.xpbd, s.times.broad, s.times.narrow, s.times.resolution, s.candidates,
+                s.constraints, s.violations_detected, s.violations_remaining, s.halted_vertices, md, pen, s.times.audit,
+                s.outer_iterations, s.clamped_vertices, s.times.check, s.contact_vertices, s.substeps_run);
   return buf;
 }
 
@@ -67,13 +67,18 @@ std::string jnum(double v) {
 }  // namespace
 
 RunWriter::RunWriter(fs::path dir, const Topology& topo, std::string resolved_config_json, RunMeta meta)
-    : dir_(std::move(dir)), topo_(topo), config_json_(std::move(resolved_config_json)), meta_(std::move(meta)), start_time_(utc_now()) {
+    : dir_(std::move(dir)),
+      topo_(topo),
+      config_json_(std::move(resolved_config_json)),
+      meta_(std::move(meta)),
+      start_time_(utc_now()) {
   std::error_code ec;
   fs::create_directories(dir_ / "frames", ec);
   if (ec) throw Error("cannot create output directory '" + (dir_ / "frames").string() + "': " + ec.message());
   // A rerun into the same directory must not leave frames of the previous run behind.
   for (const auto& e : fs::directory_iterator(dir_ / "frames"))
-    if (e.path().extension() == ".obj" && e.path().filename().string().rfind("frame_", 0) == 0) fs::remove(e.path(), ec);
+    if (e.path().extension() == ".obj" && e.path().filename().string().rfind("frame_", 0) == 0)
+      fs::remove(e.path(), ec);
   stats_.open(dir_ / "stats.csv", std::ios::trunc);
   if (!stats_) throw Error("cannot write '" + (dir_ / "stats.csv").string() + "'");
   stats_ << stats_header() << '\n';
@@ -112,6 +117,15 @@ void RunWriter::write_run_json(const std::string& status, bool finished) {
   s += "  \"status\": " + jstr(status) + ",\n";
   s += "  \"frames_written\": " + std::to_string(frames_written_) + ",\n";
   s += "  \"vertices\": " + std::to_string(topo_.num_vertices()) + ",\n";
+  if (const auto& ip = meta_.initial_proximity) {
+    s += "  \"initial_proximity\": {\"adjacent_excluded\": " + std::to_string(ip->adjacent_excluded) +
+         ", \"reduced_offset_pairs\": " + std::to_string(ip->reduced_offset) +
+         ", \"min_reduced_offset\": " + jnum(ip->min_reduced_offset) +
+         ", \"intersecting_pairs\": " + std::to_string(ip->intersecting_pairs) +
+         ", \"intersecting_excluded\": " + std::to_string(ip->intersecting_excluded) +
+         ", \"shortest_edge\": " + (std::isfinite(ip->shortest_edge) ? jnum(ip->shortest_edge) : std::string("null")) +
+         "},\n";
+  }
   s += "  \"config\": " + config_json_ + "\n}\n";
   write_file_atomic(dir_ / "run.json", s);
 }

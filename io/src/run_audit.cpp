@@ -49,7 +49,7 @@ RunAuditResult audit_run(const fs::path& dir, const RunAuditOptions& o, const Fr
   exact::AuditOptions opt;
   opt.offset = res.offset;
   opt.tolerance = o.tolerance;
-  const exact::PenetrationAudit audit(topology_from_frame(frame0), frame0.v, opt);
+  exact::PenetrationAudit audit(topology_from_frame(frame0), frame0.v, opt);
   res.excluded_close_pairs = audit.excluded_close_pairs();
   res.excluded_intersections = audit.excluded_intersections();
   res.vertices = audit.topology().num_vertices();
@@ -60,8 +60,9 @@ RunAuditResult audit_run(const fs::path& dir, const RunAuditOptions& o, const Fr
   for (const size_t i : picks) {
     const Frame fr = i == 0 ? frame0 : read_frame_obj(info.frames[i]);
     if (!same_structure(frame0, fr))
-      throw Error("the topology of '" + info.frames[i].string() + "' differs from frame 0's (objects, faces, lines or points)");
-    const exact::FrameAudit r = audit.audit(fr.v);
+      throw Error("the topology of '" + info.frames[i].string() +
+                  "' differs from frame 0's (objects, faces, lines or points)");
+    const exact::FrameAudit r = audit.audit_next(fr.v);  // in frame order: raises the reduced offsets
     const long n = frame_number(info.frames[i], i);
     res.min_distance = std::min(res.min_distance, r.min_distance);
     res.violations += r.penetrations();

@@ -7,13 +7,13 @@
 
 namespace ccfr {
 
-double contact_gap(const ContactPair& c, const Positions& x, double offset) {
+double contact_gap(const ContactPair& c, const Positions& x) {
   Vec3 d = Vec3::Zero();
   for (int k = 0; k < c.size(); ++k) d += c.w[k] * x[c.v[k]];
-  return c.n.dot(d) - offset;
+  return c.n.dot(d) - c.offset;
 }
 
-std::vector<double> visibility_weights(std::span<const ContactPair> contacts, double offset, double width) {
+std::vector<double> visibility_weights(std::span<const ContactPair> contacts, double width) {
   const Index n = static_cast<Index>(contacts.size());
   std::vector<double> vis(static_cast<size_t>(n), 1.0);
   if (width <= 0.0 || n == 0) return vis;
@@ -31,34 +31,39 @@ std::vector<double> visibility_weights(std::span<const ContactPair> contacts, do
     std::vector<Index> cursor(start.begin(), start.end() - 1);
     for (Index i = 0; i < n; ++i) order[cursor[contacts[i].v[0]]++] = i;
   }
-  auto gap = [&](Index i) { return contacts[i].distance - offset; };
-  parallel_for(max_v + 1, [&](Index vb, Index ve) {
-    std::vector<Index> window;
-    for (Index v = vb; v < ve; ++v) {
-      const Index b = start[v], e = start[v + 1];
-      if (e - b < 2) continue;
-      double nearest = gap(order[b]);
-      for (Index i = b + 1; i < e; ++i) nearest = std::min(nearest, gap(order[i]));
-      window.clear();
-      for (Index i = b; i < e; ++i) {
-        if (gap(order[i]) - nearest >= width) vis[order[i]] = 0.0;
-        else window.push_back(order[i]);
-      }
-      for (Index c : window) {
-        double w = 1.0;
-        for (Index j : window)
-          if (j != c) w *= 1.0 - smoothstep((gap(c) - gap(j)) / width);
-        vis[c] = w;
-      }
-    }
-  }, 256);
+  auto gap = [&](Index i) { return contacts[i].distance - contacts[i].offset; };
+  parallel_for(
+      max_v + 1,
+      [&](Index vb, Index ve) {
+        std::vector<Index> window;
+        for (Index v = vb; v < ve; ++v) {
+          const Index b = start[v], e = start[v + 1];
+          if (e - b < 2) continue;
+          double nearest = gap(order[b]);
+          for (Index i = b + 1; i < e; ++i) nearest = std::min(nearest, gap(order[i]));
+          window.clear();
+          for (Index i = b; i < e; ++i) {
+            if (gap(order[i]) - nearest >= width)
+              vis[order[i]] = 0.0;
+            else
+              window.push_back(order[i]);
+          }
+          for (Index c : window) {
+            double w = 1.0;
+            for (Index j : window)
+              if (j != c) w *= 1.0 - smoothstep((gap(c) - gap(j)) / width);
+            vis[c] = w;
+          }
+        }
+      },
+      256);
   return vis;
 }
 
 void ContactResponse::prepare(std::span<const ContactPair> contacts, Index num_vertices, const ContactParams& params) {
   contacts_ = contacts;
   const double width = params.visibility_width > 0.0 ? params.visibility_width : params.repulsion_range;
-  visibility_ = visibility_weights(contacts, params.offset, width);
+  visibility_ = visibility_weights(contacts, width);
   vertex_offsets_.assign(static_cast<size_t>(num_vertices) + 1, 0);
   for (const auto& c : contacts)
     for (int k = 0; k < c.size(); ++k) ++vertex_offsets_[c.v[k] + 1];
@@ -70,8 +75,8 @@ void ContactResponse::prepare(std::span<const ContactPair> contacts, Index num_v
   corr_.assign(contacts.size() * 4, Vec3::Zero());
 }
 
-void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<const double> inv_mass, const ContactParams& p,
-                            double dt, std::span<const double> friction_override) {
+void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<const double> inv_mass,
+                            const ContactParams& p, double dt, std::span<const double> friction_override) {
   const Index n = static_cast<Index>(contacts_.size());
   if (n == 0 || p.repulsion_range <= 0.0) {
     active_ = 0;
@@ -80,52 +85,58 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
   const double alpha_tilde = 1.0 / (p.stiffness * dt * dt);
   std::vector<std::uint8_t> is_active(static_cast<size_t>(n), 0);
   // Per contact: the correction of each of its vertices, computed from the same x (Jacobi).
-  parallel_for(n, [&](Index b, Index e) {
-    for (Index ci = b; ci < e; ++ci) {
-      const ContactPair& c = contacts_[ci];
-      for (int k = 0; k < 4; ++k) corr_[ci * 4 + k].setZero();
-      const double gap = contact_gap(c, x, p.offset);
-      const double vis = visibility_[ci];
-      if (gap >= p.repulsion_range || vis <= 1e-12) continue;
-      double wsum = 0.0;
-      for (int k = 0; k < c.size(); ++k) wsum += c.w[k] * c.w[k] * inv_mass[c.v[k]];
-      if (wsum <= 0.0) continue;
-      is_active[ci] = 1;
-      // Repulsion C = d_c - δ <= 0 with compliance α/w_c (visibility scales the stiffness):
-      // Δλ = -C / (Σ w_k² m_k⁻¹ + α̃ / w_c), Δx_k = m_k⁻¹ w_k n Δλ.
-      const double dl = -(gap - p.repulsion_range) / (wsum + alpha_tilde / vis);
-      for (int k = 0; k < c.size(); ++k) corr_[ci * 4 + k] = inv_mass[c.v[k]] * c.w[k] * dl * c.n;
+  parallel_for(
+      n,
+      [&](Index b, Index e) {
+        for (Index ci = b; ci < e; ++ci) {
+          const ContactPair& c = contacts_[ci];
+          for (int k = 0; k < 4; ++k) corr_[ci * 4 + k].setZero();
+          const double gap = contact_gap(c, x);
+          const double vis = visibility_[ci];
+          if (gap >= p.repulsion_range || vis <= 1e-12) continue;
+          double wsum = 0.0;
+          for (int k = 0; k < c.size(); ++k) wsum += c.w[k] * c.w[k] * inv_mass[c.v[k]];
+          if (wsum <= 0.0) continue;
+          is_active[ci] = 1;
+          // Repulsion C = d_c - δ <= 0 with compliance α/w_c (visibility scales the stiffness):
+          // Δλ = -C / (Σ w_k² m_k⁻¹ + α̃ / w_c), Δx_k = m_k⁻¹ w_k n Δλ.
+          const double dl = -(gap - p.repulsion_range) / (wsum + alpha_tilde / vis);
+          for (int k = 0; k < c.size(); ++k) corr_[ci * 4 + k] = inv_mass[c.v[k]] * c.w[k] * dl * c.n;
 
-      // Friction on the tangential relative motion of the substep (Macklin et al. 2014, Eq. 24).
-      double mu_s = p.friction_static, mu_k = p.friction_kinetic;
-      if (!friction_override.empty() && friction_override[c.v[0]] >= 0.0) mu_s = mu_k = friction_override[c.v[0]];
-      if (mu_s <= 0.0 && mu_k <= 0.0) continue;
-      Vec3 rel = Vec3::Zero();
-      for (int k = 0; k < c.size(); ++k) rel += c.w[k] * ((x[c.v[k]] + corr_[ci * 4 + k]) - x_start[c.v[k]]);
-      const Vec3 tangential = rel - c.n.dot(rel) * c.n;
-      const double tl = tangential.norm();
-      if (tl <= 0.0) continue;
-      // Coulomb bound on the normal correction this contact applied (relative displacement).
-      const double depth = std::max(0.0, dl * wsum);
-      const Vec3 remove = tl < mu_s * depth ? tangential : tangential * std::min(mu_k * depth / tl, 1.0);
-      for (int k = 0; k < c.size(); ++k) corr_[ci * 4 + k] -= inv_mass[c.v[k]] * c.w[k] * remove / wsum;
-    }
-  }, 1024);
+          // Friction on the tangential relative motion of the substep (Macklin et al. 2014, Eq. 24).
+          double mu_s = p.friction_static, mu_k = p.friction_kinetic;
+          if (!friction_override.empty() && friction_override[c.v[0]] >= 0.0) mu_s = mu_k = friction_override[c.v[0]];
+          if (mu_s <= 0.0 && mu_k <= 0.0) continue;
+          Vec3 rel = Vec3::Zero();
+          for (int k = 0; k < c.size(); ++k) rel += c.w[k] * ((x[c.v[k]] + corr_[ci * 4 + k]) - x_start[c.v[k]]);
+          const Vec3 tangential = rel - c.n.dot(rel) * c.n;
+          const double tl = tangential.norm();
+          if (tl <= 0.0) continue;
+          // Coulomb bound on the normal correction this contact applied (relative displacement).
+          const double depth = std::max(0.0, dl * wsum);
+          const Vec3 remove = tl < mu_s * depth ? tangential : tangential * std::min(mu_k * depth / tl, 1.0);
+          for (int k = 0; k < c.size(); ++k) corr_[ci * 4 + k] -= inv_mass[c.v[k]] * c.w[k] * remove / wsum;
+        }
+      },
+      1024);
   active_ = static_cast<Index>(std::count(is_active.begin(), is_active.end(), 1));
   // Gather: each vertex takes the average of its contacts' corrections.
-  parallel_for(static_cast<Index>(x.size()), [&](Index b, Index e) {
-    for (Index v = b; v < e; ++v) {
-      const Index s = vertex_offsets_[v], t = vertex_offsets_[v + 1];
-      if (s == t || inv_mass[v] == 0.0) continue;
-      Vec3 sum = Vec3::Zero();
-      int cnt = 0;
-      for (Index q = s; q < t; ++q) {
-        const Vec3& d = corr_[vertex_contacts_[q]];
-        if (d.squaredNorm() > 0.0) sum += d, ++cnt;
-      }
-      if (cnt) x[v] += sum / cnt;
-    }
-  }, 4096);
+  parallel_for(
+      static_cast<Index>(x.size()),
+      [&](Index b, Index e) {
+        for (Index v = b; v < e; ++v) {
+          const Index s = vertex_offsets_[v], t = vertex_offsets_[v + 1];
+          if (s == t || inv_mass[v] == 0.0) continue;
+          Vec3 sum = Vec3::Zero();
+          int cnt = 0;
+          for (Index q = s; q < t; ++q) {
+            const Vec3& d = corr_[vertex_contacts_[q]];
+            if (d.squaredNorm() > 0.0) sum += d, ++cnt;
+          }
+          if (cnt) x[v] += sum / cnt;
+        }
+      },
+      4096);
 }
 
 }  // namespace ccfr

@@ -5,9 +5,9 @@
 #include "ccfr/geometry/distance.hpp"
 
 #include <atomic>
+#include <cmath>
 #include <cstdint>
 #include <limits>
-#include <cmath>
 
 namespace ccfr {
 
@@ -46,20 +46,27 @@ namespace {
 /// Exact distance of a sub-pair's primitives at x (closest points recomputed, not along n).
 double pair_distance(const ContactPair& c, const Positions& x) {
   switch (c.kind) {
-    case ContactKind::vf: return std::sqrt(point_triangle(x[c.v[0]], x[c.v[1]], x[c.v[2]], x[c.v[3]]).distance_sq);
-    case ContactKind::ee: return std::sqrt(edge_edge(x[c.v[0]], x[c.v[1]], x[c.v[2]], x[c.v[3]]).distance_sq);
-    case ContactKind::ve: return std::sqrt(point_edge(x[c.v[0]], x[c.v[1]], x[c.v[2]]).distance_sq);
-    case ContactKind::vv: return std::sqrt(point_point_distance_sq(x[c.v[0]], x[c.v[1]]));
+    case ContactKind::vf:
+      return std::sqrt(point_triangle(x[c.v[0]], x[c.v[1]], x[c.v[2]], x[c.v[3]]).distance_sq);
+    case ContactKind::ee:
+      return std::sqrt(edge_edge(x[c.v[0]], x[c.v[1]], x[c.v[2]], x[c.v[3]]).distance_sq);
+    case ContactKind::ve:
+      return std::sqrt(point_edge(x[c.v[0]], x[c.v[1]], x[c.v[2]]).distance_sq);
+    case ContactKind::vv:
+      return std::sqrt(point_point_distance_sq(x[c.v[0]], x[c.v[1]]));
   }
   return 0.0;
 }
 Index count_contact_vertices(const RegionSet& regions, std::span<const double> inv_mass) {
   std::atomic<Index> n{0};
-  parallel_for(regions.num_vertices(), [&](Index b, Index e) {
-    Index local = 0;
-    for (Index v = b; v < e; ++v) local += inv_mass[v] > 0.0 && regions.count(v) > 0;
-    n += local;
-  }, 4096);
+  parallel_for(
+      regions.num_vertices(),
+      [&](Index b, Index e) {
+        Index local = 0;
+        for (Index v = b; v < e; ++v) local += inv_mass[v] > 0.0 && regions.count(v) > 0;
+        n += local;
+      },
+      4096);
   return n.load();
 }
 }  // namespace
@@ -74,20 +81,23 @@ Index DetectingSolver::contact_vertex_count(std::span<const double> inv_mass) co
 }
 
 Index DetectingSolver::count_outside(const Positions& x, const Positions&, const SimState&, StepContext& ctx) const {
-  const double limit = (1.0 - ctx.params.debug.audit_tolerance) * ctx.params.contact.offset;
+  const double keep = 1.0 - ctx.params.debug.audit_tolerance;
   std::atomic<Index> close{0};
   std::atomic<Index> first{std::numeric_limits<Index>::max()};
-  parallel_for(static_cast<Index>(contacts_.size()), [&](Index b, Index e) {
-    Index local = 0;
-    for (Index i = b; i < e; ++i)
-      if (!(pair_distance(contacts_[i], x) >= limit)) {  // NaN counts
-        ++local;
-        Index cur = first.load();
-        while (i < cur && !first.compare_exchange_weak(cur, i)) {
-        }
-      }
-    close += local;
-  }, 2048);
+  parallel_for(
+      static_cast<Index>(contacts_.size()),
+      [&](Index b, Index e) {
+        Index local = 0;
+        for (Index i = b; i < e; ++i)
+          if (!(pair_distance(contacts_[i], x) >= keep * contacts_[i].offset)) {  // NaN counts
+            ++local;
+            Index cur = first.load();
+            while (i < cur && !first.compare_exchange_weak(cur, i)) {
+            }
+          }
+        close += local;
+      },
+      2048);
   if (close.load() > 0) {
     // The lowest-numbered violation, so the message does not depend on the thread count.
     const ContactPair& c = contacts_[first.load()];
@@ -95,9 +105,10 @@ Index DetectingSolver::count_outside(const Positions& x, const Positions&, const
     auto obj = [&](Index v) { return "'" + topo.object_of_vertex(v).name + "'"; };
     static constexpr const char* kKind[] = {"vertex-face", "edge-edge", "vertex-edge", "vertex-vertex"};
     last_violation_ = std::string(kKind[static_cast<int>(c.kind)]) + " pair between " + obj(c.v[0]) + " (vertex " +
-                      std::to_string(c.v[0]) + ") and " + obj(c.v[c.side_a()]) + " (vertex " + std::to_string(c.v[c.side_a()]) +
-                      ") at distance " + fmt::format("{:.9g} ({:.6f} of the offset {:.6g})", pair_distance(c, x),
-                                                        pair_distance(c, x) / ctx.params.contact.offset, ctx.params.contact.offset);
+                      std::to_string(c.v[0]) + ") and " + obj(c.v[c.side_a()]) + " (vertex " +
+                      std::to_string(c.v[c.side_a()]) + ") at distance " +
+                      fmt::format("{:.9g} ({:.6f} of its offset {:.6g})", pair_distance(c, x),
+                                  pair_distance(c, x) / c.offset, c.offset);
   }
   return close.load();
 }
@@ -122,7 +133,8 @@ void RegionProjectionSolver::initialize(const Topology& topo, const SimState& st
   rigid_ = RigidBodies(topo, state);
 }
 
-SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) {
+SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& anchor, const SimState& state,
+                                            StepContext& ctx) {
   const BatchStats b = project_all(*projector_, regions_, anchor, x, state.inv_mass);
   SolveResult r;
   r.violations_detected = b.violated;
@@ -138,7 +150,7 @@ SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& ancho
 }
 
 Index RegionProjectionSolver::count_outside(const Positions& x, const Positions& anchor, const SimState& state,
-                                           StepContext& ctx) const {
+                                            StepContext& ctx) const {
   // A rigid body is exact to round-off; 1e-9 of its extent is far above that and far below ξ.
   return DetectingSolver::count_outside(x, anchor, state, ctx) + (rigid_.empty() ? 0 : rigid_.count_deformed(x, 1e-9));
 }
@@ -149,13 +161,13 @@ SolveResult PostProcessSolver::resolve(Positions& x, const Positions&, const Sim
   SolveResult r;
   r.contact_vertices = contact_vertex_count(w);
   for (const auto& c : contacts_)
-    if (contact_gap(c, x, p.offset) < 0.0) ++r.violations_detected;
+    if (contact_gap(c, x) < 0.0) ++r.violations_detected;
   // Sequential Gauss-Seidel: this is the conventional pass the paper compares against, whose
   // order dependence is part of what the comparison shows.
   for (int sweep = 0; sweep < p.projection_sweeps; ++sweep) {
     bool any = false;
     for (const auto& c : contacts_) {
-      const double gap = contact_gap(c, x, p.offset);
+      const double gap = contact_gap(c, x);
       if (gap >= 0.0) continue;
       double wsum = 0.0;
       for (int k = 0; k < c.size(); ++k) wsum += c.w[k] * c.w[k] * w[c.v[k]];
@@ -167,7 +179,7 @@ SolveResult PostProcessSolver::resolve(Positions& x, const Positions&, const Sim
     if (!any) break;
   }
   for (const auto& c : contacts_)
-    if (contact_gap(c, x, p.offset) < -1e-9) ++r.violations_remaining;
+    if (contact_gap(c, x) < -1e-9) ++r.violations_remaining;
   return r;
 }
 

@@ -15,9 +15,12 @@ namespace {
 int stencil_size(ContactKind kind) {
   switch (kind) {
     case ContactKind::vf:
-    case ContactKind::ee: return 4;
-    case ContactKind::ve: return 3;
-    case ContactKind::vv: return 2;
+    case ContactKind::ee:
+      return 4;
+    case ContactKind::ve:
+      return 3;
+    case ContactKind::vv:
+      return 2;
   }
   return 2;
 }
@@ -25,10 +28,14 @@ int stencil_side_a(ContactKind kind) { return kind == ContactKind::ee ? 2 : 1; }
 
 double sub_pair_distance_sq(ContactKind kind, const std::array<Vec3, 4>& x) {
   switch (kind) {
-    case ContactKind::vf: return point_triangle(x[0], x[1], x[2], x[3]).distance_sq;
-    case ContactKind::ee: return edge_edge(x[0], x[1], x[2], x[3]).distance_sq;
-    case ContactKind::ve: return point_edge(x[0], x[1], x[2]).distance_sq;
-    case ContactKind::vv: return point_point_distance_sq(x[0], x[1]);
+    case ContactKind::vf:
+      return point_triangle(x[0], x[1], x[2], x[3]).distance_sq;
+    case ContactKind::ee:
+      return edge_edge(x[0], x[1], x[2], x[3]).distance_sq;
+    case ContactKind::ve:
+      return point_edge(x[0], x[1], x[2]).distance_sq;
+    case ContactKind::vv:
+      return point_point_distance_sq(x[0], x[1]);
   }
   return point_point_distance_sq(x[0], x[1]);
 }
@@ -44,7 +51,9 @@ double gap_of(double d_sq, double xi) {
 
 }  // namespace
 
-double sub_pair_distance(ContactKind kind, const std::array<Vec3, 4>& x) { return std::sqrt(sub_pair_distance_sq(kind, x)); }
+double sub_pair_distance(ContactKind kind, const std::array<Vec3, 4>& x) {
+  return std::sqrt(sub_pair_distance_sq(kind, x));
+}
 
 AccdResult additive_ccd(ContactKind kind, const std::array<Vec3, 4>& x0, const std::array<Vec3, 4>& x1,
                         double min_separation, const ToiClampParams& params) {
@@ -104,20 +113,24 @@ TimeOfImpactClampSolver::TimeOfImpactClampSolver(ToiClampParams params) : params
     throw Error("toi_clamp: scale must be in (0, 1], max_iterations >= 1 and touch_tolerance >= 0");
 }
 
-SolveResult TimeOfImpactClampSolver::resolve(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) {
-  const double xi = ctx.params.contact.offset, r = ctx.params.contact.radius;
+SolveResult TimeOfImpactClampSolver::resolve(Positions& x, const Positions& anchor, const SimState& state,
+                                             StepContext& ctx) {
+  const double r = ctx.params.contact.radius;
   const Index nv = static_cast<Index>(x.size());
 
   // Path ends: the candidates under the step bound r, with the same expression as the substep
   // loop's clamp, so that leaving x untouched at t* = 1 ends exactly at e.
   end_.resize(x.size());
-  parallel_for(nv, [&](Index b, Index e) {
-    for (Index i = b; i < e; ++i) {
-      const Vec3 d = x[i] - anchor[i];
-      const double len = d.norm();
-      end_[i] = len > r ? Vec3(anchor[i] + (r / len) * d) : x[i];
-    }
-  }, 4096);
+  parallel_for(
+      nv,
+      [&](Index b, Index e) {
+        for (Index i = b; i < e; ++i) {
+          const Vec3 d = x[i] - anchor[i];
+          const double len = d.norm();
+          end_[i] = len > r ? Vec3(anchor[i] + (r / len) * d) : x[i];
+        }
+      },
+      4096);
 
   // Times of impact with a per-chunk minimum; min and counts are order-independent, so the result
   // is the same for any thread count.
@@ -139,7 +152,7 @@ SolveResult TimeOfImpactClampSolver::resolve(Positions& x, const Positions& anch
           x0[k] = k < n ? anchor[cp.v[k]] : Vec3::Zero();
           x1[k] = k < n ? end_[cp.v[k]] : Vec3::Zero();
         }
-        const AccdResult a = additive_ccd(cp.kind, x0, x1, xi, params_);
+        const AccdResult a = additive_ccd(cp.kind, x0, x1, cp.offset, params_);
         iters += a.iterations;
         if (a.toi < 1.0) ++hits;
         tmin = std::min(tmin, a.toi);
@@ -177,7 +190,6 @@ SolveResult TimeOfImpactClampSolver::resolve(Positions& x, const Positions& anch
   // Audit of the result at the positions the substep will keep (x, or e after the loop's clamp).
   const Positions& final_x = t_star < 1.0 ? x : end_;
   std::vector<Index> chunk_close(static_cast<size_t>(chunks), 0);
-  const double limit = xi * (1.0 - 1e-9);
   if (np > 0)
     parallel_chunks(np, chunks, [&](Index chunk, Index b, Index e) {
       Index close = 0;
@@ -186,7 +198,7 @@ SolveResult TimeOfImpactClampSolver::resolve(Positions& x, const Positions& anch
         const ContactPair& cp = contacts_[c];
         const int n = cp.size();
         for (int k = 0; k < 4; ++k) xs[k] = k < n ? final_x[cp.v[k]] : Vec3::Zero();
-        if (sub_pair_distance(cp.kind, xs) < limit) ++close;
+        if (sub_pair_distance(cp.kind, xs) < cp.offset * (1.0 - 1e-9)) ++close;
       }
       chunk_close[chunk] = close;
     });

@@ -43,14 +43,16 @@ double object_distance(const Topology& t, const Positions& x) {
   for (int side = 0; side < 2; ++side) {
     const ObjectInfo &a = side ? o1 : o0, &b = side ? o0 : o1;
     for (Index v : vertices(a)) {
-      for (const Vec3i& f : faces(b)) best = std::min(best, std::sqrt(point_triangle(x[v], x[f[0]], x[f[1]], x[f[2]]).distance_sq));
+      for (const Vec3i& f : faces(b))
+        best = std::min(best, std::sqrt(point_triangle(x[v], x[f[0]], x[f[1]], x[f[2]]).distance_sq));
       for (const Vec2i& e : edges(b)) best = std::min(best, std::sqrt(point_edge(x[v], x[e[0]], x[e[1]]).distance_sq));
       if (side == 0)
         for (Index u : vertices(b)) best = std::min(best, (x[v] - x[u]).norm());
     }
   }
   for (const Vec2i& e : edges(o0))
-    for (const Vec2i& f : edges(o1)) best = std::min(best, std::sqrt(edge_edge(x[e[0]], x[e[1]], x[f[0]], x[f[1]]).distance_sq));
+    for (const Vec2i& f : edges(o1))
+      best = std::min(best, std::sqrt(edge_edge(x[e[0]], x[e[1]], x[f[0]], x[f[1]]).distance_sq));
   return best;
 }
 
@@ -127,7 +129,8 @@ void place(test::TestScene& s, std::mt19937_64& g, double min_distance) {
   const double want = target(g);
   // Pull object 1 toward object 0 along the line between their centroids by bisection.
   Vec3 c0 = Vec3::Zero(), c1 = Vec3::Zero();
-  for (Index v = s.topo.objects[0].vertex_begin; v < s.topo.objects[0].vertex_end; ++v) c0 += s.x[v] / s.topo.objects[0].num_vertices();
+  for (Index v = s.topo.objects[0].vertex_begin; v < s.topo.objects[0].vertex_end; ++v)
+    c0 += s.x[v] / s.topo.objects[0].num_vertices();
   for (Index v = b; v < e; ++v) c1 += s.x[v] / (e - b);
   Vec3 dir = c1 - c0;
   if (dir.norm() < 1e-9) dir = Vec3::UnitY();
@@ -197,16 +200,22 @@ test::TestScene triangle_and(std::mt19937_64& g, double w0, double w1, ObjectKin
 }
 
 TEST(SeparatingPlane, VertexFace) {
-  run_kind("vertex-face", [](auto& g, double w0, double w1) { return triangle_and(g, w0, w1, ObjectKind::particles, 1); }, 150);
+  run_kind(
+      "vertex-face", [](auto& g, double w0, double w1) { return triangle_and(g, w0, w1, ObjectKind::particles, 1); },
+      150);
 }
 
 TEST(SeparatingPlane, TriangleTriangle) {
   // Vertex-face both ways and edge-edge: the whole triangle pair stays ξ apart.
-  run_kind("triangle-triangle", [](auto& g, double w0, double w1) { return triangle_and(g, w0, w1, ObjectKind::cloth, 3); }, 150);
+  run_kind(
+      "triangle-triangle", [](auto& g, double w0, double w1) { return triangle_and(g, w0, w1, ObjectKind::cloth, 3); },
+      150);
 }
 
 TEST(SeparatingPlane, TriangleSegment) {
-  run_kind("triangle-segment", [](auto& g, double w0, double w1) { return triangle_and(g, w0, w1, ObjectKind::strand, 2); }, 150);
+  run_kind(
+      "triangle-segment", [](auto& g, double w0, double w1) { return triangle_and(g, w0, w1, ObjectKind::strand, 2); },
+      150);
 }
 
 test::TestScene segment_and(std::mt19937_64& g, double w0, double w1, bool other_is_segment) {
@@ -227,29 +236,40 @@ test::TestScene segment_and(std::mt19937_64& g, double w0, double w1, bool other
 }
 
 TEST(SeparatingPlane, EdgeEdge) {
-  run_kind("edge-edge", [](auto& g, double w0, double w1) { return segment_and(g, w0, w1, true); }, 150);
+  run_kind(
+      "edge-edge", [](auto& g, double w0, double w1) { return segment_and(g, w0, w1, true); }, 150);
 }
 
 TEST(SeparatingPlane, VertexEdge) {
-  run_kind("vertex-edge", [](auto& g, double w0, double w1) { return segment_and(g, w0, w1, false); }, 150);
+  run_kind(
+      "vertex-edge", [](auto& g, double w0, double w1) { return segment_and(g, w0, w1, false); }, 150);
 }
 
 TEST(SeparatingPlane, VertexVertex) {
-  run_kind("vertex-vertex", [](auto& g, double w0, double w1) {
-    return test::SceneBuilder().particles("a", {random_point(g, 0.01)}, w0).particles("b", {Vec3(0, 0.03, 0)}, w1).finish();
-  }, 150);
+  run_kind(
+      "vertex-vertex",
+      [](auto& g, double w0, double w1) {
+        return test::SceneBuilder()
+            .particles("a", {random_point(g, 0.01)}, w0)
+            .particles("b", {Vec3(0, 0.03, 0)}, w1)
+            .finish();
+      },
+      150);
 }
 
 TEST(SeparatingPlane, PinnedVertexInsideDynamicTriangle) {
   // Only from outside the offset: a pinned vertex cannot take its share of a negative gap (a
   // pair already closer than ξ whose closest point is partly carried by a pinned vertex); see
   // docs/collision.md, "Limits".
-  run_kind("pinned corner", [](auto& g, double w0, double w1) {
-    test::TestScene s = triangle_and(g, w0 == 0 ? 1.0 : w0, w1 == 0 ? 1.0 : w1, ObjectKind::cloth, 3);
-    s.inv_mass[0] = 0.0;  // one pinned corner in each triangle
-    s.inv_mass[4] = 0.0;
-    return s;
-  }, 90, kXi);
+  run_kind(
+      "pinned corner",
+      [](auto& g, double w0, double w1) {
+        test::TestScene s = triangle_and(g, w0 == 0 ? 1.0 : w0, w1 == 0 ? 1.0 : w1, ObjectKind::cloth, 3);
+        s.inv_mass[0] = 0.0;  // one pinned corner in each triangle
+        s.inv_mass[4] = 0.0;
+        return s;
+      },
+      90, kXi);
 }
 
 TEST(SeparatingPlaneDegenerate, ParallelEdges) {
@@ -273,7 +293,10 @@ TEST(SeparatingPlaneDegenerate, ZeroAreaTriangleAndZeroLengthEdge) {
   double min_seen = std::numeric_limits<double>::infinity();
   // Collinear triangle vs particle.
   gen::TriMesh sliver{{Vec3(0, 0, 0), Vec3(0.02, 0, 0), Vec3(0.04, 0, 0)}, {Vec3i(0, 1, 2)}};
-  test::TestScene s = test::SceneBuilder().mesh("sliver", ObjectKind::cloth, sliver).particles("p", {Vec3(0.03, 0.012, 0.001)}).finish();
+  test::TestScene s = test::SceneBuilder()
+                          .mesh("sliver", ObjectKind::cloth, sliver)
+                          .particles("p", {Vec3(0.03, 0.012, 0.001)})
+                          .finish();
   EXPECT_GE(check_separation(s, g, 300, min_seen), 4);
   // Triangle with two coincident corners vs a segment.
   gen::TriMesh needle{{Vec3(0, 0, 0), Vec3(0.03, 0, 0), Vec3(0.03, 0, 0)}, {Vec3i(0, 1, 2)}};
@@ -305,12 +328,23 @@ TEST(SeparatingPlaneDegenerate, CoincidentPoints) {
   EXPECT_EQ(stats.degenerate, 1);
   EXPECT_TRUE(contacts.empty());
   EXPECT_EQ(regions.total(), 0u);
-  // Coincident in the initial configuration: excluded for the run.
+  // Coincident in the initial configuration, and not neighbours on any mesh: kept with the
+  // reduced offset 0 (initial proximity), so still degenerate and without a half-space; once
+  // apart, the offset rises with the distance.
+  test::ExpectWarnings expect;
   CollisionDetector det0(s.topo, x, kParams, make_broad_phase("fcl"));
-  EXPECT_TRUE(det0.is_excluded(ContactKind::vv, 0, 1));
+  EXPECT_FALSE(det0.is_excluded(ContactKind::vv, 0, 1));
+  EXPECT_EQ(det0.initial_proximity().reduced_offset, 1);
+  EXPECT_EQ(det0.pair_offset(ContactKind::vv, 0, 1), 0.0);
   det0.detect(x, s.inv_mass, regions, contacts, stats);
-  EXPECT_EQ(stats.excluded_initial, 1);
-  EXPECT_EQ(stats.degenerate, 0);
+  EXPECT_EQ(stats.excluded_initial, 0);
+  EXPECT_EQ(stats.degenerate, 1);
+  EXPECT_TRUE(contacts.empty());
+  x[1] = x[0] + Vec3(0.004, 0, 0);
+  det0.detect(x, s.inv_mass, regions, contacts, stats);
+  ASSERT_EQ(contacts.size(), 1u);
+  EXPECT_DOUBLE_EQ(contacts[0].offset, 0.9 * 0.004);
+  EXPECT_DOUBLE_EQ(det0.pair_offset(ContactKind::vv, 0, 1), 0.9 * 0.004);
 }
 
 TEST(SeparatingPlane, SharesFollowInverseMasses) {

@@ -23,7 +23,7 @@ struct Scene {
 
   // An n x n cell sheet of side `size` in the x-y plane at height z, offset by (ox, oy).
   void sheet(const std::string& name, int n, double size, double z, double ox = 0, double oy = 0) {
-      std::vector<Vec3i> faces;
+    std::vector<Vec3i> faces;
     for (int i = 0; i <= n; ++i)
       for (int j = 0; j <= n; ++j) x.emplace_back(ox + size * i / n, oy + size * j / n, z);
     auto id = [&](int i, int j) { return static_cast<Index>(i * (n + 1) + j); };
@@ -132,8 +132,8 @@ TEST(Audit, Particles) {
   const PenetrationAudit a = s.audit();
   ASSERT_TRUE(a.audit(s.x).clean());
   Positions x = s.x;
-  x[2].y() = 0.005;   // particle within xi of the wire: vertex-edge
-  x[4].x() = 0.504;   // two particles 4 mm apart: vertex-vertex
+  x[2].y() = 0.005;  // particle within xi of the wire: vertex-edge
+  x[4].x() = 0.504;  // two particles 4 mm apart: vertex-vertex
   const FrameAudit r = a.audit(x);
   EXPECT_EQ(r.close_pairs, 2);
   bool ve = false, vv = false;
@@ -162,6 +162,52 @@ TEST(Audit, FrameZeroExclusions) {
   y[4].z() += 0.001;
   const FrameAudit r = b.audit(y);
   EXPECT_EQ(r.triangle_intersections, 0);
+}
+
+TEST(Audit, PairsStartingCloserThanXiKeepAReducedOffset) {
+  // Two coarse sheets 0.5 xi apart at frame 0 (no sheet vertex has a neighbour within 2 xi along
+  // its sheet): the cross-sheet pairs are checked against 0.9 of their initial distance, raised
+  // as the sheets separate (clarification 5, corrected). Excluding them, as an earlier rule did,
+  // passed a cloth falling through the floor. Distances of parallel sheets are closed form.
+  Scene s;
+  s.sheet("bottom", 10, 1.0, 0.0);
+  s.sheet("top", 10, 1.0, 0.5 * kXi);
+  PenetrationAudit a = s.audit();
+  EXPECT_EQ(a.excluded_close_pairs(), 0);
+  EXPECT_GT(a.reduced_offset_pairs(), 0);
+  const Index top0 = 121;
+  auto at = [&](double z) {
+    Positions x = s.x;
+    for (Index v = top0; v < static_cast<Index>(x.size()); ++v) x[v].z() = z;
+    return x;
+  };
+  EXPECT_TRUE(a.audit_next(s.x).clean());
+  EXPECT_TRUE(a.audit_next(at(0.46 * kXi)).clean()) << "0.46 xi is above 0.9 x 0.5 xi";
+  EXPECT_GT(a.audit(at(0.44 * kXi)).close_pairs, 0) << "0.44 xi is below 0.9 x 0.5 xi";
+  // Separating to 0.8 xi raises the offset to 0.72 xi; coming back to 0.7 xi is then a violation.
+  EXPECT_TRUE(a.audit_next(at(0.8 * kXi)).clean());
+  EXPECT_GT(a.audit(at(0.7 * kXi)).close_pairs, 0);
+  EXPECT_TRUE(a.audit(at(0.73 * kXi)).clean());
+  // Beyond xi / 0.9 the pairs are ordinary: checked against xi from then on.
+  EXPECT_TRUE(a.audit_next(at(2.0 * kXi)).clean());
+  EXPECT_GT(a.audit(at(0.95 * kXi)).close_pairs, 0);
+  const Index vertex = top0 + 60;
+  EXPECT_DOUBLE_EQ(a.pair_offset((std::uint64_t{0} << 62) | (std::uint64_t(vertex) << 31) | 0), kXi);
+}
+
+TEST(Audit, CoincidentAtFrameZeroIsNotExcludedForever) {
+  // Two particles at the same point at frame 0: offset 0 until they part, then checked.
+  Scene s;
+  s.particles("p", {Vec3(0, 0, 0), Vec3(1, 0, 0)});
+  s.particles("q", {Vec3(0, 0, 0)});
+  PenetrationAudit a = s.audit();
+  EXPECT_EQ(a.reduced_offset_pairs(), 1);
+  EXPECT_TRUE(a.audit_next(s.x).clean());
+  Positions x = s.x;
+  x[2].x() = 0.5 * kXi;
+  EXPECT_TRUE(a.audit_next(x).clean());  // offset raised to 0.45 xi
+  x[2].x() = 0.4 * kXi;
+  EXPECT_EQ(a.audit(x).close_pairs, 1);
 }
 
 TEST(Audit, DeterministicAcrossThreadCounts) {

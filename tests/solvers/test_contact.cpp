@@ -104,8 +104,9 @@ TEST(Halting, TightRegionsReportHaltingInsteadOfHanging) {
     halted += fs.halted_vertices;
     EXPECT_EQ(fs.violations_remaining, 0) << "frame " << f;
     if (std::getenv("CCFR_TEST_VERBOSE"))
-      std::printf("frame %d: x = %s, violations %d, halted %d\n", f, ::testing::PrintToString(sim.positions()[p].transpose()).c_str(),
-                  fs.violations_detected, fs.halted_vertices);
+      std::printf("frame %d: x = %s, violations %d, halted %d\n", f,
+                  ::testing::PrintToString(sim.positions()[p].transpose()).c_str(), fs.violations_detected,
+                  fs.halted_vertices);
   }
   EXPECT_GT(halted, 0) << "the scene was meant to make single-pass projections halt";
   const Vec3 x = sim.positions()[p];
@@ -120,19 +121,22 @@ TEST(ContactResponse, VisibilityWeightsMatchTheProductDefinition) {
   // Brute force of w_c = prod_{j != c} (1 - S((d_c - d_j) / width)) over contacts of one query vertex.
   auto rng = ccfr::test::rng(7);
   std::uniform_real_distribution<double> U(0.0, 0.01);
+  // Mixed offsets (pairs that started closer than ξ keep a reduced one): the gap is d - offset.
   std::vector<ContactPair> cs;
   for (int i = 0; i < 40; ++i) {
     ContactPair c;
     c.v = {i % 3, 10, 11, 12};
     c.distance = 0.01 + U(rng);
+    c.offset = i % 4 == 0 ? 0.006 : 0.01;
     cs.push_back(c);
   }
-  const double offset = 0.01, width = 0.004;
-  const auto w = visibility_weights(cs, offset, width);
+  const double width = 0.004;
+  const auto w = visibility_weights(cs, width);
+  auto gap = [&](size_t i) { return cs[i].distance - cs[i].offset; };
   for (size_t c = 0; c < cs.size(); ++c) {
     double expect = 1.0;
     for (size_t j = 0; j < cs.size(); ++j)
-      if (j != c && cs[j].v[0] == cs[c].v[0]) expect *= 1.0 - smoothstep((cs[c].distance - cs[j].distance) / width);
+      if (j != c && cs[j].v[0] == cs[c].v[0]) expect *= 1.0 - smoothstep((gap(c) - gap(j)) / width);
     EXPECT_NEAR(w[c], expect, 1e-12) << c;
   }
 }

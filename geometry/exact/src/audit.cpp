@@ -8,6 +8,7 @@
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/geometry/aabb.hpp"
+#include "ccfr/geometry/adjacency.hpp"
 #include "ccfr/geometry/bvh.hpp"
 #include "ccfr/geometry/distance.hpp"
 #include "ccfr/geometry_exact/predicates.hpp"
@@ -52,19 +53,25 @@ void check_finite(const Topology& topo, const Positions& x, const char* what) {
 
 const char* to_string(AuditExample::Kind kind) {
   switch (kind) {
-    case AuditExample::Kind::triangle_triangle: return "triangle-triangle intersection";
-    case AuditExample::Kind::segment_triangle: return "segment through triangle";
-    case AuditExample::Kind::vertex_face: return "vertex-face";
-    case AuditExample::Kind::edge_edge: return "edge-edge";
-    case AuditExample::Kind::vertex_edge: return "vertex-edge";
-    case AuditExample::Kind::vertex_vertex: return "vertex-vertex";
+    case AuditExample::Kind::triangle_triangle:
+      return "triangle-triangle intersection";
+    case AuditExample::Kind::segment_triangle:
+      return "segment through triangle";
+    case AuditExample::Kind::vertex_face:
+      return "vertex-face";
+    case AuditExample::Kind::edge_edge:
+      return "edge-edge";
+    case AuditExample::Kind::vertex_edge:
+      return "vertex-edge";
+    case AuditExample::Kind::vertex_vertex:
+      return "vertex-vertex";
   }
   return "?";
 }
 
 std::string AuditExample::describe() const {
-  static const char* names[][2] = {{"face", "face"},     {"edge", "face"},   {"vertex", "face"},
-                                   {"edge", "edge"},     {"vertex", "edge"}, {"vertex", "vertex"}};
+  static const char* names[][2] = {{"face", "face"}, {"edge", "face"},   {"vertex", "face"},
+                                   {"edge", "edge"}, {"vertex", "edge"}, {"vertex", "vertex"}};
   const auto k = static_cast<int>(kind);
   std::ostringstream s;
   s << to_string(kind) << ": " << names[k][0] << ' ' << a << " - " << names[k][1] << ' ' << b;
@@ -91,27 +98,161 @@ PenetrationAudit::PenetrationAudit(Topology topology, const Positions& reference
   for (Index e = 0; e < topo_.num_edges(); ++e)
     strand_edge_[e] = topo_.objects[topo_.edge_object[e]].kind == ObjectKind::strand;
 
-  run(reference, true, &excluded_close_, &excluded_tt_, &excluded_st_);
-  for (auto* v : {&excluded_close_, &excluded_tt_, &excluded_st_}) {
+  std::vector<CloseKey> close;
+  run(reference, true, &close, &excluded_tt_, &excluded_st_);
+  for (auto* v : {&excluded_tt_, &excluded_st_}) {
     std::sort(v->begin(), v->end());
     v->erase(std::unique(v->begin(), v->end()), v->end());
   }
+  std::sort(close.begin(), close.end(), [](const CloseKey& a, const CloseKey& b) { return a.key < b.key; });
+  close.erase(
+      std::unique(close.begin(), close.end(), [](const CloseKey& a, const CloseKey& b) { return a.key == b.key; }),
+      close.end());
+
+  // Every sub-pair of a primitive pair crossing in the reference is excluded, as in the simulation
+  // (its closest points there give inverted normals).
+  constexpr std::uint64_t kMask = (std::uint64_t{1} << 31) - 1;
+  for (std::uint64_t k : excluded_tt_) {
+    const Index f = static_cast<Index>((k >> 31) & kMask), g = static_cast<Index>(k & kMask);
+    const Vec3i &fv = topo_.faces[f], &gv = topo_.faces[g];
+    for (int a = 0; a < 3; ++a) {
+      if (!face_has(gv, fv[a])) excluded_close_.push_back(key(kVF, fv[a], g));
+      if (!face_has(fv, gv[a])) excluded_close_.push_back(key(kVF, gv[a], f));
+      for (int b = 0; b < 3; ++b) {
+        const Index e = topo_.face_edges[f][a], h = topo_.face_edges[g][b];
+        if (!edges_share(topo_.edges[e], topo_.edges[h])) excluded_close_.push_back(sym_key(kEE, e, h));
+      }
+    }
+  }
+  for (std::uint64_t k : excluded_st_) {
+    const Index e = static_cast<Index>((k >> 31) & kMask), f = static_cast<Index>(k & kMask);
+    const Vec2i& ev = topo_.edges[e];
+    const Vec3i& fv = topo_.faces[f];
+    for (int a = 0; a < 2; ++a)
+      if (!face_has(fv, ev[a])) excluded_close_.push_back(key(kVF, ev[a], f));
+    for (int b = 0; b < 3; ++b) {
+      const Index h = topo_.face_edges[f][b];
+      if (!edges_share(ev, topo_.edges[h])) excluded_close_.push_back(sym_key(kEE, e, h));
+    }
+  }
+  std::sort(excluded_close_.begin(), excluded_close_.end());
+  excluded_close_.erase(std::unique(excluded_close_.begin(), excluded_close_.end()), excluded_close_.end());
+  const std::vector<std::uint64_t> crossing = excluded_close_;
+
+  // Close in the reference: adjacent sub-pairs are excluded, the others keep a reduced offset.
+  TopologicalAdjacency adjacency;
+  if (!close.empty()) {
+    std::vector<std::uint8_t> sources(static_cast<size_t>(topo_.num_vertices()), 0);
+    for (const CloseKey& c : close) {
+      Index v[5];
+      int n = 0;
+      const int na = sub_pair_vertices(c.key, v, n);
+      for (int i = 0; i < na; ++i) sources[v[i]] = 1;
+    }
+    adjacency = TopologicalAdjacency(topo_, reference, kAdjacencyRadiusInOffsets * opt_.offset, sources);
+  }
+  for (const CloseKey& c : close) {
+    if (contains(crossing, c.key)) continue;
+    Index v[5];
+    int n = 0;
+    const int na = sub_pair_vertices(c.key, v, n);
+    if (adjacency.adjacent(std::span<const Index>(v, static_cast<size_t>(na)),
+                           std::span<const Index>(v + na, static_cast<size_t>(n - na)))) {
+      excluded_close_.push_back(c.key);
+      ++adjacent_excluded_;
+    } else {
+      reduced_key_.push_back(c.key);  // ascending: close is sorted
+      reduced_offset_.push_back((1.0 - kInitialOffsetMargin) * c.distance);
+    }
+  }
+  std::sort(excluded_close_.begin(), excluded_close_.end());
 }
 
-Index PenetrationAudit::excluded_close_pairs() const { return static_cast<Index>(excluded_close_.size()); }
+Index PenetrationAudit::excluded_close_pairs() const { return adjacent_excluded_; }
+
+int PenetrationAudit::sub_pair_vertices(std::uint64_t k, Index (&v)[5], int& n) const {
+  constexpr std::uint64_t kMask = (std::uint64_t{1} << 31) - 1;
+  const Index a = static_cast<Index>((k >> 31) & kMask), b = static_cast<Index>(k & kMask);
+  switch (k >> 62) {
+    case kVF: {
+      const Vec3i& f = topo_.faces[b];
+      v[0] = a, v[1] = f[0], v[2] = f[1], v[3] = f[2], n = 4;
+      return 1;
+    }
+    case kEE: {
+      const Vec2i &e = topo_.edges[a], &g = topo_.edges[b];
+      v[0] = e[0], v[1] = e[1], v[2] = g[0], v[3] = g[1], n = 4;
+      return 2;
+    }
+    case kVE: {
+      const Vec2i& e = topo_.edges[b];
+      v[0] = a, v[1] = e[0], v[2] = e[1], n = 3;
+      return 1;
+    }
+    default:
+      v[0] = a, v[1] = b, n = 2;
+      return 1;
+  }
+}
+
+double PenetrationAudit::key_distance_sq(std::uint64_t k, const Positions& x) const {
+  Index v[5];
+  int n = 0;
+  sub_pair_vertices(k, v, n);
+  switch (k >> 62) {
+    case kVF:
+      return point_triangle(x[v[0]], x[v[1]], x[v[2]], x[v[3]]).distance_sq;
+    case kEE:
+      return edge_edge(x[v[0]], x[v[1]], x[v[2]], x[v[3]]).distance_sq;
+    case kVE:
+      return point_edge(x[v[0]], x[v[1]], x[v[2]]).distance_sq;
+    default:
+      return (x[v[0]] - x[v[1]]).squaredNorm();
+  }
+}
+
+double PenetrationAudit::pair_offset(std::uint64_t k) const {
+  if (contains(excluded_close_, k)) return -1.0;
+  const auto it = std::lower_bound(reduced_key_.begin(), reduced_key_.end(), k);
+  return it != reduced_key_.end() && *it == k ? reduced_offset_[static_cast<size_t>(it - reduced_key_.begin())]
+                                              : opt_.offset;
+}
 
 FrameAudit PenetrationAudit::audit(const Positions& x) const {
   check_finite(topo_, x, "the configuration");
   return run(x, false, nullptr, nullptr, nullptr);
 }
 
+void PenetrationAudit::raise_offsets(const Positions& x) {
+  check_finite(topo_, x, "the configuration");
+  const double xi = opt_.offset;
+  parallel_for(
+      static_cast<Index>(reduced_key_.size()),
+      [&](Index b, Index e) {
+        for (Index i = b; i < e; ++i) {
+          if (!(reduced_offset_[i] < xi)) continue;
+          const double raised =
+              std::min(xi, (1.0 - kInitialOffsetMargin) * std::sqrt(key_distance_sq(reduced_key_[i], x)));
+          if (raised > reduced_offset_[i]) reduced_offset_[i] = raised;
+        }
+      },
+      1024);
+}
+
+FrameAudit PenetrationAudit::audit_next(const Positions& x) {
+  FrameAudit r = audit(x);
+  raise_offsets(x);
+  return r;
+}
+
 // Per-chunk results, merged in chunk order so that the report is deterministic.
 struct PenetrationAudit::Scan {
   FrameAudit result;
-  std::vector<std::uint64_t> close, tt, st;
+  std::vector<CloseKey> close;
+  std::vector<std::uint64_t> tt, st;
 };
 
-FrameAudit PenetrationAudit::run(const Positions& x, bool reference_pass, std::vector<std::uint64_t>* close_keys,
+FrameAudit PenetrationAudit::run(const Positions& x, bool reference_pass, std::vector<CloseKey>* close_keys,
                                  std::vector<std::uint64_t>* tt_keys, std::vector<std::uint64_t>* st_keys) const {
   const Index nv = topo_.num_vertices(), ne = topo_.num_edges(), nf = topo_.num_faces();
   const double xi = opt_.offset;
@@ -165,14 +306,24 @@ FrameAudit PenetrationAudit::run(const Positions& x, bool reference_pass, std::v
       if (!(d2 < (reference_pass ? xi_range_sq : range_sq))) return;
       if (reference_pass) {
         // The same exact comparison as the verdict, so the reference itself always audits clean.
-        if (d2 < xi_range_sq && exact_cmp(xi * xi) < 0) sc.close.push_back(k);
+        if (d2 < xi_range_sq && exact_cmp(xi * xi) < 0) sc.close.push_back({k, std::sqrt(d2)});
         return;
       }
       if (contains(excluded_close_, k)) return;
       ++r.checked_pairs;
       const double d = std::sqrt(d2);
       r.min_distance = std::min(r.min_distance, d);
-      if (d2 < xi_range_sq && exact_cmp(limit_sq) < 0) {
+      // A pair that started closer than xi is checked against its own (reduced) offset.
+      double pair_limit_sq = limit_sq, pair_range_sq = xi_range_sq;
+      if (!reduced_key_.empty()) {
+        const auto it = std::lower_bound(reduced_key_.begin(), reduced_key_.end(), k);
+        if (it != reduced_key_.end() && *it == k) {
+          const double off = reduced_offset_[static_cast<size_t>(it - reduced_key_.begin())];
+          pair_limit_sq = (1.0 - opt_.tolerance) * off * (1.0 - opt_.tolerance) * off;
+          pair_range_sq = off * off * (1.0 + kRangeSlack);
+        }
+      }
+      if (d2 < pair_range_sq && exact_cmp(pair_limit_sq) < 0) {
         ++r.close_pairs;
         example(kind, a, b, d);
       }
@@ -197,15 +348,15 @@ FrameAudit PenetrationAudit::run(const Positions& x, bool reference_pass, std::v
         const Vec3i& fv = topo_.faces[f];
         if (face_has(fv, i)) continue;
         const Vec3 &a = x[fv[0]], &b = x[fv[1]], &cc = x[fv[2]];
-        distance_pair(key(kVF, i, f), point_triangle(x[i], a, b, cc).distance_sq, AuditExample::Kind::vertex_face,
-                      i, f, [&](double t) { return compare_point_triangle_distance_sq(x[i], a, b, cc, t); });
+        distance_pair(key(kVF, i, f), point_triangle(x[i], a, b, cc).distance_sq, AuditExample::Kind::vertex_face, i, f,
+                      [&](double t) { return compare_point_triangle_distance_sq(x[i], a, b, cc, t); });
       } else if (j < nv + ne) {
         const Index e = i - nv, g = j - nv;
         const Vec2i &ev = topo_.edges[e], &gv = topo_.edges[g];
         if (edges_share(ev, gv)) continue;
         const Vec3 &a0 = x[ev[0]], &a1 = x[ev[1]], &b0 = x[gv[0]], &b1 = x[gv[1]];
-        distance_pair(sym_key(kEE, e, g), edge_edge(a0, a1, b0, b1).distance_sq, AuditExample::Kind::edge_edge, e,
-                      g, [&](double t) { return compare_edge_edge_distance_sq(a0, a1, b0, b1, t); });
+        distance_pair(sym_key(kEE, e, g), edge_edge(a0, a1, b0, b1).distance_sq, AuditExample::Kind::edge_edge, e, g,
+                      [&](double t) { return compare_edge_edge_distance_sq(a0, a1, b0, b1, t); });
       } else if (i < nv + ne) {
         // A strand segment through a triangle; face edges are covered by triangle-triangle tests.
         const Index e = i - nv, f = j - nv - ne;

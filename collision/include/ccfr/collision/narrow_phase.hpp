@@ -11,12 +11,14 @@
 #include <memory>
 #include <span>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "ccfr/collision/broad_phase.hpp"
 #include "ccfr/collision/primitives.hpp"
 #include "ccfr/core/scene.hpp"
 #include "ccfr/feasibility/region.hpp"
+#include "ccfr/geometry/adjacency.hpp"
 
 namespace ccfr {
 
@@ -46,11 +48,16 @@ struct ContactPair {
   /// \f$ \sum_k w_k \mathbf{x}_{v_k} = \mathbf{x}_A - \mathbf{x}_B \f$ (closest points).
   std::array<double, 4> w{0, 0, 0, 0};
   Vec3 n = Vec3::UnitZ();  ///< unit normal from B to A at detection time
-  double distance = 0.0;   ///< \f$ \|\mathbf{x}_A - \mathbf{x}_B\| \f$; φ = distance - ξ
+  double distance = 0.0;   ///< \f$ \|\mathbf{x}_A - \mathbf{x}_B\| \f$; φ = distance - offset
+  /// This sub-pair's minimum separation: ξ, or a reduced offset for a pair that started closer
+  /// than ξ (CollisionDetector, "initial proximity"); the pair must stay at least this far apart.
+  double offset = 0.0;
   /// Vertices on side A (the first ones in v).
   int side_a() const { return kind == ContactKind::ee ? 2 : 1; }
   /// Vertices used in v.
-  int size() const { return kind == ContactKind::vf || kind == ContactKind::ee ? 4 : (kind == ContactKind::ve ? 3 : 2); }
+  int size() const {
+    return kind == ContactKind::vf || kind == ContactKind::ee ? 4 : (kind == ContactKind::ve ? 3 : 2);
+  }
 };
 
 /// Counts and timings of one detect() pass.
@@ -59,6 +66,7 @@ struct DetectionStats {
   Index pairs_within_range = 0;  ///< sub-pairs with φ < 2r, not excluded, with a movable vertex
   Index constraints = 0;         ///< half-spaces written to the RegionSet
   Index excluded_initial = 0;    ///< sub-pairs skipped by the initial-configuration exclusions (box within range)
+  Index reduced_offset = 0;      ///< contacts whose offset is still below ξ (initial proximity)
   Index degenerate = 0;          ///< sub-pairs at (numerically) zero distance: no normal, no half-space
   double broad_s = 0.0;          ///< boxes + refit + pair query
   double narrow_s = 0.0;         ///< closest points + half-spaces + RegionSet assembly
@@ -67,50 +75,75 @@ struct DetectionStats {
 /// Key of a sub-pair, unique over all kinds: kind in bits 62-63, then the canonical ids (vf: vertex,
 /// face; ee: lower, higher edge; ve: vertex, edge; vv: lower, higher vertex) in 31 bits each.
 inline std::uint64_t sub_pair_key(ContactKind kind, Index a, Index b) {
-  return (static_cast<std::uint64_t>(kind) << 62) | (static_cast<std::uint64_t>(a) << 31) | static_cast<std::uint64_t>(b);
+  return (static_cast<std::uint64_t>(kind) << 62) | (static_cast<std::uint64_t>(a) << 31) |
+         static_cast<std::uint64_t>(b);
 }
 
 namespace detail {
-/// An immutable set of sub-pairs, one CSR per kind (row = first canonical id, sorted second
-/// ids): a lookup touches one short contiguous row, which keeps the millions of lookups of a
-/// fine cloth in cache far better than a hash table over 64-bit keys. Safe for concurrent reads.
-class ExclusionSet {
+/// Sub-pairs recorded in the initial configuration, each with a slot: kExcluded (never tested in
+/// the run) or the index of its reduced offset. One CSR per kind (row = first canonical id, sorted
+/// second ids): a lookup touches one short contiguous row, which keeps the millions of lookups of
+/// a fine cloth in cache far better than a hash table over 64-bit keys. Safe for concurrent reads.
+class InitialPairTable {
  public:
-  /// Replaces the set by `keys` (sub_pair_key values; duplicates allowed).
-  void assign(std::vector<std::uint64_t> keys);
-  /// Inline: the narrow phase looks up millions of sub-pairs per pass. Rows are short (the
-  /// sub-pairs closer than ξ around one vertex or edge), so a linear scan of the sorted row beats
-  /// a binary search up to a few dozen entries.
-  bool contains(ContactKind kind, Index a, Index b) const {
+  static constexpr Index kExcluded = -1;  ///< slot of a sub-pair excluded for the run
+  static constexpr Index kAbsent = -2;    ///< find() of a sub-pair not in the table
+
+  /// Replaces the table by (sub_pair_key, slot) entries. A key given twice keeps its smallest
+  /// slot, so an exclusion wins over a reduced offset.
+  void assign(std::vector<std::pair<std::uint64_t, Index>> entries);
+  /// The slot of a sub-pair (canonical ids), or kAbsent. Inline: the narrow phase looks up
+  /// millions of sub-pairs per pass. Rows are short (the sub-pairs closer than ξ around one vertex
+  /// or edge), so a linear scan of the sorted row beats a binary search up to a few dozen entries.
+  Index find(ContactKind kind, Index a, Index b) const {
     const Rows& r = rows_[static_cast<size_t>(kind)];
-    if (a + 1 >= static_cast<Index>(r.offsets.size())) return false;
-    const Index* first = r.cols.data() + r.offsets[a];
-    const Index* last = r.cols.data() + r.offsets[a + 1];
-    if (last - first > kLinearScan) return std::binary_search(first, last, b);
-    for (; first != last && *first < b; ++first) {
+    if (a + 1 >= static_cast<Index>(r.offsets.size())) return kAbsent;
+    const Index* base = r.cols.data();
+    const Index* first = base + r.offsets[a];
+    const Index* last = base + r.offsets[a + 1];
+    if (last - first > kLinearScan) {
+      first = std::lower_bound(first, last, b);
+    } else {
+      for (; first != last && *first < b; ++first) {
+      }
     }
-    return first != last && *first == b;
+    return first != last && *first == b ? r.slots[static_cast<size_t>(first - base)] : kAbsent;
   }
+  bool excluded(ContactKind kind, Index a, Index b) const { return find(kind, a, b) == kExcluded; }
   size_t size() const { return size_; }
+  size_t num_excluded() const { return excluded_; }
 
  private:
   struct Rows {
-    std::vector<Index> offsets, cols;
+    std::vector<Index> offsets, cols, slots;
   };
   static constexpr std::ptrdiff_t kLinearScan = 32;
   std::array<Rows, 4> rows_;
-  size_t size_ = 0;
+  size_t size_ = 0, excluded_ = 0;
 };
 }  // namespace detail
+
+/// What the initial configuration did to contact (counts of sub-pairs), for the log and run.json.
+struct InitialProximity {
+  Index adjacent_excluded = 0;      ///< closer than ξ and topologically adjacent: excluded for the run
+  Index intersecting_pairs = 0;     ///< primitive pairs crossing each other (exact test)
+  Index intersecting_excluded = 0;  ///< sub-pairs of those crossing pairs: excluded for the run
+  Index reduced_offset = 0;         ///< closer than ξ, not adjacent: kept with a reduced offset
+  double min_reduced_offset = 0.0;  ///< smallest initial reduced offset (0 if none)
+  /// Shortest edge at rest over deformable objects (cloth, shell, tet, strand); infinity if none.
+  double shortest_edge = 0.0;
+};
 
 /// Collision detection for one scene. Owns the primitive set, the broad phase and the exclusions
 /// computed from the initial configuration; `topo` must outlive the detector.
 ///
-/// Exclusions (design clarification 5; paper §4.1): sub-pairs whose primitives share a vertex are
-/// never tested; sub-pairs closer than ξ in the initial configuration, and every sub-pair of a
-/// primitive pair (triangle-triangle, triangle-segment) that intersects in the initial
-/// configuration, are excluded for the whole run. Triangles of one rigid or obstacle object do
-/// not collide with each other.
+/// Exclusions (design clarification 5, corrected; paper §4.1): sub-pairs whose primitives share a
+/// vertex are never tested; sub-pairs closer than ξ in the initial configuration that are
+/// topologically adjacent (a path of length ≤ kAdjacencyRadiusInOffsets · ξ along the mesh edges
+/// joins them), and every sub-pair of a primitive pair (triangle-triangle, triangle-segment) that
+/// crosses in the initial configuration (exact predicates), are excluded for the whole run. Other
+/// sub-pairs closer than ξ keep contact with a reduced offset (kInitialOffsetMargin). Triangles of
+/// one rigid or obstacle object do not collide with each other.
 class CollisionDetector {
  public:
   /// Builds the primitives and the broad phase at `initial` (#V) and records the exclusions
@@ -130,12 +163,12 @@ class CollisionDetector {
   /// `kinematic_step` (#V, or empty): the known displacement of kinematic vertices during the
   /// coming iteration. A kinematic side's motion is not bounded by a share, it is known: every
   /// vertex of a side must stay behind the plane through its closest point, so the gap left to
-  /// the movable vertices is \f$G = \varphi - K_A - K_B\f$, with \f$K_B = \max(0, \max_j \mathbf{n}^\top\Delta\mathbf{x}_j)\f$
-  /// over side B's scripted vertices (and \f$K_A\f$ likewise along \f$-\mathbf{n}\f$), and each
-  /// movable vertex gets \f$d = s\,G\f$ (Eq. 3 with a known, bounded \f$\Delta\mathbf{x}_B\f$). The worst
-  /// vertex, not the closest point, because a rotating handle's far corner approaches faster.
-  /// Valid while every kinematic step is at most r (the search range then still covers every
-  /// pair that can come within ξ).
+  /// the movable vertices is \f$G = \varphi - K_A - K_B\f$, with \f$K_B = \max(0, \max_j
+  /// \mathbf{n}^\top\Delta\mathbf{x}_j)\f$ over side B's scripted vertices (and \f$K_A\f$ likewise along
+  /// \f$-\mathbf{n}\f$), and each movable vertex gets \f$d = s\,G\f$ (Eq. 3 with a known, bounded
+  /// \f$\Delta\mathbf{x}_B\f$). The worst vertex, not the closest point, because a rotating handle's far corner
+  /// approaches faster. Valid while every kinematic step is at most r (the search range then still covers every pair
+  /// that can come within ξ).
   void detect(const Positions& x, std::span<const double> inv_mass, RegionSet& regions,
               std::vector<ContactPair>& contacts, DetectionStats& stats, std::span<const Vec3> kinematic_step = {});
 
@@ -145,23 +178,35 @@ class CollisionDetector {
   /// The primitive pairs of the last broad-phase query.
   const std::vector<IndexPair>& candidates() const { return candidates_; }
   /// Whether the sub-pair (canonical ids, see sub_pair_key) was excluded at construction.
-  bool is_excluded(ContactKind kind, Index a, Index b) const { return excluded_.contains(kind, a, b); }
+  bool is_excluded(ContactKind kind, Index a, Index b) const { return initial_.excluded(kind, a, b); }
   /// Excluded sub-pairs in total.
-  Index num_excluded() const { return static_cast<Index>(excluded_.size()); }
+  Index num_excluded() const { return static_cast<Index>(initial_.num_excluded()); }
   /// Primitive pairs found intersecting in the initial configuration.
-  Index num_initially_intersecting() const { return initially_intersecting_; }
+  Index num_initially_intersecting() const { return proximity_.intersecting_pairs; }
+  /// The sub-pair's current offset: ξ, or its reduced offset while that is below ξ.
+  double pair_offset(ContactKind kind, Index a, Index b) const;
+  /// Counts of the initial configuration's exclusions and reduced offsets.
+  const InitialProximity& initial_proximity() const { return proximity_; }
+  /// Sub-pairs whose offset is still below ξ.
+  Index num_reduced_active() const { return static_cast<Index>(active_.size()); }
 
  private:
   void compute_exclusions(const Positions& initial);
-  void assemble(std::span<const double> inv_mass, std::span<const Vec3> kinematic_step, std::vector<ContactPair>& contacts,
-                RegionSet& regions);
+  /// Raises the reduced offsets at the (feasible) positions x; drops pairs that reached ξ.
+  void raise_reduced_offsets(const Positions& x);
+  void assemble(std::span<const double> inv_mass, std::span<const Vec3> kinematic_step,
+                std::vector<ContactPair>& contacts, RegionSet& regions);
 
   const Topology& topo_;
   CollisionParams params_;
   CollisionPrimitives prims_;
   std::unique_ptr<BroadPhase> broad_;
-  detail::ExclusionSet excluded_;
-  Index initially_intersecting_ = 0;
+  detail::InitialPairTable initial_;
+  InitialProximity proximity_;
+  /// Per slot: the sub-pair key and its current offset (never lowered, at most ξ).
+  std::vector<std::uint64_t> reduced_key_;
+  std::vector<double> reduced_offset_;
+  std::vector<Index> active_;  ///< slots whose offset is still below ξ, ascending
   // Reused between passes to avoid reallocating millions of entries per outer iteration.
   std::vector<AABB> boxes_;
   std::vector<IndexPair> candidates_;

@@ -3,8 +3,10 @@
 /// The output directory contract: run.json, frames/frame_NNNNN.obj, stats.csv (DESIGN "Contracts").
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <string>
 
+#include "ccfr/collision/narrow_phase.hpp"
 #include "ccfr/core/scene.hpp"
 #include "ccfr/solvers/simulation.hpp"
 
@@ -20,6 +22,8 @@ struct RunMeta {
   double radius = 0, offset = 0, repulsion_range = 0, fps = 0;
   int threads = 0;
   std::string command_line;
+  /// What the initial configuration did to contact (clarification 5), when the solver detects.
+  std::optional<InitialProximity> initial_proximity;
 };
 
 /// Writes a run directory. Frames and run.json are written atomically; stats rows are flushed

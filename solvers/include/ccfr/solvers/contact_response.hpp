@@ -19,12 +19,13 @@ inline double smoothstep(double t) {
   return t * t * (3.0 - 2.0 * t);
 }
 
-/// Gap of a contact beyond the offset at positions x: \f$d_c = \mathbf{n}^\top\sum_k w_k \mathbf{x}_k - \xi\f$.
-double contact_gap(const ContactPair& c, const Positions& x, double offset);
+/// Gap of a contact beyond its offset at positions x: \f$d_c = \mathbf{n}^\top\sum_k w_k \mathbf{x}_k - \xi_c\f$
+/// (ξ_c = c.offset: ξ, or the pair's reduced offset when it started closer than ξ).
+double contact_gap(const ContactPair& c, const Positions& x);
 
 /// Visibility weights \f$w_c = \prod_{j \ne c} (1 - S((d_c - d_j)/\delta_v))\f$ over the contacts j
 /// that share c's query vertex (its first side-A vertex), from the gaps at detection time.
-std::vector<double> visibility_weights(std::span<const ContactPair> contacts, double offset, double width);
+std::vector<double> visibility_weights(std::span<const ContactPair> contacts, double width);
 
 class ContactResponse {
  public:
@@ -34,14 +35,14 @@ class ContactResponse {
   /// positions at the start of the substep (friction acts on the substep's tangential motion).
   /// `friction_of(vertex)` gives (μ_s, μ_k) for a contact by its query vertex.
   void apply(Positions& x, const Positions& x_start, std::span<const double> inv_mass, const ContactParams& params,
-             double dt, std::span<const double> friction_override) ;
+             double dt, std::span<const double> friction_override);
   Index active() const { return active_; }
 
  private:
   std::span<const ContactPair> contacts_;
   std::vector<double> visibility_;
   std::vector<Index> vertex_offsets_, vertex_contacts_;  ///< CSR vertex -> contacts
-  std::vector<Vec3> corr_;                               ///< per contact slot: correction of each vertex (4 per contact)
+  std::vector<Vec3> corr_;  ///< per contact slot: correction of each vertex (4 per contact)
   Index active_ = 0;
 };
 

@@ -17,6 +17,8 @@
 
 namespace ccfr {
 
+class CollisionDetector;
+
 /// What a solver sees of the current substep.
 struct StepContext {
   const Topology& topo;
@@ -33,8 +35,8 @@ struct StepContext {
 
 /// Counts of one detection pass.
 struct DetectionSummary {
-  Index candidates = 0;   ///< broad-phase pairs
-  Index constraints = 0;  ///< half-spaces (or contact constraints) produced
+  Index candidates = 0;                                           ///< broad-phase pairs
+  Index constraints = 0;                                          ///< half-spaces (or contact constraints) produced
   double min_distance = std::numeric_limits<double>::infinity();  ///< closest pair seen, |x_A - x_B|
 };
 
@@ -46,7 +48,7 @@ struct SolveResult {
   /// Vertices held back by the step bound r inside the solver (rigid bodies take the bound as a
   /// whole body); the substep keeps iterating while any vertex is held back.
   Index bounded_vertices = 0;
-  Index contact_vertices = 0;      ///< movable vertices with at least one contact in this pass
+  Index contact_vertices = 0;  ///< movable vertices with at least one contact in this pass
 };
 
 class ContactSolver {
@@ -70,12 +72,15 @@ class ContactSolver {
   /// changes (the r-clamp, the analytic-obstacle push), as the audit would count them: detected
   /// sub-pairs whose exact distance is below (1 - debug.audit_tolerance) times their offset, plus
   /// rigid-body vertices that left their body's rigid placement; -1 if the solver detects nothing.
-  virtual Index count_outside(const Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) const {
+  virtual Index count_outside(const Positions& x, const Positions& anchor, const SimState& state,
+                              StepContext& ctx) const {
     return -1;
   }
   /// One violation of the last count_outside() that found any, for error messages (e.g. "vertex
   /// 12 of 'cloth' - face 3 of 'lid' at 0.0093, offset 0.01"); empty if none.
   virtual std::string last_violation() const { return {}; }
+  /// The solver's collision detection, if it has one (initial-proximity counts for run.json).
+  virtual const CollisionDetector* collision_detector() const { return nullptr; }
 };
 
 /// Creates the solver registered under `name`; throws ccfr::Error listing the valid names.

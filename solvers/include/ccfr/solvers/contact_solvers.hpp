@@ -26,12 +26,14 @@ class DetectingSolver : public ContactSolver {
   /// Detected sub-pairs closer than (1 - debug.audit_tolerance) times their offset at `x`, by their
   /// exact closest points at `x` (not along the detection normal). Sub-pairs not detected were
   /// farther than 2r + ξ at the anchors, and every vertex moved at most r, so they are not closer.
-  Index count_outside(const Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) const override;
+  Index count_outside(const Positions& x, const Positions& anchor, const SimState& state,
+                      StepContext& ctx) const override;
   std::string last_violation() const override { return last_violation_; }
 
   const RegionSet& regions() const { return regions_; }
   const std::vector<ContactPair>& contacts() const { return contacts_; }
   const CollisionDetector& detector() const { return *detector_; }
+  const CollisionDetector* collision_detector() const override { return detector_.get(); }
 
  protected:
   /// Distinct movable vertices of the detected contacts (the paper's collision points).
@@ -56,7 +58,8 @@ class RegionProjectionSolver final : public DetectingSolver {
   bool clamps_to_radius() const override { return true; }
   bool guarantees_separation() const override { return projector_name_ != "successive_projection"; }
   /// Close sub-pairs (DetectingSolver) plus rigid-body vertices off their body's rigid placement.
-  Index count_outside(const Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) const override;
+  Index count_outside(const Positions& x, const Positions& anchor, const SimState& state,
+                      StepContext& ctx) const override;
 
  private:
   std::string name_, projector_name_;

@@ -12,9 +12,14 @@
 ///   vertex-edge and vertex-vertex where a particle is involved (for meshes and strands these are
 ///   already covered: the distance of two triangles or segments is attained at a vertex-face or
 ///   edge-edge pair). A sub-pair is *close* if its exact distance is below (1 - tol) xi.
-/// Exclusions, fixed at construction from the reference (frame 0): sub-pairs closer than xi there
-/// (e.g. fine meshes whose edges are shorter than xi) and triangle pairs / segment-triangle pairs
-/// already intersecting there.
+/// Initial proximity, fixed at construction from the reference (frame 0), by the same rule as the
+/// simulation (design clarification 5, corrected; ccfr/geometry/adjacency.hpp):
+/// - sub-pairs closer than xi there that are topologically adjacent (joined by a path of at most
+///   kAdjacencyRadiusInOffsets xi along the mesh edges) are excluded;
+/// - triangle pairs and segment-triangle pairs intersecting there are excluded from the
+///   intersection tests, and their sub-pairs from the distance tests;
+/// - every other sub-pair closer than xi there is checked against its own offset
+///   (1 - kInitialOffsetMargin) d0, raised by raise_offsets() toward xi as the pair separates.
 #include <cstdint>
 #include <limits>
 #include <string>
@@ -38,8 +43,8 @@ struct AuditOptions {
 struct AuditExample {
   enum class Kind { triangle_triangle, segment_triangle, vertex_face, edge_edge, vertex_edge, vertex_vertex };
   Kind kind = Kind::triangle_triangle;
-  Index a = -1, b = -1;  ///< face / edge / vertex ids in the Topology, by kind (first, second)
-  double distance = 0.0;  ///< distance (double kernels); 0 for intersections
+  Index a = -1, b = -1;          ///< face / edge / vertex ids in the Topology, by kind (first, second)
+  double distance = 0.0;         ///< distance (double kernels); 0 for intersections
   std::string describe() const;  ///< e.g. "vertex 12 - face 340 at distance 0.00091"
 };
 
@@ -52,7 +57,7 @@ struct FrameAudit {
   /// Minimum distance (double kernels) over the checked, non-excluded sub-pairs within
   /// report_range xi of each other; +infinity if there is none.
   double min_distance = std::numeric_limits<double>::infinity();
-  Index checked_pairs = 0;           ///< non-excluded distance sub-pairs within report_range xi
+  Index checked_pairs = 0;             ///< non-excluded distance sub-pairs within report_range xi
   std::vector<AuditExample> examples;  ///< up to max_examples offending pairs, in a deterministic order
 
   /// Intersections + crossings + close pairs: the `penetrations` stats column.
@@ -61,7 +66,8 @@ struct FrameAudit {
 };
 
 /// Audits configurations of one scene against the reference configuration given at construction.
-/// Thread-safe: audit() is const and may run concurrently; each call runs in parallel inside.
+/// audit() is const and may run concurrently (each call runs in parallel inside); raise_offsets()
+/// mutates the reduced offsets, so a sequence is audited in order with audit_next().
 class PenetrationAudit {
  public:
   /// `reference`: #V positions of frame 0 (or the rest state), used for the exclusions.
@@ -71,20 +77,35 @@ class PenetrationAudit {
   /// Audits one configuration (#V positions). Throws ccfr::Error on a size mismatch or a
   /// non-finite coordinate (naming the vertex).
   FrameAudit audit(const Positions& x) const;
+  /// Raises the reduced offsets of pairs that started closer than xi to
+  /// min(xi, max(offset, (1 - kInitialOffsetMargin) d)) at the distances d in x (a configuration
+  /// that was audited: a later one is checked against the raised offsets).
+  void raise_offsets(const Positions& x);
+  /// audit(x), then raise_offsets(x): for the frames of a run, in order.
+  FrameAudit audit_next(const Positions& x);
 
   const Topology& topology() const { return topo_; }
   const AuditOptions& options() const { return opt_; }
-  /// Sub-pairs excluded because they are closer than xi in the reference.
+  /// Sub-pairs excluded because they are closer than xi in the reference and topologically adjacent.
   Index excluded_close_pairs() const;
+  /// Sub-pairs closer than xi in the reference, not adjacent: checked against a reduced offset.
+  Index reduced_offset_pairs() const { return static_cast<Index>(reduced_key_.size()); }
+  /// The offset a sub-pair key is checked against now: xi, its reduced offset, or -1 if excluded.
+  double pair_offset(std::uint64_t key) const;
   /// Triangle pairs and segment-triangle pairs excluded because they intersect in the reference.
-  Index excluded_intersections() const {
-    return static_cast<Index>(excluded_tt_.size() + excluded_st_.size());
-  }
+  Index excluded_intersections() const { return static_cast<Index>(excluded_tt_.size() + excluded_st_.size()); }
 
  private:
   struct Scan;
-  FrameAudit run(const Positions& x, bool reference_pass, std::vector<std::uint64_t>* close_keys,
+  struct CloseKey {
+    std::uint64_t key;
+    double distance;
+  };
+  FrameAudit run(const Positions& x, bool reference_pass, std::vector<CloseKey>* close_keys,
                  std::vector<std::uint64_t>* tt_keys, std::vector<std::uint64_t>* st_keys) const;
+  /// The vertices of a sub-pair (side A first, then side B); returns the count on side A.
+  int sub_pair_vertices(std::uint64_t key, Index (&v)[5], int& n) const;
+  double key_distance_sq(std::uint64_t key, const Positions& x) const;
 
   Topology topo_;
   AuditOptions opt_;
@@ -92,8 +113,12 @@ class PenetrationAudit {
   std::vector<std::uint8_t> strand_edge_;  ///< #E: 1 if the edge is a strand segment
   /// Sorted keys of excluded pairs: (type << 62) | (first << 31) | second, with a canonical
   /// order of the two ids per type (vertex before face/edge; the smaller id first for like pairs).
-  std::vector<std::uint64_t> excluded_close_;
+  std::vector<std::uint64_t> excluded_close_;  ///< adjacent close sub-pairs and sub-pairs of crossing pairs
   std::vector<std::uint64_t> excluded_tt_, excluded_st_;
+  /// Sub-pairs closer than xi in the reference, not adjacent: sorted keys and current offsets.
+  std::vector<std::uint64_t> reduced_key_;
+  std::vector<double> reduced_offset_;
+  Index adjacent_excluded_ = 0;
 };
 
 }  // namespace ccfr::exact
