@@ -1,11 +1,11 @@
 #include "ccfr/io/obj.hpp"
 
+#include <unistd.h>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
 #include <system_error>
-#include <unistd.h>
 
 #include "ccfr/core/error.hpp"
 
@@ -65,6 +65,17 @@ namespace {
   throw Error(p.string() + ":" + std::to_string(line) + ": " + msg);
 }
 
+// Statements without geometry: texture / normal / parameter-space vertices, smoothing, materials
+// and display attributes.
+bool ignored_statement(const std::string& tag) {
+  static const char* const kIgnored[] = {"vt",       "vn",       "vp",         "s",         "usemtl",
+                                         "mtllib",   "usemap",   "maplib",     "lod",       "bevel",
+                                         "c_interp", "d_interp", "shadow_obj", "trace_obj", "mg"};
+  for (const char* t : kIgnored)
+    if (tag == t) return true;
+  return false;
+}
+
 Index parse_index(const std::string& tok, Index nv, const fs::path& p, int line) {
   // Accept "i", "i/t", "i/t/n", "i//n"; negative indices are relative to the end.
   const std::string head = tok.substr(0, tok.find('/'));
@@ -72,7 +83,8 @@ Index parse_index(const std::string& tok, Index nv, const fs::path& p, int line)
   const long v = std::strtol(head.c_str(), &end, 10);
   if (head.empty() || *end != '\0' || v == 0) fail(p, line, "bad vertex index '" + tok + "'");
   const long idx = v > 0 ? v - 1 : nv + v;
-  if (idx < 0 || idx >= nv) fail(p, line, "vertex index " + tok + " out of range (" + std::to_string(nv) + " vertices so far)");
+  if (idx < 0 || idx >= nv)
+    fail(p, line, "vertex index " + tok + " out of range (" + std::to_string(nv) + " vertices so far)");
   return static_cast<Index>(idx);
 }
 
@@ -86,7 +98,7 @@ void parse_obj(const fs::path& path, Sink&& sink) {
     ++lineno;
     if (line.empty() || line[0] == '#') continue;
     std::istringstream ls(line);
-    if (!(ls >> tag)) continue;
+    if (!(ls >> tag) || tag[0] == '#') continue;  // blank, or an indented comment
     sink(tag, ls, lineno);
   }
 }
@@ -110,6 +122,7 @@ Frame read_frame_obj(const fs::path& path) {
       o.face_begin = o.face_end = static_cast<Index>(fr.faces.size());
       o.line_begin = o.line_end = static_cast<Index>(fr.lines.size());
       o.point_begin = o.point_end = static_cast<Index>(fr.points.size());
+      o.line = ln;
       fr.objects.push_back(o);
     } else if (tag == "v") {
       double c[3];
@@ -127,18 +140,29 @@ Frame read_frame_obj(const fs::path& path) {
       while (ls >> tok) poly.push_back(parse_index(tok, nv, path, ln));
       if (poly.size() < 3) fail(path, ln, "face needs at least 3 vertices");
       for (size_t k = 1; k + 1 < poly.size(); ++k) fr.faces.emplace_back(poly[0], poly[k], poly[k + 1]);
-      current().face_end = static_cast<Index>(fr.faces.size());
+      FrameObject& o = current();
+      o.face_end = static_cast<Index>(fr.faces.size());
+      if (o.first_face_line == 0) o.first_face_line = ln;
     } else if (tag == "l") {
       std::vector<Index> pl;
       while (ls >> tok) pl.push_back(parse_index(tok, nv, path, ln));
       if (pl.size() < 2) fail(path, ln, "line needs at least 2 vertices");
       fr.lines.push_back(std::move(pl));
-      current().line_end = static_cast<Index>(fr.lines.size());
+      FrameObject& o = current();
+      o.line_end = static_cast<Index>(fr.lines.size());
+      if (o.first_line_line == 0) o.first_line_line = ln;
     } else if (tag == "p") {
+      const size_t before = fr.points.size();
       while (ls >> tok) fr.points.push_back(parse_index(tok, nv, path, ln));
-      current().point_end = static_cast<Index>(fr.points.size());
+      if (fr.points.size() == before) fail(path, ln, "point statement needs at least 1 vertex");
+      FrameObject& o = current();
+      o.point_end = static_cast<Index>(fr.points.size());
+      if (o.first_point_line == 0) o.first_point_line = ln;
+    } else if (!ignored_statement(tag)) {
+      // Free-form geometry (curv, surf, ...), `call` of another file or anything unknown would
+      // carry elements that no reader downstream sees: refuse rather than drop them.
+      fail(path, ln, "unsupported OBJ statement '" + tag + "' (only v, f, l, p, o and g carry geometry here)");
     }
-    // vn, vt, usemtl, s, mtllib: ignored
   });
   return fr;
 }

@@ -1,6 +1,11 @@
 #include "ccfr/io/run_audit.hpp"
 
+#include <algorithm>
+#include <charconv>
 #include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <utility>
 #include <vector>
 
 #include "ccfr/core/error.hpp"
@@ -13,57 +18,146 @@ namespace ccfr::io {
 namespace fs = std::filesystem;
 
 namespace {
-// "frames/frame_00042.obj" -> 42; the list position if the name carries no number.
-long frame_number(const fs::path& p, size_t position) {
-  const std::string stem = p.stem().string();
-  const auto us = stem.rfind('_');
-  if (us != std::string::npos) {
-    char* end = nullptr;
-    const long n = std::strtol(stem.c_str() + us + 1, &end, 10);
-    if (end && *end == '\0' && end != stem.c_str() + us + 1) return n;
+
+struct FrameFile {
+  long number;
+  fs::path path;
+};
+
+// Every *.obj in DIR/frames, which must all be named frame_<digits>.obj, sorted by number: a file
+// the audit would skip because of its name is refused rather than left unchecked.
+std::vector<FrameFile> frame_files(const fs::path& dir) {
+  std::vector<FrameFile> out;
+  const fs::path fdir = dir / "frames";
+  if (!fs::is_directory(fdir)) return out;
+  for (const auto& e : fs::directory_iterator(fdir)) {
+    if (e.path().extension() != ".obj") continue;
+    const std::string stem = e.path().stem().string();
+    long n = -1;
+    if (stem.rfind("frame_", 0) == 0 && stem.size() > 6 &&
+        std::all_of(stem.begin() + 6, stem.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+      const auto [p, ec] = std::from_chars(stem.data() + 6, stem.data() + stem.size(), n);
+      if (ec != std::errc() || p != stem.data() + stem.size()) n = -1;
+    }
+    if (n < 0)
+      throw Error("'" + e.path().string() + "' is not named frame_<number>.obj; frames/ must hold only frames");
+    out.push_back({n, e.path()});
   }
-  return static_cast<long>(position);
+  std::sort(out.begin(), out.end(), [](const FrameFile& a, const FrameFile& b) { return a.number < b.number; });
+  for (size_t i = 1; i < out.size(); ++i)
+    if (out[i].number == out[i - 1].number)
+      throw Error("'" + out[i - 1].path.string() + "' and '" + out[i].path.string() + "' are both frame " +
+                  std::to_string(out[i].number));
+  return out;
 }
+
+std::string jstr(const std::string& s) {
+  std::string o = "\"";
+  for (const char c : s) {
+    if (c == '"' || c == '\\') {
+      o += '\\';
+      o += c;
+    } else if (static_cast<unsigned char>(c) < 0x20) {
+      char b[8];
+      std::snprintf(b, sizeof b, "\\u%04x", static_cast<unsigned>(static_cast<unsigned char>(c)));
+      o += b;
+    } else {
+      o += c;
+    }
+  }
+  return o + "\"";
+}
+
+// Shortest round-tripping text; null for infinity (no pair within range) and NaN.
+std::string jnum(double v) {
+  if (!std::isfinite(v)) return "null";
+  char b[40];
+  const auto r = std::to_chars(b, b + sizeof b, v);
+  return std::string(b, r.ptr);
+}
+
 }  // namespace
 
 RunAuditResult audit_run(const fs::path& dir, const RunAuditOptions& o, const FrameAuditCallback& on_frame,
                          const std::function<void(const RunAuditResult&)>& on_start) {
   if (!fs::is_directory(dir)) throw Error("'" + dir.string() + "' is not a directory");
+  if (!o.offset && !fs::exists(dir / "run.json"))
+    throw Error("'" + (dir / "run.json").string() +
+                "' is missing: pass --offset XI to audit frames without a run.json");
   const RunInfo info = read_run_info(dir, /*require_run_json=*/!o.offset.has_value());
   RunAuditResult res;
+  res.dir = dir;
+  res.has_run_json = info.has_run_json;
+  res.status = info.status;
   res.offset = o.offset ? *o.offset : info.offset;
+  res.offset_source = o.offset ? "--offset" : "run.json";
+  res.tolerance = o.tolerance;
+  res.stride = std::max(1, o.stride);
   if (!(res.offset > 0.0))
     throw Error("no positive offset xi: run.json has offset " + std::to_string(info.offset) + "; pass --offset");
-  if (info.frames.empty()) throw Error("no frames in '" + (dir / "frames").string() + "'");
-  const size_t stride = static_cast<size_t>(std::max(1, o.stride));
+  const std::vector<FrameFile> frames = frame_files(dir);
+  if (frames.empty()) throw Error("no frames in '" + (dir / "frames").string() + "'");
+  // run.json counts the frames at the end of a run (not while it is "running").
+  if (info.has_run_json && !info.status.empty() && info.status != "running" && info.frames_written >= 0 &&
+      static_cast<size_t>(info.frames_written) != frames.size())
+    throw Error("'" + (dir / "run.json").string() + "' records " + std::to_string(info.frames_written) +
+                " frames written, but '" + (dir / "frames").string() + "' holds " + std::to_string(frames.size()));
 
-  // Frames 0, K, 2K, ... and always the last one.
+  // The exclusions come from frame 0 (or an explicit reference): a later frame as reference would
+  // excuse whatever is wrong in it, e.g. a sheet intersecting the floor in every frame.
+  if (o.reference.empty()) {
+    if (frames.front().number != 0)
+      throw Error("'" + (dir / "frames" / "frame_00000.obj").string() +
+                  "' is missing: frame 0 defines the pairs the audit excludes; pass --reference FILE (an OBJ of the "
+                  "initial state with the same topology) to audit this run");
+    res.reference = frames.front().path;
+  } else {
+    if (!fs::is_regular_file(o.reference)) throw Error("reference '" + o.reference.string() + "' does not exist");
+    res.reference = o.reference;
+  }
+
+  // Frames 0, K, 2K, ... (by position on disk) and always the last one.
+  const size_t stride = static_cast<size_t>(res.stride);
   std::vector<size_t> picks;
-  for (size_t i = 0; i < info.frames.size(); i += stride) picks.push_back(i);
-  if (picks.back() != info.frames.size() - 1) picks.push_back(info.frames.size() - 1);
-  res.frames_total = info.frames.size();
+  for (size_t i = 0; i < frames.size(); i += stride) picks.push_back(i);
+  if (picks.back() != frames.size() - 1) picks.push_back(frames.size() - 1);
+  res.frames_total = frames.size();
   res.frames_checked = picks.size();
 
   const auto t0 = std::chrono::steady_clock::now();
-  const Frame frame0 = read_frame_obj(info.frames[0]);
+  const Frame reference = read_frame_obj(res.reference);
   exact::AuditOptions opt;
   opt.offset = res.offset;
   opt.tolerance = o.tolerance;
-  exact::PenetrationAudit audit(topology_from_frame(frame0), frame0.v, opt);
+  exact::PenetrationAudit audit(topology_from_frame(reference, res.reference), reference.v, opt);
   res.excluded_close_pairs = audit.excluded_close_pairs();
+  res.reduced_offset_pairs = audit.reduced_offset_pairs();
   res.excluded_intersections = audit.excluded_intersections();
   res.vertices = audit.topology().num_vertices();
   res.faces = audit.topology().num_faces();
   res.edges = audit.topology().num_edges();
+  res.unreferenced_vertices = unreferenced_vertices(audit.topology());
   if (on_start) on_start(res);
 
   for (const size_t i : picks) {
-    const Frame fr = i == 0 ? frame0 : read_frame_obj(info.frames[i]);
-    if (!same_structure(frame0, fr))
-      throw Error("the topology of '" + info.frames[i].string() +
-                  "' differs from frame 0's (objects, faces, lines or points)");
+    const fs::path& path = frames[i].path;
+    const Frame fr = path == res.reference ? reference : read_frame_obj(path);
+    if (!same_structure(reference, fr)) {
+      topology_from_frame(fr, path);  // names the offending line if the frame itself is malformed
+      throw Error("the topology of '" + path.string() + "' differs from the reference '" + res.reference.string() +
+                  "' (objects, faces, lines or points)");
+    }
     const exact::FrameAudit r = audit.audit_next(fr.v);  // in frame order: raises the reduced offsets
-    const long n = frame_number(info.frames[i], i);
+    const long n = frames[i].number;
+    FrameAuditRow row;
+    row.frame = n;
+    row.file = path.filename().string();
+    row.triangle_intersections = r.triangle_intersections;
+    row.segment_crossings = r.segment_crossings;
+    row.close_pairs = r.close_pairs;
+    row.min_distance = r.min_distance;
+    for (const exact::AuditExample& e : r.examples) row.examples.push_back(e.describe());
+    res.rows.push_back(std::move(row));
     res.min_distance = std::min(res.min_distance, r.min_distance);
     res.violations += r.penetrations();
     if (!r.clean()) {
@@ -77,6 +171,53 @@ RunAuditResult audit_run(const fs::path& dir, const RunAuditOptions& o, const Fr
   }
   res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return res;
+}
+
+std::string audit_report_json(const RunAuditResult& r, const std::string& verdict, int exit_code, bool partial) {
+  std::string s = "{\n";
+  auto field = [&](const char* key, const std::string& value) { s += "  " + jstr(key) + ": " + value + ",\n"; };
+  field("verdict", jstr(verdict));
+  field("exit_code", std::to_string(exit_code));
+  field("status", r.has_run_json ? jstr(r.status) : "null");
+  field("partial", partial ? "true" : "false");
+  field("offset", jnum(r.offset));
+  field("offset_source", jstr(r.offset_source));
+  field("tolerance", jnum(r.tolerance));
+  field("stride", std::to_string(r.stride));
+  field("frames_checked", std::to_string(r.frames_checked));
+  field("frames_total", std::to_string(r.frames_total));
+  field("reference", jstr(r.reference.string()));
+  field("vertices", std::to_string(r.vertices));
+  field("faces", std::to_string(r.faces));
+  field("edges", std::to_string(r.edges));
+  field("unreferenced_vertices", std::to_string(r.unreferenced_vertices));
+  field("excluded_close_pairs", std::to_string(r.excluded_close_pairs));
+  field("excluded_intersections", std::to_string(r.excluded_intersections));
+  field("reduced_offset_pairs", std::to_string(r.reduced_offset_pairs));
+  field("violations", std::to_string(r.violations));
+  field("bad_frames", std::to_string(r.bad_frames));
+  field("first_bad_frame", r.first_bad_frame >= 0 ? std::to_string(r.first_bad_frame) : "null");
+  field("min_distance", jnum(r.min_distance));
+  field("seconds", jnum(r.seconds));
+  s += "  \"frames\": [";
+  for (size_t i = 0; i < r.rows.size(); ++i) {
+    const FrameAuditRow& f = r.rows[i];
+    s += i == 0 ? "\n" : ",\n";
+    s += "    {\"frame\": " + std::to_string(f.frame) + ", \"file\": " + jstr(f.file) +
+         ", \"triangle_intersections\": " + std::to_string(f.triangle_intersections) +
+         ", \"segment_crossings\": " + std::to_string(f.segment_crossings) +
+         ", \"close_pairs\": " + std::to_string(f.close_pairs) + ", \"min_distance\": " + jnum(f.min_distance) +
+         ", \"examples\": [";
+    for (size_t k = 0; k < f.examples.size(); ++k) s += (k ? ", " : "") + jstr(f.examples[k]);
+    s += "]}";
+  }
+  s += r.rows.empty() ? "]\n}\n" : "\n  ]\n}\n";
+  return s;
+}
+
+std::string audit_error_json(const std::string& message, int exit_code) {
+  return "{\n  \"verdict\": \"error\",\n  \"exit_code\": " + std::to_string(exit_code) +
+         ",\n  \"error\": " + jstr(message) + "\n}\n";
 }
 
 }  // namespace ccfr::io

@@ -45,6 +45,9 @@ RunInfo read_run_info(const fs::path& dir, bool require_run_json) {
     info.offset = num("offset");
     info.repulsion_range = num("repulsion_range");
     info.fps = num("fps");
+    info.has_run_json = true;
+    if (n["status"] && n["status"].IsScalar()) info.status = n["status"].as<std::string>();
+    if (n["frames_written"] && n["frames_written"].IsScalar()) info.frames_written = n["frames_written"].as<long>();
   } catch (const YAML::Exception& e) {
     throw Error("'" + rj.string() + "' is not valid JSON: " + e.msg);
   }

@@ -18,21 +18,28 @@ struct FrameObject {
   Index face_begin = 0, face_end = 0;
   Index line_begin = 0, line_end = 0;
   Index point_begin = 0, point_end = 0;
+  /// Source lines (1-based; 0: none) of the block's `o`/`g` statement and of its first `f`, `l`
+  /// and `p` statement, for messages about the block.
+  int line = 0, first_face_line = 0, first_line_line = 0, first_point_line = 0;
 };
 
 /// A frame as read back from disk.
 struct Frame {
-  Positions v;                          ///< #V
-  std::vector<Vec3i> faces;             ///< #F, 0-based
+  Positions v;                            ///< #V
+  std::vector<Vec3i> faces;               ///< #F, 0-based
   std::vector<std::vector<Index>> lines;  ///< polylines, 0-based
-  std::vector<Index> points;            ///< free points, 0-based
+  std::vector<Index> points;              ///< free points, 0-based
   std::vector<FrameObject> objects;
 };
 
 /// Writes one frame atomically (temporary file in the same folder, then rename).
 void write_frame_obj(const std::filesystem::path& path, const Topology& topo, const Positions& x);
-/// Reads a frame written by write_frame_obj (or any OBJ with v/f/l/p/o lines).
-/// Throws ccfr::Error naming the file and line on malformed input or non-finite coordinates.
+/// Reads a frame written by write_frame_obj (or any OBJ with v/f/l/p/o lines). `o` and `g` start
+/// a block; polygons are fan-triangulated; negative indices count back from the last vertex.
+/// Texture and normal data and display statements (vt, vn, vp, s, usemtl, mtllib, ...) are
+/// ignored. Throws ccfr::Error naming the file and line on malformed input, non-finite
+/// coordinates, and statements that carry geometry this reader would drop (free-form `curv`,
+/// `surf`, ..., `call`, or any unknown statement).
 Frame read_frame_obj(const std::filesystem::path& path);
 
 /// A triangle mesh imported from an OBJ file (polygons fan-triangulated).

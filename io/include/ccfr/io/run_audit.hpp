@@ -7,6 +7,7 @@
 #include <limits>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "ccfr/geometry_exact/audit.hpp"
 
@@ -16,27 +17,62 @@ struct RunAuditOptions {
   std::optional<double> offset;  ///< ξ; default: `offset` of DIR/run.json
   double tolerance = 1e-6;       ///< pairs closer than (1 - tol) ξ are violations
   int stride = 1;                ///< audit every K-th frame; the last frame always
+  /// OBJ with the frames' topology whose positions define the frame-0 exclusions; empty: the
+  /// run's frames/frame_00000.obj, which must then exist.
+  std::filesystem::path reference;
+};
+
+/// One audited frame.
+struct FrameAuditRow {
+  long frame = 0;
+  std::string file;  ///< file name in DIR/frames
+  Index triangle_intersections = 0, segment_crossings = 0, close_pairs = 0;
+  double min_distance = std::numeric_limits<double>::infinity();
+  std::vector<std::string> examples;
+  bool clean() const { return triangle_intersections + segment_crossings + close_pairs == 0; }
 };
 
 struct RunAuditResult {
+  std::filesystem::path dir;
   double offset = 0.0;
+  std::string offset_source;  ///< "run.json" or "--offset"
+  double tolerance = 0.0;
+  int stride = 1;
+  std::filesystem::path reference;  ///< the file whose positions define the exclusions
+  bool has_run_json = false;
+  std::string status;  ///< run.json `status`; empty without run.json or without the key
   size_t frames_checked = 0, frames_total = 0, bad_frames = 0;
-  Index violations = 0;          ///< summed penetrations over the checked frames
+  Index violations = 0;  ///< summed penetrations over the checked frames
   long first_bad_frame = -1;
   std::string first_example;
   double min_distance = std::numeric_limits<double>::infinity();
-  Index excluded_close_pairs = 0, excluded_intersections = 0;
+  /// Frame-0 sub-pairs closer than xi and adjacent on a mesh (excluded), primitive pairs crossing at
+  /// frame 0 (excluded), and close sub-pairs that are not adjacent (checked against a reduced offset).
+  Index excluded_close_pairs = 0, excluded_intersections = 0, reduced_offset_pairs = 0;
   Index vertices = 0, faces = 0, edges = 0;
+  Index unreferenced_vertices = 0;  ///< vertices in no face, segment or particle object: not audited
   double seconds = 0.0;
+  std::vector<FrameAuditRow> rows;  ///< the audited frames, in frame order
   bool clean() const { return bad_frames == 0; }
+  /// run.json says the run completed. A directory without run.json has no status to check.
+  bool completed() const { return status == "completed"; }
 };
 
 /// Called after each audited frame with its number and result (for progress tables).
 using FrameAuditCallback = std::function<void(long frame, const exact::FrameAudit&)>;
 
-/// Audits DIR. Throws ccfr::Error on bad input: missing directory or run.json (without an
-/// explicit offset), no frames, unreadable or non-finite frames, topology changing between frames.
+/// Audits DIR. Throws ccfr::Error on bad input: missing directory, run.json missing without an
+/// explicit offset, no frames, a .obj in frames/ not named frame_<number>.obj, frame 0 missing
+/// without a reference, unreadable or non-finite frames, topology differing from the reference,
+/// a completed run.json whose frames_written differs from the frames on disk.
 RunAuditResult audit_run(const std::filesystem::path& dir, const RunAuditOptions& options,
-                         const FrameAuditCallback& on_frame = {}, const std::function<void(const RunAuditResult&)>& on_start = {});
+                         const FrameAuditCallback& on_frame = {},
+                         const std::function<void(const RunAuditResult&)>& on_start = {});
+
+/// The audit report written to DIR/audit.json (docs/audit.md): `verdict` ("pass", "fail",
+/// "incomplete"), `exit_code`, `partial` and the fields of `result`.
+std::string audit_report_json(const RunAuditResult& result, const std::string& verdict, int exit_code, bool partial);
+/// The report of an audit that could not run (`verdict` "error").
+std::string audit_error_json(const std::string& message, int exit_code);
 
 }  // namespace ccfr::io

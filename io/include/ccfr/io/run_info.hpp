@@ -9,12 +9,15 @@ namespace ccfr::io {
 
 struct RunInfo {
   std::filesystem::path dir;
-  std::string scene;       ///< scene name
-  std::string solver;      ///< contact.solver
-  double radius = 0.0;     ///< r
-  double offset = 0.0;     ///< ξ
+  std::string scene;             ///< scene name
+  std::string solver;            ///< contact.solver
+  double radius = 0.0;           ///< r
+  double offset = 0.0;           ///< ξ
   double repulsion_range = 0.0;  ///< δ
   double fps = 0.0;
+  bool has_run_json = false;
+  std::string status;        ///< `status` of run.json ("completed", "running", "failed: ...", ...); empty if absent
+  long frames_written = -1;  ///< `frames_written` of run.json; -1 if absent
   std::vector<std::filesystem::path> frames;  ///< frames/frame_*.obj present on disk, in order
 };
 
