@@ -142,7 +142,8 @@ SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& ancho
   r.halted_vertices = b.halted;
   r.contact_vertices = count_contact_vertices(regions_, state.inv_mass);
   if (!rigid_.empty()) {
-    const RigidEnforceStats rs = rigid_.enforce(x, anchor, regions_, *projector_, ctx.params.contact.radius);
+    const RigidEnforceStats rs =
+        rigid_.enforce(x, anchor, regions_, *projector_, ctx.params.contact.radius, ctx.params.time.advance_tolerance);
     r.halted_vertices += rs.vertices_halted;
     r.bounded_vertices += rs.bodies_bounded;
   }

@@ -43,9 +43,11 @@ class RigidBodies {
   /// Makes every rigid body a rigid placement that keeps each of its vertices inside its region
   /// (anchored at `anchor`) and within `step_bound` of its anchor. `x` holds the candidate
   /// positions (#V, already projected vertex by vertex); rigid bodies' vertices are overwritten.
-  /// `projector` re-projects the fitted positions in the refit iterations.
+  /// `projector` re-projects the fitted positions in the refit iterations. A body whose step the
+  /// bound shortened by more than `advance_tolerance` (relative) counts in bodies_bounded, so the
+  /// substep keeps iterating until it arrives.
   RigidEnforceStats enforce(Positions& x, const Positions& anchor, const RegionSet& regions, const Projector& projector,
-                            double step_bound) const;
+                            double step_bound, double advance_tolerance = 0.01) const;
 
   /// Vertices of rigid bodies farther than `tolerance` from the best rigid fit of their body:
   /// a deformed rigid body, which detection cannot see (its pairs with itself are not tested).
