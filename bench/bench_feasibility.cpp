@@ -45,6 +45,30 @@ BENCHMARK_CAPTURE(BM_Project, plesnik, "plesnik")->Arg(1)->Arg(2)->Arg(4)->Arg(8
 BENCHMARK_CAPTURE(BM_Project, successive_projection, "successive_projection")->Arg(1)->Arg(2)->Arg(4)->Arg(8)->Arg(16);
 BENCHMARK_CAPTURE(BM_Project, exact, "exact")->Arg(1)->Arg(2)->Arg(4)->Arg(8)->Arg(16);
 
+/// Empty regions (the anchor outside, clarification 7): `planes` half-spaces around the anchor
+/// plus two opposing ones 1 mm apart in the wrong order (x >= 0.001 and x <= 0), so no point is
+/// feasible. The exact projector must say `infeasible`; before the Farkas test it ran 20,000
+/// Hildreth sweeps per call for <= 24 planes.
+void BM_RejectEmptyRegion(benchmark::State& state) {
+  const auto proj = make_projector("exact");
+  auto g = std::mt19937_64(7);
+  std::vector<test::RandomProblem> probs;
+  for (int k = 0; k < 64; ++k) {
+    auto p = test::random_problem(g, static_cast<int>(state.range(0)) - 2);
+    p.planes.push_back({Vec3::UnitX(), -0.001, 0.0});
+    p.planes.push_back({-Vec3::UnitX(), 0.0, 0.0});
+    probs.push_back(std::move(p));
+  }
+  size_t i = 0;
+  for (auto _ : state) {
+    const auto& p = probs[i];
+    benchmark::DoNotOptimize(proj->project(p.anchor, p.candidate, p.planes));
+    i = (i + 1) % probs.size();
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_RejectEmptyRegion)->Arg(4)->Arg(16)->Arg(24)->Unit(benchmark::kMicrosecond);
+
 /// A 16k-vertex batch shaped like a contact-rich cloth frame: 40 % of the vertices without
 /// half-spaces, the others with 1-12 (mean about 3), normals clustered half of the time, and the
 /// candidate within 1.5 r of the anchor so that about half of the constrained vertices violate.
@@ -105,7 +129,8 @@ BENCHMARK_CAPTURE(BM_ProjectAll, exact, "exact")->Unit(benchmark::kMillisecond)-
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0.0;
   std::sort(v.begin(), v.end());
-  return v[static_cast<size_t>(std::min<double>(static_cast<double>(v.size() - 1), std::floor(q * static_cast<double>(v.size()))))];
+  return v[static_cast<size_t>(
+      std::min<double>(static_cast<double>(v.size() - 1), std::floor(q * static_cast<double>(v.size()))))];
 }
 
 /// Halting rate per pass budget and the distance to the exact projection, on violated problems
@@ -118,7 +143,8 @@ void report() {
   }
   const auto exact = make_projector("exact");
   std::vector<Vec3> ex(probs.size());
-  for (size_t i = 0; i < probs.size(); ++i) ex[i] = exact->project(probs[i].anchor, probs[i].candidate, probs[i].planes).x;
+  for (size_t i = 0; i < probs.size(); ++i)
+    ex[i] = exact->project(probs[i].anchor, probs[i].candidate, probs[i].planes).x;
 
   std::printf("# Plesnik halting rate per max_iterations (%zu violated problems, 1-16 planes)\n", probs.size());
   std::printf("max_iterations,halted,halted_pct,mean_passes\n");
@@ -133,14 +159,17 @@ void report() {
       halted += r.status == ProjectStatus::halted;
       passes += r.iterations;
     }
-    std::printf("%d,%zu,%.3f,%.3f\n", budget, halted, 100.0 * static_cast<double>(halted) / static_cast<double>(probs.size()),
+    std::printf("%d,%zu,%.3f,%.3f\n", budget, halted,
+                100.0 * static_cast<double>(halted) / static_cast<double>(probs.size()),
                 passes / static_cast<double>(probs.size()));
   }
 
   const auto pl = make_projector("plesnik");
   const auto sp = make_projector("successive_projection");
   std::printf("\n# distance to the exact projection (default parameters, non-halted Plesnik results)\n");
-  std::printf("planes,count,halted_pct,p50,p90,p99,max,rel_p50,rel_p90,rel_p99,rel_max,farther_than_anchor_pct,succ_infeasible_pct\n");
+  std::printf(
+      "planes,count,halted_pct,p50,p90,p99,max,rel_p50,rel_p90,rel_p99,rel_max,farther_than_anchor_pct,succ_infeasible_"
+      "pct\n");
   auto row = [&](int lo, int hi) {
     std::vector<double> gap, rel;
     size_t n = 0, halted = 0, sp_bad = 0, far = 0;
@@ -161,9 +190,10 @@ void report() {
       rel.push_back(gap.back() / std::max(1e-300, (ex[i] - pr.candidate).norm()));
     }
     std::printf("%d-%d,%zu,%.3f,%.2e,%.2e,%.2e,%.2e,%.2e,%.2e,%.2e,%.2e,%.2f,%.2f\n", lo, hi, n,
-                100.0 * static_cast<double>(halted) / static_cast<double>(n), percentile(gap, 0.5), percentile(gap, 0.9),
-                percentile(gap, 0.99), percentile(gap, 1.0), percentile(rel, 0.5), percentile(rel, 0.9),
-                percentile(rel, 0.99), percentile(rel, 1.0), 100.0 * static_cast<double>(far) / static_cast<double>(n),
+                100.0 * static_cast<double>(halted) / static_cast<double>(n), percentile(gap, 0.5),
+                percentile(gap, 0.9), percentile(gap, 0.99), percentile(gap, 1.0), percentile(rel, 0.5),
+                percentile(rel, 0.9), percentile(rel, 0.99), percentile(rel, 1.0),
+                100.0 * static_cast<double>(far) / static_cast<double>(n),
                 100.0 * static_cast<double>(sp_bad) / static_cast<double>(n));
   };
   for (int k : {1, 2, 4, 8, 16}) row(k, k);

@@ -12,10 +12,12 @@ namespace {
 // below ~1e-10 of its size: the face-region formulas divide by that area, so such triangles are
 // treated as the union of their three edges (which is exact for a zero-area triangle).
 constexpr double kDegenerateTriangle = 1e-20;
-// Edges are parallel when sin^2 of their angle is below this: the 2x2 system for the interior
-// closest pair is then too ill-conditioned to trust, and the minimum over the endpoint-vs-segment
-// cases is the exact answer for parallel segments anyway.
+// Edges are reported parallel (closest pair not unique) when sin^2 of their angle is below this.
+// The kernel itself does not branch on it.
 constexpr double kParallel = 1e-14;
+// Above this sin^2 (angle > 1e-3 rad) an interior stationary point is trusted without comparing
+// it against the boundary candidates.
+constexpr double kWellConditioned = 1e-6;
 
 EdgeFeature edge_feature(double t) {
   if (t <= 0.0) return EdgeFeature::v0;
@@ -71,8 +73,7 @@ PointEdgeResult point_edge(const Vec3& p, const Vec3& a, const Vec3& b) {
 PointTriangleResult point_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
   const Vec3 ab = b - a, ac = c - a, bc = c - b;
   const double lmax = std::max({ab.squaredNorm(), ac.squaredNorm(), bc.squaredNorm()});
-  if (!(ab.cross(ac).squaredNorm() > kDegenerateTriangle * lmax * lmax))
-    return point_degenerate_triangle(p, a, b, c);
+  if (!(ab.cross(ac).squaredNorm() > kDegenerateTriangle * lmax * lmax)) return point_degenerate_triangle(p, a, b, c);
 
   // Voronoi-region walk (Ericson, Real-Time Collision Detection, 5.1.5). Every division below is
   // by a positive quantity bounded away from zero by the non-degeneracy test above.
@@ -117,32 +118,40 @@ PointTriangleResult point_triangle(const Vec3& p, const Vec3& a, const Vec3& b, 
 }
 
 EdgeEdgeResult edge_edge(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1) {
-  const Vec3 da = a1 - a0, db = b1 - b0, r0 = a0 - b0;
-  const double a = da.squaredNorm(), c = db.squaredNorm(), b = da.dot(db);
-  const double denom = a * c - b * b;  // |da x db|^2, >= 0 up to rounding
-  const bool nondegenerate = a > 0.0 && c > 0.0;
+  const Vec3 da = a1 - a0, db = b1 - b0;
+  const double a = da.squaredNorm(), c = db.squaredNorm();
+  // |da x db|^2 from the cross product: a c - (da.db)^2 cancels catastrophically for nearly
+  // parallel edges (at 1e-6 rad it has no correct digit left), the cross product does not.
+  const Vec3 cr = da.cross(db);
+  const double denom = cr.squaredNorm();
   EdgeEdgeResult r;
-  r.parallel = nondegenerate && !(denom > kParallel * a * c);
+  r.parallel = a > 0.0 && c > 0.0 && !(denom > kParallel * a * c);
 
-  if (nondegenerate && !r.parallel) {
-    // Stationary point of |a0 + s da - b0 - t db|^2. The function is convex, so a stationary point
-    // strictly inside the unit square is the global minimum; otherwise the minimum is on the boundary.
-    const double d = da.dot(r0), e = db.dot(r0);
-    const double s = (b * e - c * d) / denom;
-    const double t = (a * e - b * d) / denom;
-    if (s > 0.0 && s < 1.0 && t > 0.0 && t < 1.0) {
+  // Interior candidate (Cramer's rule, see the header). Near-parallel edges make s uncertain along
+  // the edges; t is then the projection of pa onto B, so pa - pb stays perpendicular to B and its
+  // error along A is damped by sin^2 of the angle: the pair stays extreme along its own normal.
+  bool interior = false;
+  if (denom > 0.0) {
+    const double s = (b0 - a0).cross(db).dot(cr) / denom;
+    if (s > 0.0 && s < 1.0) {  // also rejects NaN from an overflowing denominator
       r.s = s;
-      r.t = t;
       r.pa = a0 + s * da;
-      r.pb = b0 + t * db;
-      r.distance_sq = (r.pa - r.pb).squaredNorm();
-      r.feature_a = r.feature_b = EdgeFeature::interior;
-      return r;
+      const PointEdgeResult q = point_edge(r.pa, b0, b1);
+      r.t = q.t;
+      r.pb = q.closest;
+      r.distance_sq = q.distance_sq;
+      interior = true;
+      // Well-conditioned and inside the square: the stationary point of the convex distance is the
+      // global minimum, and s is accurate to ~eps / sin^2 (<= 2e-10 here); no boundary needed.
+      if (q.feature == EdgeFeature::interior && denom > kWellConditioned * a * c) {
+        r.feature_a = r.feature_b = EdgeFeature::interior;
+        return r;
+      }
     }
   }
 
-  // Boundary of the square: one parameter at 0 or 1, the other free. Exact for parallel and
-  // zero-length edges too, since then an endpoint of one edge is always among the closest points.
+  // Boundary of the square: one parameter at 0 or 1, the other free. The exact answer for parallel
+  // and zero-length edges, and the reference an ill-conditioned interior candidate must beat.
   const PointEdgeResult c0 = point_edge(a0, b0, b1);
   const PointEdgeResult c1 = point_edge(a1, b0, b1);
   const PointEdgeResult c2 = point_edge(b0, a0, a1);
@@ -152,13 +161,23 @@ EdgeEdgeResult edge_edge(const Vec3& a0, const Vec3& a1, const Vec3& b0, const V
   if (c1.distance_sq < best_d) best = 1, best_d = c1.distance_sq;
   if (c2.distance_sq < best_d) best = 2, best_d = c2.distance_sq;
   if (c3.distance_sq < best_d) best = 3, best_d = c3.distance_sq;
-  switch (best) {
-    case 0: r.s = 0.0, r.t = c0.t, r.pa = a0, r.pb = c0.closest; break;
-    case 1: r.s = 1.0, r.t = c1.t, r.pa = a1, r.pb = c1.closest; break;
-    case 2: r.s = c2.t, r.t = 0.0, r.pa = c2.closest, r.pb = b0; break;
-    default: r.s = c3.t, r.t = 1.0, r.pa = c3.closest, r.pb = b1; break;
+  if (!interior || best_d <= r.distance_sq) {  // the interior candidate only if strictly better
+    switch (best) {
+      case 0:
+        r.s = 0.0, r.t = c0.t, r.pa = a0, r.pb = c0.closest;
+        break;
+      case 1:
+        r.s = 1.0, r.t = c1.t, r.pa = a1, r.pb = c1.closest;
+        break;
+      case 2:
+        r.s = c2.t, r.t = 0.0, r.pa = c2.closest, r.pb = b0;
+        break;
+      default:
+        r.s = c3.t, r.t = 1.0, r.pa = c3.closest, r.pb = b1;
+        break;
+    }
+    r.distance_sq = best_d;
   }
-  r.distance_sq = best_d;
   r.feature_a = edge_feature(r.s);
   r.feature_b = edge_feature(r.t);
   return r;

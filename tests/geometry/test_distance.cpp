@@ -100,13 +100,27 @@ void check_pt(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
   EXPECT_LE((r.closest - (r.bary[0] * a + r.bary[1] * b + r.bary[2] * c)).norm(), 1e-12 * (1 + size));
   expect_close(r.distance_sq, ref_pt(L(p), L(a), L(b), L(c)), size * size);
   switch (r.feature) {
-    case TriangleFeature::v0: EXPECT_EQ(r.bary[0], 1.0); break;
-    case TriangleFeature::v1: EXPECT_EQ(r.bary[1], 1.0); break;
-    case TriangleFeature::v2: EXPECT_EQ(r.bary[2], 1.0); break;
-    case TriangleFeature::e01: EXPECT_EQ(r.bary[2], 0.0); break;
-    case TriangleFeature::e12: EXPECT_EQ(r.bary[0], 0.0); break;
-    case TriangleFeature::e20: EXPECT_EQ(r.bary[1], 0.0); break;
-    case TriangleFeature::interior: EXPECT_GT(r.bary.minCoeff(), 0.0); break;
+    case TriangleFeature::v0:
+      EXPECT_EQ(r.bary[0], 1.0);
+      break;
+    case TriangleFeature::v1:
+      EXPECT_EQ(r.bary[1], 1.0);
+      break;
+    case TriangleFeature::v2:
+      EXPECT_EQ(r.bary[2], 1.0);
+      break;
+    case TriangleFeature::e01:
+      EXPECT_EQ(r.bary[2], 0.0);
+      break;
+    case TriangleFeature::e12:
+      EXPECT_EQ(r.bary[0], 0.0);
+      break;
+    case TriangleFeature::e20:
+      EXPECT_EQ(r.bary[1], 0.0);
+      break;
+    case TriangleFeature::interior:
+      EXPECT_GT(r.bary.minCoeff(), 0.0);
+      break;
   }
 }
 
@@ -169,9 +183,12 @@ TEST(Distance, PointTriangleFeatures) {
     double d2;
   };
   const Case cases[] = {
-      {Vec3(-1, -1, 1), TriangleFeature::v0, 3.0},      {Vec3(2, -1, 0), TriangleFeature::v1, 2.0},
-      {Vec3(-1, 3, 0), TriangleFeature::v2, 5.0},        {Vec3(0.5, -1, 0), TriangleFeature::e01, 1.0},
-      {Vec3(1, 1, 0), TriangleFeature::e12, 0.5},        {Vec3(-2, 0.5, 0), TriangleFeature::e20, 4.0},
+      {Vec3(-1, -1, 1), TriangleFeature::v0, 3.0},
+      {Vec3(2, -1, 0), TriangleFeature::v1, 2.0},
+      {Vec3(-1, 3, 0), TriangleFeature::v2, 5.0},
+      {Vec3(0.5, -1, 0), TriangleFeature::e01, 1.0},
+      {Vec3(1, 1, 0), TriangleFeature::e12, 0.5},
+      {Vec3(-2, 0.5, 0), TriangleFeature::e20, 4.0},
       {Vec3(0.25, 0.25, -2), TriangleFeature::interior, 4.0},
   };
   for (const Case& cs : cases) {
@@ -190,8 +207,8 @@ TEST(Distance, PointTriangleDegenerate) {
     check_pt(p, a, b, a + u(g) * (b - a));  // collinear, zero area
     check_pt(p, a, a, b);                   // coincident vertices
     check_pt(p, a, b, b);
-    check_pt(p, a, a, a);                   // a single point
-    check_pt(a, a, b, b);                   // the point is a vertex
+    check_pt(p, a, a, a);  // a single point
+    check_pt(a, a, b, b);  // the point is a vertex
     // Nearly degenerate: height 1e-9 relative.
     const Vec3 n = rand_vec(g).normalized();
     check_pt(p, a, b, 0.5 * (a + b) + 1e-9 * n);
@@ -273,6 +290,107 @@ TEST(Distance, NeverNaNOnExtremeInput) {
     EXPECT_FALSE(std::isnan(edge_edge(o, x, y, z).distance_sq));
     EXPECT_FALSE(std::isnan(edge_edge(o, x, y, y + x).distance_sq));
     EXPECT_TRUE(point_triangle(z, o, x, y).bary.allFinite());
+  }
+}
+
+// ---- nearly parallel edges: distance against the long-double reference, and the separating plane ----
+
+/// Checks edge_edge on one pair against ref_ee and the property the narrow phase builds its plane
+/// on: with n = (pa - pb)/|pa - pb|, every endpoint x of A has n.(x - pb) >= |pa - pb| and every
+/// endpoint of B n.(x - pa) <= -|pa - pb|. The slack is 1e-12 relative plus the rounding of n itself:
+/// pa - pb carries an absolute error of a few eps |x|, which tilts n by ~eps |x| / |pa - pb|.
+/// Returns the worst violation of the property divided by its slack (<= 1 passes).
+double check_ee_plane(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1) {
+  const EdgeEdgeResult r = edge_edge(a0, a1, b0, b1);
+  const double scale = std::max(
+      {a0.cwiseAbs().maxCoeff(), a1.cwiseAbs().maxCoeff(), b0.cwiseAbs().maxCoeff(), b1.cwiseAbs().maxCoeff()});
+  const double len = std::max((a1 - a0).norm(), (b1 - b0).norm());
+  const double eps = std::numeric_limits<double>::epsilon();
+  const double ref = std::sqrt(static_cast<double>(ref_ee(L(a0), L(a1), L(b0), L(b1))));
+  const double dist = std::sqrt(r.distance_sq);
+  EXPECT_NEAR(dist, ref, 8 * eps * scale)
+      << "a0 " << a0.transpose() << " a1 " << a1.transpose() << " b0 " << b0.transpose() << " b1 " << b1.transpose();
+  EXPECT_NEAR(r.distance_sq, (r.pa - r.pb).squaredNorm(), 4 * eps * scale * scale);
+  EXPECT_LE((r.pa - (a0 + r.s * (a1 - a0))).norm(), 4 * eps * scale);
+  EXPECT_LE((r.pb - (b0 + r.t * (b1 - b0))).norm(), 4 * eps * scale);
+  const double gap = (r.pa - r.pb).norm();
+  if (!(gap > 1e-9 * scale)) return 0.0;  // touching: no normal to check
+  const Vec3 n = (r.pa - r.pb) / gap;
+  const double tol = len * (1e-12 + 16 * eps * scale / gap) + 8 * eps * std::max(scale, gap);
+  double worst = 0.0;
+  for (const Vec3& x : {a0, a1}) worst = std::max(worst, (gap - n.dot(x - r.pb)) / tol);
+  for (const Vec3& x : {b0, b1}) worst = std::max(worst, (n.dot(x - r.pa) + gap) / tol);
+  EXPECT_LE(worst, 1.0) << "endpoint beyond the separating plane; a0 " << a0.transpose() << " a1 " << a1.transpose()
+                        << " b0 " << b0.transpose() << " b1 " << b1.transpose();
+  return worst;
+}
+
+// Edges at angles 1e-12..1e-3 rad in four arrangements: crossing in projection (the interior
+// closest pair the old a c - b^2 denominator got wrong), side by side and overlapping, collinear
+// with a gap, and touching; both orders of the edges. Fails before the cross-product kernel with
+// distance errors up to 3e-2 and endpoints up to 1.5 beyond the plane (scaled by the slack: 1e12).
+TEST(Distance, EdgeEdgeNearlyParallel) {
+  auto g = test::rng(1234);
+  std::uniform_real_distribution<double> u(-1.0, 1.0), u01(0.0, 1.0);
+  for (int e = -12; e <= -3; ++e) {
+    const double angle = std::pow(10.0, e);
+    double worst = 0.0;
+    for (int k = 0; k < 400; ++k) {
+      const double size = std::pow(10.0, 2.0 * u(g));  // edge lengths 0.01 .. 100
+      const Vec3 dir = rand_vec(g).normalized(), side = dir.unitOrthogonal(), up = dir.cross(side);
+      const Vec3 dir_b = std::cos(angle) * dir + std::sin(angle) * side;  // B turned by `angle` about `up`
+      const Vec3 centre = size * rand_vec(g);
+      const double len_a = size * (0.5 + u01(g)), len_b = size * (0.5 + u01(g));
+      const double gap = size * std::pow(10.0, -4.0 * u01(g));  // 1e-4 .. 1 of the edge length
+      Vec3 a0, a1, b0, b1;
+      switch (k % 4) {
+        case 0: {  // crossing: the closest pair is interior to both edges (or nearly so)
+          a0 = centre - (0.05 + 0.9 * u01(g)) * len_a * dir;
+          b0 = centre + gap * up + angle * size * u(g) * side - (0.05 + 0.9 * u01(g)) * len_b * dir_b;
+          break;
+        }
+        case 1: {  // side by side, overlapping or staggered
+          a0 = centre;
+          b0 = centre + gap * (u(g) * side + up).normalized() + size * u(g) * dir;
+          break;
+        }
+        case 2: {  // collinear up to the angle, with a gap along the line
+          a0 = centre;
+          b0 = centre + (len_a + gap) * dir;
+          break;
+        }
+        default: {  // touching: B's start point on A
+          a0 = centre;
+          b0 = centre + u01(g) * len_a * dir;
+          break;
+        }
+      }
+      a1 = a0 + len_a * dir;
+      b1 = b0 + len_b * dir_b;
+      worst = std::max({worst, check_ee_plane(a0, a1, b0, b1), check_ee_plane(b1, b0, a0, a1)});
+      if (::testing::Test::HasFailure()) {
+        ADD_FAILURE() << "angle " << angle << " case " << k;
+        return;
+      }
+    }
+    std::printf("[edge-edge, angle %.0e] worst plane violation / slack %.3f\n", angle, worst);
+  }
+}
+
+// Zero-length edges and exactly parallel, collinear and crossing edges keep the plane property.
+TEST(Distance, EdgeEdgeDegeneratePlane) {
+  auto g = test::rng(4321);
+  std::uniform_real_distribution<double> u(-2.0, 2.0);
+  for (int k = 0; k < 2000; ++k) {
+    const Vec3 a0 = rand_vec(g), a1 = rand_vec(g), c = rand_vec(g), off = 0.1 * rand_vec(g);
+    const Vec3 d = a1 - a0;
+    check_ee_plane(a0, a0, c, c + off);                                       // point vs segment
+    check_ee_plane(a0, a1, c, c);                                             // segment vs point
+    check_ee_plane(a0, a0, c, c);                                             // point vs point
+    check_ee_plane(a0, a1, a0 + off + u(g) * d, a0 + off + u(g) * d);         // exactly parallel
+    check_ee_plane(a0, a1, a0 + u(g) * d, a0 + u(g) * d);                     // collinear
+    check_ee_plane(a0, a1, a0 + 0.5 * d - off, a0 + 0.5 * d + off);           // crossing at the midpoint
+    check_ee_plane(a0, a1, a0 + 0.5 * d + off.cross(d), a0 + 0.5 * d + off);  // skew
   }
 }
 

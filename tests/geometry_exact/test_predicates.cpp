@@ -56,18 +56,18 @@ TEST(Predicates, DegenerateTriangles) {
   EXPECT_TRUE(triangles_intersect(a, b, c, Vec3(0.2, 0.2, 0), Vec3(0.2, 0.2, 0), Vec3(0.2, 0.2, 0)));
   EXPECT_FALSE(triangles_intersect(a, b, c, Vec3(0.2, 0.2, 1e-9), Vec3(0.2, 0.2, 1e-9), Vec3(0.2, 0.2, 1e-9)));
   // Both degenerate: two crossing collinear "triangles".
-  EXPECT_TRUE(triangles_intersect(Vec3(-1, 0, 0), Vec3(1, 0, 0), Vec3(0, 0, 0), Vec3(0, -1, 0), Vec3(0, 1, 0),
-                                  Vec3(0, 1, 0)));
+  EXPECT_TRUE(
+      triangles_intersect(Vec3(-1, 0, 0), Vec3(1, 0, 0), Vec3(0, 0, 0), Vec3(0, -1, 0), Vec3(0, 1, 0), Vec3(0, 1, 0)));
 }
 
 TEST(Predicates, SegmentTriangle) {
   const Vec3 a(0, 0, 0), b(1, 0, 0), c(0, 1, 0);
   EXPECT_TRUE(segment_triangle_intersect(Vec3(0.2, 0.2, -1), Vec3(0.2, 0.2, 1), a, b, c));
   EXPECT_FALSE(segment_triangle_intersect(Vec3(0.2, 0.2, 1e-15), Vec3(0.2, 0.2, 1), a, b, c));
-  EXPECT_TRUE(segment_triangle_intersect(Vec3(0.2, 0.2, 0), Vec3(0.2, 0.2, 1), a, b, c));  // touching
-  EXPECT_TRUE(segment_triangle_intersect(Vec3(-1, 0.5, 0), Vec3(2, 0.5, 0), a, b, c));     // coplanar
-  EXPECT_FALSE(segment_triangle_intersect(Vec3(0.6, 0.6, -1), Vec3(0.6, 0.6, 1), a, b, c)); // beside edge
-  EXPECT_TRUE(segment_triangle_intersect(Vec3(0.5, 0.5, -1), Vec3(0.5, 0.5, 1), a, b, c));  // through edge
+  EXPECT_TRUE(segment_triangle_intersect(Vec3(0.2, 0.2, 0), Vec3(0.2, 0.2, 1), a, b, c));    // touching
+  EXPECT_TRUE(segment_triangle_intersect(Vec3(-1, 0.5, 0), Vec3(2, 0.5, 0), a, b, c));       // coplanar
+  EXPECT_FALSE(segment_triangle_intersect(Vec3(0.6, 0.6, -1), Vec3(0.6, 0.6, 1), a, b, c));  // beside edge
+  EXPECT_TRUE(segment_triangle_intersect(Vec3(0.5, 0.5, -1), Vec3(0.5, 0.5, 1), a, b, c));   // through edge
   // Zero-length segment = point.
   EXPECT_TRUE(segment_triangle_intersect(Vec3(0.1, 0.1, 0), Vec3(0.1, 0.1, 0), a, b, c));
   EXPECT_FALSE(segment_triangle_intersect(Vec3(0.1, 0.1, 1), Vec3(0.1, 0.1, 1), a, b, c));
@@ -118,10 +118,43 @@ TEST(Predicates, DoubleKernelsMatchExactDistances) {
     const Vec3 off = 0.1 * rand_vec(g);
     const Vec3 q0 = a + u(g) * (b - a) + off, q1 = a + u(g) * (b - a) + off;
     EXPECT_NEAR(edge_edge(a, b, q0, q1).distance_sq, exact_edge_edge_distance_sq(a, b, q0, q1), tol);
-    EXPECT_NEAR(edge_edge(a, b, q0 - off, q1 - off).distance_sq,
-                exact_edge_edge_distance_sq(a, b, q0 - off, q1 - off), tol);
+    EXPECT_NEAR(edge_edge(a, b, q0 - off, q1 - off).distance_sq, exact_edge_edge_distance_sq(a, b, q0 - off, q1 - off),
+                tol);
     EXPECT_NEAR(edge_edge(a, a, c, d).distance_sq, exact_edge_edge_distance_sq(a, a, c, d), tol);
     EXPECT_NEAR(edge_edge(a, a, c, c).distance_sq, exact_edge_edge_distance_sq(a, a, c, c), tol);
+  }
+}
+
+// Nearly parallel edges (1e-12 .. 1e-3 rad) crossing in projection, side by side and collinear:
+// the double kernel against CGAL's exact squared distance of the same (rounded) input. The former
+// kernel (denominator a c - b^2) was off by up to 3e-2 in distance here.
+TEST(Predicates, EdgeEdgeNearlyParallelMatchesExact) {
+  auto g = test::rng(23);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int e = -12; e <= -3; ++e) {
+    const double angle = std::pow(10.0, e);
+    for (int k = 0; k < 60; ++k) {
+      const Vec3 dir = rand_vec(g).normalized(), side = dir.unitOrthogonal(), up = dir.cross(side);
+      const Vec3 dir_b = std::cos(angle) * dir + std::sin(angle) * side;
+      const double gap = std::pow(10.0, -4.0 * u(g));
+      const Vec3 a0 = rand_vec(g), a1 = a0 + dir;
+      Vec3 b0;
+      switch (k % 3) {
+        case 0:
+          b0 = a0 + 0.5 * dir + gap * up + angle * (u(g) - 0.5) * side - (0.1 + 0.8 * u(g)) * dir_b;
+          break;
+        case 1:
+          b0 = a0 + gap * up + (u(g) - 0.5) * dir;
+          break;
+        default:
+          b0 = a1 + gap * dir;
+          break;
+      }
+      const Vec3 b1 = b0 + dir_b;
+      const double d = std::sqrt(edge_edge(a0, a1, b0, b1).distance_sq);
+      const double exact = std::sqrt(exact_edge_edge_distance_sq(a0, a1, b0, b1));
+      EXPECT_NEAR(d, exact, 1e-15) << "angle " << angle << " case " << k % 3;
+    }
   }
 }
 

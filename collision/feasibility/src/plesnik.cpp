@@ -132,6 +132,15 @@ ProjectResult PlesnikProjector::project(const Vec3& x_anchor, const Vec3& x_cand
         break;
       }
     if (ok) {
+      // The anchor is feasible and |0 - q| from the candidate, so the projection is never farther.
+      // Plesník's point can be (it never drops an equality): replace it by the exact projection.
+      if ((x_pass - q).squaredNorm() > q.squaredNorm()) {
+        const ProjectResult e = ExactProjector(params_).project(x_anchor, x_candidate, planes);
+        res.fell_back = true;
+        res.x = e.status == ProjectStatus::projected ? e.x : x_anchor;
+        res.status = e.status == ProjectStatus::projected ? ProjectStatus::projected : ProjectStatus::halted;
+        return res;
+      }
       res.x = x_anchor + x_pass;
       res.status = ProjectStatus::projected;
       return res;

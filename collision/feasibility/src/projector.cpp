@@ -25,25 +25,28 @@ struct FactoryEntry {
 
 /// The one table of projectors; make_projector and projector_names read only this.
 constexpr FactoryEntry kProjectors[] = {
-    {"plesnik", [](const ProjectorParams& p) -> std::unique_ptr<Projector> {
-       return std::make_unique<PlesnikProjector>(p);
-     }},
-    {"successive_projection", [](const ProjectorParams& p) -> std::unique_ptr<Projector> {
+    {"plesnik",
+     [](const ProjectorParams& p) -> std::unique_ptr<Projector> { return std::make_unique<PlesnikProjector>(p); }},
+    {"successive_projection",
+     [](const ProjectorParams& p) -> std::unique_ptr<Projector> {
        return std::make_unique<SuccessiveProjectionProjector>(p);
      }},
-    {"exact", [](const ProjectorParams& p) -> std::unique_ptr<Projector> {
-       return std::make_unique<ExactProjector>(p);
-     }},
+    {"exact",
+     [](const ProjectorParams& p) -> std::unique_ptr<Projector> { return std::make_unique<ExactProjector>(p); }},
 };
 
 }  // namespace
 
 std::string_view to_string(ProjectStatus status) {
   switch (status) {
-    case ProjectStatus::feasible: return "feasible";
-    case ProjectStatus::projected: return "projected";
-    case ProjectStatus::halted: return "halted";
-    case ProjectStatus::infeasible: return "infeasible";
+    case ProjectStatus::feasible:
+      return "feasible";
+    case ProjectStatus::projected:
+      return "projected";
+    case ProjectStatus::halted:
+      return "halted";
+    case ProjectStatus::infeasible:
+      return "infeasible";
   }
   return "unknown";
 }
@@ -87,6 +90,7 @@ BatchStats& BatchStats::operator+=(const BatchStats& o) {
   remaining += o.remaining;
   halted += o.halted;
   infeasible += o.infeasible;
+  fallbacks += o.fallbacks;
   iterations += o.iterations;
   return *this;
 }
@@ -133,6 +137,7 @@ BatchStats project_all(const Projector& projector, const RegionSet& regions, con
       if (r.status == ProjectStatus::projected) ++s.projected;
       if (r.status == ProjectStatus::halted) ++s.halted;
       if (r.status == ProjectStatus::infeasible) ++s.infeasible;
+      if (r.fell_back) ++s.fallbacks;
       x[v] = r.x;
       // Independent re-check of the output, with a slack above every projector's rounding tolerance.
       const double out = min_value(anchor[v], x[v], planes);

@@ -16,7 +16,7 @@ enum class EdgeFeature : std::uint8_t { v0, v1, interior };
 enum class TriangleFeature : std::uint8_t { v0, v1, v2, e01, e12, e20, interior };
 
 struct PointEdgeResult {
-  double t = 0.0;        ///< closest point = a + t (b - a), t in [0, 1]
+  double t = 0.0;  ///< closest point = a + t (b - a), t in [0, 1]
   Vec3 closest = Vec3::Zero();
   double distance_sq = 0.0;
   EdgeFeature feature = EdgeFeature::v0;
@@ -45,6 +45,19 @@ PointEdgeResult point_edge(const Vec3& p, const Vec3& a, const Vec3& b);
 /// Closest point on triangle (a, b, c) to p.
 PointTriangleResult point_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c);
 /// Closest points between segments (a0, a1) and (b0, b1).
+///
+/// The interior stationary point when it lies inside both edges and the edges are well apart in
+/// angle (> 1e-3 rad); otherwise the best of the four endpoint-segment candidates and, if strictly
+/// closer, the interior candidate:
+/// with \f$\mathbf{c} = \mathbf{d}_a \times \mathbf{d}_b\f$, \f$\mathbf{d}_a = \mathbf{a}_1 - \mathbf{a}_0\f$,
+/// \f$\mathbf{d}_b = \mathbf{b}_1 - \mathbf{b}_0\f$, the point where \f$\mathbf{p}_a - \mathbf{p}_b \parallel
+/// \mathbf{c}\f$ has \f$s = ((\mathbf{b}_0 - \mathbf{a}_0)\times\mathbf{d}_b)\cdot\mathbf{c} / \|\mathbf{c}\|^2\f$
+/// (Cramer's rule), and t is the projection of \f$\mathbf{p}_a\f$ onto B. \f$\|\mathbf{c}\|^2\f$ replaces
+/// \f$\|\mathbf{d}_a\|^2\|\mathbf{d}_b\|^2 - (\mathbf{d}_a\cdot\mathbf{d}_b)^2\f$, which cancels for nearly parallel
+/// edges. The closest points are extreme along \f$\mathbf{n} = (\mathbf{p}_a - \mathbf{p}_b)/\|\mathbf{p}_a -
+/// \mathbf{p}_b\|\f$
+/// (\f$\mathbf{n}\cdot\mathbf{x} \ge \mathbf{n}\cdot\mathbf{p}_a\f$ on A, \f$\le \mathbf{n}\cdot\mathbf{p}_b\f$ on B)
+/// up to rounding of n, at every angle between the edges.
 EdgeEdgeResult edge_edge(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1);
 
 }  // namespace ccfr

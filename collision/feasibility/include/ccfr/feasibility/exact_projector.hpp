@@ -24,6 +24,11 @@ struct ExactProjection {
 /// the certificate makes the answer independent of how well-conditioned the subsets are.
 /// Cost \f$O(m^4)\f$ in the worst case, m <= 16 in practice. If no subset certifies (only
 /// near-degenerate regions at the tolerance edge), Hildreth's dual coordinate ascent decides.
+/// Above 24 planes a Goldfarb-Idnani dual active-set method replaces the enumeration. When the
+/// anchor violates a plane (\f$d_k < s\f$, the only case in which the region can be empty), the same
+/// method first looks for a Farkas certificate, \f$\lambda \ge 0\f$ with
+/// \f$\sum_k\lambda_k\mathbf{n}_k \approx 0\f$ and \f$\sum_k\lambda_k(d_k - s) < 0\f$, and reports an empty region
+/// in microseconds instead of running Hildreth's 20,000 sweeps.
 /// @param tolerance absolute slack of the certificate (feasibility, equalities, multipliers)
 ExactProjection exact_region_projection(const Vec3& q, std::span<const HalfSpace> planes, double margin,
                                         double tolerance);

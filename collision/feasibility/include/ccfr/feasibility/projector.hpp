@@ -28,10 +28,14 @@ std::string_view to_string(ProjectStatus status);
 
 /// Result of projecting one vertex.
 struct ProjectResult {
-  Vec3 x = Vec3::Zero();                        ///< the new position (absolute coordinates)
+  Vec3 x = Vec3::Zero();  ///< the new position (absolute coordinates)
   ProjectStatus status = ProjectStatus::feasible;
   int iterations = 0;  ///< outer passes (Plesník), sweeps (successive projection), active-set size (exact)
   int active = 0;      ///< half-spaces violated by the candidate at entry
+  /// Plesník only: its point was farther from the candidate than the anchor is (it keeps every
+  /// violated plane as an equality, and nearly parallel planes meet far away), so `x` is the exact
+  /// projector's answer instead (or the anchor if that failed). Always false for the other projectors.
+  bool fell_back = false;
 };
 
 /// Parameters shared by all projectors; each projector reads the fields it needs.
@@ -89,6 +93,8 @@ struct BatchStats {
   Index remaining = 0;   ///< vertices whose output still violates a half-space by more than 1e-9 (or is NaN)
   Index halted = 0;      ///< vertices that fell back to their anchor (halting events)
   Index infeasible = 0;  ///< vertices reported infeasible
+  Index fallbacks =
+      0;  ///< vertices whose Plesník point was replaced by the exact projection (ProjectResult::fell_back)
   std::int64_t iterations = 0;  ///< sum of ProjectResult::iterations over the violated vertices
 
   BatchStats& operator+=(const BatchStats& o);
