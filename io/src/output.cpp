@@ -28,7 +28,7 @@ const std::string& stats_header() {
   static const std::string h =
       "frame,sim_time,wall_s,xpbd_s,broad_s,narrow_s,resolution_s,candidates,constraints,violations_detected,"
       "violations_remaining,halted_vertices,min_distance,penetrations,audit_s,outer_iterations,clamped_vertices,"
-      "check_s,contact_vertices,substeps_run";
+      "check_s,contact_vertices,substeps_run,projector_fallbacks";
   return h;
 }
 
@@ -39,10 +39,11 @@ std::string stats_row(const FrameStats& s) {
   if (std::isfinite(s.min_distance)) std::snprintf(md, sizeof md, "%.9g", s.min_distance);
   char pen[24] = "";
   if (s.penetrations >= 0) std::snprintf(pen, sizeof pen, "%d", s.penetrations);
-  std::snprintf(buf, sizeof buf, "%d,%.9g,%.6f,%.6f,%.6f,%.6f,%.6f,%d,%d,%d,%d,%d,%s,%s,%.6f,%d,%d,%.6f,%d,%d", s.frame,
+  std::snprintf(buf, sizeof buf, "%d,%.9g,%.6f,%.6f,%.6f,%.6f,%.6f,%d,%d,%d,%d,%d,%s,%s,%.6f,%d,%d,%.6f,%d,%d,%d", s.frame,
                 s.sim_time, s.wall_s, s.times.xpbd, s.times.broad, s.times.narrow, s.times.resolution, s.candidates,
                 s.constraints, s.violations_detected, s.violations_remaining, s.halted_vertices, md, pen, s.times.audit,
-                s.outer_iterations, s.clamped_vertices, s.times.check, s.contact_vertices, s.substeps_run);
+                s.outer_iterations, s.clamped_vertices, s.times.check, s.contact_vertices, s.substeps_run,
+                s.projector_fallbacks);
   return buf;
 }
 

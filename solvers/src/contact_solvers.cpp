@@ -140,6 +140,7 @@ SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& ancho
   r.violations_detected = b.violated;
   r.violations_remaining = b.remaining;
   r.halted_vertices = b.halted;
+  r.projector_fallbacks = b.fallbacks;
   r.contact_vertices = count_contact_vertices(regions_, state.inv_mass);
   if (!rigid_.empty()) {
     const RigidEnforceStats rs =

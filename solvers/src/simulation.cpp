@@ -237,6 +237,7 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
     fs.violations_detected += res.violations_detected;
     fs.halted_vertices += res.halted_vertices;
     fs.contact_vertices += res.contact_vertices;
+    fs.projector_fallbacks += res.projector_fallbacks;
     remaining = res.violations_remaining;
     ++fs.outer_iterations;
 

@@ -49,6 +49,8 @@ struct SolveResult {
   /// whole body); the substep keeps iterating while any vertex is held back.
   Index bounded_vertices = 0;
   Index contact_vertices = 0;  ///< movable vertices with at least one contact in this pass
+  /// Plesník results farther from the candidate than the anchor, replaced by the exact projection.
+  Index projector_fallbacks = 0;
 };
 
 class ContactSolver {

@@ -32,6 +32,9 @@ struct FrameStats {
   Index clamped_vertices = 0;      ///< vertices held back by the step bound r (summed)
   int outer_iterations = 0;        ///< outer iterations run in the frame (summed over substeps)
   int substeps_run = 0;            ///< substeps actually run, after automatic subdivision
+  /// Plesník projections replaced by the exact projection because they landed farther from the
+  /// candidate than the anchor (summed over the resolution passes; 0 for other projectors).
+  Index projector_fallbacks = 0;
 };
 
 /// A hook that audits positions (penetration count), e.g. the exact audit of geometry_exact.
