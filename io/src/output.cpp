@@ -87,7 +87,8 @@ bool is_leftover_run(const fs::path& d) {
   if (is_ccfr_run(d)) return true;
   for (const auto& e : fs::directory_iterator(d, ec)) {
     const std::string n = e.path().filename().string();
-    if (n != "frames" && n != "stats.csv" && n != "audit.json" && n.rfind("run.json", 0) != 0) return false;
+    if (n != "frames" && n != "stats.csv" && n != "audit.json" && n != "render" && n.rfind("run.json", 0) != 0)
+      return false;
   }
   return !ec;
 }
