@@ -13,6 +13,8 @@ void register_run(CLI::App& app) {
   auto* cmd = app.add_subcommand("run", "Simulate a scene file and write run.json, frames/ and stats.csv");
   cmd->add_option("config", opts->config, "Scene file (YAML)")->required();
   cmd->add_option("--out", opts->out, "Output directory (default: out/<scene file name>)");
+  cmd->add_flag("--force", opts->force,
+                "Write into --out even if it is a non-empty directory that is not a ccfr run (its other files stay)");
   add_run_options(cmd, *opts);
   cmd->add_option("--log-level", *log_level, "trace, debug, info, warn, error or off")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "off"}));
@@ -20,10 +22,15 @@ void register_run(CLI::App& app) {
     init_logging(*log_level);
     guarded([&] {
       if (opts->out.empty()) opts->out = std::filesystem::path("out") / opts->config.stem();
-      opts->command_line = "ccfr run " + opts->config.string();
+      opts->command_line = invocation_string();
+      opts->argv = invocation_argv();
       const RunSummary s = run_scene(*opts);
-      std::fprintf(stderr, "%s: %zu frames, output in %s\n", s.status.c_str(), s.frames.size(),
-                   std::filesystem::absolute(s.out).string().c_str());
+      if (s.previous_kept)
+        std::fprintf(stderr, "%s: %zu frames; output discarded, the previous run in %s was kept\n", s.status.c_str(),
+                     s.frames.size(), std::filesystem::absolute(s.out).string().c_str());
+      else
+        std::fprintf(stderr, "%s: %zu frames, output in %s\n", s.status.c_str(), s.frames.size(),
+                     std::filesystem::absolute(s.out).string().c_str());
       if (s.failed) return 1;
       if (s.violated_frames > 0 && !s.violations_opted_out) {
         // A baseline without the guarantee ran to the end (contact.on_violation: auto); its

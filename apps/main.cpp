@@ -3,15 +3,17 @@
 
 #include <cstdio>
 
-#include "commands.hpp"
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
+#include "commands.hpp"
+#include "run_driver.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"ccfr: penetration-free XPBD simulation with Convex Collision-Free Regions"};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string(ccfr::app::version_string()));
   ccfr::app::register_commands(app);
+  ccfr::app::set_invocation(argc, argv);  // run.json records the command line as typed
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

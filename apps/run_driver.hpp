@@ -12,13 +12,15 @@ namespace ccfr::app {
 
 struct RunOptions {
   std::filesystem::path config;
-  std::filesystem::path out;          ///< empty: no output directory (bench)
-  int frames = -1;                    ///< -1: from the scene
-  std::string solver;                 ///< empty: from the scene
-  std::vector<std::string> overrides; ///< --set key.path=value
-  int threads = 0;                    ///< 0: all hardware threads
+  std::filesystem::path out;           ///< empty: no output directory (bench)
+  int frames = -1;                     ///< -1: from the scene
+  std::string solver;                  ///< empty: from the scene
+  std::vector<std::string> overrides;  ///< --set key.path=value
+  int threads = 0;                     ///< 0: all hardware threads
   bool progress = true;
-  std::string command_line;
+  std::string command_line;       ///< run.json `command_line`
+  std::vector<std::string> argv;  ///< run.json `argv` (every argument as typed); empty: omitted
+  bool force = false;             ///< --force: write into a non-empty directory that is not a ccfr run
 };
 
 struct RunSummary {
@@ -34,11 +36,20 @@ struct RunSummary {
   /// past (contact.on_violation = warn, or auto under a solver without the guarantee).
   size_t violated_frames = 0;
   bool violations_opted_out = false;  ///< contact.on_violation was set to warn explicitly
+  /// The run stopped before its first simulated frame while rerunning into an existing run
+  /// directory: its output was discarded and the previous run left as it was.
+  bool previous_kept = false;
 };
 
 /// Loads, simulates and (if opts.out is set) writes the run. Numerical failures end the run with
 /// `failed` set and the frames so far kept; configuration errors throw ccfr::Error.
 RunSummary run_scene(const RunOptions& opts);
+
+/// Records the process's arguments (from main) for run.json: argv[0] is recorded as "ccfr".
+void set_invocation(int argc, const char* const* argv);
+const std::vector<std::string>& invocation_argv();
+/// The recorded arguments joined by spaces, each quoted for a POSIX shell where needed.
+std::string invocation_string();
 
 /// Adds --frames, --solver, --set and --threads to a subcommand.
 void add_run_options(CLI::App* cmd, RunOptions& opts);

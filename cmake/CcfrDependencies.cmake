@@ -6,6 +6,7 @@ find_package(fcl REQUIRED)            # imported target: plain `fcl`
 find_package(CGAL REQUIRED)           # CGAL::CGAL (adds -frounding-math: geometry_exact only)
 find_package(yaml-cpp REQUIRED)       # 0.7: plain `yaml-cpp`, no namespace
 find_package(CLI11 CONFIG REQUIRED)
+find_package(nlohmann_json 3 REQUIRED)  # run.json: nlohmann_json::nlohmann_json
 if(CCFR_BUILD_TESTS)
   find_package(GTest REQUIRED)
   include(GoogleTest)

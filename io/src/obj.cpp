@@ -1,8 +1,12 @@
 #include "ccfr/io/obj.hpp"
 
+#include <fcntl.h>
 #include <unistd.h>
+
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 #include <system_error>
@@ -14,19 +18,33 @@ namespace ccfr::io {
 namespace fs = std::filesystem;
 
 void write_file_atomic(const fs::path& path, const std::string& content) {
+  // Temporary name: "<name>.tmp<pid>" in the same folder (RunWriter removes stale ones of a crashed
+  // run). On any failure the temporary file is removed, so a full disk leaves nothing behind.
   const fs::path tmp = path.string() + ".tmp" + std::to_string(::getpid());
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error("cannot write '" + tmp.string() + "'");
-    out.write(content.data(), static_cast<std::streamsize>(content.size()));
-    out.flush();
-    if (!out) throw Error("failed writing '" + tmp.string() + "' (disk full?)");
+  auto fail = [&](int err) {
+    ::unlink(tmp.c_str());
+    throw Error("cannot write '" + path.string() + "': " + std::strerror(err));
+  };
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) throw Error("cannot write '" + path.string() + "': " + std::strerror(errno));
+  const char* p = content.data();
+  size_t left = content.size();
+  while (left > 0) {
+    const ssize_t n = ::write(fd, p, left);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const int err = n < 0 ? errno : EIO;
+      ::close(fd);
+      fail(err);
+    }
+    p += n;
+    left -= static_cast<size_t>(n);
   }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    throw Error("cannot rename '" + tmp.string() + "' to '" + path.string() + "'");
+  if (::close(fd) != 0) fail(errno);  // delayed allocation can report ENOSPC only here
+  if (::rename(tmp.c_str(), path.c_str()) != 0) {
+    const int err = errno;
+    ::unlink(tmp.c_str());
+    throw Error("cannot rename '" + tmp.string() + "' to '" + path.string() + "': " + std::strerror(err));
   }
 }
 

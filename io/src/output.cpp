@@ -1,9 +1,15 @@
 #include "ccfr/io/output.hpp"
 
-#include <charconv>
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <ctime>
+#include <fstream>
+#include <nlohmann/json.hpp>
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/io/obj.hpp"
@@ -48,43 +54,133 @@ std::string stats_row(const FrameStats& s) {
 }
 
 namespace {
-std::string jstr(const std::string& s) {
-  std::string o = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') o += '\\';
-    if (c == '\n') {
-      o += "\\n";
-      continue;
-    }
-    o += c;
-  }
-  return o + "\"";
+using Json = nlohmann::ordered_json;
+
+[[noreturn]] void io_error(const std::string& what, const fs::path& p, int err) {
+  throw Error(what + " '" + p.string() + "': " + std::strerror(err));
 }
-std::string jnum(double v) {
-  char b[40];
-  auto r = std::to_chars(b, b + sizeof b, v);  // shortest text that round-trips
-  return std::string(b, r.ptr);
+
+// DIR without a trailing separator, so that its siblings can be named.
+fs::path normalized(const fs::path& dir) {
+  fs::path p = fs::absolute(dir).lexically_normal();
+  if (!p.has_filename() && p.has_parent_path()) p = p.parent_path();
+  return p;
+}
+
+bool is_temp_name(const std::string& name) { return name.find(".tmp") != std::string::npos; }
+
+// Temporary files of a crashed run: run.json.tmpPID, frames/frame_NNNNN.obj.tmpPID.
+void remove_stale_temporaries(const fs::path& dir) {
+  std::error_code ec;
+  for (const fs::path& d : {dir, dir / "frames"}) {
+    if (!fs::is_directory(d, ec)) continue;
+    for (const auto& e : fs::directory_iterator(d, ec)) {
+      const std::string n = e.path().filename().string();
+      if ((n.rfind("frame_", 0) == 0 || n.rfind("run.json", 0) == 0) && is_temp_name(n) && e.is_regular_file(ec))
+        fs::remove(e.path(), ec);
+    }
+  }
+}
+
+// A directory named DIR.ccfr-new / DIR.ccfr-old left by a killed run (possibly half deleted).
+bool is_leftover_run(const fs::path& d) {
+  std::error_code ec;
+  if (is_ccfr_run(d)) return true;
+  for (const auto& e : fs::directory_iterator(d, ec)) {
+    const std::string n = e.path().filename().string();
+    if (n != "frames" && n != "stats.csv" && n != "audit.json" && n != "render" && n.rfind("run.json", 0) != 0)
+      return false;
+  }
+  return !ec;
+}
+
+void create_dirs(const fs::path& d) {
+  std::error_code ec;
+  fs::create_directories(d, ec);
+  if (ec) throw Error("cannot create output directory '" + d.string() + "': " + ec.message());
+}
+
+// Writes all of `data` to fd; on failure returns the errno (0 on success).
+int write_all(int fd, const std::string& data) {
+  const char* p = data.data();
+  size_t left = data.size();
+  while (left > 0) {
+    const ssize_t n = ::write(fd, p, left);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) return errno;
+    if (n == 0) return EIO;
+    p += n;
+    left -= static_cast<size_t>(n);
+  }
+  return 0;
 }
 }  // namespace
 
-RunWriter::RunWriter(fs::path dir, const Topology& topo, std::string resolved_config_json, RunMeta meta)
-    : dir_(std::move(dir)),
+bool is_ccfr_run(const fs::path& dir) {
+  std::ifstream in(dir / "run.json");
+  if (!in) return false;
+  const Json j = Json::parse(in, nullptr, /*allow_exceptions=*/false);
+  return j.is_object() && j.contains("ccfr") && j["ccfr"].is_object() && j["ccfr"].contains("version");
+}
+
+RunWriter::RunWriter(fs::path dir, const Topology& topo, std::string resolved_config_json, RunMeta meta, bool force)
+    : final_(std::move(dir)),
       topo_(topo),
       config_json_(std::move(resolved_config_json)),
       meta_(std::move(meta)),
       start_time_(utc_now()) {
   std::error_code ec;
-  fs::create_directories(dir_ / "frames", ec);
-  if (ec) throw Error("cannot create output directory '" + (dir_ / "frames").string() + "': " + ec.message());
-  // A rerun into the same directory must not leave frames of the previous run behind.
-  for (const auto& e : fs::directory_iterator(dir_ / "frames"))
-    if (e.path().extension() == ".obj" && e.path().filename().string().rfind("frame_", 0) == 0)
-      fs::remove(e.path(), ec);
-  stats_.open(dir_ / "stats.csv", std::ios::trunc);
-  if (!stats_) throw Error("cannot write '" + (dir_ / "stats.csv").string() + "'");
-  stats_ << stats_header() << '\n';
-  stats_.flush();
+  if (fs::exists(final_, ec) && !fs::is_directory(final_, ec))
+    throw Error("output directory '" + final_.string() + "' exists and is not a directory");
+  const bool non_empty = fs::is_directory(final_, ec) && !fs::is_empty(final_, ec);
+  if (!non_empty) {
+    dir_ = final_;
+  } else if (is_ccfr_run(final_)) {
+    // A rerun: the previous run stays whole until the new one has a simulated frame to show.
+    remove_stale_temporaries(final_);
+    const fs::path base = normalized(final_);
+    staging_ = base.parent_path() / (base.filename().string() + ".ccfr-new");
+    for (const fs::path& stale : {staging_, fs::path(base.parent_path() / (base.filename().string() + ".ccfr-old"))}) {
+      if (!fs::exists(stale, ec)) continue;
+      if (!fs::is_directory(stale, ec) || !is_leftover_run(stale))
+        throw Error("'" + stale.string() + "' is in the way of the rerun into '" + final_.string() +
+                    "' and is not a ccfr run; remove it");
+      fs::remove_all(stale, ec);  // left by a run killed before it replaced its predecessor
+      if (ec) throw Error("cannot remove stale '" + stale.string() + "': " + ec.message());
+    }
+    staged_ = true;
+    dir_ = staging_;
+  } else if (force) {
+    dir_ = final_;
+    // --force: the directory is reused as it is, except for frames of whatever wrote it before.
+    for (const auto& e : fs::directory_iterator(final_ / "frames", ec))
+      if (e.path().filename().string().rfind("frame_", 0) == 0 && e.path().extension() == ".obj")
+        fs::remove(e.path(), ec);
+  } else {
+    throw Error("output directory '" + final_.string() +
+                "' is not empty and is not a ccfr run (no run.json written by ccfr); choose another --out or pass "
+                "--force");
+  }
+  create_dirs(dir_ / "frames");
+  remove_stale_temporaries(dir_);
+}
+
+RunWriter::~RunWriter() {
+  if (stats_fd_ >= 0) ::close(stats_fd_);
+  // Left by an exception before finish(): a staged run never replaces the previous one.
+  if (staged_ && !discarded_ && dir_ == staging_) {
+    std::error_code ec;
+    fs::remove_all(staging_, ec);
+  }
+}
+
+void RunWriter::start() {
   write_run_json("running", false);
+  const fs::path p = dir_ / "stats.csv";
+  stats_fd_ = ::open(p.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (stats_fd_ < 0) io_error("cannot write", p, errno);
+  stats_size_ = 0;
+  write_stats_line(stats_header());
 }
 
 void RunWriter::write_frame(int frame, const Positions& x) {
@@ -92,43 +188,98 @@ void RunWriter::write_frame(int frame, const Positions& x) {
   std::snprintf(name, sizeof name, "frame_%05d.obj", frame);
   write_frame_obj(dir_ / "frames" / name, topo_, x);
   ++frames_written_;
+  write_run_json("running", false);  // a killed run still tells how many frames are on disk
 }
 
 void RunWriter::write_stats(const FrameStats& s) {
-  stats_ << stats_row(s) << '\n';
-  stats_.flush();
+  write_stats_line(stats_row(s));
+  if (staged_ && dir_ == staging_) commit();
 }
 
-void RunWriter::finish(const std::string& status) { write_run_json(status, true); }
+void RunWriter::write_stats_line(const std::string& row) {
+  const std::string line = row + '\n';
+  if (const int err = write_all(stats_fd_, line)) {
+    // A short write before the failure would leave half a row: cut the file back to whole rows.
+    if (::ftruncate(stats_fd_, static_cast<off_t>(stats_size_)) == 0) ::lseek(stats_fd_, stats_size_, SEEK_SET);
+    io_error("cannot write", dir_ / "stats.csv", err);
+  }
+  stats_size_ += static_cast<long long>(line.size());
+}
+
+void RunWriter::commit() {
+  // Swap the staged run and the previous one in one step, then delete the previous one.
+  const fs::path old = normalized(final_).parent_path() / (normalized(final_).filename().string() + ".ccfr-old");
+  if (::renameat2(AT_FDCWD, staging_.c_str(), AT_FDCWD, final_.c_str(), RENAME_EXCHANGE) == 0) {
+    std::error_code ec;
+    fs::remove_all(staging_, ec);  // now the previous run
+  } else if (errno == EINVAL || errno == ENOSYS || errno == ENOTSUP) {
+    // A filesystem without RENAME_EXCHANGE: move the previous run aside first.
+    if (::rename(final_.c_str(), old.c_str()) != 0) io_error("cannot move the previous run aside:", final_, errno);
+    if (::rename(staging_.c_str(), final_.c_str()) != 0) {
+      const int err = errno;
+      ::rename(old.c_str(), final_.c_str());
+      io_error("cannot move '" + staging_.string() + "' to", final_, err);
+    }
+    std::error_code ec;
+    fs::remove_all(old, ec);
+  } else {
+    io_error("cannot replace the previous run with '" + staging_.string() + "':", final_, errno);
+  }
+  dir_ = final_;
+}
+
+void RunWriter::discard() {
+  if (stats_fd_ >= 0) ::close(stats_fd_);
+  stats_fd_ = -1;
+  std::error_code ec;
+  fs::remove_all(staging_, ec);
+  discarded_ = true;
+}
+
+void RunWriter::finish(const std::string& status) {
+  if (staged_ && dir_ == staging_) {
+    if (status != "completed") return discard();
+    commit();
+  }
+  if (stats_fd_ >= 0) {
+    const int rc = ::close(stats_fd_);
+    stats_fd_ = -1;
+    if (rc != 0) io_error("cannot write", dir_ / "stats.csv", errno);
+  }
+  write_run_json(status, true);
+}
 
 void RunWriter::write_run_json(const std::string& status, bool finished) {
-  std::string s = "{\n";
-  s += "  \"ccfr\": {\"version\": " + jstr(version()) + ", \"git_commit\": " + jstr(git_commit()) + "},\n";
-  s += "  \"scene\": " + jstr(meta_.scene) + ",\n";
-  s += "  \"solver\": " + jstr(meta_.solver) + ",\n";
-  s += "  \"broad_phase\": " + jstr(meta_.broad_phase) + ",\n";
-  s += "  \"radius\": " + jnum(meta_.radius) + ",\n";
-  s += "  \"offset\": " + jnum(meta_.offset) + ",\n";
-  s += "  \"repulsion_range\": " + jnum(meta_.repulsion_range) + ",\n";
-  s += "  \"fps\": " + jnum(meta_.fps) + ",\n";
-  s += "  \"threads\": " + std::to_string(meta_.threads) + ",\n";
-  s += "  \"command_line\": " + jstr(meta_.command_line) + ",\n";
-  s += "  \"start_time\": " + jstr(start_time_) + ",\n";
-  s += "  \"end_time\": " + (finished ? jstr(utc_now()) : std::string("null")) + ",\n";
-  s += "  \"status\": " + jstr(status) + ",\n";
-  s += "  \"frames_written\": " + std::to_string(frames_written_) + ",\n";
-  s += "  \"vertices\": " + std::to_string(topo_.num_vertices()) + ",\n";
+  Json j;
+  j["ccfr"] = {{"version", version()}, {"git_commit", git_commit()}};
+  j["scene"] = meta_.scene;
+  j["solver"] = meta_.solver;
+  j["broad_phase"] = meta_.broad_phase;
+  j["radius"] = meta_.radius;
+  j["offset"] = meta_.offset;
+  j["repulsion_range"] = meta_.repulsion_range;
+  j["fps"] = meta_.fps;
+  j["threads"] = meta_.threads;
+  j["command_line"] = meta_.command_line;
+  if (!meta_.argv.empty()) j["argv"] = meta_.argv;
+  j["start_time"] = start_time_;
+  j["end_time"] = finished ? Json(utc_now()) : Json(nullptr);
+  j["status"] = status;
+  j["frames_written"] = frames_written_;
+  j["vertices"] = topo_.num_vertices();
   if (const auto& ip = meta_.initial_proximity) {
-    s += "  \"initial_proximity\": {\"adjacent_excluded\": " + std::to_string(ip->adjacent_excluded) +
-         ", \"reduced_offset_pairs\": " + std::to_string(ip->reduced_offset) +
-         ", \"min_reduced_offset\": " + jnum(ip->min_reduced_offset) +
-         ", \"intersecting_pairs\": " + std::to_string(ip->intersecting_pairs) +
-         ", \"intersecting_excluded\": " + std::to_string(ip->intersecting_excluded) +
-         ", \"shortest_edge\": " + (std::isfinite(ip->shortest_edge) ? jnum(ip->shortest_edge) : std::string("null")) +
-         "},\n";
+    j["initial_proximity"] = {{"adjacent_excluded", ip->adjacent_excluded},
+                              {"reduced_offset_pairs", ip->reduced_offset},
+                              {"min_reduced_offset", ip->min_reduced_offset},
+                              {"intersecting_pairs", ip->intersecting_pairs},
+                              {"intersecting_excluded", ip->intersecting_excluded},
+                              {"shortest_edge", std::isfinite(ip->shortest_edge) ? Json(ip->shortest_edge) : Json()}};
   }
-  s += "  \"config\": " + config_json_ + "\n}\n";
-  write_file_atomic(dir_ / "run.json", s);
+  // The resolved configuration is already JSON: embed it as such (a string only if it is not).
+  Json config = Json::parse(config_json_, nullptr, /*allow_exceptions=*/false);
+  j["config"] = config.is_discarded() ? Json(config_json_) : std::move(config);
+  // Invalid UTF-8 (a byte string from the scene file) is replaced rather than aborting the run.
+  write_file_atomic(dir_ / "run.json", j.dump(2, ' ', false, Json::error_handler_t::replace) + "\n");
 }
 
 }  // namespace ccfr::io

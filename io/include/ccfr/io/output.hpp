@@ -2,9 +2,9 @@
 /// @file output.hpp
 /// The output directory contract: run.json, frames/frame_NNNNN.obj, stats.csv (DESIGN "Contracts").
 #include <filesystem>
-#include <fstream>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "ccfr/collision/narrow_phase.hpp"
 #include "ccfr/core/scene.hpp"
@@ -21,35 +21,64 @@ struct RunMeta {
   std::string scene, solver, broad_phase;
   double radius = 0, offset = 0, repulsion_range = 0, fps = 0;
   int threads = 0;
-  std::string command_line;
+  std::string command_line;       ///< the command as typed (arguments shell-quoted where needed)
+  std::vector<std::string> argv;  ///< every argument, exactly; empty: not recorded
   /// What the initial configuration did to contact (clarification 5), when the solver detects.
   std::optional<InitialProximity> initial_proximity;
 };
 
-/// Writes a run directory. Frames and run.json are written atomically; stats rows are flushed
-/// one whole line at a time, so an interrupted run leaves every finished frame readable.
+/// True if DIR/run.json is a JSON object with the ccfr marker (`"ccfr": {"version": ...}`).
+bool is_ccfr_run(const std::filesystem::path& dir);
+
+/// Writes a run directory (docs/output.md). Frames and run.json are written atomically (temporary
+/// file + rename, the temporary removed on failure); run.json is rewritten after every frame so
+/// that `frames_written` is right even after SIGKILL; stats rows are written whole or not at all.
+/// Any failed write throws ccfr::Error naming the file and the system's reason.
+///
+/// Where it writes: a missing or empty DIR is written directly. A non-empty DIR that is a ccfr run
+/// is left untouched while the new run writes into the sibling `DIR.ccfr-new`, which replaces it
+/// once the first simulated frame is written (or a run of 0 frames completes); a run that stops
+/// before that is discarded and the previous run stays. Any other non-empty DIR is refused unless
+/// `force` (then it is written into directly, its old frames/frame_*.obj removed).
 class RunWriter {
  public:
-  RunWriter(std::filesystem::path dir, const Topology& topo, std::string resolved_config_json, RunMeta meta);
-  /// Writes frames/frame_NNNNN.obj.
+  /// Checks and prepares DIR; throws ccfr::Error if it cannot be used (exit code 2 in `ccfr run`).
+  RunWriter(std::filesystem::path dir, const Topology& topo, std::string resolved_config_json, RunMeta meta,
+            bool force = false);
+  ~RunWriter();
+  RunWriter(const RunWriter&) = delete;
+  RunWriter& operator=(const RunWriter&) = delete;
+  /// Writes run.json ("running") and the stats.csv header.
+  void start();
+  /// Writes frames/frame_NNNNN.obj, then rewrites run.json with the new frames_written.
   void write_frame(int frame, const Positions& x);
+  /// Appends one stats row; the first row puts a staged run in place of the previous one.
   void write_stats(const FrameStats& s);
   /// Rewrites run.json with the end time, the number of frames written and a status
-  /// ("completed", or the error that stopped the run).
+  /// ("completed", or the error that stopped the run). A staged run that has not replaced the
+  /// previous one yet does so if `status` is "completed", and is discarded otherwise.
   void finish(const std::string& status);
+  /// Where the run is being written now (DIR, or DIR.ccfr-new while staged).
   const std::filesystem::path& dir() const { return dir_; }
   int frames_written() const { return frames_written_; }
+  /// True once finish() discarded a staged run (the previous run in DIR was kept).
+  bool discarded() const { return discarded_; }
 
  private:
   void write_run_json(const std::string& status, bool finished);
+  void write_stats_line(const std::string& line);
+  void commit();
+  void discard();
 
-  std::filesystem::path dir_;
+  std::filesystem::path dir_, final_, staging_;
   const Topology& topo_;
   std::string config_json_;
   RunMeta meta_;
   std::string start_time_;
-  std::ofstream stats_;
+  int stats_fd_ = -1;
+  long long stats_size_ = 0;
   int frames_written_ = 0;
+  bool staged_ = false, discarded_ = false;
 };
 
 /// ISO-8601 UTC timestamp of now.
