@@ -8,33 +8,19 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include "cli_support.hpp"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-struct Result {
-  int code;
-  std::string out;  // stdout + stderr
-};
-
-Result run(const std::string& args) {
-  const std::string cmd = std::string(CCFR_EXE) + " " + args + " 2>&1";
-  Result r{0, ""};
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return {-1, "popen failed"};
-  std::array<char, 4096> buf;
-  while (size_t n = fread(buf.data(), 1, buf.size(), p)) r.out.append(buf.data(), n);
-  const int status = pclose(p);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
-
-std::string read(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
+using Result = ccfr::test::CliResult;
+Result run(const std::string& args) { return ccfr::test::run_ccfr(args); }
+std::string read(const fs::path& p) { return ccfr::test::read_text(p); }
+fs::path scratch(const std::string& name) {
+  const fs::path d = ccfr::test::scratch_dir("audit_" + name);
+  fs::create_directories(d / "frames");
+  return d;
 }
 
 std::string last_line(const std::string& s) {
@@ -42,13 +28,6 @@ std::string last_line(const std::string& s) {
   if (end == std::string::npos) return "";
   const size_t begin = s.rfind('\n', end);
   return s.substr(begin == std::string::npos ? 0 : begin + 1, end - (begin == std::string::npos ? 0 : begin + 1) + 1);
-}
-
-fs::path scratch(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("ccfr_audit_" + name);
-  fs::remove_all(d);
-  fs::create_directories(d / "frames");
-  return d;
 }
 
 // Triangle a in the plane z = 0; triangle b either 1 above it (clean) or through it (one

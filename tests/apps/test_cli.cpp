@@ -10,40 +10,15 @@
 #include <string>
 
 #include "ccfr/io/obj.hpp"
+#include "cli_support.hpp"
 
 namespace fs = std::filesystem;
 
 namespace {
-struct Result {
-  int code;
-  std::string out;  // stdout + stderr
-};
-
-Result run(const std::string& args) {
-  const std::string cmd = std::string(CCFR_EXE) + " " + args + " 2>&1";
-  Result r{0, ""};
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return {-1, "popen failed"};
-  std::array<char, 4096> buf;
-  while (size_t n = fread(buf.data(), 1, buf.size(), p)) r.out.append(buf.data(), n);
-  const int status = pclose(p);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
-
-fs::path scratch(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("ccfr_cli_" + name);
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
-
-std::string read(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using Result = ccfr::test::CliResult;
+Result run(const std::string& args) { return ccfr::test::run_ccfr(args); }
+fs::path scratch(const std::string& name) { return ccfr::test::scratch_dir("cli_" + name); }
+std::string read(const fs::path& p) { return ccfr::test::read_text(p); }
 
 const char* kScene = R"(scene: tiny
 time: {fps: 60, frames: 3, substeps: 2, iterations: 2, xpbd_sweeps: 4}
@@ -84,15 +59,18 @@ TEST(Cli, RunWritesTheOutputContractAndAuditPasses) {
   EXPECT_EQ(frame.lines.size(), 2u);
   EXPECT_EQ(frame.points.size(), 4u);
   const std::string json = read(d / "out" / "run.json");
-  for (const char* key : {"\"solver\": \"ccfr\"", "\"radius\": 0.01", "\"offset\": 0.005", "\"repulsion_range\": 0.001",
-                          "\"threads\": 2", "\"git_commit\"", "\"start_time\"", "\"end_time\": \"", "\"status\": \"completed\"",
-                          "\"stiffness\": 10000"})
+  for (const char* key :
+       {"\"solver\": \"ccfr\"", "\"radius\": 0.01", "\"offset\": 0.005", "\"repulsion_range\": 0.001", "\"threads\": 2",
+        "\"git_commit\"", "\"start_time\"", "\"end_time\": \"", "\"status\": \"completed\"", "\"stiffness\": 10000"})
     EXPECT_NE(json.find(key), std::string::npos) << key << "\n" << json;
   std::ifstream stats(d / "out" / "stats.csv");
   std::string header, line;
   std::getline(stats, header);
   EXPECT_EQ(header.rfind("frame,sim_time,wall_s,xpbd_s,broad_s,narrow_s,resolution_s,candidates,constraints,"
-                         "violations_detected,violations_remaining,halted_vertices,min_distance", 0), 0u) << header;
+                         "violations_detected,violations_remaining,halted_vertices,min_distance",
+                         0),
+            0u)
+      << header;
   int rows = 0;
   while (std::getline(stats, line)) ++rows;
   EXPECT_EQ(rows, 3);
@@ -154,9 +132,11 @@ TEST(Cli, AuditExitCodes) {
   EXPECT_EQ(run("audit " + (d / "missing").string()).code, 2);
   // A sheet pushed through another: audit must fail with exit 1.
   fs::create_directories(d / "run" / "frames");
-  std::ofstream(d / "run" / "run.json") << R"({"scene": "x", "solver": "none", "radius": 0.01, "offset": 0.01, "repulsion_range": 0, "fps": 60})";
+  std::ofstream(d / "run" / "run.json")
+      << R"({"scene": "x", "solver": "none", "radius": 0.01, "offset": 0.01, "repulsion_range": 0, "fps": 60})";
   const char* f0 = "o a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\no b\nv 0.2 0.2 1\nv 0.3 0.2 1\nv 0.2 0.3 1\nf 4 5 6\n";
-  const char* f1 = "o a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\no b\nv 0.2 0.2 -0.5\nv 0.3 0.2 0.5\nv 0.2 0.3 0.5\nf 4 5 6\n";
+  const char* f1 =
+      "o a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\no b\nv 0.2 0.2 -0.5\nv 0.3 0.2 0.5\nv 0.2 0.3 0.5\nf 4 5 6\n";
   std::ofstream(d / "run" / "frames" / "frame_00000.obj") << f0;
   std::ofstream(d / "run" / "frames" / "frame_00001.obj") << f1;
   const auto r = run("audit " + (d / "run").string());
@@ -181,7 +161,8 @@ TEST(Cli, InSimulationAuditFillsThePenetrationsColumn) {
     std::string header, line;
     std::getline(in, header);
     size_t idx = 0, pos = 0;
-    for (size_t p = 0; (p = header.find(',', pos)) != std::string::npos && header.substr(pos, p - pos) != "penetrations"; pos = p + 1)
+    for (size_t p = 0;
+         (p = header.find(',', pos)) != std::string::npos && header.substr(pos, p - pos) != "penetrations"; pos = p + 1)
       ++idx;
     std::vector<std::string> values;
     while (std::getline(in, line)) {
@@ -196,7 +177,9 @@ TEST(Cli, InSimulationAuditFillsThePenetrationsColumn) {
   for (const auto& v : column(d / "ccfr" / "stats.csv")) EXPECT_EQ(v, "0");
   // Without contact handling the sheet falls through the floor: the column must say so.
   // A solver without the guarantee runs to the end but exits 3 when frames ended violated.
-  ASSERT_EQ(run("run " + (d / "scene.yaml").string() + " --out " + (d / "none").string() + " --solver none --frames 30").code, 3);
+  ASSERT_EQ(
+      run("run " + (d / "scene.yaml").string() + " --out " + (d / "none").string() + " --solver none --frames 30").code,
+      3);
   const auto none = column(d / "none" / "stats.csv");
   ASSERT_EQ(none.size(), 30u);
   // It passes through the floor at some frame (later it is entirely below and clean again).

@@ -6,18 +6,15 @@
 #include <cstdio>
 #include <filesystem>
 #include <string>
+#include "cli_support.hpp"
 
 namespace fs = std::filesystem;
 
 namespace {
 int run(const std::string& args, std::string& out) {
-  const std::string cmd = std::string(CCFR_EXE) + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return -1;
-  std::array<char, 4096> buf;
-  while (size_t n = fread(buf.data(), 1, buf.size(), p)) out.append(buf.data(), n);
-  const int status = pclose(p);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  const ccfr::test::CliResult r = ccfr::test::run_ccfr(args);
+  out += r.out;
+  return r.code;
 }
 
 std::vector<fs::path> configs() {
@@ -33,7 +30,7 @@ class ConfigRun : public ::testing::TestWithParam<fs::path> {};
 
 TEST_P(ConfigRun, ShortRunIsAuditClean) {
   const fs::path cfg = GetParam();
-  const fs::path out = fs::temp_directory_path() / ("ccfr_config_" + cfg.stem().string());
+  const fs::path out = ccfr::test::scratch_path("config_" + cfg.stem().string());
   std::string log;
   ASSERT_EQ(run("run " + cfg.string() + " --frames 2 --out " + out.string() + " --log-level warn", log), 0) << log;
   std::string audit;

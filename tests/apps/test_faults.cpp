@@ -18,6 +18,7 @@
 
 #include "ccfr/io/obj.hpp"
 #include "ccfr/io/run_info.hpp"
+#include "cli_support.hpp"
 
 namespace fs = std::filesystem;
 using Json = nlohmann::json;
@@ -25,7 +26,7 @@ using Json = nlohmann::json;
 namespace {
 
 fs::path scratch(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("ccfr_faults_" + name);
+  const fs::path d = ccfr::test::scratch_path("faults_" + name);
   fs::remove_all(d);
   fs::create_directories(d);
   return d;

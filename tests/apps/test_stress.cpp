@@ -22,6 +22,7 @@
 #include <sstream>
 #include <string>
 #include <vector>
+#include "cli_support.hpp"
 
 namespace fs = std::filesystem;
 
@@ -77,21 +78,11 @@ const std::vector<StressCase>& cases() {
 }
 
 int run(const std::string& args, std::string& out) {
-  const std::string cmd = std::string(CCFR_EXE) + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return -1;
-  std::array<char, 4096> buf;
-  while (size_t n = fread(buf.data(), 1, buf.size(), p)) out.append(buf.data(), n);
-  const int status = pclose(p);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  const ccfr::test::CliResult r = ccfr::test::run_ccfr(args);
+  out += r.out;
+  return r.code;
 }
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+std::string slurp(const fs::path& p) { return ccfr::test::read_text(p); }
 
 /// One frame file: vertices, triangles (0-based, global) and each object's vertex range.
 struct Frame {
@@ -220,7 +211,7 @@ TEST_P(StressRun, EveryWrittenFrameIsClean) {
   const auto& [sc, solver] = GetParam();
   if (sc.initial_proximity && kInitialProximityPending) GTEST_SKIP() << "pending: initial proximity";
   const fs::path cfg = fs::path(CCFR_SOURCE_DIR) / "configs" / "stress" / sc.config;
-  const fs::path out = fs::temp_directory_path() / ("ccfr_stress_" + sc.name + "_" + solver);
+  const fs::path out = ccfr::test::scratch_path("stress_" + sc.name + "_" + solver);
   fs::remove_all(out);
   std::string log;
   const auto t0 = std::chrono::steady_clock::now();

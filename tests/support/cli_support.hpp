@@ -1,0 +1,54 @@
+#pragma once
+// Running the real `ccfr` binary from tests, and scratch directories private to one build tree:
+// several build trees (worktrees, the sanitizer build) may run their suites on one machine at
+// once, and a shared /tmp path let one suite delete another's frames mid-audit.
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace ccfr::test {
+
+struct CliResult {
+  int code = -1;    ///< exit code, -1 if the process did not exit normally
+  std::string out;  ///< stdout and stderr, interleaved
+};
+
+/// Runs `CCFR_EXE args` through the shell and collects its output.
+inline CliResult run_ccfr(const std::string& args) {
+  const std::string cmd = std::string(CCFR_EXE) + " " + args + " 2>&1";
+  CliResult r;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return {-1, "popen failed"};
+  std::array<char, 4096> buf;
+  while (size_t n = fread(buf.data(), 1, buf.size(), p)) r.out.append(buf.data(), n);
+  const int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+/// BUILD/test-scratch/NAME, not created (for runs that must create it themselves).
+inline std::filesystem::path scratch_path(const std::string& name) {
+  return std::filesystem::path(CCFR_BINARY_DIR) / "test-scratch" / name;
+}
+
+/// BUILD/test-scratch/NAME, emptied and created.
+inline std::filesystem::path scratch_dir(const std::string& name) {
+  const std::filesystem::path d = scratch_path(name);
+  std::filesystem::remove_all(d);
+  std::filesystem::create_directories(d);
+  return d;
+}
+
+inline std::string read_text(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+}  // namespace ccfr::test
