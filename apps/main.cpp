@@ -3,9 +3,9 @@
 
 #include <cstdio>
 
-#include "commands.hpp"
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
+#include "commands.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"ccfr: penetration-free XPBD simulation with Convex Collision-Free Regions"};

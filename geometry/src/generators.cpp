@@ -1,7 +1,7 @@
 #include "ccfr/geometry/generators.hpp"
 
-#include <cmath>
 #include <array>
+#include <cmath>
 #include <map>
 #include <numbers>
 #include <stdexcept>
@@ -42,7 +42,8 @@ Vec3 strand_root(Index k, Index count, double spread, bool row) {
 }
 }  // namespace
 
-PolylineSet curly_strands(Index count, Index vertices, double length, double spread, double coil_radius, double turns, bool row) {
+PolylineSet curly_strands(Index count, Index vertices, double length, double spread, double coil_radius, double turns,
+                          bool row) {
   if (count < 1 || vertices < 2) throw std::invalid_argument("strands need count >= 1 and vertices >= 2");
   PolylineSet s;
   for (Index k = 0; k < count; ++k) {
@@ -85,7 +86,8 @@ TetMesh tet_box(const Vec3& size, const Vec3i& res) {
         m.v.emplace_back(size.x() * (double(i) / res.x() - 0.5), size.y() * (double(j) / res.y() - 0.5),
                          size.z() * (double(k) / res.z() - 0.5));
   // Kuhn subdivision: 6 tets around the cell diagonal 0-7; conforming across cells.
-  static constexpr int kTets[6][4] = {{0, 1, 3, 7}, {0, 1, 5, 7}, {0, 2, 3, 7}, {0, 2, 6, 7}, {0, 4, 5, 7}, {0, 4, 6, 7}};
+  static constexpr int kTets[6][4] = {{0, 1, 3, 7}, {0, 1, 5, 7}, {0, 2, 3, 7},
+                                      {0, 2, 6, 7}, {0, 4, 5, 7}, {0, 4, 6, 7}};
   for (Index k = 0; k < res.z(); ++k)
     for (Index j = 0; j < res.y(); ++j)
       for (Index i = 0; i < res.x(); ++i) {
@@ -104,11 +106,11 @@ TetMesh tet_box(const Vec3& size, const Vec3i& res) {
 TriMesh sphere(double radius, int subdivisions) {
   const double p = (1.0 + std::sqrt(5.0)) / 2.0;
   TriMesh m;
-  m.v = {{-1, p, 0}, {1, p, 0}, {-1, -p, 0}, {1, -p, 0}, {0, -1, p}, {0, 1, p},
-         {0, -1, -p}, {0, 1, -p}, {p, 0, -1}, {p, 0, 1}, {-p, 0, -1}, {-p, 0, 1}};
-  m.f = {{0, 11, 5}, {0, 5, 1}, {0, 1, 7}, {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
-         {11, 10, 2}, {10, 7, 6}, {7, 1, 8}, {3, 9, 4}, {3, 4, 2}, {3, 2, 6}, {3, 6, 8},
-         {3, 8, 9}, {4, 9, 5}, {2, 4, 11}, {6, 2, 10}, {8, 6, 7}, {9, 8, 1}};
+  m.v = {{-1, p, 0},  {1, p, 0},  {-1, -p, 0}, {1, -p, 0}, {0, -1, p},  {0, 1, p},
+         {0, -1, -p}, {0, 1, -p}, {p, 0, -1},  {p, 0, 1},  {-p, 0, -1}, {-p, 0, 1}};
+  m.f = {{0, 11, 5},  {0, 5, 1},  {0, 1, 7},  {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
+         {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
+         {3, 8, 9},   {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
   for (auto& v : m.v) v.normalize();
   for (int s = 0; s < subdivisions; ++s) {
     std::map<std::pair<Index, Index>, Index> mid;
@@ -195,7 +197,8 @@ TetMesh tet_voxels(const std::vector<Vec3i>& cells, double h) {
     if (added) m.v.emplace_back(h * i, h * j, h * k);
     return it->second;
   };
-  static constexpr int kTets[6][4] = {{0, 1, 3, 7}, {0, 1, 5, 7}, {0, 2, 3, 7}, {0, 2, 6, 7}, {0, 4, 5, 7}, {0, 4, 6, 7}};
+  static constexpr int kTets[6][4] = {{0, 1, 3, 7}, {0, 1, 5, 7}, {0, 2, 3, 7},
+                                      {0, 2, 6, 7}, {0, 4, 5, 7}, {0, 4, 6, 7}};
   std::map<std::array<Index, 3>, bool> seen;
   for (const auto& cell : cells) {
     if (!seen.try_emplace({cell.x(), cell.y(), cell.z()}, true).second) continue;  // duplicates are harmless
@@ -203,7 +206,8 @@ TetMesh tet_voxels(const std::vector<Vec3i>& cells, double h) {
     for (int b = 0; b < 8; ++b) c[b] = corner(cell.x() + (b & 1), cell.y() + ((b >> 1) & 1), cell.z() + ((b >> 2) & 1));
     for (const auto& t : kTets) {
       Vec4i tet(c[t[0]], c[t[1]], c[t[2]], c[t[3]]);
-      if ((m.v[tet[1]] - m.v[tet[0]]).cross(m.v[tet[2]] - m.v[tet[0]]).dot(m.v[tet[3]] - m.v[tet[0]]) < 0) std::swap(tet[2], tet[3]);
+      if ((m.v[tet[1]] - m.v[tet[0]]).cross(m.v[tet[2]] - m.v[tet[0]]).dot(m.v[tet[3]] - m.v[tet[0]]) < 0)
+        std::swap(tet[2], tet[3]);
       m.t.push_back(tet);
     }
   }
@@ -211,7 +215,8 @@ TetMesh tet_voxels(const std::vector<Vec3i>& cells, double h) {
 }
 
 TetMesh octopus(double h, Index body, Index legs, Index leg_length) {
-  if (body < 2 || legs < 0 || leg_length < 0) throw std::invalid_argument("octopus needs body >= 2, legs >= 0, leg_length >= 0");
+  if (body < 2 || legs < 0 || leg_length < 0)
+    throw std::invalid_argument("octopus needs body >= 2, legs >= 0, leg_length >= 0");
   std::vector<Vec3i> cells;
   for (Index i = 0; i < body; ++i)
     for (Index j = 0; j < body; ++j)

@@ -61,7 +61,8 @@ class Builder {
       const YAML::Node o = objs[i];
       const std::string path = "objects[" + std::to_string(i) + "]";
       const std::string name = o["name"].as<std::string>();
-      if (!names.insert(name).second) ctx_.fail(path + ".name", in_node(path + ".name"), "duplicate object name '" + name + "'");
+      if (!names.insert(name).second)
+        ctx_.fail(path + ".name", in_node(path + ".name"), "duplicate object name '" + name + "'");
       const ObjectKind kind = *object_kind_from_string(o["kind"].as<std::string>());
       RawGeometry g = make_geometry(o["shape"], kind, path);
       place(g, o["transform"]);
@@ -105,7 +106,8 @@ class Builder {
       const auto br = seg.find('[');
       if (br != std::string::npos) {
         key = seg.substr(0, br);
-        for (size_t b = br; b != std::string::npos; b = seg.find('[', b + 1)) idx.push_back(std::stoul(seg.substr(b + 1)));
+        for (size_t b = br; b != std::string::npos; b = seg.find('[', b + 1))
+          idx.push_back(std::stoul(seg.substr(b + 1)));
       }
       if (!cur.IsMap() || !cur[key]) return cur;
       YAML::Node next = cur[key];
@@ -147,18 +149,21 @@ class Builder {
     p.contact.projection_sweeps = c["projection_sweeps"].as<int>();
     p.contact.analytic_obstacles = c["analytic_obstacles"].as<bool>();
     const std::string policy = c["on_violation"].as<std::string>();
-    p.contact.on_violation = policy == "error" ? ViolationPolicy::error
+    p.contact.on_violation = policy == "error"  ? ViolationPolicy::error
                              : policy == "warn" ? ViolationPolicy::warn
                                                 : ViolationPolicy::automatic;
     p.collision.broad_phase = cfg_["collision"]["broad_phase"].as<std::string>();
     const auto d = cfg_["debug"];
     const std::string audit = d["audit"].as<std::string>();
-    p.debug.audit = audit == "every_frame" ? AuditMode::every_frame : audit == "every_substep" ? AuditMode::every_substep : AuditMode::off;
+    p.debug.audit = audit == "every_frame"     ? AuditMode::every_frame
+                    : audit == "every_substep" ? AuditMode::every_substep
+                                               : AuditMode::off;
     p.debug.audit_tolerance = d["audit_tolerance"].as<double>();
     p.output.frames = cfg_["output"]["frames"].as<bool>();
     p.output.every = cfg_["output"]["every"].as<int>();
     if (p.contact.friction_kinetic > p.contact.friction_static && p.contact.friction_static > 0)
-      ctx_.fail("contact.friction.kinetic", in_node("contact.friction.kinetic"), "kinetic friction must not exceed static friction");
+      ctx_.fail("contact.friction.kinetic", in_node("contact.friction.kinetic"),
+                "kinetic friction must not exceed static friction");
   }
 
   MaterialParams material(const std::string& name, const std::string& path) {
@@ -188,9 +193,12 @@ class Builder {
     const std::string type = s["type"].as<std::string>();
     const std::string tpath = path + ".shape.type";
     auto require = [&](bool ok, const std::string& what) {
-      if (!ok) ctx_.fail(tpath, in_node(tpath), "shape '" + type + "' cannot make a " + std::string(to_string(kind)) + " object; " + what);
+      if (!ok)
+        ctx_.fail(tpath, in_node(tpath),
+                  "shape '" + type + "' cannot make a " + std::string(to_string(kind)) + " object; " + what);
     };
-    const bool surface_kind = kind == ObjectKind::cloth || kind == ObjectKind::shell || kind == ObjectKind::obstacle || kind == ObjectKind::rigid;
+    const bool surface_kind = kind == ObjectKind::cloth || kind == ObjectKind::shell || kind == ObjectKind::obstacle ||
+                              kind == ObjectKind::rigid;
     RawGeometry g;
     auto take = [&](gen::TriMesh m) {
       g.v = std::move(m.v);
@@ -198,15 +206,17 @@ class Builder {
     };
     if (type == "grid") {
       require(surface_kind, "use kind cloth, shell, obstacle or rigid");
-      take(gen::grid(s["size"][0].as<double>(), s["size"][1].as<double>(), s["resolution"][0].as<Index>(), s["resolution"][1].as<Index>()));
+      take(gen::grid(s["size"][0].as<double>(), s["size"][1].as<double>(), s["resolution"][0].as<Index>(),
+                     s["resolution"][1].as<Index>()));
       if (kind == ObjectKind::obstacle) {
         // A flat obstacle grid is also an analytic plane (normal +y) for the SDF pass.
         g.shape.type = AnalyticShape::Type::plane;
       }
     } else if (type == "strands") {
       require(kind == ObjectKind::strand, "use kind strand");
-      auto ps = gen::curly_strands(s["count"].as<Index>(), s["vertices"].as<Index>(), s["length"].as<double>(), s["spread"].as<double>(),
-                                   s["coil_radius"].as<double>(), s["turns"].as<double>(), s["layout"].as<std::string>() == "row");
+      auto ps = gen::curly_strands(s["count"].as<Index>(), s["vertices"].as<Index>(), s["length"].as<double>(),
+                                   s["spread"].as<double>(), s["coil_radius"].as<double>(), s["turns"].as<double>(),
+                                   s["layout"].as<std::string>() == "row");
       g.v = std::move(ps.v);
       g.lines = std::move(ps.lines);
     } else if (type == "particles") {
@@ -221,13 +231,14 @@ class Builder {
       g.tets = std::move(m.t);
     } else if (type == "octopus") {
       require(kind == ObjectKind::tet_solid, "use kind tet_solid");
-      auto m = gen::octopus(s["cell"].as<double>(), s["body"].as<Index>(), s["legs"].as<Index>(), s["leg_length"].as<Index>());
+      auto m = gen::octopus(s["cell"].as<double>(), s["body"].as<Index>(), s["legs"].as<Index>(),
+                            s["leg_length"].as<Index>());
       g.v = std::move(m.v);
       g.tets = std::move(m.t);
     } else if (type == "comb") {
       require(surface_kind, "use kind obstacle, rigid, shell or cloth");
-      take(gen::comb(s["length"].as<double>(), s["width"].as<double>(), s["spine_height"].as<double>(), s["teeth"].as<Index>(),
-                     s["tooth_length"].as<double>(), s["tooth_width"].as<double>()));
+      take(gen::comb(s["length"].as<double>(), s["width"].as<double>(), s["spine_height"].as<double>(),
+                     s["teeth"].as<Index>(), s["tooth_length"].as<double>(), s["tooth_width"].as<double>()));
     } else if (type == "sphere") {
       require(surface_kind, "use kind obstacle, rigid, shell or cloth");
       take(gen::sphere(s["radius"].as<double>(), s["subdivisions"].as<int>()));
@@ -235,14 +246,16 @@ class Builder {
       g.shape.radius = s["radius"].as<double>();
     } else if (type == "cylinder") {
       require(surface_kind, "use kind obstacle, rigid, shell or cloth");
-      take(gen::cylinder(s["radius"].as<double>(), s["height"].as<double>(), s["segments"].as<Index>(), s["capped"].as<bool>()));
+      take(gen::cylinder(s["radius"].as<double>(), s["height"].as<double>(), s["segments"].as<Index>(),
+                         s["capped"].as<bool>()));
       g.shape.type = AnalyticShape::Type::cylinder;
       g.shape.radius = s["radius"].as<double>();
       g.shape.half_height = 0.5 * s["height"].as<double>();
     } else if (type == "box" || type == "open_box") {
       require(surface_kind, "use kind obstacle, rigid, shell or cloth");
       const Vec3 size = v3(s["size"]);
-      if ((size.array() <= 0).any()) ctx_.fail(path + ".shape.size", in_node(path + ".shape.size"), "box sizes must be > 0");
+      if ((size.array() <= 0).any())
+        ctx_.fail(path + ".shape.size", in_node(path + ".shape.size"), "box sizes must be > 0");
       take(type == "box" ? gen::box(size) : gen::open_box(size));
       if (type == "box") {
         g.shape.type = AnalyticShape::Type::box;
@@ -265,7 +278,8 @@ class Builder {
       }
       g.v = std::move(m.v);
       if (kind == ObjectKind::strand) {
-        if (m.lines.empty()) ctx_.fail(ppath, in_node(ppath), "a strand mesh needs `l` lines; '" + file.string() + "' has none");
+        if (m.lines.empty())
+          ctx_.fail(ppath, in_node(ppath), "a strand mesh needs `l` lines; '" + file.string() + "' has none");
         g.lines = std::move(m.lines);
       } else {
         require(surface_kind, "meshes make cloth, shell, obstacle, rigid or strand objects");
@@ -292,7 +306,8 @@ class Builder {
     g.shape.half_extent *= scale;
   }
 
-  void read_pins(const YAML::Node& pins, const ObjectInfo& info, SimState& st, ObjectParams& op, const std::string& path) {
+  void read_pins(const YAML::Node& pins, const ObjectInfo& info, SimState& st, ObjectParams& op,
+                 const std::string& path) {
     if (!pins) return;
     for (size_t k = 0; k < pins.size(); ++k) {
       const YAML::Node pn = pins[k];
@@ -304,7 +319,8 @@ class Builder {
           const Index li = pn["indices"][j].as<Index>();
           if (li >= info.num_vertices())
             ctx_.fail(pp + ".indices[" + std::to_string(j) + "]", in_node(pp + ".indices"),
-                      "vertex index " + std::to_string(li) + " out of range: the object has " + std::to_string(info.num_vertices()) + " vertices");
+                      "vertex index " + std::to_string(li) + " out of range: the object has " +
+                          std::to_string(info.num_vertices()) + " vertices");
           grp.vertices.push_back(li);
         }
       if (static_cast<bool>(pn["box_min"]) != static_cast<bool>(pn["box_max"]))
@@ -312,9 +328,11 @@ class Builder {
       if (pn["box_min"]) {
         const Vec3 lo = v3(pn["box_min"]), hi = v3(pn["box_max"]);
         for (Index v = info.vertex_begin; v < info.vertex_end; ++v)
-          if ((st.x[v].array() >= lo.array()).all() && (st.x[v].array() <= hi.array()).all()) grp.vertices.push_back(v - info.vertex_begin);
+          if ((st.x[v].array() >= lo.array()).all() && (st.x[v].array() <= hi.array()).all())
+            grp.vertices.push_back(v - info.vertex_begin);
       }
-      if (grp.vertices.empty()) ctx_.fail(pp, in_node(pp), "pin group selects no vertex (give indices or a box that contains vertices)");
+      if (grp.vertices.empty())
+        ctx_.fail(pp, in_node(pp), "pin group selects no vertex (give indices or a box that contains vertices)");
       op.pins.push_back(std::move(grp));
     }
   }
@@ -347,7 +365,9 @@ class Builder {
         case ObjectKind::tet_solid:
           for (Index t = o.tet_begin; t < o.tet_end; ++t) {
             const auto& tt = topo.tets[t];
-            const double vol = std::abs((st.x[tt[1]] - st.x[tt[0]]).cross(st.x[tt[2]] - st.x[tt[0]]).dot(st.x[tt[3]] - st.x[tt[0]])) / 6.0;
+            const double vol =
+                std::abs((st.x[tt[1]] - st.x[tt[0]]).cross(st.x[tt[2]] - st.x[tt[0]]).dot(st.x[tt[3]] - st.x[tt[0]])) /
+                6.0;
             for (int k = 0; k < 4; ++k) st.mass[tt[k]] += rho * vol / 4.0;
           }
           break;

@@ -30,8 +30,10 @@ std::string fmt_array(const std::array<T, N>& a) {
   std::string s = "[";
   for (size_t i = 0; i < N; ++i) {
     if (i) s += ", ";
-    if constexpr (std::is_floating_point_v<T>) s += fmt_double(a[i]);
-    else s += std::to_string(a[i]);
+    if constexpr (std::is_floating_point_v<T>)
+      s += fmt_double(a[i]);
+    else
+      s += std::to_string(a[i]);
   }
   return s + "]";
 }
@@ -66,20 +68,34 @@ std::string join(const std::string& path, const std::string& key) { return path.
 
 std::string kind_name(Kind k) {
   switch (k) {
-    case Kind::map: return "map";
-    case Kind::list: return "list";
-    case Kind::number: return "number";
-    case Kind::integer: return "integer";
-    case Kind::boolean: return "boolean";
-    case Kind::string: return "string";
-    case Kind::choice: return "choice";
-    case Kind::vec3: return "[x, y, z]";
-    case Kind::vec2: return "[a, b]";
-    case Kind::ivec3: return "[i, j, k]";
-    case Kind::ivec2: return "[i, j]";
-    case Kind::index_list: return "list of indices";
-    case Kind::dict: return "map of name -> entry";
-    case Kind::variant: return "map";
+    case Kind::map:
+      return "map";
+    case Kind::list:
+      return "list";
+    case Kind::number:
+      return "number";
+    case Kind::integer:
+      return "integer";
+    case Kind::boolean:
+      return "boolean";
+    case Kind::string:
+      return "string";
+    case Kind::choice:
+      return "choice";
+    case Kind::vec3:
+      return "[x, y, z]";
+    case Kind::vec2:
+      return "[a, b]";
+    case Kind::ivec3:
+      return "[i, j, k]";
+    case Kind::ivec2:
+      return "[i, j]";
+    case Kind::index_list:
+      return "list of indices";
+    case Kind::dict:
+      return "map of name -> entry";
+    case Kind::variant:
+      return "map";
   }
   return "?";
 }
@@ -93,10 +109,14 @@ bool parse_double(const YAML::Node& n, double& out) {
   out = std::strtod(b, &e);
   if (e == b || *e != '\0') {
     // YAML spellings of infinity / NaN parse but are rejected later as non-finite.
-    if (s == ".inf" || s == "+.inf" || s == ".Inf") out = INFINITY;
-    else if (s == "-.inf" || s == "-.Inf") out = -INFINITY;
-    else if (s == ".nan" || s == ".NaN" || s == "nan" || s == "NaN") out = NAN;
-    else return false;
+    if (s == ".inf" || s == "+.inf" || s == ".Inf")
+      out = INFINITY;
+    else if (s == "-.inf" || s == "-.Inf")
+      out = -INFINITY;
+    else if (s == ".nan" || s == ".NaN" || s == "nan" || s == "NaN")
+      out = NAN;
+    else
+      return false;
   }
   return true;
 }
@@ -110,22 +130,37 @@ bool parse_integer(const YAML::Node& n, long long& out) {
 
 YAML::Node scalar_number(const YAML::Node& in, const NodePtr& sch, const Context& ctx, const std::string& path) {
   double v;
-  if (!parse_double(in, v)) ctx.fail(path, in, "expected a number, got " + (in.IsScalar() ? "'" + in.Scalar() + "'" : std::string("a ") + (in.IsSequence() ? "list" : in.IsMap() ? "map" : "null value")));
+  if (!parse_double(in, v))
+    ctx.fail(path, in,
+             "expected a number, got " + (in.IsScalar() ? "'" + in.Scalar() + "'"
+                                                        : std::string("a ") + (in.IsSequence() ? "list"
+                                                                               : in.IsMap()    ? "map"
+                                                                                               : "null value")));
   if (!std::isfinite(v)) ctx.fail(path, in, "must be finite, got '" + in.Scalar() + "'");
-  if (!sch->range.contains(v)) ctx.fail(path, in, "value " + in.Scalar() + " out of range: must be " + sch->range.describe());
+  if (!sch->range.contains(v))
+    ctx.fail(path, in, "value " + in.Scalar() + " out of range: must be " + sch->range.describe());
   return YAML::Node(fmt_double(v));  // shortest round-trip text, so run.json shows 0.005, not 0.0050000000000000001
 }
 
 YAML::Node scalar_integer(const YAML::Node& in, const NodePtr& sch, const Context& ctx, const std::string& path) {
   long long v;
-  if (!parse_integer(in, v)) ctx.fail(path, in, "expected an integer, got " + (in.IsScalar() ? "'" + in.Scalar() + "'" : std::string("a ") + (in.IsSequence() ? "list" : in.IsMap() ? "map" : "null value")));
-  if (!sch->range.contains(static_cast<double>(v))) ctx.fail(path, in, "value " + in.Scalar() + " out of range: must be " + sch->range.describe());
+  if (!parse_integer(in, v))
+    ctx.fail(path, in,
+             "expected an integer, got " + (in.IsScalar() ? "'" + in.Scalar() + "'"
+                                                          : std::string("a ") + (in.IsSequence() ? "list"
+                                                                                 : in.IsMap()    ? "map"
+                                                                                                 : "null value")));
+  if (!sch->range.contains(static_cast<double>(v)))
+    ctx.fail(path, in, "value " + in.Scalar() + " out of range: must be " + sch->range.describe());
   return YAML::Node(v);
 }
 
-YAML::Node fixed_vector(const YAML::Node& in, const NodePtr& sch, const Context& ctx, const std::string& path, size_t n, bool integral) {
+YAML::Node fixed_vector(const YAML::Node& in, const NodePtr& sch, const Context& ctx, const std::string& path, size_t n,
+                        bool integral) {
   if (!in.IsSequence() || in.size() != n)
-    ctx.fail(path, in, "expected a list of " + std::to_string(n) + (integral ? " integers" : " numbers") + " like " + kind_name(sch->kind));
+    ctx.fail(path, in,
+             "expected a list of " + std::to_string(n) + (integral ? " integers" : " numbers") + " like " +
+                 kind_name(sch->kind));
   YAML::Node out(YAML::NodeType::Sequence);
   for (size_t i = 0; i < n; ++i) {
     const std::string p = path + "[" + std::to_string(i) + "]";
@@ -148,7 +183,8 @@ YAML::Node resolve_map_fields(const YAML::Node& in, const Node& sch, const Conte
     for (auto it = in.begin(); it != in.end(); ++it) {
       const std::string key = it->first.as<std::string>();
       if (key == skip_key) continue;
-      const bool known = std::any_of(sch.fields.begin(), sch.fields.end(), [&](const Field& f) { return f.key == key; });
+      const bool known =
+          std::any_of(sch.fields.begin(), sch.fields.end(), [&](const Field& f) { return f.key == key; });
       if (!known) {
         auto valid = field_keys(sch);
         ctx.fail(join(path, key), it->first, "unknown key '" + key + "'" + suggest(key, valid));
@@ -181,7 +217,8 @@ bool Range::contains(double v) const {
 
 std::string Range::describe() const {
   const bool has_lo = std::isfinite(lo), has_hi = std::isfinite(hi);
-  if (has_lo && has_hi) return std::string("in ") + (lo_open ? "(" : "[") + fmt_double(lo) + ", " + fmt_double(hi) + (hi_open ? ")" : "]");
+  if (has_lo && has_hi)
+    return std::string("in ") + (lo_open ? "(" : "[") + fmt_double(lo) + ", " + fmt_double(hi) + (hi_open ? ")" : "]");
   if (has_lo) return std::string(lo_open ? "> " : ">= ") + fmt_double(lo);
   if (has_hi) return std::string(hi_open ? "< " : "<= ") + fmt_double(hi);
   return "";
@@ -212,8 +249,10 @@ NodePtr boolean(bool def, std::string doc) {
 }
 NodePtr string(std::optional<std::string> def, std::string doc) {
   auto n = make(Kind::string, std::move(doc));
-  if (def) n->default_yaml = "'" + *def + "'";
-  else n->required = true;
+  if (def)
+    n->default_yaml = "'" + *def + "'";
+  else
+    n->required = true;
   return n;
 }
 NodePtr optional_string(std::string doc) {
@@ -229,28 +268,36 @@ NodePtr choice(std::string def, std::function<std::vector<std::string>()> choice
 }
 NodePtr vec3(std::optional<std::array<double, 3>> def, std::string doc) {
   auto n = make(Kind::vec3, std::move(doc));
-  if (def) n->default_yaml = fmt_array(*def);
-  else n->optional_absent = true;
+  if (def)
+    n->default_yaml = fmt_array(*def);
+  else
+    n->optional_absent = true;
   return n;
 }
 NodePtr vec2(std::optional<std::array<double, 2>> def, std::string doc, Range r) {
   auto n = make(Kind::vec2, std::move(doc));
-  if (def) n->default_yaml = fmt_array(*def);
-  else n->required = true;
+  if (def)
+    n->default_yaml = fmt_array(*def);
+  else
+    n->required = true;
   n->range = r;
   return n;
 }
 NodePtr ivec3(std::optional<std::array<long long, 3>> def, std::string doc, Range r) {
   auto n = make(Kind::ivec3, std::move(doc));
-  if (def) n->default_yaml = fmt_array(*def);
-  else n->required = true;
+  if (def)
+    n->default_yaml = fmt_array(*def);
+  else
+    n->required = true;
   n->range = r;
   return n;
 }
 NodePtr ivec2(std::optional<std::array<long long, 2>> def, std::string doc, Range r) {
   auto n = make(Kind::ivec2, std::move(doc));
-  if (def) n->default_yaml = fmt_array(*def);
-  else n->required = true;
+  if (def)
+    n->default_yaml = fmt_array(*def);
+  else
+    n->required = true;
   n->range = r;
   return n;
 }
@@ -307,7 +354,8 @@ YAML::Node resolve(const YAML::Node& in, const NodePtr& sch, const Context& ctx,
       if (in.IsNull() || !in.IsDefined()) return YAML::Node(YAML::NodeType::Sequence);
       if (!in.IsSequence()) ctx.fail(path, in, "expected a list");
       YAML::Node out(YAML::NodeType::Sequence);
-      for (size_t i = 0; i < in.size(); ++i) out.push_back(resolve(in[i], sch->item, ctx, path + "[" + std::to_string(i) + "]"));
+      for (size_t i = 0; i < in.size(); ++i)
+        out.push_back(resolve(in[i], sch->item, ctx, path + "[" + std::to_string(i) + "]"));
       return out;
     }
     case Kind::dict: {
@@ -325,7 +373,9 @@ YAML::Node resolve(const YAML::Node& in, const NodePtr& sch, const Context& ctx,
       const YAML::Node tag = in[sch->discriminator];
       std::vector<std::string> names;
       for (const auto& v : sch->variants) names.push_back(v.first);
-      if (!tag.IsDefined()) ctx.fail(join(path, sch->discriminator), in, "missing required key '" + sch->discriminator + "'; valid: " + suggest("", names).substr(9));
+      if (!tag.IsDefined())
+        ctx.fail(join(path, sch->discriminator), in,
+                 "missing required key '" + sch->discriminator + "'; valid: " + suggest("", names).substr(9));
       const std::string t = tag.IsScalar() ? tag.Scalar() : "";
       for (const auto& [name, vsch] : sch->variants) {
         if (name != t) continue;
@@ -335,7 +385,8 @@ YAML::Node resolve(const YAML::Node& in, const NodePtr& sch, const Context& ctx,
         for (auto it = out.begin(); it != out.end(); ++it) tagged[it->first] = it->second;
         return tagged;
       }
-      ctx.fail(join(path, sch->discriminator), tag, "unknown " + sch->discriminator + " '" + t + "'" + suggest(t, names));
+      ctx.fail(join(path, sch->discriminator), tag,
+               "unknown " + sch->discriminator + " '" + t + "'" + suggest(t, names));
     }
     case Kind::number:
       return scalar_number(in, sch, ctx, path);
@@ -356,14 +407,19 @@ YAML::Node resolve(const YAML::Node& in, const NodePtr& sch, const Context& ctx,
         ctx.fail(path, in, "unknown value '" + in.Scalar() + "'" + suggest(in.Scalar(), valid));
       return YAML::Node(in.Scalar());
     }
-    case Kind::vec3: return fixed_vector(in, sch, ctx, path, 3, false);
-    case Kind::vec2: return fixed_vector(in, sch, ctx, path, 2, false);
-    case Kind::ivec3: return fixed_vector(in, sch, ctx, path, 3, true);
-    case Kind::ivec2: return fixed_vector(in, sch, ctx, path, 2, true);
+    case Kind::vec3:
+      return fixed_vector(in, sch, ctx, path, 3, false);
+    case Kind::vec2:
+      return fixed_vector(in, sch, ctx, path, 2, false);
+    case Kind::ivec3:
+      return fixed_vector(in, sch, ctx, path, 3, true);
+    case Kind::ivec2:
+      return fixed_vector(in, sch, ctx, path, 2, true);
     case Kind::index_list: {
       if (!in.IsSequence()) ctx.fail(path, in, "expected a list of vertex indices");
       YAML::Node out(YAML::NodeType::Sequence);
-      for (size_t i = 0; i < in.size(); ++i) out.push_back(scalar_integer(in[i], sch, ctx, path + "[" + std::to_string(i) + "]"));
+      for (size_t i = 0; i < in.size(); ++i)
+        out.push_back(scalar_integer(in[i], sch, ctx, path + "[" + std::to_string(i) + "]"));
       return out;
     }
   }
@@ -372,8 +428,7 @@ YAML::Node resolve(const YAML::Node& in, const NodePtr& sch, const Context& ctx,
 
 std::string apply_override(YAML::Node& root, const std::string& assignment) {
   const auto eq = assignment.find('=');
-  if (eq == std::string::npos || eq == 0)
-    throw Error("--set '" + assignment + "': expected key.path=value");
+  if (eq == std::string::npos || eq == 0) throw Error("--set '" + assignment + "': expected key.path=value");
   std::string key = assignment.substr(0, eq);
   const std::string value = assignment.substr(eq + 1);
   for (char& c : key)
@@ -398,7 +453,8 @@ std::string apply_override(YAML::Node& root, const std::string& assignment) {
         if (idx < 0) throw Error("--set '" + assignment + "': no list element named '" + seg + "' at '" + norm + "'");
       }
       if (idx < 0 || idx >= static_cast<long long>(cur.size()))
-        throw Error("--set '" + assignment + "': index " + seg + " out of range at '" + norm + "' (" + std::to_string(cur.size()) + " elements)");
+        throw Error("--set '" + assignment + "': index " + seg + " out of range at '" + norm + "' (" +
+                    std::to_string(cur.size()) + " elements)");
       norm += "[" + std::to_string(idx) + "]";
       if (last) {
         cur[static_cast<size_t>(idx)] = YAML::Load(value);
@@ -426,10 +482,18 @@ std::string json_escape(const std::string& s) {
   std::string o = "\"";
   for (char c : s) {
     switch (c) {
-      case '"': o += "\\\""; break;
-      case '\\': o += "\\\\"; break;
-      case '\n': o += "\\n"; break;
-      case '\t': o += "\\t"; break;
+      case '"':
+        o += "\\\"";
+        break;
+      case '\\':
+        o += "\\\\";
+        break;
+      case '\n':
+        o += "\\n";
+        break;
+      case '\t':
+        o += "\\t";
+        break;
       default:
         if (static_cast<unsigned char>(c) < 0x20) {
           char b[8];
@@ -445,7 +509,8 @@ std::string json_escape(const std::string& s) {
 
 void emit(std::string& o, const YAML::Node& n, const Node& sch, int ind);
 
-void emit_map(std::string& o, const YAML::Node& n, const std::vector<Field>& fields, int ind, const std::string& disc = "") {
+void emit_map(std::string& o, const YAML::Node& n, const std::vector<Field>& fields, int ind,
+              const std::string& disc = "") {
   const std::string pad(static_cast<size_t>(ind + 2), ' ');
   o += "{";
   bool first = true;
@@ -466,10 +531,13 @@ void emit_map(std::string& o, const YAML::Node& n, const std::vector<Field>& fie
 void emit(std::string& o, const YAML::Node& n, const Node& sch, int ind) {
   const std::string pad(static_cast<size_t>(ind + 2), ' ');
   switch (sch.kind) {
-    case Kind::map: emit_map(o, n, sch.fields, ind); return;
+    case Kind::map:
+      emit_map(o, n, sch.fields, ind);
+      return;
     case Kind::variant:
       for (const auto& [name, v] : sch.variants)
-        if (n[sch.discriminator] && n[sch.discriminator].Scalar() == name) return emit_map(o, n, v->fields, ind, sch.discriminator);
+        if (n[sch.discriminator] && n[sch.discriminator].Scalar() == name)
+          return emit_map(o, n, v->fields, ind, sch.discriminator);
       o += "{}";
       return;
     case Kind::dict: {
@@ -494,7 +562,11 @@ void emit(std::string& o, const YAML::Node& n, const Node& sch, int ind) {
       o += n.size() ? "\n" + std::string(static_cast<size_t>(ind), ' ') + "]" : "]";
       return;
     }
-    case Kind::vec3: case Kind::vec2: case Kind::ivec3: case Kind::ivec2: case Kind::index_list: {
+    case Kind::vec3:
+    case Kind::vec2:
+    case Kind::ivec3:
+    case Kind::ivec2:
+    case Kind::index_list: {
       o += "[";
       for (size_t i = 0; i < n.size(); ++i) o += (i ? ", " : "") + n[i].Scalar();
       o += "]";
@@ -506,8 +578,14 @@ void emit(std::string& o, const YAML::Node& n, const Node& sch, int ind) {
       o += fmt_double(v);
       return;
     }
-    case Kind::integer: case Kind::boolean: o += n.Scalar(); return;
-    case Kind::string: case Kind::choice: o += json_escape(n.Scalar()); return;
+    case Kind::integer:
+    case Kind::boolean:
+      o += n.Scalar();
+      return;
+    case Kind::string:
+    case Kind::choice:
+      o += json_escape(n.Scalar());
+      return;
   }
 }
 
@@ -519,22 +597,27 @@ void reference_rows(std::string& o, const Node& sch, const std::string& path, co
       for (const auto& c : n.choices()) allowed += (allowed.empty() ? "`" : ", `") + c + "`";
       type = "choice";
     }
-    if (n.required) def = "required";
-    else if (n.default_yaml) def = "`" + *n.default_yaml + "`";
-    else def = "absent";
+    if (n.required)
+      def = "required";
+    else if (n.default_yaml)
+      def = "`" + *n.default_yaml + "`";
+    else
+      def = "absent";
     if (!def.empty() && def.front() == '`') {
       // strip the YAML quotes of string defaults for readability
       std::string inner = def.substr(1, def.size() - 2);
       if (inner.size() >= 2 && inner.front() == '\'' && inner.back() == '\'') inner = inner.substr(1, inner.size() - 2);
       def = "`" + inner + "`";
     }
-    o += "| `" + p + "` | " + type + " | " + def + " | " + allowed + " | " + n.doc + (note.empty() ? "" : " " + note) + " |\n";
+    o += "| `" + p + "` | " + type + " | " + def + " | " + allowed + " | " + n.doc + (note.empty() ? "" : " " + note) +
+         " |\n";
   };
   switch (sch.kind) {
     case Kind::map:
       for (const auto& f : sch.fields) {
         const std::string p = path.empty() ? f.key : path + "." + f.key;
-        if (f.node->kind == Kind::map || f.node->kind == Kind::list || f.node->kind == Kind::dict || f.node->kind == Kind::variant) {
+        if (f.node->kind == Kind::map || f.node->kind == Kind::list || f.node->kind == Kind::dict ||
+            f.node->kind == Kind::variant) {
           if (f.node->kind != Kind::map || f.node->optional_absent) row(p, *f.node);
           reference_rows(o, *f.node, p, note);
         } else {
@@ -552,7 +635,8 @@ void reference_rows(std::string& o, const Node& sch, const std::string& path, co
       std::string names;
       for (const auto& v : sch.variants) names += (names.empty() ? "`" : ", `") + v.first + "`";
       o += "| `" + path + "." + sch.discriminator + "` | choice | required | " + names + " | selects the variant |\n";
-      for (const auto& [name, v] : sch.variants) reference_rows(o, *v, path, "(" + sch.discriminator + ": " + name + ")");
+      for (const auto& [name, v] : sch.variants)
+        reference_rows(o, *v, path, "(" + sch.discriminator + ": " + name + ")");
       return;
     }
     default:

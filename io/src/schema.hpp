@@ -15,7 +15,22 @@
 
 namespace ccfr::io::schema {
 
-enum class Kind { map, list, number, integer, boolean, string, choice, vec3, vec2, ivec3, ivec2, index_list, dict, variant };
+enum class Kind {
+  map,
+  list,
+  number,
+  integer,
+  boolean,
+  string,
+  choice,
+  vec3,
+  vec2,
+  ivec3,
+  ivec2,
+  index_list,
+  dict,
+  variant
+};
 
 struct Node;
 using NodePtr = std::shared_ptr<Node>;
@@ -43,12 +58,12 @@ struct Node {
   std::string doc;
   std::optional<std::string> default_yaml;  ///< YAML text of the default; nullopt and required: must be given
   bool required = false;
-  bool optional_absent = false;             ///< no default and may be absent (e.g. `mesh`)
+  bool optional_absent = false;  ///< no default and may be absent (e.g. `mesh`)
   Range range;
-  std::function<std::vector<std::string>()> choices;  ///< choice
-  std::vector<Field> fields;                          ///< map
-  NodePtr item;                                       ///< list item, dict value
-  std::string discriminator;                          ///< variant: key that names the variant
+  std::function<std::vector<std::string>()> choices;      ///< choice
+  std::vector<Field> fields;                              ///< map
+  NodePtr item;                                           ///< list item, dict value
+  std::string discriminator;                              ///< variant: key that names the variant
   std::vector<std::pair<std::string, NodePtr>> variants;  ///< variant name -> map of its other keys
 };
 
