@@ -2,14 +2,29 @@
 
 #include <array>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <numbers>
 #include <stdexcept>
+#include <string>
 
 namespace ccfr::gen {
 
+namespace {
+/// Element counts are computed in 64 bits and must fit `Index` (int32): beyond it the index
+/// arithmetic would wrap and the mesh would address memory it does not own.
+void check_count(long long n, const char* what, const std::string& shape) {
+  if (n > std::numeric_limits<Index>::max())
+    throw std::invalid_argument(shape + " makes " + std::to_string(n) + " " + what + ", more than the " +
+                                std::to_string(std::numeric_limits<Index>::max()) + " that 32-bit indices address");
+}
+}  // namespace
+
 TriMesh grid(double size_x, double size_z, Index res_x, Index res_z) {
   if (res_x < 1 || res_z < 1) throw std::invalid_argument("grid resolution must be >= 1");
+  const std::string what = "grid resolution [" + std::to_string(res_x) + ", " + std::to_string(res_z) + "]";
+  check_count((res_x + 1LL) * (res_z + 1LL), "vertices", what);
+  check_count(2LL * res_x * res_z, "faces", what);
   TriMesh m;
   const Index nx = res_x + 1, nz = res_z + 1;
   m.v.reserve(static_cast<size_t>(nx) * nz);
@@ -45,6 +60,8 @@ Vec3 strand_root(Index k, Index count, double spread, bool row) {
 PolylineSet curly_strands(Index count, Index vertices, double length, double spread, double coil_radius, double turns,
                           bool row) {
   if (count < 1 || vertices < 2) throw std::invalid_argument("strands need count >= 1 and vertices >= 2");
+  check_count(static_cast<long long>(count) * vertices, "vertices",
+              std::to_string(count) + " strands of " + std::to_string(vertices) + " vertices");
   PolylineSet s;
   for (Index k = 0; k < count; ++k) {
     const Vec3 root = strand_root(k, count, spread, row);
@@ -67,6 +84,8 @@ PolylineSet straight_strands(Index count, Index vertices, double length, double 
 
 Positions particle_block(Index nx, Index ny, Index nz, double spacing) {
   if (nx < 1 || ny < 1 || nz < 1) throw std::invalid_argument("particle block counts must be >= 1");
+  check_count(static_cast<long long>(nx) * ny * nz, "particles",
+              "particle counts [" + std::to_string(nx) + ", " + std::to_string(ny) + ", " + std::to_string(nz) + "]");
   Positions p;
   const Vec3 c = 0.5 * spacing * Vec3(nx - 1, ny - 1, nz - 1);
   for (Index k = 0; k < nz; ++k)
@@ -77,6 +96,12 @@ Positions particle_block(Index nx, Index ny, Index nz, double spacing) {
 
 TetMesh tet_box(const Vec3& size, const Vec3i& res) {
   if ((res.array() < 1).any()) throw std::invalid_argument("tet box resolution must be >= 1");
+  if (!(size.array() > 0).all() || !size.allFinite())
+    throw std::invalid_argument("tet box sizes must be finite and > 0");
+  const std::string what = "tet_box resolution [" + std::to_string(res.x()) + ", " + std::to_string(res.y()) + ", " +
+                           std::to_string(res.z()) + "]";
+  check_count((res.x() + 1LL) * (res.y() + 1LL) * (res.z() + 1LL), "vertices", what);
+  check_count(6LL * res.x() * res.y() * res.z(), "tets", what);
   TetMesh m;
   const Index nx = res.x() + 1, ny = res.y() + 1, nz = res.z() + 1;
   auto id = [&](Index i, Index j, Index k) { return (k * ny + j) * nx + i; };
@@ -137,6 +162,7 @@ TriMesh sphere(double radius, int subdivisions) {
 
 TriMesh cylinder(double radius, double height, Index segments, bool capped) {
   if (segments < 3) throw std::invalid_argument("cylinder needs >= 3 segments");
+  check_count(4LL * segments + 2, "faces", "cylinder of " + std::to_string(segments) + " segments");
   TriMesh m;
   for (Index k = 0; k < 2; ++k)
     for (Index i = 0; i < segments; ++i) {
@@ -217,6 +243,7 @@ TetMesh tet_voxels(const std::vector<Vec3i>& cells, double h) {
 TetMesh octopus(double h, Index body, Index legs, Index leg_length) {
   if (body < 2 || legs < 0 || leg_length < 0)
     throw std::invalid_argument("octopus needs body >= 2, legs >= 0, leg_length >= 0");
+  check_count(6LL * body * body * body + 12LL * legs * leg_length, "tets", "octopus body " + std::to_string(body));
   std::vector<Vec3i> cells;
   for (Index i = 0; i < body; ++i)
     for (Index j = 0; j < body; ++j)
@@ -263,6 +290,7 @@ TriMesh merge(const std::vector<TriMesh>& parts) {
 
 TriMesh comb(double length, double width, double spine_height, Index teeth, double tooth_length, double tooth_width) {
   if (teeth < 1) throw std::invalid_argument("a comb needs at least one tooth");
+  check_count(12LL * (teeth + 1LL), "faces", "comb of " + std::to_string(teeth) + " teeth");
   std::vector<TriMesh> parts;
   TriMesh spine = box(Vec3(length, spine_height, width));
   for (auto& v : spine.v) v.y() += 0.5 * spine_height;
