@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <sstream>
 
 #include "ccfr/core/error.hpp"
@@ -121,11 +122,26 @@ bool parse_double(const YAML::Node& n, double& out) {
   return true;
 }
 
-bool parse_integer(const YAML::Node& n, long long& out) {
+bool parse_integer(const YAML::Node& n, long long& out, bool* too_large = nullptr) {
   if (!n.IsScalar()) return false;
   const std::string& s = n.Scalar();
-  auto res = std::from_chars(s.data(), s.data() + s.size(), out);
+  const char* b = s.data();
+  if (s.size() > 1 && s[0] == '+') ++b;  // YAML allows a leading '+'
+  auto res = std::from_chars(b, s.data() + s.size(), out);
+  if (res.ec == std::errc::result_out_of_range && res.ptr == s.data() + s.size()) {
+    if (too_large) *too_large = true;
+    return false;
+  }
   return res.ec == std::errc() && res.ptr == s.data() + s.size();
+}
+
+/// Every integer of the schema ends as a 32-bit `int` / `Index`: values beyond it are range errors.
+Range int32_range(const Range& r) {
+  Range out = r;
+  const double lo = std::numeric_limits<std::int32_t>::min(), hi = std::numeric_limits<std::int32_t>::max();
+  if (!(out.lo > lo)) out.lo = lo, out.lo_open = false;
+  if (!(out.hi < hi)) out.hi = hi, out.hi_open = false;
+  return out;
 }
 
 YAML::Node scalar_number(const YAML::Node& in, const NodePtr& sch, const Context& ctx, const std::string& path) {
@@ -144,14 +160,18 @@ YAML::Node scalar_number(const YAML::Node& in, const NodePtr& sch, const Context
 
 YAML::Node scalar_integer(const YAML::Node& in, const NodePtr& sch, const Context& ctx, const std::string& path) {
   long long v;
-  if (!parse_integer(in, v))
+  bool too_large = false;
+  const Range r = int32_range(sch->range);
+  if (!parse_integer(in, v, &too_large)) {
+    if (too_large) ctx.fail(path, in, "value " + in.Scalar() + " out of range: must be " + r.describe());
     ctx.fail(path, in,
              "expected an integer, got " + (in.IsScalar() ? "'" + in.Scalar() + "'"
                                                           : std::string("a ") + (in.IsSequence() ? "list"
                                                                                  : in.IsMap()    ? "map"
                                                                                                  : "null value")));
-  if (!sch->range.contains(static_cast<double>(v)))
-    ctx.fail(path, in, "value " + in.Scalar() + " out of range: must be " + sch->range.describe());
+  }
+  if (!r.contains(static_cast<double>(v)))
+    ctx.fail(path, in, "value " + in.Scalar() + " out of range: must be " + r.describe());
   return YAML::Node(v);
 }
 
@@ -175,13 +195,36 @@ std::vector<std::string> field_keys(const Node& n) {
   return k;
 }
 
+/// Keys must be plain strings and appear once: YAML parsers keep the first of two equal keys and
+/// silently drop the second (`time: {fps: 60, fps: -5}` would run at 60).
+void check_keys(const YAML::Node& in, const Context& ctx, const std::string& path) {
+  std::vector<std::pair<std::string, YAML::Node>> seen;
+  for (auto it = in.begin(); it != in.end(); ++it) {
+    const YAML::Node k = it->first;
+    if (!k.IsScalar())
+      ctx.fail(path, k,
+               std::string("keys must be strings, got a ") + (k.IsSequence() ? "list"
+                                                              : k.IsMap()    ? "map"
+                                                                             : "null key"));
+    for (const auto& [name, first] : seen)
+      if (name == k.Scalar()) {
+        const int line = first.Mark().is_null() ? 0 : first.Mark().line + 1;
+        ctx.fail(join(path, name), k,
+                 "duplicate key '" + name + "'" +
+                     (line > 0 ? " (first given on line " + std::to_string(line) + ")" : std::string()));
+      }
+    seen.emplace_back(k.Scalar(), k);
+  }
+}
+
 YAML::Node resolve_map_fields(const YAML::Node& in, const Node& sch, const Context& ctx, const std::string& path,
                               const std::string& skip_key = "") {
   if (in.IsDefined() && !in.IsNull() && !in.IsMap()) ctx.fail(path, in, "expected a map of keys");
   YAML::Node out(YAML::NodeType::Map);
   if (in.IsMap()) {
+    check_keys(in, ctx, path);
     for (auto it = in.begin(); it != in.end(); ++it) {
-      const std::string key = it->first.as<std::string>();
+      const std::string key = it->first.Scalar();
       if (key == skip_key) continue;
       const bool known =
           std::any_of(sch.fields.begin(), sch.fields.end(), [&](const Field& f) { return f.key == key; });
@@ -266,12 +309,13 @@ NodePtr choice(std::string def, std::function<std::vector<std::string>()> choice
   n->choices = std::move(choices);
   return n;
 }
-NodePtr vec3(std::optional<std::array<double, 3>> def, std::string doc) {
+NodePtr vec3(std::optional<std::array<double, 3>> def, std::string doc, Range r) {
   auto n = make(Kind::vec3, std::move(doc));
   if (def)
     n->default_yaml = fmt_array(*def);
   else
     n->optional_absent = true;
+  n->range = r;
   return n;
 }
 NodePtr vec2(std::optional<std::array<double, 2>> def, std::string doc, Range r) {
@@ -336,11 +380,17 @@ NodePtr variant(std::string doc, std::string discriminator, std::vector<std::pai
   return n;
 }
 
-void Context::fail(const std::string& path, const YAML::Node& at, const std::string& message) const {
+void Context::fail(const std::string& path, const YAML::Node& at, const std::string& message,
+                   const std::vector<std::string>& related) const {
+  auto under = [](const std::string& p, const std::string& opath) {
+    return p == opath || p.rfind(opath + ".", 0) == 0 || p.rfind(opath + "[", 0) == 0;
+  };
   for (const auto& [opath, text] : overrides) {
-    if (path == opath || path.rfind(opath + ".", 0) == 0 || path.rfind(opath + "[", 0) == 0)
-      throw ConfigError("command line (" + text + ")", path, 0, message);
+    if (under(path, opath)) throw ConfigError("command line (" + text + ")", path, 0, message);
   }
+  for (const auto& [opath, text] : overrides)
+    for (const auto& r : related)
+      if (under(r, opath)) throw ConfigError("command line (" + text + ")", r, 0, message);
   int line = 0;
   if (at.IsDefined() && !at.Mark().is_null()) line = at.Mark().line + 1;
   throw ConfigError(file, path, line, message);
@@ -361,9 +411,10 @@ YAML::Node resolve(const YAML::Node& in, const NodePtr& sch, const Context& ctx,
     case Kind::dict: {
       if (in.IsNull() || !in.IsDefined()) return YAML::Node(YAML::NodeType::Map);
       if (!in.IsMap()) ctx.fail(path, in, "expected a map of named entries");
+      check_keys(in, ctx, path);
       YAML::Node out(YAML::NodeType::Map);
       for (auto it = in.begin(); it != in.end(); ++it) {
-        const std::string key = it->first.as<std::string>();
+        const std::string key = it->first.Scalar();
         out[key] = resolve(it->second, sch->item, ctx, join(path, key));
       }
       return out;
@@ -426,7 +477,8 @@ YAML::Node resolve(const YAML::Node& in, const NodePtr& sch, const Context& ctx,
   ctx.fail(path, in, "internal: unhandled schema kind");
 }
 
-std::string apply_override(YAML::Node& root, const std::string& assignment) {
+std::string apply_override(YAML::Node& root, const std::string& assignment, const NodePtr& sch,
+                           const std::string& file) {
   const auto eq = assignment.find('=');
   if (eq == std::string::npos || eq == 0) throw Error("--set '" + assignment + "': expected key.path=value");
   std::string key = assignment.substr(0, eq);
@@ -442,9 +494,35 @@ std::string apply_override(YAML::Node& root, const std::string& assignment) {
   std::string norm;
   YAML::Node cur;
   cur.reset(root);
+  const Node* sn = sch.get();  // the schema node at `norm` (null when unknown)
+  // A node in the way that is not a map: if the schema wants a map or list there, the scene file
+  // is wrong (blame it, with its line); otherwise the --set key path is.
+  auto not_a_container = [&](const YAML::Node& n) {
+    const std::string got = n.IsScalar() ? "'" + n.Scalar() + "'" : n.IsSequence() ? "a list" : "a map";
+    if (sn &&
+        (sn->kind == Kind::map || sn->kind == Kind::variant || sn->kind == Kind::dict || sn->kind == Kind::list)) {
+      const int line = n.Mark().is_null() ? 0 : n.Mark().line + 1;
+      throw ConfigError(
+          file, norm, line,
+          std::string(sn->kind == Kind::list ? "expected a list" : "expected a map of keys") + ", got " + got);
+    }
+    throw Error("--set '" + assignment + "': '" + norm + "' is " + got + ", not a map of keys");
+  };
+  auto descend = [&](const std::string& seg) {
+    if (!sn) return;
+    const Node* next = nullptr;
+    if (sn->kind == Kind::list || sn->kind == Kind::dict) next = sn->item.get();
+    for (const auto& f : sn->fields)
+      if (f.key == seg) next = f.node.get();
+    for (const auto& [name, v] : sn->variants)
+      for (const auto& f : v->fields)
+        if (f.key == seg) next = f.node.get();
+    sn = next;
+  };
   for (size_t i = 0; i < segs.size(); ++i) {
     const std::string& seg = segs[i];
     const bool last = i + 1 == segs.size();
+    if (sn && sn->kind == Kind::list && cur.IsDefined() && !cur.IsNull() && !cur.IsSequence()) not_a_container(cur);
     if (cur.IsSequence()) {
       long long idx = -1;
       if (!parse_integer(YAML::Node(seg), idx)) {
@@ -456,6 +534,7 @@ std::string apply_override(YAML::Node& root, const std::string& assignment) {
         throw Error("--set '" + assignment + "': index " + seg + " out of range at '" + norm + "' (" +
                     std::to_string(cur.size()) + " elements)");
       norm += "[" + std::to_string(idx) + "]";
+      descend(seg);
       if (last) {
         cur[static_cast<size_t>(idx)] = YAML::Load(value);
       } else {
@@ -463,9 +542,9 @@ std::string apply_override(YAML::Node& root, const std::string& assignment) {
         cur.reset(next);
       }
     } else {
-      if (!cur.IsMap() && !cur.IsNull() && cur.IsDefined())
-        throw Error("--set '" + assignment + "': '" + norm + "' is not a map");
+      if (!cur.IsMap() && !cur.IsNull() && cur.IsDefined()) not_a_container(cur);
       norm = join(norm, seg);
+      descend(seg);
       if (last) {
         cur[seg] = YAML::Load(value);
       } else {
