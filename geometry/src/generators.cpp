@@ -1,15 +1,30 @@
 #include "ccfr/geometry/generators.hpp"
 
-#include <cmath>
 #include <array>
+#include <cmath>
+#include <limits>
 #include <map>
 #include <numbers>
 #include <stdexcept>
+#include <string>
 
 namespace ccfr::gen {
 
+namespace {
+/// Element counts are computed in 64 bits and must fit `Index` (int32): beyond it the index
+/// arithmetic would wrap and the mesh would address memory it does not own.
+void check_count(long long n, const char* what, const std::string& shape) {
+  if (n > std::numeric_limits<Index>::max())
+    throw std::invalid_argument(shape + " makes " + std::to_string(n) + " " + what + ", more than the " +
+                                std::to_string(std::numeric_limits<Index>::max()) + " that 32-bit indices address");
+}
+}  // namespace
+
 TriMesh grid(double size_x, double size_z, Index res_x, Index res_z) {
   if (res_x < 1 || res_z < 1) throw std::invalid_argument("grid resolution must be >= 1");
+  const std::string what = "grid resolution [" + std::to_string(res_x) + ", " + std::to_string(res_z) + "]";
+  check_count((res_x + 1LL) * (res_z + 1LL), "vertices", what);
+  check_count(2LL * res_x * res_z, "faces", what);
   TriMesh m;
   const Index nx = res_x + 1, nz = res_z + 1;
   m.v.reserve(static_cast<size_t>(nx) * nz);
@@ -42,8 +57,11 @@ Vec3 strand_root(Index k, Index count, double spread, bool row) {
 }
 }  // namespace
 
-PolylineSet curly_strands(Index count, Index vertices, double length, double spread, double coil_radius, double turns, bool row) {
+PolylineSet curly_strands(Index count, Index vertices, double length, double spread, double coil_radius, double turns,
+                          bool row) {
   if (count < 1 || vertices < 2) throw std::invalid_argument("strands need count >= 1 and vertices >= 2");
+  check_count(static_cast<long long>(count) * vertices, "vertices",
+              std::to_string(count) + " strands of " + std::to_string(vertices) + " vertices");
   PolylineSet s;
   for (Index k = 0; k < count; ++k) {
     const Vec3 root = strand_root(k, count, spread, row);
@@ -66,6 +84,8 @@ PolylineSet straight_strands(Index count, Index vertices, double length, double 
 
 Positions particle_block(Index nx, Index ny, Index nz, double spacing) {
   if (nx < 1 || ny < 1 || nz < 1) throw std::invalid_argument("particle block counts must be >= 1");
+  check_count(static_cast<long long>(nx) * ny * nz, "particles",
+              "particle counts [" + std::to_string(nx) + ", " + std::to_string(ny) + ", " + std::to_string(nz) + "]");
   Positions p;
   const Vec3 c = 0.5 * spacing * Vec3(nx - 1, ny - 1, nz - 1);
   for (Index k = 0; k < nz; ++k)
@@ -76,6 +96,12 @@ Positions particle_block(Index nx, Index ny, Index nz, double spacing) {
 
 TetMesh tet_box(const Vec3& size, const Vec3i& res) {
   if ((res.array() < 1).any()) throw std::invalid_argument("tet box resolution must be >= 1");
+  if (!(size.array() > 0).all() || !size.allFinite())
+    throw std::invalid_argument("tet box sizes must be finite and > 0");
+  const std::string what = "tet_box resolution [" + std::to_string(res.x()) + ", " + std::to_string(res.y()) + ", " +
+                           std::to_string(res.z()) + "]";
+  check_count((res.x() + 1LL) * (res.y() + 1LL) * (res.z() + 1LL), "vertices", what);
+  check_count(6LL * res.x() * res.y() * res.z(), "tets", what);
   TetMesh m;
   const Index nx = res.x() + 1, ny = res.y() + 1, nz = res.z() + 1;
   auto id = [&](Index i, Index j, Index k) { return (k * ny + j) * nx + i; };
@@ -85,7 +111,8 @@ TetMesh tet_box(const Vec3& size, const Vec3i& res) {
         m.v.emplace_back(size.x() * (double(i) / res.x() - 0.5), size.y() * (double(j) / res.y() - 0.5),
                          size.z() * (double(k) / res.z() - 0.5));
   // Kuhn subdivision: 6 tets around the cell diagonal 0-7; conforming across cells.
-  static constexpr int kTets[6][4] = {{0, 1, 3, 7}, {0, 1, 5, 7}, {0, 2, 3, 7}, {0, 2, 6, 7}, {0, 4, 5, 7}, {0, 4, 6, 7}};
+  static constexpr int kTets[6][4] = {{0, 1, 3, 7}, {0, 1, 5, 7}, {0, 2, 3, 7},
+                                      {0, 2, 6, 7}, {0, 4, 5, 7}, {0, 4, 6, 7}};
   for (Index k = 0; k < res.z(); ++k)
     for (Index j = 0; j < res.y(); ++j)
       for (Index i = 0; i < res.x(); ++i) {
@@ -104,11 +131,11 @@ TetMesh tet_box(const Vec3& size, const Vec3i& res) {
 TriMesh sphere(double radius, int subdivisions) {
   const double p = (1.0 + std::sqrt(5.0)) / 2.0;
   TriMesh m;
-  m.v = {{-1, p, 0}, {1, p, 0}, {-1, -p, 0}, {1, -p, 0}, {0, -1, p}, {0, 1, p},
-         {0, -1, -p}, {0, 1, -p}, {p, 0, -1}, {p, 0, 1}, {-p, 0, -1}, {-p, 0, 1}};
-  m.f = {{0, 11, 5}, {0, 5, 1}, {0, 1, 7}, {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
-         {11, 10, 2}, {10, 7, 6}, {7, 1, 8}, {3, 9, 4}, {3, 4, 2}, {3, 2, 6}, {3, 6, 8},
-         {3, 8, 9}, {4, 9, 5}, {2, 4, 11}, {6, 2, 10}, {8, 6, 7}, {9, 8, 1}};
+  m.v = {{-1, p, 0},  {1, p, 0},  {-1, -p, 0}, {1, -p, 0}, {0, -1, p},  {0, 1, p},
+         {0, -1, -p}, {0, 1, -p}, {p, 0, -1},  {p, 0, 1},  {-p, 0, -1}, {-p, 0, 1}};
+  m.f = {{0, 11, 5},  {0, 5, 1},  {0, 1, 7},  {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
+         {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
+         {3, 8, 9},   {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
   for (auto& v : m.v) v.normalize();
   for (int s = 0; s < subdivisions; ++s) {
     std::map<std::pair<Index, Index>, Index> mid;
@@ -135,6 +162,7 @@ TriMesh sphere(double radius, int subdivisions) {
 
 TriMesh cylinder(double radius, double height, Index segments, bool capped) {
   if (segments < 3) throw std::invalid_argument("cylinder needs >= 3 segments");
+  check_count(4LL * segments + 2, "faces", "cylinder of " + std::to_string(segments) + " segments");
   TriMesh m;
   for (Index k = 0; k < 2; ++k)
     for (Index i = 0; i < segments; ++i) {
@@ -195,7 +223,8 @@ TetMesh tet_voxels(const std::vector<Vec3i>& cells, double h) {
     if (added) m.v.emplace_back(h * i, h * j, h * k);
     return it->second;
   };
-  static constexpr int kTets[6][4] = {{0, 1, 3, 7}, {0, 1, 5, 7}, {0, 2, 3, 7}, {0, 2, 6, 7}, {0, 4, 5, 7}, {0, 4, 6, 7}};
+  static constexpr int kTets[6][4] = {{0, 1, 3, 7}, {0, 1, 5, 7}, {0, 2, 3, 7},
+                                      {0, 2, 6, 7}, {0, 4, 5, 7}, {0, 4, 6, 7}};
   std::map<std::array<Index, 3>, bool> seen;
   for (const auto& cell : cells) {
     if (!seen.try_emplace({cell.x(), cell.y(), cell.z()}, true).second) continue;  // duplicates are harmless
@@ -203,7 +232,8 @@ TetMesh tet_voxels(const std::vector<Vec3i>& cells, double h) {
     for (int b = 0; b < 8; ++b) c[b] = corner(cell.x() + (b & 1), cell.y() + ((b >> 1) & 1), cell.z() + ((b >> 2) & 1));
     for (const auto& t : kTets) {
       Vec4i tet(c[t[0]], c[t[1]], c[t[2]], c[t[3]]);
-      if ((m.v[tet[1]] - m.v[tet[0]]).cross(m.v[tet[2]] - m.v[tet[0]]).dot(m.v[tet[3]] - m.v[tet[0]]) < 0) std::swap(tet[2], tet[3]);
+      if ((m.v[tet[1]] - m.v[tet[0]]).cross(m.v[tet[2]] - m.v[tet[0]]).dot(m.v[tet[3]] - m.v[tet[0]]) < 0)
+        std::swap(tet[2], tet[3]);
       m.t.push_back(tet);
     }
   }
@@ -211,7 +241,9 @@ TetMesh tet_voxels(const std::vector<Vec3i>& cells, double h) {
 }
 
 TetMesh octopus(double h, Index body, Index legs, Index leg_length) {
-  if (body < 2 || legs < 0 || leg_length < 0) throw std::invalid_argument("octopus needs body >= 2, legs >= 0, leg_length >= 0");
+  if (body < 2 || legs < 0 || leg_length < 0)
+    throw std::invalid_argument("octopus needs body >= 2, legs >= 0, leg_length >= 0");
+  check_count(6LL * body * body * body + 12LL * legs * leg_length, "tets", "octopus body " + std::to_string(body));
   std::vector<Vec3i> cells;
   for (Index i = 0; i < body; ++i)
     for (Index j = 0; j < body; ++j)
@@ -258,6 +290,7 @@ TriMesh merge(const std::vector<TriMesh>& parts) {
 
 TriMesh comb(double length, double width, double spine_height, Index teeth, double tooth_length, double tooth_width) {
   if (teeth < 1) throw std::invalid_argument("a comb needs at least one tooth");
+  check_count(12LL * (teeth + 1LL), "faces", "comb of " + std::to_string(teeth) + " teeth");
   std::vector<TriMesh> parts;
   TriMesh spine = box(Vec3(length, spine_height, width));
   for (auto& v : spine.v) v.y() += 0.5 * spine_height;

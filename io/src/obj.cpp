@@ -157,7 +157,10 @@ Frame read_frame_obj(const fs::path& path) {
       std::vector<Index> poly;
       while (ls >> tok) poly.push_back(parse_index(tok, nv, path, ln));
       if (poly.size() < 3) fail(path, ln, "face needs at least 3 vertices");
-      for (size_t k = 1; k + 1 < poly.size(); ++k) fr.faces.emplace_back(poly[0], poly[k], poly[k + 1]);
+      for (size_t k = 1; k + 1 < poly.size(); ++k) {
+        fr.faces.emplace_back(poly[0], poly[k], poly[k + 1]);
+        fr.face_lines.push_back(ln);
+      }
       FrameObject& o = current();
       o.face_end = static_cast<Index>(fr.faces.size());
       if (o.first_face_line == 0) o.first_face_line = ln;
@@ -189,7 +192,7 @@ ObjMesh read_obj_mesh(const fs::path& path) {
   if (!fs::exists(path)) throw Error("mesh file '" + path.string() + "' does not exist");
   Frame fr = read_frame_obj(path);
   if (fr.v.empty()) throw Error("mesh file '" + path.string() + "' has no vertices");
-  return ObjMesh{std::move(fr.v), std::move(fr.faces), std::move(fr.lines)};
+  return ObjMesh{std::move(fr.v), std::move(fr.faces), std::move(fr.lines), std::move(fr.face_lines)};
 }
 
 }  // namespace ccfr::io

@@ -1,13 +1,21 @@
 #include "ccfr/io/scene_loader.hpp"
 
+#include <unistd.h>
+
 #include <Eigen/Geometry>
+#include <algorithm>
+#include <array>
+#include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
+#include <limits>
 #include <numbers>
 #include <set>
 #include <sstream>
 
 #include "ccfr/core/error.hpp"
+#include "ccfr/core/log.hpp"
 #include "ccfr/geometry/generators.hpp"
 #include "ccfr/io/obj.hpp"
 #include "scene_schema.hpp"
@@ -29,6 +37,71 @@ struct RawGeometry {
   std::vector<std::vector<Index>> lines;
   AnalyticShape shape;
 };
+
+/// Element counts of one object (or a whole scene), in doubles: products of 32-bit keys must not wrap.
+struct Counts {
+  double v = 0, f = 0, t = 0, e = 0;  ///< vertices, surface faces, tets, strand segments
+  double crowd = 0;  ///< sum over vertices of ((ξ + r + δ) / mean edge length)² (strands: to the power 1)
+  Counts& operator+=(const Counts& o) {
+    v += o.v, f += o.f, t += o.t, e += o.e, crowd += o.crowd;
+    return *this;
+  }
+};
+
+// A rough estimate of the memory a scene needs while it runs. Per element: positions, velocities,
+// masses, rest state, BVHs, constraints, adjacency and frame text. Per crowded vertex: the contact
+// pairs and regions, which grow with the number of primitives within the contact range ξ + r + δ,
+// i.e. with (range / edge length)². Calibrated on peak resident sizes of a 200 x 200 cloth grid
+// (40401 vertices) alone: 62 MB at edge 0.1 m, 230 MB at 20 mm, 1.6 GB at 10 mm, 5.5 GB at 5 mm
+// (range 15 mm), rounded up. The estimate only has to tell a scene that fits from one that would
+// be OOM-killed.
+constexpr double kBytesPerVertex = 2048;
+constexpr double kBytesPerCrowdedVertex = 16384;  ///< times ((ξ + r + δ) / mean edge length)²
+constexpr double kBytesPerFace = 512;
+constexpr double kBytesPerTet = 1024;
+constexpr double kBytesPerSegment = 512;
+
+double estimate_bytes(const Counts& c) {
+  return kBytesPerVertex * c.v + kBytesPerCrowdedVertex * c.crowd + kBytesPerFace * c.f + kBytesPerTet * c.t +
+         kBytesPerSegment * c.e;
+}
+
+std::string count_str(double n) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.0f", n);
+  return buf;
+}
+
+/// Memory the system can give this process without swapping: MemAvailable of /proc/meminfo, else
+/// the free physical pages; 0 when unknown (then no limit is applied).
+double available_memory_bytes() {
+  std::ifstream mi("/proc/meminfo");
+  std::string key;
+  double kb = 0;
+  std::string unit;
+  while (mi >> key >> kb) {
+    std::getline(mi, unit);
+    if (key == "MemAvailable:") return kb * 1024.0;
+  }
+  const long pages = ::sysconf(_SC_AVPHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
+  return pages > 0 && page > 0 ? double(pages) * double(page) : 0.0;
+}
+
+std::string gigabytes(double b) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f GB", b / 1e9);
+  return buf;
+}
+
+/// Why a name cannot be written as `o name` in the OBJ frames (empty when it can).
+std::string name_problem(const std::string& name, bool whitespace_matters) {
+  for (unsigned char c : name)
+    if (c < 0x20 || c == 0x7f) return "contains a control character (code " + std::to_string(int(c)) + ")";
+  if (!whitespace_matters) return "";
+  if (name.find_first_not_of(" ") == std::string::npos) return "is empty or only whitespace";
+  if (name.front() == ' ' || name.back() == ' ') return "starts or ends with a space";
+  return "";
+}
 
 Motion read_motion(const YAML::Node& m) {
   Motion mo;
@@ -57,17 +130,35 @@ class Builder {
     std::set<std::string> names;
     TopologyBuilder tb;
     std::vector<RawGeometry> geoms;
+    Counts total;
     for (size_t i = 0; i < objs.size(); ++i) {
       const YAML::Node o = objs[i];
       const std::string path = "objects[" + std::to_string(i) + "]";
       const std::string name = o["name"].as<std::string>();
-      if (!names.insert(name).second) ctx_.fail(path + ".name", in_node(path + ".name"), "duplicate object name '" + name + "'");
+      if (const std::string why = name_problem(name, true); !why.empty())
+        ctx_.fail(path + ".name", in_node(path + ".name"),
+                  "object name '" + printable(name) + "' " + why + "; it is written as `o name` in the OBJ frames");
+      if (!names.insert(name).second)
+        ctx_.fail(path + ".name", in_node(path + ".name"), "duplicate object name '" + name + "'");
       const ObjectKind kind = *object_kind_from_string(o["kind"].as<std::string>());
-      RawGeometry g = make_geometry(o["shape"], kind, path);
+      // Refuse what cannot fit before generating it: counts are predicted from the shape's keys.
+      const std::string spath = path + ".shape";
+      check_size(total, predict(o["shape"], kind), spath);
+      RawGeometry g;
+      try {
+        g = make_geometry(o["shape"], kind, path);
+      } catch (const std::invalid_argument& e) {
+        ctx_.fail(spath, in_node(spath), e.what());
+      }
       place(g, o["transform"]);
+      const Counts actual = counts(g, kind, p.contact.offset + p.contact.radius + p.contact.repulsion_range);
+      check_size(total, actual, spath);
+      total += actual;
       tb.add_object(name, kind, static_cast<Index>(g.v.size()), g.faces, g.tets, g.lines);
       geoms.push_back(std::move(g));
     }
+    spdlog::debug("{}: estimated memory {} ({} vertices), {} available", ctx_.file, gigabytes(estimate_bytes(total)),
+                  count_str(total.v), gigabytes(available_memory_()));
     scene.topo = tb.finish();
 
     auto& st = scene.state;
@@ -105,7 +196,8 @@ class Builder {
       const auto br = seg.find('[');
       if (br != std::string::npos) {
         key = seg.substr(0, br);
-        for (size_t b = br; b != std::string::npos; b = seg.find('[', b + 1)) idx.push_back(std::stoul(seg.substr(b + 1)));
+        for (size_t b = br; b != std::string::npos; b = seg.find('[', b + 1))
+          idx.push_back(std::stoul(seg.substr(b + 1)));
       }
       if (!cur.IsMap() || !cur[key]) return cur;
       YAML::Node next = cur[key];
@@ -119,8 +211,110 @@ class Builder {
     return cur;
   }
 
+  /// Shows control characters of a name as \xNN, so the message itself stays on one line.
+  static std::string printable(const std::string& s) {
+    std::string o;
+    for (unsigned char c : s) {
+      if (c < 0x20 || c == 0x7f) {
+        char b[8];
+        std::snprintf(b, sizeof b, "\\x%02x", c);
+        o += b;
+      } else {
+        o += static_cast<char>(c);
+      }
+    }
+    return o;
+  }
+
+  /// Element counts a generator will make, from the shape's keys (0 for a mesh, unknown until read).
+  static Counts predict(const YAML::Node& s, ObjectKind kind) {
+    const std::string type = s["type"].as<std::string>();
+    auto i = [](const YAML::Node& n) { return n.as<double>(); };
+    Counts c;
+    if (type == "grid" || type == "plane") {
+      const double rx = type == "grid" ? i(s["resolution"][0]) : i(s["resolution"]);
+      const double rz = type == "grid" ? i(s["resolution"][1]) : rx;
+      c.v = (rx + 1) * (rz + 1), c.f = 2 * rx * rz;
+    } else if (type == "strands") {
+      c.v = i(s["count"]) * i(s["vertices"]), c.e = i(s["count"]) * (i(s["vertices"]) - 1);
+    } else if (type == "particles") {
+      c.v = i(s["counts"][0]) * i(s["counts"][1]) * i(s["counts"][2]);
+    } else if (type == "tet_box") {
+      const double x = i(s["resolution"][0]), y = i(s["resolution"][1]), z = i(s["resolution"][2]);
+      c.v = (x + 1) * (y + 1) * (z + 1), c.t = 6 * x * y * z, c.f = 4 * (x * y + y * z + z * x);
+    } else if (type == "octopus") {
+      const double b = i(s["body"]), cells = b * b * b + 2 * i(s["legs"]) * i(s["leg_length"]);
+      c.v = 8 * cells, c.t = 6 * cells, c.f = 12 * cells;
+    } else if (type == "comb") {
+      c.v = 8 * (i(s["teeth"]) + 1), c.f = 12 * (i(s["teeth"]) + 1);
+    } else if (type == "cylinder") {
+      c.v = 2 * i(s["segments"]) + 2, c.f = 4 * i(s["segments"]);
+    }
+    (void)kind;
+    return c;
+  }
+
+  /// Element counts of generated or loaded geometry, with the crowding of its vertices relative
+  /// to the contact range.
+  static Counts counts(const RawGeometry& g, ObjectKind kind, double range) {
+    Counts c{double(g.v.size()), double(g.faces.size()), double(g.tets.size()), 0, 0};
+    for (const auto& l : g.lines) c.e += double(l.size()) - 1;
+    if (kind == ObjectKind::tet_solid) c.f = 2 * c.t;  // rough: its surface faces
+    double sum = 0, n = 0;
+    auto edge = [&](Index a, Index b) { sum += (g.v[a] - g.v[b]).norm(), n += 1; };
+    for (const auto& f : g.faces) edge(f[0], f[1]), edge(f[1], f[2]), edge(f[2], f[0]);
+    for (const auto& t : g.tets) edge(t[0], t[1]), edge(t[0], t[2]), edge(t[0], t[3]);
+    for (const auto& l : g.lines)
+      for (size_t k = 1; k < l.size(); ++k) edge(l[k - 1], l[k]);
+    if (n > 0 && sum > 0) {
+      // Neighbours within the range grow with s² on a surface or solid, with s along a strand
+      // (hair.yaml: 33094 strand vertices, 1.1 GB measured, 1.7 GB estimated).
+      const double s = range / (sum / n);
+      c.crowd = c.v * (kind == ObjectKind::strand ? s : s * s);
+    }
+    return c;
+  }
+
+  /// Fails when `add` does not fit 32-bit indices or the scene would need more memory than the
+  /// machine has available.
+  void check_size(const Counts& before, const Counts& add, const std::string& spath) const {
+    Counts all = before;
+    all += add;
+    constexpr double kMax = std::numeric_limits<Index>::max();
+    const std::pair<double, const char*> counts[] = {
+        {add.v, "vertices"}, {add.f, "faces"}, {add.t, "tets"}, {add.e, "segments"}};
+    for (const auto& [n, what] : counts)
+      if (n > kMax)
+        ctx_.fail(spath, in_node(spath),
+                  "makes " + count_str(n) + " " + what + ", more than the " + count_str(kMax) +
+                      " that 32-bit indices address");
+    if (all.v > kMax)
+      ctx_.fail(spath, in_node(spath),
+                "the scene would have " + count_str(all.v) + " vertices, more than the " + count_str(kMax) +
+                    " that 32-bit indices address");
+    const double need = estimate_bytes(all), have = available_memory_();
+    if (have > 0 && need > have)
+      ctx_.fail(spath, in_node(spath),
+                "the scene would need about " + gigabytes(need) + " of memory (" + count_str(all.v) + " vertices" +
+                    (all.f > 0 ? ", " + count_str(all.f) + " faces" : "") +
+                    (all.t > 0 ? ", " + count_str(all.t) + " tets" : "") +
+                    (all.e > 0 ? ", " + count_str(all.e) + " strand segments" : "") + "; estimated at " +
+                    std::to_string(int(kBytesPerVertex)) + " B per vertex plus " +
+                    std::to_string(int(kBytesPerCrowdedVertex)) +
+                    " B per vertex times ((offset + radius + repulsion_range) / mean edge length)^2), more than the " +
+                    gigabytes(have) +
+                    " available (MemAvailable); reduce the resolution, or the contact offset and radius");
+  }
+
+  double available_memory_() const {
+    if (available_ < 0) available_ = available_memory_bytes();
+    return available_;
+  }
+
   void read_global(SimulationParams& p) {
     p.scene_name = cfg_["scene"] ? cfg_["scene"].as<std::string>() : std::string("scene");
+    if (const std::string why = name_problem(p.scene_name, false); !why.empty())
+      ctx_.fail("scene", in_node("scene"), "scene name '" + printable(p.scene_name) + "' " + why);
     const auto t = cfg_["time"];
     p.time.fps = t["fps"].as<double>();
     p.time.frames = t["frames"].as<int>();
@@ -147,18 +341,21 @@ class Builder {
     p.contact.projection_sweeps = c["projection_sweeps"].as<int>();
     p.contact.analytic_obstacles = c["analytic_obstacles"].as<bool>();
     const std::string policy = c["on_violation"].as<std::string>();
-    p.contact.on_violation = policy == "error" ? ViolationPolicy::error
+    p.contact.on_violation = policy == "error"  ? ViolationPolicy::error
                              : policy == "warn" ? ViolationPolicy::warn
                                                 : ViolationPolicy::automatic;
     p.collision.broad_phase = cfg_["collision"]["broad_phase"].as<std::string>();
     const auto d = cfg_["debug"];
     const std::string audit = d["audit"].as<std::string>();
-    p.debug.audit = audit == "every_frame" ? AuditMode::every_frame : audit == "every_substep" ? AuditMode::every_substep : AuditMode::off;
+    p.debug.audit = audit == "every_frame"     ? AuditMode::every_frame
+                    : audit == "every_substep" ? AuditMode::every_substep
+                                               : AuditMode::off;
     p.debug.audit_tolerance = d["audit_tolerance"].as<double>();
     p.output.frames = cfg_["output"]["frames"].as<bool>();
     p.output.every = cfg_["output"]["every"].as<int>();
     if (p.contact.friction_kinetic > p.contact.friction_static && p.contact.friction_static > 0)
-      ctx_.fail("contact.friction.kinetic", in_node("contact.friction.kinetic"), "kinetic friction must not exceed static friction");
+      ctx_.fail("contact.friction.kinetic", in_node("contact.friction.kinetic"),
+                "kinetic friction must not exceed static friction", {"contact.friction.static"});
   }
 
   MaterialParams material(const std::string& name, const std::string& path) {
@@ -188,9 +385,13 @@ class Builder {
     const std::string type = s["type"].as<std::string>();
     const std::string tpath = path + ".shape.type";
     auto require = [&](bool ok, const std::string& what) {
-      if (!ok) ctx_.fail(tpath, in_node(tpath), "shape '" + type + "' cannot make a " + std::string(to_string(kind)) + " object; " + what);
+      if (!ok)
+        ctx_.fail(tpath, in_node(tpath),
+                  "shape '" + type + "' cannot make a " + std::string(to_string(kind)) + " object; " + what,
+                  {path + ".kind"});
     };
-    const bool surface_kind = kind == ObjectKind::cloth || kind == ObjectKind::shell || kind == ObjectKind::obstacle || kind == ObjectKind::rigid;
+    const bool surface_kind = kind == ObjectKind::cloth || kind == ObjectKind::shell || kind == ObjectKind::obstacle ||
+                              kind == ObjectKind::rigid;
     RawGeometry g;
     auto take = [&](gen::TriMesh m) {
       g.v = std::move(m.v);
@@ -198,15 +399,17 @@ class Builder {
     };
     if (type == "grid") {
       require(surface_kind, "use kind cloth, shell, obstacle or rigid");
-      take(gen::grid(s["size"][0].as<double>(), s["size"][1].as<double>(), s["resolution"][0].as<Index>(), s["resolution"][1].as<Index>()));
+      take(gen::grid(s["size"][0].as<double>(), s["size"][1].as<double>(), s["resolution"][0].as<Index>(),
+                     s["resolution"][1].as<Index>()));
       if (kind == ObjectKind::obstacle) {
         // A flat obstacle grid is also an analytic plane (normal +y) for the SDF pass.
         g.shape.type = AnalyticShape::Type::plane;
       }
     } else if (type == "strands") {
       require(kind == ObjectKind::strand, "use kind strand");
-      auto ps = gen::curly_strands(s["count"].as<Index>(), s["vertices"].as<Index>(), s["length"].as<double>(), s["spread"].as<double>(),
-                                   s["coil_radius"].as<double>(), s["turns"].as<double>(), s["layout"].as<std::string>() == "row");
+      auto ps = gen::curly_strands(s["count"].as<Index>(), s["vertices"].as<Index>(), s["length"].as<double>(),
+                                   s["spread"].as<double>(), s["coil_radius"].as<double>(), s["turns"].as<double>(),
+                                   s["layout"].as<std::string>() == "row");
       g.v = std::move(ps.v);
       g.lines = std::move(ps.lines);
     } else if (type == "particles") {
@@ -221,13 +424,14 @@ class Builder {
       g.tets = std::move(m.t);
     } else if (type == "octopus") {
       require(kind == ObjectKind::tet_solid, "use kind tet_solid");
-      auto m = gen::octopus(s["cell"].as<double>(), s["body"].as<Index>(), s["legs"].as<Index>(), s["leg_length"].as<Index>());
+      auto m = gen::octopus(s["cell"].as<double>(), s["body"].as<Index>(), s["legs"].as<Index>(),
+                            s["leg_length"].as<Index>());
       g.v = std::move(m.v);
       g.tets = std::move(m.t);
     } else if (type == "comb") {
       require(surface_kind, "use kind obstacle, rigid, shell or cloth");
-      take(gen::comb(s["length"].as<double>(), s["width"].as<double>(), s["spine_height"].as<double>(), s["teeth"].as<Index>(),
-                     s["tooth_length"].as<double>(), s["tooth_width"].as<double>()));
+      take(gen::comb(s["length"].as<double>(), s["width"].as<double>(), s["spine_height"].as<double>(),
+                     s["teeth"].as<Index>(), s["tooth_length"].as<double>(), s["tooth_width"].as<double>()));
     } else if (type == "sphere") {
       require(surface_kind, "use kind obstacle, rigid, shell or cloth");
       take(gen::sphere(s["radius"].as<double>(), s["subdivisions"].as<int>()));
@@ -235,14 +439,16 @@ class Builder {
       g.shape.radius = s["radius"].as<double>();
     } else if (type == "cylinder") {
       require(surface_kind, "use kind obstacle, rigid, shell or cloth");
-      take(gen::cylinder(s["radius"].as<double>(), s["height"].as<double>(), s["segments"].as<Index>(), s["capped"].as<bool>()));
+      take(gen::cylinder(s["radius"].as<double>(), s["height"].as<double>(), s["segments"].as<Index>(),
+                         s["capped"].as<bool>()));
       g.shape.type = AnalyticShape::Type::cylinder;
       g.shape.radius = s["radius"].as<double>();
       g.shape.half_height = 0.5 * s["height"].as<double>();
     } else if (type == "box" || type == "open_box") {
       require(surface_kind, "use kind obstacle, rigid, shell or cloth");
       const Vec3 size = v3(s["size"]);
-      if ((size.array() <= 0).any()) ctx_.fail(path + ".shape.size", in_node(path + ".shape.size"), "box sizes must be > 0");
+      if ((size.array() <= 0).any())
+        ctx_.fail(path + ".shape.size", in_node(path + ".shape.size"), "box sizes must be > 0");
       take(type == "box" ? gen::box(size) : gen::open_box(size));
       if (type == "box") {
         g.shape.type = AnalyticShape::Type::box;
@@ -255,6 +461,12 @@ class Builder {
     } else if (type == "mesh") {
       const std::string ppath = path + ".shape.path";
       fs::path file = s["path"].as<std::string>();
+      std::string ext = file.extension().string();
+      for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      if (ext != ".obj")
+        ctx_.fail(ppath, in_node(ppath),
+                  ext.empty() ? "mesh file '" + file.string() + "' has no extension; ccfr reads Wavefront .obj meshes"
+                              : "unsupported mesh format '" + file.extension().string() + "' (ccfr reads .obj)");
       if (file.is_relative()) file = base_ / file;
       if (!fs::exists(file)) ctx_.fail(ppath, in_node(ppath), "mesh file '" + file.string() + "' does not exist");
       ObjMesh m;
@@ -265,16 +477,94 @@ class Builder {
       }
       g.v = std::move(m.v);
       if (kind == ObjectKind::strand) {
-        if (m.lines.empty()) ctx_.fail(ppath, in_node(ppath), "a strand mesh needs `l` lines; '" + file.string() + "' has none");
+        if (m.lines.empty())
+          ctx_.fail(ppath, in_node(ppath), "a strand mesh needs `l` lines; '" + file.string() + "' has none");
         g.lines = std::move(m.lines);
       } else {
         require(surface_kind, "meshes make cloth, shell, obstacle, rigid or strand objects");
         if (m.f.empty()) ctx_.fail(ppath, in_node(ppath), "mesh '" + file.string() + "' has no faces");
+        check_faces(g.v, m.f, kind, "mesh '" + file.string() + "'", &m.face_lines, ppath, {path + ".kind"});
         g.faces = std::move(m.f);
       }
     }
+    if (type != "mesh" && !g.faces.empty()) {
+      check_faces(g.v, g.faces, kind, "shape '" + type + "'", nullptr, tpath, {path + ".kind"});
+    }
     if (kind != ObjectKind::obstacle) g.shape.type = AnalyticShape::Type::none;  // only obstacles collide analytically
     return g;
+  }
+
+  /// Degenerate surfaces: faces that repeat a vertex, have no area or repeat another face, edges
+  /// shared by more than two faces, and open surfaces used as rigid bodies (whose mass comes from
+  /// the enclosed volume). Errors name the face (1-based, after triangulation) and its OBJ line;
+  /// what a user may reasonably want (zero-area obstacle faces, non-manifold cloth) is a warning.
+  void check_faces(const Positions& v, const std::vector<Vec3i>& faces, ObjectKind kind, const std::string& what,
+                   const std::vector<int>* lines, const std::string& path,
+                   const std::vector<std::string>& related) const {
+    auto face = [&](size_t i) {
+      std::string w = "face " + std::to_string(i + 1);
+      if (lines && i < lines->size()) w += " (line " + std::to_string((*lines)[i]) + ")";
+      return w;
+    };
+    auto fail = [&](const std::string& msg) { ctx_.fail(path, in_node(path), what + ": " + msg, related); };
+    const bool rigid = kind == ObjectKind::rigid;
+    size_t zero_area = 0, first_zero = 0;
+    for (size_t i = 0; i < faces.size(); ++i) {
+      const Vec3i& f = faces[i];
+      if (f[0] == f[1] || f[1] == f[2] || f[0] == f[2])
+        fail(face(i) + " repeats vertex " + std::to_string((f[0] == f[1] || f[0] == f[2] ? f[0] : f[1]) + 1));
+      const Vec3 e1 = v[f[1]] - v[f[0]], e2 = v[f[2]] - v[f[0]], e3 = v[f[2]] - v[f[1]];
+      const double l2 = std::max({e1.squaredNorm(), e2.squaredNorm(), e3.squaredNorm()});
+      if (!(e1.cross(e2).norm() > 1e-12 * l2) || l2 == 0.0) {
+        if (zero_area++ == 0) first_zero = i;
+      }
+    }
+    if (zero_area > 0) {
+      const std::string msg = face(first_zero) + " has zero area (its vertices coincide or are collinear)" +
+                              (zero_area > 1 ? "; " + std::to_string(zero_area) + " such faces in all" : std::string());
+      if (kind != ObjectKind::obstacle) fail(msg);
+      spdlog::warn("{}: {}: {}: {}", ctx_.file, path, what, msg);
+    }
+    // Duplicate faces (the same three vertices in any order).
+    std::vector<std::pair<std::array<Index, 3>, size_t>> sorted(faces.size());
+    for (size_t i = 0; i < faces.size(); ++i) {
+      std::array<Index, 3> k{faces[i][0], faces[i][1], faces[i][2]};
+      std::sort(k.begin(), k.end());
+      sorted[i] = {k, i};
+    }
+    std::sort(sorted.begin(), sorted.end());
+    for (size_t i = 1; i < sorted.size(); ++i)
+      if (sorted[i].first == sorted[i - 1].first)
+        fail(face(sorted[i].second) + " repeats " + face(sorted[i - 1].second));
+    // Edge valence: 2 everywhere on a closed manifold surface.
+    std::vector<std::pair<std::pair<Index, Index>, size_t>> edges;
+    edges.reserve(3 * faces.size());
+    for (size_t i = 0; i < faces.size(); ++i)
+      for (int k = 0; k < 3; ++k) edges.push_back({std::minmax(faces[i][k], faces[i][(k + 1) % 3]), i});
+    std::sort(edges.begin(), edges.end());
+    size_t non_manifold = 0, open = 0, first_nm = 0, first_open = 0;
+    std::pair<Index, Index> nm_edge, open_edge;
+    for (size_t b = 0; b < edges.size();) {
+      size_t e = b;
+      while (e < edges.size() && edges[e].first == edges[b].first) ++e;
+      if (e - b > 2 && non_manifold++ == 0) first_nm = edges[b + 2].second, nm_edge = edges[b].first;
+      if (e - b == 1 && open++ == 0) first_open = edges[b].second, open_edge = edges[b].first;
+      b = e;
+    }
+    auto edge_str = [](std::pair<Index, Index> e) {
+      return "(" + std::to_string(e.first + 1) + ", " + std::to_string(e.second + 1) + ")";
+    };
+    if (non_manifold > 0) {
+      const std::string msg =
+          "edge " + edge_str(nm_edge) + " of " + face(first_nm) + " is shared by more than two faces (non-manifold)" +
+          (non_manifold > 1 ? "; " + std::to_string(non_manifold) + " such edges in all" : std::string());
+      if (rigid) fail(msg);
+      spdlog::warn("{}: {}: {}: {}", ctx_.file, path, what, msg);
+    }
+    if (rigid && open > 0)
+      fail("a rigid body needs a closed surface (its mass comes from the enclosed volume), but edge " +
+           edge_str(open_edge) + " of " + face(first_open) + " borders only one face (" + std::to_string(open) +
+           " open edges in all)");
   }
 
   void place(RawGeometry& g, const YAML::Node& t) {
@@ -292,7 +582,8 @@ class Builder {
     g.shape.half_extent *= scale;
   }
 
-  void read_pins(const YAML::Node& pins, const ObjectInfo& info, SimState& st, ObjectParams& op, const std::string& path) {
+  void read_pins(const YAML::Node& pins, const ObjectInfo& info, SimState& st, ObjectParams& op,
+                 const std::string& path) {
     if (!pins) return;
     for (size_t k = 0; k < pins.size(); ++k) {
       const YAML::Node pn = pins[k];
@@ -304,7 +595,8 @@ class Builder {
           const Index li = pn["indices"][j].as<Index>();
           if (li >= info.num_vertices())
             ctx_.fail(pp + ".indices[" + std::to_string(j) + "]", in_node(pp + ".indices"),
-                      "vertex index " + std::to_string(li) + " out of range: the object has " + std::to_string(info.num_vertices()) + " vertices");
+                      "vertex index " + std::to_string(li) + " out of range: the object has " +
+                          std::to_string(info.num_vertices()) + " vertices");
           grp.vertices.push_back(li);
         }
       if (static_cast<bool>(pn["box_min"]) != static_cast<bool>(pn["box_max"]))
@@ -312,9 +604,11 @@ class Builder {
       if (pn["box_min"]) {
         const Vec3 lo = v3(pn["box_min"]), hi = v3(pn["box_max"]);
         for (Index v = info.vertex_begin; v < info.vertex_end; ++v)
-          if ((st.x[v].array() >= lo.array()).all() && (st.x[v].array() <= hi.array()).all()) grp.vertices.push_back(v - info.vertex_begin);
+          if ((st.x[v].array() >= lo.array()).all() && (st.x[v].array() <= hi.array()).all())
+            grp.vertices.push_back(v - info.vertex_begin);
       }
-      if (grp.vertices.empty()) ctx_.fail(pp, in_node(pp), "pin group selects no vertex (give indices or a box that contains vertices)");
+      if (grp.vertices.empty())
+        ctx_.fail(pp, in_node(pp), "pin group selects no vertex (give indices or a box that contains vertices)");
       op.pins.push_back(std::move(grp));
     }
   }
@@ -347,7 +641,9 @@ class Builder {
         case ObjectKind::tet_solid:
           for (Index t = o.tet_begin; t < o.tet_end; ++t) {
             const auto& tt = topo.tets[t];
-            const double vol = std::abs((st.x[tt[1]] - st.x[tt[0]]).cross(st.x[tt[2]] - st.x[tt[0]]).dot(st.x[tt[3]] - st.x[tt[0]])) / 6.0;
+            const double vol =
+                std::abs((st.x[tt[1]] - st.x[tt[0]]).cross(st.x[tt[2]] - st.x[tt[0]]).dot(st.x[tt[3]] - st.x[tt[0]])) /
+                6.0;
             for (int k = 0; k < 4; ++k) st.mass[tt[k]] += rho * vol / 4.0;
           }
           break;
@@ -377,11 +673,60 @@ class Builder {
     }
   }
 
+  mutable double available_ = -1;
   const YAML::Node& in_;
   const YAML::Node& cfg_;
   const Context& ctx_;
   fs::path base_;
 };
+
+/// A quoted scalar whose closing quote is missing swallows the rest of the file (yaml-cpp accepts
+/// it at the end of the input): find the quoted scalars of the tree and check that each closes.
+void check_quotes(const YAML::Node& n, const std::string& text, const std::string& label) {
+  if (n.IsMap()) {
+    for (auto it = n.begin(); it != n.end(); ++it) {
+      check_quotes(it->first, text, label);
+      check_quotes(it->second, text, label);
+    }
+  } else if (n.IsSequence()) {
+    for (const auto& c : n) check_quotes(c, text, label);
+  } else if (n.IsScalar() && !n.Mark().is_null() && n.Mark().pos >= 0) {
+    const size_t pos = static_cast<size_t>(n.Mark().pos);
+    if (pos >= text.size() || (text[pos] != '"' && text[pos] != '\'')) return;
+    const char q = text[pos];
+    for (size_t i = pos + 1; i < text.size(); ++i) {
+      if (q == '"' && text[i] == '\\')
+        ++i;
+      else if (text[i] == q) {
+        if (q == '\'' && i + 1 < text.size() && text[i + 1] == '\'')
+          ++i;  // '' inside single quotes
+        else
+          return;
+      }
+    }
+    throw ConfigError(label, "", n.Mark().line + 1,
+                      std::string("YAML syntax error: unterminated ") + (q == '"' ? "double" : "single") +
+                          "-quoted string (the closing " + q + " is missing)");
+  }
+}
+
+/// Parses the text of a scene file: one YAML document, every quoted string closed.
+YAML::Node parse_yaml(const std::string& text, const std::string& label) {
+  std::vector<YAML::Node> docs;
+  try {
+    docs = YAML::LoadAll(text);
+  } catch (const YAML::ParserException& e) {
+    throw ConfigError(label, "", e.mark.line + 1, "YAML syntax error: " + e.msg);
+  }
+  for (size_t i = 1; i < docs.size(); ++i)
+    if (docs[i].IsDefined() && !docs[i].IsNull())
+      throw ConfigError(
+          label, "", docs[i].Mark().is_null() ? 0 : docs[i].Mark().line + 1,
+          "a scene file holds one YAML document, but a second one starts here (after '---'); merge them or remove it");
+  if (docs.empty()) return YAML::Node();
+  check_quotes(docs[0], text, label);
+  return docs[0];
+}
 
 LoadedScene load(YAML::Node root, const std::string& label, const fs::path& base_dir,
                  const std::vector<std::string>& overrides, const std::string& default_name) {
@@ -392,7 +737,7 @@ LoadedScene load(YAML::Node root, const std::string& label, const fs::path& base
   for (const auto& o : overrides) {
     std::string path;
     try {
-      path = schema::apply_override(root, o);
+      path = schema::apply_override(root, o, scene_schema(), label);
     } catch (const YAML::Exception& e) {
       throw Error("--set '" + o + "': cannot parse the value: " + e.msg);
     }
@@ -412,14 +757,11 @@ LoadedScene load(YAML::Node root, const std::string& label, const fs::path& base
 LoadedScene load_scene(const fs::path& file, const std::vector<std::string>& overrides) {
   if (!fs::exists(file)) throw Error("scene file '" + file.string() + "' does not exist");
   if (fs::is_directory(file)) throw Error("'" + file.string() + "' is a directory, not a scene file");
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(file.string());
-  } catch (const YAML::ParserException& e) {
-    throw ConfigError(file.string(), "", e.mark.line + 1, "YAML syntax error: " + e.msg);
-  } catch (const YAML::BadFile&) {
-    throw Error("cannot read scene file '" + file.string() + "'");
-  }
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw Error("cannot read scene file '" + file.string() + "'");
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (in.bad()) throw Error("cannot read scene file '" + file.string() + "'");
+  const YAML::Node root = parse_yaml(text, file.string());
   LoadedScene s = load(root, file.string(), file.parent_path(), overrides, file.stem().string());
   s.source = file;
   return s;
@@ -427,12 +769,7 @@ LoadedScene load_scene(const fs::path& file, const std::vector<std::string>& ove
 
 LoadedScene load_scene_text(const std::string& yaml, const std::string& file_label, const fs::path& base_dir,
                             const std::vector<std::string>& overrides) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(yaml);
-  } catch (const YAML::ParserException& e) {
-    throw ConfigError(file_label, "", e.mark.line + 1, "YAML syntax error: " + e.msg);
-  }
+  const YAML::Node root = parse_yaml(yaml, file_label);
   return load(root, file_label, base_dir, overrides, fs::path(file_label).stem().string());
 }
 

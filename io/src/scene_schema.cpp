@@ -12,6 +12,18 @@ using namespace schema;
 
 namespace {
 
+// Bounds on physical magnitudes: a value beyond them is a typo (1e300 for 1e3), not a scene. They
+// are far beyond any scene ccfr is meant for and leave products such as velocity x time finite.
+constexpr double kMaxLength = 1e4;    ///< m: coordinates, sizes, lengths, translations
+constexpr double kMaxSpeed = 1e4;     ///< m/s: velocities
+constexpr double kMaxAngular = 1e4;   ///< rad/s
+constexpr double kMaxAccel = 1e4;     ///< m/s²: gravity
+constexpr double kMaxTime = 1e9;      ///< s: motion start/end
+constexpr double kMaxScale = 1e4;     ///< uniform scale
+constexpr double kMaxAngleDeg = 1e6;  ///< degrees
+constexpr double kMaxDensity = 1e6;   ///< kg/m³ (and the per-area, per-length, per-particle variants)
+constexpr double kMaxFps = 1e6;
+
 NodePtr required_choice(std::function<std::vector<std::string>()> choices, std::string doc) {
   auto n = choice("", std::move(choices), std::move(doc));
   n->default_yaml.reset();
@@ -20,142 +32,199 @@ NodePtr required_choice(std::function<std::vector<std::string>()> choices, std::
 }
 
 NodePtr motion_schema(std::string doc) {
-  return optional_map(std::move(doc), {
-      {"velocity", vec3(std::array<double, 3>{0, 0, 0}, "translation velocity (m/s)")},
-      {"axis", vec3(std::array<double, 3>{0, 1, 0}, "rotation axis (world frame, normalised)")},
-      {"center", vec3(std::array<double, 3>{0, 0, 0}, "a point on the rotation axis at rest (world frame)")},
-      {"angular_velocity", number(0.0, "rotation rate about `axis` (rad/s, right-handed)")},
-      {"start", number(0.0, "time (s) the motion starts", Range::non_negative())},
-      {"end", number(1e9, "time (s) the motion stops and holds", Range::non_negative())},
-  });
+  return optional_map(
+      std::move(doc),
+      {
+          {"velocity", vec3(std::array<double, 3>{0, 0, 0}, "translation velocity (m/s)", Range::within(kMaxSpeed))},
+          {"axis",
+           vec3(std::array<double, 3>{0, 1, 0}, "rotation axis (world frame, normalised)", Range::within(kMaxLength))},
+          {"center", vec3(std::array<double, 3>{0, 0, 0}, "a point on the rotation axis at rest (world frame)",
+                          Range::within(kMaxLength))},
+          {"angular_velocity",
+           number(0.0, "rotation rate about `axis` (rad/s, right-handed)", Range::within(kMaxAngular))},
+          {"start", number(0.0, "time (s) the motion starts", Range::up_to(kMaxTime))},
+          {"end", number(1e9, "time (s) the motion stops and holds", Range::up_to(kMaxTime))},
+      });
 }
 
 NodePtr shape_schema() {
-  const Range pos = Range::positive(), nonneg = Range::non_negative(), one = Range::at_least(1);
-  return variant("the object's geometry: a generator or a mesh file", "type", {
-      {"grid", map("rectangular cloth in the x-z plane, normal +y", {
-          {"size", vec2(std::nullopt, "side lengths [x, z] (m)", pos)},
-          {"resolution", ivec2(std::nullopt, "cells per side [x, z]", one)}})},
-      {"strands", map("straight or curly strands hanging along -y", {
-          {"count", integer(1, "number of strands", one)},
-          {"vertices", integer(20, "vertices per strand", Range::at_least(2))},
-          {"length", number(1.0, "strand length along -y (m)", pos)},
-          {"spread", number(0.0, "roots spread on a square of this side (m)", nonneg)},
-          {"coil_radius", number(0.0, "helix radius; 0 gives straight strands (m)", nonneg)},
-          {"turns", number(0.0, "helix turns per strand", nonneg)},
-          {"layout", choice("grid", [] { return std::vector<std::string>{"grid", "row"}; }, "roots on a square grid, or on one row along x")}})},
-      {"particles", map("a lattice block of free particles", {
-          {"counts", ivec3(std::nullopt, "particles per axis [x, y, z]", one)},
-          {"spacing", number(0.01, "lattice spacing (m)", pos)}})},
-      {"tet_box", map("a tetrahedralised box (6 tets per cell)", {
-          {"size", vec3(std::nullopt, "box size [x, y, z] (m)")},
-          {"resolution", ivec3(std::array<long long, 3>{2, 2, 2}, "cells per axis", one)}})},
-      {"sphere", map("icosphere", {
-          {"radius", number(0.5, "radius (m)", pos)},
-          {"subdivisions", integer(3, "icosahedron subdivisions", Range{0, 7})}})},
-      {"cylinder", map("cylinder along y", {
-          {"radius", number(0.5, "radius (m)", pos)},
-          {"height", number(1.0, "height (m)", pos)},
-          {"segments", integer(32, "segments around", Range::at_least(3))},
-          {"capped", boolean(true, "close the ends")}})},
-      {"box", map("closed box, outward normals", {{"size", vec3(std::nullopt, "size [x, y, z] (m)")}})},
-      {"open_box", map("floor and four walls, open at the top, normals inward", {{"size", vec3(std::nullopt, "size [x, y, z] (m)")}})},
-      {"plane", map("square plane in the x-z plane, normal +y", {
-          {"size", number(10.0, "side length (m)", pos)},
-          {"resolution", integer(1, "cells per side", one)}})},
-      {"octopus", map("procedural octopus-like tet solid: a cubic body with tentacles (the paper's octopus mesh is not published)", {
-          {"cell", number(0.05, "edge of the voxel cells (m)", pos)},
-          {"body", integer(4, "body cells per axis", Range::at_least(2))},
-          {"legs", integer(8, "number of tentacles", nonneg)},
-          {"leg_length", integer(8, "cells per tentacle", nonneg)}})},
-      {"comb", map("procedural comb: a spine box with teeth hanging below (the paper's comb mesh is not published)", {
-          {"length", number(1.0, "spine length along x (m)", pos)},
-          {"width", number(0.05, "thickness along z (m)", pos)},
-          {"spine_height", number(0.1, "spine height (m)", pos)},
-          {"teeth", integer(12, "number of teeth", one)},
-          {"tooth_length", number(0.4, "tooth length below the spine (m)", pos)},
-          {"tooth_width", number(0.02, "tooth width along x (m)", pos)}})},
-      {"mesh", map("a Wavefront OBJ file (triangles; `l` lines for strands)", {
-          {"path", string(std::nullopt, "path, relative to the scene file")}})},
-  });
+  const Range pos = Range::positive_up_to(kMaxLength), nonneg = Range::up_to(kMaxLength), one = Range::at_least(1);
+  return variant(
+      "the object's geometry: a generator or a mesh file", "type",
+      {
+          {"grid", map("rectangular cloth in the x-z plane, normal +y",
+                       {{"size", vec2(std::nullopt, "side lengths [x, z] (m)", pos)},
+                        {"resolution", ivec2(std::nullopt, "cells per side [x, z]", one)}})},
+          {"strands", map("straight or curly strands hanging along -y",
+                          {{"count", integer(1, "number of strands", one)},
+                           {"vertices", integer(20, "vertices per strand", Range::at_least(2))},
+                           {"length", number(1.0, "strand length along -y (m)", pos)},
+                           {"spread", number(0.0, "roots spread on a square of this side (m)", nonneg)},
+                           {"coil_radius", number(0.0, "helix radius; 0 gives straight strands (m)", nonneg)},
+                           {"turns", number(0.0, "helix turns per strand", nonneg)},
+                           {"layout", choice(
+                                          "grid",
+                                          [] {
+                                            return std::vector<std::string>{"grid", "row"};
+                                          },
+                                          "roots on a square grid, or on one row along x")}})},
+          {"particles", map("a lattice block of free particles",
+                            {{"counts", ivec3(std::nullopt, "particles per axis [x, y, z]", one)},
+                             {"spacing", number(0.01, "lattice spacing (m)", pos)}})},
+          {"tet_box", map("a tetrahedralised box (6 tets per cell)",
+                          {{"size", vec3(std::nullopt, "box size [x, y, z] (m)", pos)},
+                           {"resolution", ivec3(std::array<long long, 3>{2, 2, 2}, "cells per axis", one)}})},
+          {"sphere", map("icosphere", {{"radius", number(0.5, "radius (m)", pos)},
+                                       {"subdivisions", integer(3, "icosahedron subdivisions", Range{0, 7})}})},
+          {"cylinder", map("cylinder along y", {{"radius", number(0.5, "radius (m)", pos)},
+                                                {"height", number(1.0, "height (m)", pos)},
+                                                {"segments", integer(32, "segments around", Range::at_least(3))},
+                                                {"capped", boolean(true, "close the ends")}})},
+          {"box", map("closed box, outward normals", {{"size", vec3(std::nullopt, "size [x, y, z] (m)", pos)}})},
+          {"open_box", map("floor and four walls, open at the top, normals inward",
+                           {{"size", vec3(std::nullopt, "size [x, y, z] (m)", pos)}})},
+          {"plane",
+           map("square plane in the x-z plane, normal +y",
+               {{"size", number(10.0, "side length (m)", pos)}, {"resolution", integer(1, "cells per side", one)}})},
+          {"octopus", map("procedural octopus-like tet solid: a cubic body with tentacles (the paper's octopus mesh is "
+                          "not published)",
+                          {{"cell", number(0.05, "edge of the voxel cells (m)", pos)},
+                           {"body", integer(4, "body cells per axis", Range::at_least(2))},
+                           {"legs", integer(8, "number of tentacles", nonneg)},
+                           {"leg_length", integer(8, "cells per tentacle", nonneg)}})},
+          {"comb", map("procedural comb: a spine box with teeth hanging below (the paper's comb mesh is not published)",
+                       {{"length", number(1.0, "spine length along x (m)", pos)},
+                        {"width", number(0.05, "thickness along z (m)", pos)},
+                        {"spine_height", number(0.1, "spine height (m)", pos)},
+                        {"teeth", integer(12, "number of teeth", one)},
+                        {"tooth_length", number(0.4, "tooth length below the spine (m)", pos)},
+                        {"tooth_width", number(0.02, "tooth width along x (m)", pos)}})},
+          {"mesh", map("a Wavefront OBJ file (triangles; `l` lines for strands)",
+                       {{"path", string(std::nullopt, "path, relative to the scene file")}})},
+      });
 }
 
 NodePtr build_scene_schema() {
   const Range pos = Range::positive(), nonneg = Range::non_negative(), one = Range::at_least(1);
-  auto material = map("a material", {
-      {"density", number(0.1, "kg/m² for cloth and shells, kg/m for strands, kg/m³ for solids and rigids, kg per particle", pos)},
-      {"stretch_compliance", number(0.0, "XPBD compliance of edge lengths (m/N); 0 is inextensible", nonneg)},
-      {"bend_compliance", number(0.1, "XPBD compliance of bending (1/(N m)); cloth, shells and strands", nonneg)},
-      {"volume_compliance", number(0.0, "tet solids: compliance of volume preservation, 1/λ (1/Pa)", nonneg)},
-      {"shear_compliance", number(1e-6, "tet solids: compliance of the deviatoric (shape) term, 1/μ (1/Pa)", nonneg)},
-      {"friction", number(-1.0, "friction coefficient of this material; < 0 uses contact.friction")},
-  });
-  auto pin = map("a group of pinned vertices, optionally moved by a script", {
-      {"indices", index_list("vertex indices local to the object")},
-      {"box_min", vec3(std::nullopt, "pin every vertex inside [box_min, box_max] (world frame, after transform)")},
-      {"box_max", vec3(std::nullopt, "upper corner of the selection box")},
-      {"motion", motion_schema("scripted motion of the pinned vertices (kinematic handle)")},
-  });
-  auto object = map("one object of the scene", {
-      {"name", string(std::nullopt, "unique object name (written as `o name` in frames)")},
-      {"kind", required_choice([] {
-         std::vector<std::string> v;
-         for (auto n : object_kind_names()) v.emplace_back(n);
-         return v;
-       }, "what the object is: constraints, collision primitives and output")},
-      {"material", string(std::string("default"), "name of an entry of `materials`")},
-      {"shape", shape_schema()},
-      {"transform", map("placement of the generated or loaded geometry: scale, rotate, then translate", {
-          {"scale", number(1.0, "uniform scale", pos)},
-          {"rotate_axis", vec3(std::array<double, 3>{0, 1, 0}, "rotation axis")},
-          {"rotate_deg", number(0.0, "rotation angle about rotate_axis (degrees)")},
-          {"translate", vec3(std::array<double, 3>{0, 0, 0}, "translation (m)")}})},
-      {"velocity", vec3(std::array<double, 3>{0, 0, 0}, "initial velocity of every vertex (m/s)")},
-      {"pins", list("pinned vertex groups", pin)},
-      {"motion", motion_schema("obstacles: scripted rigid motion of the whole object")},
-  });
-  return map("a ccfr scene", {
-      {"scene", optional_string("scene name (default: the file name without extension)")},
-      {"time", map("time stepping", {
-          {"fps", number(60.0, "frames per second", pos)},
-          {"frames", integer(120, "frames to simulate", nonneg)},
-          {"substeps", integer(10, "substeps per frame", one)},
-          {"iterations", integer(4, "outer solver iterations per substep, each with collision detection", one)},
-          {"max_iterations", integer(0, "outer iterations continue past `iterations` while a vertex has not reached its intended advance (held back by the step bound r), up to this many; 0 means 4 x iterations", Range{0, 4096, false, false})},
-          {"xpbd_sweeps", integer(1, "material constraint sweeps per outer iteration", one)},
-          {"gravity", vec3(std::array<double, 3>{0, -9.81, 0}, "gravity (m/s²)")},
-          {"damping", number(0.0, "fraction of velocity removed per second", Range{0, 1e3, false, false})},
-          {"advance_tolerance", number(0.01, "outer iterations stop when no vertex is held back by the step bound by more than tol · r (a vertex may thus arrive up to tol · r short per substep)", Range::unit())},
-          {"max_subdivision", integer(64, "most pieces a substep is split into automatically when scripted vertices move more than r or the free-flight advance exceeds (max_iterations - 1) r; beyond it a scripted step is an error and a dynamic one a warning naming the object", Range{1, 4096, false, false})}})},
-      {"contact", map("contact handling", {
-          {"solver", choice("ccfr", contact_solver_names, "contact solver")},
-          {"radius", number(0.005, "r: search radius and per-iteration step bound (m)", pos)},
-          {"offset", number(0.01, "ξ: minimum separation between primitives (m)", nonneg)},
-          {"repulsion_range", number(0.0005, "δ: repulsion acts while the gap beyond ξ is below δ (m)", nonneg)},
-          {"stiffness", number(1e4, "k: repulsion stiffness; XPBD compliance 1/k", pos)},
-          {"visibility_width", number(0.0, "δ_v: occlusion smoothstep width of the visibility weights (m); 0 means δ", nonneg)},
-          {"friction", map("friction on active contacts (Macklin et al. 2014)", {
-              {"static", number(0.0, "static coefficient μ_s", nonneg)},
-              {"kinetic", number(0.0, "kinetic coefficient μ_k", nonneg)}})},
-          {"epsilon", number(1e-4, "ε: retraction of a projected point toward its anchor, relative to ξ (the projectors use ε ξ; 1e-4 gives 1e-6 m at ξ = 0.01 as in the paper, and stays below the per-vertex share of a gap at small ξ)", Range{0, 0.1, false, false})},
-          {"max_projection_iterations", integer(4, "projection passes before a vertex halts (falls back)", one)},
-          {"redundancy_tolerance", number(1e-12, "tolerance of the redundant-constraint test", pos)},
-          {"projection_sweeps", integer(16, "successive_projection: cyclic sweeps", one)},
-          {"analytic_obstacles", boolean(false, "obstacles with an analytic shape (sphere, plane, box, cylinder) also collide through their exact SDF")},
-          {"on_violation", choice("auto", [] { return std::vector<std::string>{"auto", "error", "warn"}; },
-                                  "a substep that ends with pairs closer than their offset (or a deformed rigid body): `error` stops the run before the frame is written (non-zero exit), `warn` logs at error level and goes on, `auto` is error for the solvers that guarantee separation (ccfr, exact_projection) and warn for the baselines")}})},
-      {"collision", map("collision detection", {
-          {"broad_phase", choice("bvh", broad_phase_names, "broad phase")}})},
-      {"debug", map("diagnostics", {
-          {"audit", choice("off", [] { return std::vector<std::string>{"off", "every_frame", "every_substep"}; },
-                           "exact penetration audit during the run; fills the `penetrations` column of stats.csv")},
-          {"audit_tolerance", number(1e-6, "the audit flags pairs closer than (1 - tol) ξ", Range::unit())}})},
-      {"output", map("what is written", {
-          {"frames", boolean(true, "write frames/frame_*.obj")},
-          {"every", integer(1, "write every k-th frame (frame 0 always)", one)}})},
-      {"materials", dict("named materials; `default` exists unless redefined", material)},
-      {"objects", list("the objects of the scene", object)},
-  });
+  auto material = map(
+      "a material",
+      {
+          {"density",
+           number(0.1, "kg/m² for cloth and shells, kg/m for strands, kg/m³ for solids and rigids, kg per particle",
+                  Range::positive_up_to(kMaxDensity))},
+          {"stretch_compliance", number(0.0, "XPBD compliance of edge lengths (m/N); 0 is inextensible", nonneg)},
+          {"bend_compliance", number(0.1, "XPBD compliance of bending (1/(N m)); cloth, shells and strands", nonneg)},
+          {"volume_compliance", number(0.0, "tet solids: compliance of volume preservation, 1/λ (1/Pa)", nonneg)},
+          {"shear_compliance",
+           number(1e-6, "tet solids: compliance of the deviatoric (shape) term, 1/μ (1/Pa)", nonneg)},
+          {"friction", number(-1.0, "friction coefficient of this material; < 0 uses contact.friction")},
+      });
+  auto pin = map(
+      "a group of pinned vertices, optionally moved by a script",
+      {
+          {"indices", index_list("vertex indices local to the object")},
+          {"box_min", vec3(std::nullopt, "pin every vertex inside [box_min, box_max] (world frame, after transform)",
+                           Range::within(kMaxLength))},
+          {"box_max", vec3(std::nullopt, "upper corner of the selection box", Range::within(kMaxLength))},
+          {"motion", motion_schema("scripted motion of the pinned vertices (kinematic handle)")},
+      });
+  auto object = map(
+      "one object of the scene",
+      {
+          {"name", string(std::nullopt, "unique object name (written as `o name` in frames)")},
+          {"kind", required_choice(
+                       [] {
+                         std::vector<std::string> v;
+                         for (auto n : object_kind_names()) v.emplace_back(n);
+                         return v;
+                       },
+                       "what the object is: constraints, collision primitives and output")},
+          {"material", string(std::string("default"), "name of an entry of `materials`")},
+          {"shape", shape_schema()},
+          {"transform",
+           map("placement of the generated or loaded geometry: scale, rotate, then translate",
+               {{"scale", number(1.0, "uniform scale", Range::positive_up_to(kMaxScale))},
+                {"rotate_axis", vec3(std::array<double, 3>{0, 1, 0}, "rotation axis", Range::within(kMaxLength))},
+                {"rotate_deg", number(0.0, "rotation angle about rotate_axis (degrees)", Range::within(kMaxAngleDeg))},
+                {"translate", vec3(std::array<double, 3>{0, 0, 0}, "translation (m)", Range::within(kMaxLength))}})},
+          {"velocity",
+           vec3(std::array<double, 3>{0, 0, 0}, "initial velocity of every vertex (m/s)", Range::within(kMaxSpeed))},
+          {"pins", list("pinned vertex groups", pin)},
+          {"motion", motion_schema("obstacles: scripted rigid motion of the whole object")},
+      });
+  return map(
+      "a ccfr scene",
+      {
+          {"scene", optional_string("scene name (default: the file name without extension)")},
+          {"time",
+           map("time stepping",
+               {{"fps", number(60.0, "frames per second", Range::positive_up_to(kMaxFps))},
+                {"frames", integer(120, "frames to simulate", nonneg)},
+                {"substeps", integer(10, "substeps per frame", one)},
+                {"iterations", integer(4, "outer solver iterations per substep, each with collision detection", one)},
+                {"max_iterations",
+                 integer(0,
+                         "outer iterations continue past `iterations` while a vertex has not reached its intended "
+                         "advance (held back by the step bound r), up to this many; 0 means 4 x iterations",
+                         Range{0, 4096, false, false})},
+                {"xpbd_sweeps", integer(1, "material constraint sweeps per outer iteration", one)},
+                {"gravity", vec3(std::array<double, 3>{0, -9.81, 0}, "gravity (m/s²)", Range::within(kMaxAccel))},
+                {"damping", number(0.0, "fraction of velocity removed per second", Range{0, 1e3, false, false})},
+                {"advance_tolerance",
+                 number(0.01,
+                        "outer iterations stop when no vertex is held back by the step bound by more than tol · r (a "
+                        "vertex may thus arrive up to tol · r short per substep)",
+                        Range::unit())},
+                {"max_subdivision",
+                 integer(64,
+                         "most pieces a substep is split into automatically when scripted vertices move more than r or "
+                         "the free-flight advance exceeds (max_iterations - 1) r; beyond it a scripted step is an "
+                         "error and a dynamic one a warning naming the object",
+                         Range{1, 4096, false, false})}})},
+          {"contact",
+           map("contact handling",
+               {{"solver", choice("ccfr", contact_solver_names, "contact solver")},
+                {"radius",
+                 number(0.005, "r: search radius and per-iteration step bound (m)", Range::positive_up_to(kMaxLength))},
+                {"offset", number(0.01, "ξ: minimum separation between primitives (m)", Range::up_to(kMaxLength))},
+                {"repulsion_range",
+                 number(0.0005, "δ: repulsion acts while the gap beyond ξ is below δ (m)", Range::up_to(kMaxLength))},
+                {"stiffness", number(1e4, "k: repulsion stiffness; XPBD compliance 1/k", pos)},
+                {"visibility_width",
+                 number(0.0, "δ_v: occlusion smoothstep width of the visibility weights (m); 0 means δ",
+                        Range::up_to(kMaxLength))},
+                {"friction", map("friction on active contacts (Macklin et al. 2014)",
+                                 {{"static", number(0.0, "static coefficient μ_s", nonneg)},
+                                  {"kinetic", number(0.0, "kinetic coefficient μ_k", nonneg)}})},
+                {"epsilon", number(1e-4,
+                                   "ε: retraction of a projected point toward its anchor, relative to ξ (the "
+                                   "projectors use ε ξ; 1e-4 gives 1e-6 m at ξ = 0.01 as in the paper, and stays below "
+                                   "the per-vertex share of a gap at small ξ)",
+                                   Range{0, 0.1, false, false})},
+                {"max_projection_iterations", integer(4, "projection passes before a vertex halts (falls back)", one)},
+                {"redundancy_tolerance", number(1e-12, "tolerance of the redundant-constraint test", pos)},
+                {"projection_sweeps", integer(16, "successive_projection: cyclic sweeps", one)},
+                {"analytic_obstacles", boolean(false,
+                                               "obstacles with an analytic shape (sphere, plane, box, cylinder) also "
+                                               "collide through their exact SDF")},
+                {"on_violation", choice(
+                                     "auto", [] { return std::vector<std::string>{"auto", "error", "warn"}; },
+                                     "a substep that ends with pairs closer than their offset (or a deformed rigid "
+                                     "body): `error` stops the run before the frame is written (non-zero exit), `warn` "
+                                     "logs at error level and goes on, `auto` is error for the solvers that guarantee "
+                                     "separation (ccfr, exact_projection) and warn for the baselines")}})},
+          {"collision", map("collision detection", {{"broad_phase", choice("bvh", broad_phase_names, "broad phase")}})},
+          {"debug",
+           map("diagnostics",
+               {{"audit", choice(
+                              "off", [] { return std::vector<std::string>{"off", "every_frame", "every_substep"}; },
+                              "exact penetration audit during the run; fills the `penetrations` column of stats.csv")},
+                {"audit_tolerance", number(1e-6, "the audit flags pairs closer than (1 - tol) ξ", Range::unit())}})},
+          {"output", map("what is written", {{"frames", boolean(true, "write frames/frame_*.obj")},
+                                             {"every", integer(1, "write every k-th frame (frame 0 always)", one)}})},
+          {"materials", dict("named materials; `default` exists unless redefined", material)},
+          {"objects", list("the objects of the scene", object)},
+      });
 }
 
 }  // namespace

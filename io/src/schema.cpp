@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <sstream>
 
 #include "ccfr/core/error.hpp"
@@ -30,8 +31,10 @@ std::string fmt_array(const std::array<T, N>& a) {
   std::string s = "[";
   for (size_t i = 0; i < N; ++i) {
     if (i) s += ", ";
-    if constexpr (std::is_floating_point_v<T>) s += fmt_double(a[i]);
-    else s += std::to_string(a[i]);
+    if constexpr (std::is_floating_point_v<T>)
+      s += fmt_double(a[i]);
+    else
+      s += std::to_string(a[i]);
   }
   return s + "]";
 }
@@ -66,20 +69,34 @@ std::string join(const std::string& path, const std::string& key) { return path.
 
 std::string kind_name(Kind k) {
   switch (k) {
-    case Kind::map: return "map";
-    case Kind::list: return "list";
-    case Kind::number: return "number";
-    case Kind::integer: return "integer";
-    case Kind::boolean: return "boolean";
-    case Kind::string: return "string";
-    case Kind::choice: return "choice";
-    case Kind::vec3: return "[x, y, z]";
-    case Kind::vec2: return "[a, b]";
-    case Kind::ivec3: return "[i, j, k]";
-    case Kind::ivec2: return "[i, j]";
-    case Kind::index_list: return "list of indices";
-    case Kind::dict: return "map of name -> entry";
-    case Kind::variant: return "map";
+    case Kind::map:
+      return "map";
+    case Kind::list:
+      return "list";
+    case Kind::number:
+      return "number";
+    case Kind::integer:
+      return "integer";
+    case Kind::boolean:
+      return "boolean";
+    case Kind::string:
+      return "string";
+    case Kind::choice:
+      return "choice";
+    case Kind::vec3:
+      return "[x, y, z]";
+    case Kind::vec2:
+      return "[a, b]";
+    case Kind::ivec3:
+      return "[i, j, k]";
+    case Kind::ivec2:
+      return "[i, j]";
+    case Kind::index_list:
+      return "list of indices";
+    case Kind::dict:
+      return "map of name -> entry";
+    case Kind::variant:
+      return "map";
   }
   return "?";
 }
@@ -93,39 +110,77 @@ bool parse_double(const YAML::Node& n, double& out) {
   out = std::strtod(b, &e);
   if (e == b || *e != '\0') {
     // YAML spellings of infinity / NaN parse but are rejected later as non-finite.
-    if (s == ".inf" || s == "+.inf" || s == ".Inf") out = INFINITY;
-    else if (s == "-.inf" || s == "-.Inf") out = -INFINITY;
-    else if (s == ".nan" || s == ".NaN" || s == "nan" || s == "NaN") out = NAN;
-    else return false;
+    if (s == ".inf" || s == "+.inf" || s == ".Inf")
+      out = INFINITY;
+    else if (s == "-.inf" || s == "-.Inf")
+      out = -INFINITY;
+    else if (s == ".nan" || s == ".NaN" || s == "nan" || s == "NaN")
+      out = NAN;
+    else
+      return false;
   }
   return true;
 }
 
-bool parse_integer(const YAML::Node& n, long long& out) {
+bool parse_integer(const YAML::Node& n, long long& out, bool* too_large = nullptr) {
   if (!n.IsScalar()) return false;
   const std::string& s = n.Scalar();
-  auto res = std::from_chars(s.data(), s.data() + s.size(), out);
+  const char* b = s.data();
+  if (s.size() > 1 && s[0] == '+') ++b;  // YAML allows a leading '+'
+  auto res = std::from_chars(b, s.data() + s.size(), out);
+  if (res.ec == std::errc::result_out_of_range && res.ptr == s.data() + s.size()) {
+    if (too_large) *too_large = true;
+    return false;
+  }
   return res.ec == std::errc() && res.ptr == s.data() + s.size();
+}
+
+/// Every integer of the schema ends as a 32-bit `int` / `Index`: values beyond it are range errors.
+Range int32_range(const Range& r) {
+  Range out = r;
+  const double lo = std::numeric_limits<std::int32_t>::min(), hi = std::numeric_limits<std::int32_t>::max();
+  if (!(out.lo > lo)) out.lo = lo, out.lo_open = false;
+  if (!(out.hi < hi)) out.hi = hi, out.hi_open = false;
+  return out;
 }
 
 YAML::Node scalar_number(const YAML::Node& in, const NodePtr& sch, const Context& ctx, const std::string& path) {
   double v;
-  if (!parse_double(in, v)) ctx.fail(path, in, "expected a number, got " + (in.IsScalar() ? "'" + in.Scalar() + "'" : std::string("a ") + (in.IsSequence() ? "list" : in.IsMap() ? "map" : "null value")));
+  if (!parse_double(in, v))
+    ctx.fail(path, in,
+             "expected a number, got " + (in.IsScalar() ? "'" + in.Scalar() + "'"
+                                                        : std::string("a ") + (in.IsSequence() ? "list"
+                                                                               : in.IsMap()    ? "map"
+                                                                                               : "null value")));
   if (!std::isfinite(v)) ctx.fail(path, in, "must be finite, got '" + in.Scalar() + "'");
-  if (!sch->range.contains(v)) ctx.fail(path, in, "value " + in.Scalar() + " out of range: must be " + sch->range.describe());
+  if (!sch->range.contains(v))
+    ctx.fail(path, in, "value " + in.Scalar() + " out of range: must be " + sch->range.describe());
   return YAML::Node(fmt_double(v));  // shortest round-trip text, so run.json shows 0.005, not 0.0050000000000000001
 }
 
 YAML::Node scalar_integer(const YAML::Node& in, const NodePtr& sch, const Context& ctx, const std::string& path) {
   long long v;
-  if (!parse_integer(in, v)) ctx.fail(path, in, "expected an integer, got " + (in.IsScalar() ? "'" + in.Scalar() + "'" : std::string("a ") + (in.IsSequence() ? "list" : in.IsMap() ? "map" : "null value")));
-  if (!sch->range.contains(static_cast<double>(v))) ctx.fail(path, in, "value " + in.Scalar() + " out of range: must be " + sch->range.describe());
+  bool too_large = false;
+  const Range r = int32_range(sch->range);
+  if (!parse_integer(in, v, &too_large)) {
+    if (too_large) ctx.fail(path, in, "value " + in.Scalar() + " out of range: must be " + r.describe());
+    ctx.fail(path, in,
+             "expected an integer, got " + (in.IsScalar() ? "'" + in.Scalar() + "'"
+                                                          : std::string("a ") + (in.IsSequence() ? "list"
+                                                                                 : in.IsMap()    ? "map"
+                                                                                                 : "null value")));
+  }
+  if (!r.contains(static_cast<double>(v)))
+    ctx.fail(path, in, "value " + in.Scalar() + " out of range: must be " + r.describe());
   return YAML::Node(v);
 }
 
-YAML::Node fixed_vector(const YAML::Node& in, const NodePtr& sch, const Context& ctx, const std::string& path, size_t n, bool integral) {
+YAML::Node fixed_vector(const YAML::Node& in, const NodePtr& sch, const Context& ctx, const std::string& path, size_t n,
+                        bool integral) {
   if (!in.IsSequence() || in.size() != n)
-    ctx.fail(path, in, "expected a list of " + std::to_string(n) + (integral ? " integers" : " numbers") + " like " + kind_name(sch->kind));
+    ctx.fail(path, in,
+             "expected a list of " + std::to_string(n) + (integral ? " integers" : " numbers") + " like " +
+                 kind_name(sch->kind));
   YAML::Node out(YAML::NodeType::Sequence);
   for (size_t i = 0; i < n; ++i) {
     const std::string p = path + "[" + std::to_string(i) + "]";
@@ -140,15 +195,39 @@ std::vector<std::string> field_keys(const Node& n) {
   return k;
 }
 
+/// Keys must be plain strings and appear once: YAML parsers keep the first of two equal keys and
+/// silently drop the second (`time: {fps: 60, fps: -5}` would run at 60).
+void check_keys(const YAML::Node& in, const Context& ctx, const std::string& path) {
+  std::vector<std::pair<std::string, YAML::Node>> seen;
+  for (auto it = in.begin(); it != in.end(); ++it) {
+    const YAML::Node k = it->first;
+    if (!k.IsScalar())
+      ctx.fail(path, k,
+               std::string("keys must be strings, got a ") + (k.IsSequence() ? "list"
+                                                              : k.IsMap()    ? "map"
+                                                                             : "null key"));
+    for (const auto& [name, first] : seen)
+      if (name == k.Scalar()) {
+        const int line = first.Mark().is_null() ? 0 : first.Mark().line + 1;
+        ctx.fail(join(path, name), k,
+                 "duplicate key '" + name + "'" +
+                     (line > 0 ? " (first given on line " + std::to_string(line) + ")" : std::string()));
+      }
+    seen.emplace_back(k.Scalar(), k);
+  }
+}
+
 YAML::Node resolve_map_fields(const YAML::Node& in, const Node& sch, const Context& ctx, const std::string& path,
                               const std::string& skip_key = "") {
   if (in.IsDefined() && !in.IsNull() && !in.IsMap()) ctx.fail(path, in, "expected a map of keys");
   YAML::Node out(YAML::NodeType::Map);
   if (in.IsMap()) {
+    check_keys(in, ctx, path);
     for (auto it = in.begin(); it != in.end(); ++it) {
-      const std::string key = it->first.as<std::string>();
+      const std::string key = it->first.Scalar();
       if (key == skip_key) continue;
-      const bool known = std::any_of(sch.fields.begin(), sch.fields.end(), [&](const Field& f) { return f.key == key; });
+      const bool known =
+          std::any_of(sch.fields.begin(), sch.fields.end(), [&](const Field& f) { return f.key == key; });
       if (!known) {
         auto valid = field_keys(sch);
         ctx.fail(join(path, key), it->first, "unknown key '" + key + "'" + suggest(key, valid));
@@ -181,7 +260,8 @@ bool Range::contains(double v) const {
 
 std::string Range::describe() const {
   const bool has_lo = std::isfinite(lo), has_hi = std::isfinite(hi);
-  if (has_lo && has_hi) return std::string("in ") + (lo_open ? "(" : "[") + fmt_double(lo) + ", " + fmt_double(hi) + (hi_open ? ")" : "]");
+  if (has_lo && has_hi)
+    return std::string("in ") + (lo_open ? "(" : "[") + fmt_double(lo) + ", " + fmt_double(hi) + (hi_open ? ")" : "]");
   if (has_lo) return std::string(lo_open ? "> " : ">= ") + fmt_double(lo);
   if (has_hi) return std::string(hi_open ? "< " : "<= ") + fmt_double(hi);
   return "";
@@ -212,8 +292,10 @@ NodePtr boolean(bool def, std::string doc) {
 }
 NodePtr string(std::optional<std::string> def, std::string doc) {
   auto n = make(Kind::string, std::move(doc));
-  if (def) n->default_yaml = "'" + *def + "'";
-  else n->required = true;
+  if (def)
+    n->default_yaml = "'" + *def + "'";
+  else
+    n->required = true;
   return n;
 }
 NodePtr optional_string(std::string doc) {
@@ -227,30 +309,39 @@ NodePtr choice(std::string def, std::function<std::vector<std::string>()> choice
   n->choices = std::move(choices);
   return n;
 }
-NodePtr vec3(std::optional<std::array<double, 3>> def, std::string doc) {
+NodePtr vec3(std::optional<std::array<double, 3>> def, std::string doc, Range r) {
   auto n = make(Kind::vec3, std::move(doc));
-  if (def) n->default_yaml = fmt_array(*def);
-  else n->optional_absent = true;
+  if (def)
+    n->default_yaml = fmt_array(*def);
+  else
+    n->optional_absent = true;
+  n->range = r;
   return n;
 }
 NodePtr vec2(std::optional<std::array<double, 2>> def, std::string doc, Range r) {
   auto n = make(Kind::vec2, std::move(doc));
-  if (def) n->default_yaml = fmt_array(*def);
-  else n->required = true;
+  if (def)
+    n->default_yaml = fmt_array(*def);
+  else
+    n->required = true;
   n->range = r;
   return n;
 }
 NodePtr ivec3(std::optional<std::array<long long, 3>> def, std::string doc, Range r) {
   auto n = make(Kind::ivec3, std::move(doc));
-  if (def) n->default_yaml = fmt_array(*def);
-  else n->required = true;
+  if (def)
+    n->default_yaml = fmt_array(*def);
+  else
+    n->required = true;
   n->range = r;
   return n;
 }
 NodePtr ivec2(std::optional<std::array<long long, 2>> def, std::string doc, Range r) {
   auto n = make(Kind::ivec2, std::move(doc));
-  if (def) n->default_yaml = fmt_array(*def);
-  else n->required = true;
+  if (def)
+    n->default_yaml = fmt_array(*def);
+  else
+    n->required = true;
   n->range = r;
   return n;
 }
@@ -289,11 +380,17 @@ NodePtr variant(std::string doc, std::string discriminator, std::vector<std::pai
   return n;
 }
 
-void Context::fail(const std::string& path, const YAML::Node& at, const std::string& message) const {
+void Context::fail(const std::string& path, const YAML::Node& at, const std::string& message,
+                   const std::vector<std::string>& related) const {
+  auto under = [](const std::string& p, const std::string& opath) {
+    return p == opath || p.rfind(opath + ".", 0) == 0 || p.rfind(opath + "[", 0) == 0;
+  };
   for (const auto& [opath, text] : overrides) {
-    if (path == opath || path.rfind(opath + ".", 0) == 0 || path.rfind(opath + "[", 0) == 0)
-      throw ConfigError("command line (" + text + ")", path, 0, message);
+    if (under(path, opath)) throw ConfigError("command line (" + text + ")", path, 0, message);
   }
+  for (const auto& [opath, text] : overrides)
+    for (const auto& r : related)
+      if (under(r, opath)) throw ConfigError("command line (" + text + ")", r, 0, message);
   int line = 0;
   if (at.IsDefined() && !at.Mark().is_null()) line = at.Mark().line + 1;
   throw ConfigError(file, path, line, message);
@@ -307,15 +404,17 @@ YAML::Node resolve(const YAML::Node& in, const NodePtr& sch, const Context& ctx,
       if (in.IsNull() || !in.IsDefined()) return YAML::Node(YAML::NodeType::Sequence);
       if (!in.IsSequence()) ctx.fail(path, in, "expected a list");
       YAML::Node out(YAML::NodeType::Sequence);
-      for (size_t i = 0; i < in.size(); ++i) out.push_back(resolve(in[i], sch->item, ctx, path + "[" + std::to_string(i) + "]"));
+      for (size_t i = 0; i < in.size(); ++i)
+        out.push_back(resolve(in[i], sch->item, ctx, path + "[" + std::to_string(i) + "]"));
       return out;
     }
     case Kind::dict: {
       if (in.IsNull() || !in.IsDefined()) return YAML::Node(YAML::NodeType::Map);
       if (!in.IsMap()) ctx.fail(path, in, "expected a map of named entries");
+      check_keys(in, ctx, path);
       YAML::Node out(YAML::NodeType::Map);
       for (auto it = in.begin(); it != in.end(); ++it) {
-        const std::string key = it->first.as<std::string>();
+        const std::string key = it->first.Scalar();
         out[key] = resolve(it->second, sch->item, ctx, join(path, key));
       }
       return out;
@@ -325,7 +424,9 @@ YAML::Node resolve(const YAML::Node& in, const NodePtr& sch, const Context& ctx,
       const YAML::Node tag = in[sch->discriminator];
       std::vector<std::string> names;
       for (const auto& v : sch->variants) names.push_back(v.first);
-      if (!tag.IsDefined()) ctx.fail(join(path, sch->discriminator), in, "missing required key '" + sch->discriminator + "'; valid: " + suggest("", names).substr(9));
+      if (!tag.IsDefined())
+        ctx.fail(join(path, sch->discriminator), in,
+                 "missing required key '" + sch->discriminator + "'; valid: " + suggest("", names).substr(9));
       const std::string t = tag.IsScalar() ? tag.Scalar() : "";
       for (const auto& [name, vsch] : sch->variants) {
         if (name != t) continue;
@@ -335,7 +436,8 @@ YAML::Node resolve(const YAML::Node& in, const NodePtr& sch, const Context& ctx,
         for (auto it = out.begin(); it != out.end(); ++it) tagged[it->first] = it->second;
         return tagged;
       }
-      ctx.fail(join(path, sch->discriminator), tag, "unknown " + sch->discriminator + " '" + t + "'" + suggest(t, names));
+      ctx.fail(join(path, sch->discriminator), tag,
+               "unknown " + sch->discriminator + " '" + t + "'" + suggest(t, names));
     }
     case Kind::number:
       return scalar_number(in, sch, ctx, path);
@@ -356,24 +458,29 @@ YAML::Node resolve(const YAML::Node& in, const NodePtr& sch, const Context& ctx,
         ctx.fail(path, in, "unknown value '" + in.Scalar() + "'" + suggest(in.Scalar(), valid));
       return YAML::Node(in.Scalar());
     }
-    case Kind::vec3: return fixed_vector(in, sch, ctx, path, 3, false);
-    case Kind::vec2: return fixed_vector(in, sch, ctx, path, 2, false);
-    case Kind::ivec3: return fixed_vector(in, sch, ctx, path, 3, true);
-    case Kind::ivec2: return fixed_vector(in, sch, ctx, path, 2, true);
+    case Kind::vec3:
+      return fixed_vector(in, sch, ctx, path, 3, false);
+    case Kind::vec2:
+      return fixed_vector(in, sch, ctx, path, 2, false);
+    case Kind::ivec3:
+      return fixed_vector(in, sch, ctx, path, 3, true);
+    case Kind::ivec2:
+      return fixed_vector(in, sch, ctx, path, 2, true);
     case Kind::index_list: {
       if (!in.IsSequence()) ctx.fail(path, in, "expected a list of vertex indices");
       YAML::Node out(YAML::NodeType::Sequence);
-      for (size_t i = 0; i < in.size(); ++i) out.push_back(scalar_integer(in[i], sch, ctx, path + "[" + std::to_string(i) + "]"));
+      for (size_t i = 0; i < in.size(); ++i)
+        out.push_back(scalar_integer(in[i], sch, ctx, path + "[" + std::to_string(i) + "]"));
       return out;
     }
   }
   ctx.fail(path, in, "internal: unhandled schema kind");
 }
 
-std::string apply_override(YAML::Node& root, const std::string& assignment) {
+std::string apply_override(YAML::Node& root, const std::string& assignment, const NodePtr& sch,
+                           const std::string& file) {
   const auto eq = assignment.find('=');
-  if (eq == std::string::npos || eq == 0)
-    throw Error("--set '" + assignment + "': expected key.path=value");
+  if (eq == std::string::npos || eq == 0) throw Error("--set '" + assignment + "': expected key.path=value");
   std::string key = assignment.substr(0, eq);
   const std::string value = assignment.substr(eq + 1);
   for (char& c : key)
@@ -387,9 +494,35 @@ std::string apply_override(YAML::Node& root, const std::string& assignment) {
   std::string norm;
   YAML::Node cur;
   cur.reset(root);
+  const Node* sn = sch.get();  // the schema node at `norm` (null when unknown)
+  // A node in the way that is not a map: if the schema wants a map or list there, the scene file
+  // is wrong (blame it, with its line); otherwise the --set key path is.
+  auto not_a_container = [&](const YAML::Node& n) {
+    const std::string got = n.IsScalar() ? "'" + n.Scalar() + "'" : n.IsSequence() ? "a list" : "a map";
+    if (sn &&
+        (sn->kind == Kind::map || sn->kind == Kind::variant || sn->kind == Kind::dict || sn->kind == Kind::list)) {
+      const int line = n.Mark().is_null() ? 0 : n.Mark().line + 1;
+      throw ConfigError(
+          file, norm, line,
+          std::string(sn->kind == Kind::list ? "expected a list" : "expected a map of keys") + ", got " + got);
+    }
+    throw Error("--set '" + assignment + "': '" + norm + "' is " + got + ", not a map of keys");
+  };
+  auto descend = [&](const std::string& seg) {
+    if (!sn) return;
+    const Node* next = nullptr;
+    if (sn->kind == Kind::list || sn->kind == Kind::dict) next = sn->item.get();
+    for (const auto& f : sn->fields)
+      if (f.key == seg) next = f.node.get();
+    for (const auto& [name, v] : sn->variants)
+      for (const auto& f : v->fields)
+        if (f.key == seg) next = f.node.get();
+    sn = next;
+  };
   for (size_t i = 0; i < segs.size(); ++i) {
     const std::string& seg = segs[i];
     const bool last = i + 1 == segs.size();
+    if (sn && sn->kind == Kind::list && cur.IsDefined() && !cur.IsNull() && !cur.IsSequence()) not_a_container(cur);
     if (cur.IsSequence()) {
       long long idx = -1;
       if (!parse_integer(YAML::Node(seg), idx)) {
@@ -398,8 +531,10 @@ std::string apply_override(YAML::Node& root, const std::string& assignment) {
         if (idx < 0) throw Error("--set '" + assignment + "': no list element named '" + seg + "' at '" + norm + "'");
       }
       if (idx < 0 || idx >= static_cast<long long>(cur.size()))
-        throw Error("--set '" + assignment + "': index " + seg + " out of range at '" + norm + "' (" + std::to_string(cur.size()) + " elements)");
+        throw Error("--set '" + assignment + "': index " + seg + " out of range at '" + norm + "' (" +
+                    std::to_string(cur.size()) + " elements)");
       norm += "[" + std::to_string(idx) + "]";
+      descend(seg);
       if (last) {
         cur[static_cast<size_t>(idx)] = YAML::Load(value);
       } else {
@@ -407,9 +542,9 @@ std::string apply_override(YAML::Node& root, const std::string& assignment) {
         cur.reset(next);
       }
     } else {
-      if (!cur.IsMap() && !cur.IsNull() && cur.IsDefined())
-        throw Error("--set '" + assignment + "': '" + norm + "' is not a map");
+      if (!cur.IsMap() && !cur.IsNull() && cur.IsDefined()) not_a_container(cur);
       norm = join(norm, seg);
+      descend(seg);
       if (last) {
         cur[seg] = YAML::Load(value);
       } else {
@@ -426,10 +561,18 @@ std::string json_escape(const std::string& s) {
   std::string o = "\"";
   for (char c : s) {
     switch (c) {
-      case '"': o += "\\\""; break;
-      case '\\': o += "\\\\"; break;
-      case '\n': o += "\\n"; break;
-      case '\t': o += "\\t"; break;
+      case '"':
+        o += "\\\"";
+        break;
+      case '\\':
+        o += "\\\\";
+        break;
+      case '\n':
+        o += "\\n";
+        break;
+      case '\t':
+        o += "\\t";
+        break;
       default:
         if (static_cast<unsigned char>(c) < 0x20) {
           char b[8];
@@ -445,7 +588,8 @@ std::string json_escape(const std::string& s) {
 
 void emit(std::string& o, const YAML::Node& n, const Node& sch, int ind);
 
-void emit_map(std::string& o, const YAML::Node& n, const std::vector<Field>& fields, int ind, const std::string& disc = "") {
+void emit_map(std::string& o, const YAML::Node& n, const std::vector<Field>& fields, int ind,
+              const std::string& disc = "") {
   const std::string pad(static_cast<size_t>(ind + 2), ' ');
   o += "{";
   bool first = true;
@@ -466,10 +610,13 @@ void emit_map(std::string& o, const YAML::Node& n, const std::vector<Field>& fie
 void emit(std::string& o, const YAML::Node& n, const Node& sch, int ind) {
   const std::string pad(static_cast<size_t>(ind + 2), ' ');
   switch (sch.kind) {
-    case Kind::map: emit_map(o, n, sch.fields, ind); return;
+    case Kind::map:
+      emit_map(o, n, sch.fields, ind);
+      return;
     case Kind::variant:
       for (const auto& [name, v] : sch.variants)
-        if (n[sch.discriminator] && n[sch.discriminator].Scalar() == name) return emit_map(o, n, v->fields, ind, sch.discriminator);
+        if (n[sch.discriminator] && n[sch.discriminator].Scalar() == name)
+          return emit_map(o, n, v->fields, ind, sch.discriminator);
       o += "{}";
       return;
     case Kind::dict: {
@@ -494,7 +641,11 @@ void emit(std::string& o, const YAML::Node& n, const Node& sch, int ind) {
       o += n.size() ? "\n" + std::string(static_cast<size_t>(ind), ' ') + "]" : "]";
       return;
     }
-    case Kind::vec3: case Kind::vec2: case Kind::ivec3: case Kind::ivec2: case Kind::index_list: {
+    case Kind::vec3:
+    case Kind::vec2:
+    case Kind::ivec3:
+    case Kind::ivec2:
+    case Kind::index_list: {
       o += "[";
       for (size_t i = 0; i < n.size(); ++i) o += (i ? ", " : "") + n[i].Scalar();
       o += "]";
@@ -506,8 +657,14 @@ void emit(std::string& o, const YAML::Node& n, const Node& sch, int ind) {
       o += fmt_double(v);
       return;
     }
-    case Kind::integer: case Kind::boolean: o += n.Scalar(); return;
-    case Kind::string: case Kind::choice: o += json_escape(n.Scalar()); return;
+    case Kind::integer:
+    case Kind::boolean:
+      o += n.Scalar();
+      return;
+    case Kind::string:
+    case Kind::choice:
+      o += json_escape(n.Scalar());
+      return;
   }
 }
 
@@ -519,22 +676,27 @@ void reference_rows(std::string& o, const Node& sch, const std::string& path, co
       for (const auto& c : n.choices()) allowed += (allowed.empty() ? "`" : ", `") + c + "`";
       type = "choice";
     }
-    if (n.required) def = "required";
-    else if (n.default_yaml) def = "`" + *n.default_yaml + "`";
-    else def = "absent";
+    if (n.required)
+      def = "required";
+    else if (n.default_yaml)
+      def = "`" + *n.default_yaml + "`";
+    else
+      def = "absent";
     if (!def.empty() && def.front() == '`') {
       // strip the YAML quotes of string defaults for readability
       std::string inner = def.substr(1, def.size() - 2);
       if (inner.size() >= 2 && inner.front() == '\'' && inner.back() == '\'') inner = inner.substr(1, inner.size() - 2);
       def = "`" + inner + "`";
     }
-    o += "| `" + p + "` | " + type + " | " + def + " | " + allowed + " | " + n.doc + (note.empty() ? "" : " " + note) + " |\n";
+    o += "| `" + p + "` | " + type + " | " + def + " | " + allowed + " | " + n.doc + (note.empty() ? "" : " " + note) +
+         " |\n";
   };
   switch (sch.kind) {
     case Kind::map:
       for (const auto& f : sch.fields) {
         const std::string p = path.empty() ? f.key : path + "." + f.key;
-        if (f.node->kind == Kind::map || f.node->kind == Kind::list || f.node->kind == Kind::dict || f.node->kind == Kind::variant) {
+        if (f.node->kind == Kind::map || f.node->kind == Kind::list || f.node->kind == Kind::dict ||
+            f.node->kind == Kind::variant) {
           if (f.node->kind != Kind::map || f.node->optional_absent) row(p, *f.node);
           reference_rows(o, *f.node, p, note);
         } else {
@@ -552,7 +714,8 @@ void reference_rows(std::string& o, const Node& sch, const std::string& path, co
       std::string names;
       for (const auto& v : sch.variants) names += (names.empty() ? "`" : ", `") + v.first + "`";
       o += "| `" + path + "." + sch.discriminator + "` | choice | required | " + names + " | selects the variant |\n";
-      for (const auto& [name, v] : sch.variants) reference_rows(o, *v, path, "(" + sch.discriminator + ": " + name + ")");
+      for (const auto& [name, v] : sch.variants)
+        reference_rows(o, *v, path, "(" + sch.discriminator + ": " + name + ")");
       return;
     }
     default:

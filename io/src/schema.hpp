@@ -15,7 +15,22 @@
 
 namespace ccfr::io::schema {
 
-enum class Kind { map, list, number, integer, boolean, string, choice, vec3, vec2, ivec3, ivec2, index_list, dict, variant };
+enum class Kind {
+  map,
+  list,
+  number,
+  integer,
+  boolean,
+  string,
+  choice,
+  vec3,
+  vec2,
+  ivec3,
+  ivec2,
+  index_list,
+  dict,
+  variant
+};
 
 struct Node;
 using NodePtr = std::shared_ptr<Node>;
@@ -29,6 +44,9 @@ struct Range {
   static Range at_least(double v) { return {v, std::numeric_limits<double>::infinity(), false, false}; }
   static Range unit() { return {0.0, 1.0, false, false}; }
   static Range any() { return {}; }
+  static Range within(double m) { return {-m, m, false, false}; }          ///< [-m, m]
+  static Range positive_up_to(double m) { return {0.0, m, true, false}; }  ///< (0, m]
+  static Range up_to(double m) { return {0.0, m, false, false}; }          ///< [0, m]
   bool contains(double v) const;
   std::string describe() const;  ///< e.g. "> 0", ">= 1", "in [0, 1]"; empty for any
 };
@@ -43,12 +61,12 @@ struct Node {
   std::string doc;
   std::optional<std::string> default_yaml;  ///< YAML text of the default; nullopt and required: must be given
   bool required = false;
-  bool optional_absent = false;             ///< no default and may be absent (e.g. `mesh`)
+  bool optional_absent = false;  ///< no default and may be absent (e.g. `mesh`)
   Range range;
-  std::function<std::vector<std::string>()> choices;  ///< choice
-  std::vector<Field> fields;                          ///< map
-  NodePtr item;                                       ///< list item, dict value
-  std::string discriminator;                          ///< variant: key that names the variant
+  std::function<std::vector<std::string>()> choices;      ///< choice
+  std::vector<Field> fields;                              ///< map
+  NodePtr item;                                           ///< list item, dict value
+  std::string discriminator;                              ///< variant: key that names the variant
   std::vector<std::pair<std::string, NodePtr>> variants;  ///< variant name -> map of its other keys
 };
 
@@ -60,7 +78,7 @@ NodePtr boolean(bool def, std::string doc);
 NodePtr string(std::optional<std::string> def, std::string doc);
 NodePtr optional_string(std::string doc);
 NodePtr choice(std::string def, std::function<std::vector<std::string>()> choices, std::string doc);
-NodePtr vec3(std::optional<std::array<double, 3>> def, std::string doc);
+NodePtr vec3(std::optional<std::array<double, 3>> def, std::string doc, Range r = {});
 NodePtr vec2(std::optional<std::array<double, 2>> def, std::string doc, Range r = {});
 NodePtr ivec3(std::optional<std::array<long long, 3>> def, std::string doc, Range r = {});
 NodePtr ivec2(std::optional<std::array<long long, 2>> def, std::string doc, Range r = {});
@@ -75,7 +93,11 @@ NodePtr variant(std::string doc, std::string discriminator, std::vector<std::pai
 struct Context {
   std::string file;
   std::vector<std::pair<std::string, std::string>> overrides;  ///< (key path, "--set ..." text)
-  [[noreturn]] void fail(const std::string& path, const YAML::Node& at, const std::string& message) const;
+  /// Throws a ConfigError at `path`. When `path`, or one of the `related` key paths that the
+  /// check also depends on (e.g. the object's kind for a shape that cannot make it), was set
+  /// from the command line, the error names that `--set` instead of the file.
+  [[noreturn]] void fail(const std::string& path, const YAML::Node& at, const std::string& message,
+                         const std::vector<std::string>& related = {}) const;
 };
 
 /// Validates `in` against `schema` and returns a new tree with every default filled in.
@@ -83,8 +105,11 @@ YAML::Node resolve(const YAML::Node& in, const NodePtr& schema, const Context& c
 
 /// Applies one "key.path=value" override (value parsed as YAML) to `root`. List elements are
 /// addressed by index (`objects.0`, `objects[0]`) or by their `name` (`objects.sheet`).
-/// Returns the normalised key path.
-std::string apply_override(YAML::Node& root, const std::string& assignment);
+/// Returns the normalised key path. A node of `root` in the way that `schema` says must be a map
+/// or list is the scene file's error (ConfigError naming `file` and its line); other mistakes are
+/// the override's (Error naming `--set assignment`).
+std::string apply_override(YAML::Node& root, const std::string& assignment, const NodePtr& schema = nullptr,
+                           const std::string& file = "");
 
 /// Emits a resolved tree as JSON, typed by the schema (numbers stay numbers).
 std::string to_json(const YAML::Node& resolved, const NodePtr& schema, int indent = 0);

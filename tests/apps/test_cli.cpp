@@ -109,9 +109,10 @@ TEST(Cli, SetAndSolverOptionsOverrideTheScene) {
 TEST(Cli, NonFiniteStateStopsTheRunAndKeepsFrames) {
   const fs::path d = scratch("nan");
   std::string s = kScene;
-  // Without contact handling (no step bound r), gravity this large overflows to infinity in the
-  // second frame (dt = 1 s); frame 1 is still finite and must stay on disk.
-  s.replace(s.find("time: {fps: 60"), 14, "time: {fps: 1, gravity: [0, -1.0e308, 0]");
+  // Without contact handling (no step bound r), a frame this long (dt = 1e152 s) under the
+  // largest gravity the schema accepts (1e4) overflows to infinity in the second frame:
+  // g dt² = 1e308 after frame 1 is still finite and must stay on disk, 3 g dt² is not.
+  s.replace(s.find("time: {fps: 60"), 14, "time: {fps: 1e-152, gravity: [0, -1e4, 0]");
   s.replace(s.find("substeps: 2"), 11, "substeps: 1");
   std::ofstream(d / "scene.yaml") << s;
   const auto r = run("run " + (d / "scene.yaml").string() + " --out " + (d / "out").string() + " --solver none");

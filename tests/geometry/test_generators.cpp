@@ -2,7 +2,10 @@
 
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <numbers>
+#include <stdexcept>
+#include <string>
 
 #include "ccfr/core/scene.hpp"
 #include "ccfr/geometry/generators.hpp"
@@ -110,4 +113,25 @@ TEST(Generators, CombEnclosesSpineAndTeeth) {
   const auto c = gen::comb(1.0, 0.05, 0.1, 10, 0.4, 0.02);
   EXPECT_EQ(c.v.size(), 8u * 11u);
   EXPECT_NEAR(signed_volume(c.v, c.f), 1.0 * 0.1 * 0.05 + 10 * 0.02 * 0.4 * 0.05, 1e-12);
+}
+
+TEST(Generators, CountsBeyond32BitIndicesThrowBeforeAllocating) {
+  constexpr Index kMax = std::numeric_limits<Index>::max();
+  // (res + 1) and the vertex count used to wrap to negative and the loops then read through null.
+  EXPECT_THROW(gen::grid(1.0, 1.0, kMax, 1), std::invalid_argument);
+  EXPECT_THROW(gen::grid(1.0, 1.0, 70000, 70000), std::invalid_argument);
+  EXPECT_THROW(gen::tet_box(Vec3(1, 1, 1), Vec3i(kMax, 1, 1)), std::invalid_argument);
+  EXPECT_THROW(gen::tet_box(Vec3(1, 1, 1), Vec3i(1000, 1000, 1000)), std::invalid_argument);  // 6e9 tets
+  EXPECT_THROW(gen::particle_block(kMax, kMax, 2, 0.1), std::invalid_argument);
+  EXPECT_THROW(gen::curly_strands(kMax, kMax, 1.0, 0.0, 0.0, 0.0), std::invalid_argument);
+  try {
+    gen::grid(1.0, 1.0, kMax, 1);
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("32-bit"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Generators, TetBoxSizesMustBePositive) {
+  EXPECT_THROW(gen::tet_box(Vec3(1, 0, 1), Vec3i(1, 1, 1)), std::invalid_argument);
+  EXPECT_THROW(gen::tet_box(Vec3(-1, 1, 1), Vec3i(1, 1, 1)), std::invalid_argument);  // used to be mirrored
 }

@@ -30,6 +30,7 @@ struct Frame {
   std::vector<std::vector<Index>> lines;  ///< polylines, 0-based
   std::vector<Index> points;              ///< free points, 0-based
   std::vector<FrameObject> objects;
+  std::vector<int> face_lines;  ///< #F: source line of each (triangulated) face
 };
 
 /// Writes one frame atomically (temporary file in the same folder, then rename).
@@ -47,6 +48,7 @@ struct ObjMesh {
   Positions v;
   std::vector<Vec3i> f;
   std::vector<std::vector<Index>> lines;
+  std::vector<int> face_lines;  ///< #F: source line of each face, for messages
 };
 ObjMesh read_obj_mesh(const std::filesystem::path& path);
 

@@ -1,0 +1,74 @@
+// Command-line bounds: readable ranges, a cap on --threads, and 32-bit integers from --set.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+namespace fs = std::filesystem;
+
+namespace {
+struct Result {
+  int code;
+  std::string out;  // stdout + stderr
+};
+
+Result run(const std::string& args) {
+  const std::string cmd = std::string(CCFR_EXE) + " " + args + " 2>&1";
+  Result r{0, ""};
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return {-1, "popen failed"};
+  std::array<char, 4096> buf;
+  while (size_t n = fread(buf.data(), 1, buf.size(), p)) r.out.append(buf.data(), n);
+  const int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+fs::path scene_dir() {
+  const fs::path d = fs::temp_directory_path() / "ccfr_cli_limits";
+  fs::remove_all(d);
+  fs::create_directories(d);
+  std::ofstream(d / "s.yaml")
+      << "time: {frames: 1, substeps: 1}\n"
+         "objects:\n"
+         "  - {name: sheet, kind: cloth, shape: {type: grid, size: [0.1, 0.1], resolution: [2, 2]}}\n";
+  return d;
+}
+
+bool has(const Result& r, const std::string& s) { return r.out.find(s) != std::string::npos; }
+}  // namespace
+
+TEST(CliLimits, ThreadsAreCappedWithAClearMessage) {
+  const fs::path d = scene_dir();
+  const Result r = run("run " + (d / "s.yaml").string() + " --out " + (d / "out").string() + " --threads 2147483647");
+  EXPECT_NE(r.code, 0) << r.out;
+  EXPECT_TRUE(has(r, "--threads")) << r.out;
+  EXPECT_TRUE(has(r, "at most 1024")) << r.out;
+  EXPECT_FALSE(fs::exists(d / "out" / "run.json")) << r.out;
+}
+
+TEST(CliLimits, RangesAreReadable) {
+  const fs::path d = scene_dir();
+  const Result r = run("run " + (d / "s.yaml").string() + " --out " + (d / "out").string() + " --frames -1");
+  EXPECT_NE(r.code, 0) << r.out;
+  EXPECT_TRUE(has(r, ">= 0")) << r.out;
+  EXPECT_FALSE(has(r, "17976931348623157")) << r.out;  // DBL_MAX printed in full
+  const Result help = run("run --help");
+  EXPECT_FALSE(has(help, "17976931348623157")) << help.out;
+  const Result audit = run("audit " + d.string() + " --stride 0");
+  EXPECT_NE(audit.code, 0);
+  EXPECT_FALSE(has(audit, "17976931348623157")) << audit.out;
+}
+
+TEST(CliLimits, HugeIntegersFromSetNameTheOption) {
+  const fs::path d = scene_dir();
+  const Result r =
+      run("run " + (d / "s.yaml").string() + " --out " + (d / "out").string() + " --set time.substeps=3000000000");
+  EXPECT_NE(r.code, 0) << r.out;
+  EXPECT_TRUE(has(r, "--set time.substeps=3000000000")) << r.out;
+  EXPECT_TRUE(has(r, "out of range")) << r.out;
+  EXPECT_FALSE(has(r, "internal error")) << r.out;
+}

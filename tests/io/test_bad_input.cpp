@@ -1,0 +1,280 @@
+// Every bad input gets one clear error naming the file (or the --set option), the key path and
+// the line: integers beyond 32 bits, scenes too large for the machine, duplicate keys, extra
+// documents, names that would break the OBJ frames, absurd magnitudes and degenerate meshes.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "ccfr/core/error.hpp"
+#include "ccfr/io/scene_loader.hpp"
+#include "test_support.hpp"
+
+using namespace ccfr;
+namespace fs = std::filesystem;
+
+namespace {
+const char* kBase = R"(scene: t
+time:
+  fps: 60
+  frames: 2
+contact:
+  radius: 0.01
+objects:
+  - name: sheet
+    kind: cloth
+    shape: {type: grid, size: [1, 1], resolution: [4, 4]}
+)";
+
+/// The ConfigError that loading `yaml` raises (fails the test if none, or another error).
+ConfigError config_error(const std::string& yaml, const std::vector<std::string>& sets = {},
+                         const fs::path& dir = ".") {
+  try {
+    io::load_scene_text(yaml, "scene.yaml", dir, sets);
+  } catch (const ConfigError& e) {
+    return e;
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "expected a ConfigError, got: " << e.what() << "\nfor:\n" << yaml;
+    return ConfigError("", "", 0, "");
+  }
+  ADD_FAILURE() << "expected a ConfigError for:\n" << yaml;
+  return ConfigError("", "", 0, "");
+}
+
+std::string with(std::string y, const std::string& from, const std::string& to) {
+  const auto pos = y.find(from);
+  EXPECT_NE(pos, std::string::npos) << from;
+  if (pos != std::string::npos) y.replace(pos, from.size(), to);
+  return y;
+}
+
+std::string shape(const std::string& s) { return with(kBase, "{type: grid, size: [1, 1], resolution: [4, 4]}", s); }
+
+bool has(const ConfigError& e, const std::string& text) {
+  return std::string(e.what()).find(text) != std::string::npos;
+}
+
+fs::path mesh_dir() {
+  const fs::path d = fs::temp_directory_path() / "ccfr_test_bad_meshes";
+  fs::create_directories(d);
+  return d;
+}
+}  // namespace
+
+TEST(BadInput, IntegersBeyond32BitsAreRangeErrorsWithKeyAndLine) {
+  auto e = config_error(with(kBase, "  frames: 2", "  frames: 2\n  substeps: 3000000000"));
+  EXPECT_EQ(e.key_path(), "time.substeps");
+  EXPECT_EQ(e.line(), 5);
+  EXPECT_TRUE(has(e, "out of range")) << e.what();
+  EXPECT_TRUE(has(e, "2147483647")) << e.what();
+  // Beyond 64 bits too.
+  e = config_error(with(kBase, "  frames: 2", "  frames: 99999999999999999999999"));
+  EXPECT_EQ(e.key_path(), "time.frames");
+  EXPECT_TRUE(has(e, "out of range")) << e.what();
+
+  e = config_error(kBase, {"time.substeps=3000000000"});
+  EXPECT_EQ(e.key_path(), "time.substeps");
+  EXPECT_TRUE(has(e, "--set time.substeps=3000000000")) << e.what();
+
+  e = config_error(std::string(kBase) + "    pins:\n      - indices: [0, 3000000000]\n");
+  EXPECT_EQ(e.key_path(), "objects[0].pins[0].indices[1]");
+  EXPECT_EQ(e.line(), 12);
+}
+
+TEST(BadInput, GeneratorResolutionsThatOverflowIndicesAreRefused) {
+  auto e = config_error(shape("{type: grid, size: [1, 1], resolution: [2147483647, 2]}"));
+  EXPECT_EQ(e.key_path(), "objects[0].shape");
+  EXPECT_EQ(e.line(), 10);
+  EXPECT_TRUE(has(e, "32-bit")) << e.what();
+  std::string y =
+      with(shape("{type: tet_box, size: [1, 1, 1], resolution: [2147483647, 1, 1]}"), "kind: cloth", "kind: tet_solid");
+  e = config_error(y);
+  EXPECT_EQ(e.key_path(), "objects[0].shape");
+  EXPECT_TRUE(has(e, "32-bit")) << e.what();
+  y = with(shape("{type: particles, counts: [2147483647, 2147483647, 2147483647]}"), "kind: cloth", "kind: particles");
+  e = config_error(y);
+  EXPECT_TRUE(has(e, "32-bit")) << e.what();
+}
+
+TEST(BadInput, ScenesLargerThanTheMemoryAreRefusedBeforeAllocating) {
+  // 4e8 vertices, 8e8 faces: indices fit, memory does not (hundreds of GB by any estimate).
+  const auto e = config_error(shape("{type: grid, size: [1, 1], resolution: [20000, 20000]}"));
+  EXPECT_EQ(e.key_path(), "objects[0].shape");
+  EXPECT_EQ(e.line(), 10);
+  EXPECT_TRUE(has(e, "of memory")) << e.what();
+  EXPECT_TRUE(has(e, "available (MemAvailable)")) << e.what();
+  EXPECT_TRUE(has(e, "400040001 vertices")) << e.what();
+}
+
+TEST(BadInput, DuplicateKeysAreErrors) {
+  auto e = config_error(with(kBase, "  fps: 60\n", "  fps: 60\n  fps: -5\n"));
+  EXPECT_EQ(e.key_path(), "time.fps");
+  EXPECT_EQ(e.line(), 4);
+  EXPECT_TRUE(has(e, "duplicate key 'fps'")) << e.what();
+  EXPECT_TRUE(has(e, "line 3")) << e.what();
+  e = config_error(std::string(kBase) + "time: {fps: 30}\n");
+  EXPECT_EQ(e.key_path(), "time");
+  EXPECT_EQ(e.line(), 11);
+  e = config_error(std::string(kBase) + "materials:\n  silk: {}\n  silk: {density: 2}\n");
+  EXPECT_EQ(e.key_path(), "materials.silk");
+  EXPECT_EQ(e.line(), 13);
+  e = config_error(shape("{type: grid, type: sphere, size: [1, 1], resolution: [4, 4]}"));
+  EXPECT_EQ(e.key_path(), "objects[0].shape.type");
+}
+
+TEST(BadInput, ExtraDocumentsAndNonStringKeysAreErrors) {
+  auto e = config_error(std::string(kBase) + "---\nscene: other\n");
+  EXPECT_EQ(e.line(), 12);
+  EXPECT_TRUE(has(e, "second one")) << e.what();
+  // A document marker at the start, or a trailing empty document, is harmless.
+  EXPECT_NO_THROW(io::load_scene_text(std::string("---\n") + kBase + "---\n", "scene.yaml", "."));
+  e = config_error(with(kBase, "  fps: 60", "  [fps]: 60"));
+  EXPECT_EQ(e.key_path(), "time");
+  EXPECT_EQ(e.line(), 3);
+  EXPECT_TRUE(has(e, "keys must be strings")) << e.what();
+}
+
+TEST(BadInput, UnterminatedQuoteIsASyntaxErrorWithItsLine) {
+  auto e = config_error(with(kBase, "  - name: sheet", "  - name: \"sheet"));
+  EXPECT_EQ(e.line(), 8);
+  EXPECT_TRUE(has(e, "unterminated")) << e.what();
+  e = config_error(with(kBase, "scene: t", "scene: 't"));
+  EXPECT_EQ(e.line(), 1);
+  EXPECT_TRUE(has(e, "unterminated")) << e.what();
+  // Escaped quotes and multi-line quoted strings that do close are fine.
+  EXPECT_NO_THROW(io::load_scene_text(with(kBase, "scene: t", "scene: \"a \\\" b\""), "scene.yaml", "."));
+  EXPECT_NO_THROW(io::load_scene_text(with(kBase, "scene: t", "scene: 'it''s\n  two lines'"), "scene.yaml", "."));
+}
+
+TEST(BadInput, NamesThatWouldBreakTheObjFramesAreRefused) {
+  for (const std::string bad : {"\"a\\nb\"", "\"a\\tb\"", "'   '", "''", "' lead'"}) {
+    SCOPED_TRACE(bad);
+    const auto e = config_error(with(kBase, "name: sheet", "name: " + bad));
+    EXPECT_EQ(e.key_path(), "objects[0].name");
+    EXPECT_EQ(e.line(), 8);
+    EXPECT_TRUE(has(e, "OBJ")) << e.what();
+  }
+  const auto e = config_error(with(kBase, "scene: t", "scene: \"a\\x01b\""));
+  EXPECT_EQ(e.key_path(), "scene");
+  EXPECT_EQ(e.line(), 1);
+  EXPECT_TRUE(has(e, "control character")) << e.what();
+  EXPECT_TRUE(has(e, "\\x01")) << e.what();
+  EXPECT_NO_THROW(io::load_scene_text(with(kBase, "name: sheet", "name: 'my sheet'"), "scene.yaml", "."));
+}
+
+TEST(BadInput, NonPositiveTetBoxSizesAndAbsurdMagnitudesAreRangeErrors) {
+  const std::string tet = with(shape("{type: tet_box, size: [1, -1, 1]}"), "kind: cloth", "kind: tet_solid");
+  auto e = config_error(tet);
+  EXPECT_EQ(e.key_path(), "objects[0].shape.size[1]");
+  EXPECT_EQ(e.line(), 10);
+  struct Case {
+    std::string extra, path;
+  };
+  const std::vector<Case> cases = {
+      {"    transform: {translate: [1e300, 0, 0]}\n", "objects[0].transform.translate[0]"},
+      {"    transform: {scale: 1e300}\n", "objects[0].transform.scale"},
+      {"    velocity: [0, -1e300, 0]\n", "objects[0].velocity[1]"},
+      {"    motion: {angular_velocity: 1e300}\n", "objects[0].motion.angular_velocity"},
+  };
+  for (const auto& c : cases) {
+    e = config_error(std::string(kBase) + c.extra);
+    EXPECT_EQ(e.key_path(), c.path) << e.what();
+    EXPECT_EQ(e.line(), 11) << e.what();
+    EXPECT_TRUE(has(e, "out of range")) << e.what();
+  }
+  e = config_error(shape("{type: grid, size: [1e300, 1], resolution: [4, 4]}"));
+  EXPECT_EQ(e.key_path(), "objects[0].shape.size[0]");
+  e = config_error(with(kBase, "  fps: 60", "  fps: 60\n  gravity: [0, -1e300, 0]"));
+  EXPECT_EQ(e.key_path(), "time.gravity[1]");
+}
+
+TEST(BadInput, UnsupportedMeshFormatsNameTheExtension) {
+  for (const std::string ext : {"gltf", "msh", "STL"}) {
+    std::ofstream(mesh_dir() / ("m." + ext)) << "whatever\n";
+    const auto e = config_error(shape("{type: mesh, path: m." + ext + "}"), {}, mesh_dir());
+    EXPECT_EQ(e.key_path(), "objects[0].shape.path");
+    EXPECT_EQ(e.line(), 10);
+    EXPECT_TRUE(has(e, "unsupported mesh format '." + ext + "' (ccfr reads .obj)")) << e.what();
+  }
+  std::ofstream(mesh_dir() / "ok.OBJ") << "v 0 0 0\nv 1 0 0\nv 0 0 1\nf 1 2 3\n";
+  EXPECT_NO_THROW(io::load_scene_text(shape("{type: mesh, path: ok.OBJ}"), "scene.yaml", mesh_dir()));
+}
+
+TEST(BadInput, DegenerateMeshesNameFileAndFace) {
+  const std::string quad = "v 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\n";
+  struct Case {
+    std::string file, obj, expect;
+  };
+  const std::vector<Case> cases = {
+      {"repeat.obj", quad + "f 1 2 3\nf 1 3 3\n", "face 2 (line 6) repeats vertex 3"},
+      {"flat.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 0 1\nf 1 2 4\nf 1 2 3\n", "face 2 (line 6) has zero area"},
+      {"twice.obj", quad + "f 1 2 3\nf 1 3 4\nf 3 1 2\n", "face 3 (line 7) repeats face 1 (line 5)"},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.file);
+    std::ofstream(mesh_dir() / c.file) << c.obj;
+    const auto e = config_error(shape("{type: mesh, path: " + c.file + "}"), {}, mesh_dir());
+    EXPECT_EQ(e.key_path(), "objects[0].shape.path");
+    EXPECT_EQ(e.line(), 10);
+    EXPECT_TRUE(has(e, c.file)) << e.what();
+    EXPECT_TRUE(has(e, c.expect)) << e.what();
+  }
+}
+
+TEST(BadInput, NonManifoldAndOpenMeshes) {
+  // Three triangles on the edge 1-2: non-manifold. An error for a rigid body, a warning for cloth.
+  std::ofstream(mesh_dir() / "fin.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nf 1 2 3\nf 2 1 4\nf 1 2 5\n";
+  const std::string rigid = with(shape("{type: mesh, path: fin.obj}"), "kind: cloth", "kind: rigid");
+  auto e = config_error(rigid, {}, mesh_dir());
+  EXPECT_EQ(e.key_path(), "objects[0].shape.path");
+  EXPECT_TRUE(has(e, "fin.obj")) << e.what();
+  EXPECT_TRUE(has(e, "non-manifold")) << e.what();
+  EXPECT_TRUE(has(e, "face 3 (line 8)")) << e.what();
+  {
+    test::ExpectWarnings w;
+    EXPECT_NO_THROW(io::load_scene_text(shape("{type: mesh, path: fin.obj}"), "scene.yaml", mesh_dir()));
+  }
+  // An open surface as a rigid body: its mass would depend on where it is placed.
+  std::ofstream(mesh_dir() / "open.obj") << "v 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\nf 1 2 3\nf 1 3 4\n";
+  e = config_error(with(shape("{type: mesh, path: open.obj}"), "kind: cloth", "kind: rigid"), {}, mesh_dir());
+  EXPECT_TRUE(has(e, "closed surface")) << e.what();
+  EXPECT_TRUE(has(e, "open.obj")) << e.what();
+  e = config_error(with(kBase, "kind: cloth", "kind: rigid"));
+  EXPECT_EQ(e.key_path(), "objects[0].shape.type");
+  EXPECT_TRUE(has(e, "closed surface")) << e.what();
+  // Closed generated shapes stay valid rigid bodies.
+  EXPECT_NO_THROW(
+      io::load_scene_text(with(shape("{type: sphere, radius: 0.2}"), "kind: cloth", "kind: rigid"), "scene.yaml", "."));
+  EXPECT_NO_THROW(
+      io::load_scene_text(with(shape("{type: cylinder}"), "kind: cloth", "kind: rigid"), "scene.yaml", "."));
+}
+
+TEST(BadInput, OverrideMistakesBlameTheRightSource) {
+  // A `time` that is not a map is the scene file's mistake, even when an internal override such
+  // as `--frames` (time.frames=N) reaches into it.
+  auto e = config_error(with(kBase, "time:\n  fps: 60\n  frames: 2\n", "time: 5\n"), {"time.frames=3"});
+  EXPECT_EQ(e.file(), "scene.yaml");
+  EXPECT_EQ(e.key_path(), "time");
+  EXPECT_EQ(e.line(), 2);
+  EXPECT_FALSE(has(e, "--set")) << e.what();
+  // A --set that reaches into a string is the option's mistake.
+  try {
+    io::load_scene_text(kBase, "scene.yaml", ".", {"scene.name=x"});
+    FAIL();
+  } catch (const Error& err) {
+    EXPECT_NE(std::string(err.what()).find("--set 'scene.name=x'"), std::string::npos) << err.what();
+  }
+}
+
+TEST(BadInput, SetMistakesBlameTheSetOption) {
+  // The shape is fine in the file; the --set kind is what does not fit it.
+  auto e = config_error(kBase, {"objects.sheet.kind=strand"});
+  EXPECT_EQ(e.key_path(), "objects[0].kind");
+  EXPECT_TRUE(has(e, "--set objects.sheet.kind=strand")) << e.what();
+  e = config_error(kBase, {"objects.sheet.kind=rigid"});
+  EXPECT_TRUE(has(e, "--set objects.sheet.kind=rigid")) << e.what();
+  EXPECT_TRUE(has(e, "closed surface")) << e.what();
+  e = config_error(with(kBase, "  radius: 0.01", "  radius: 0.01\n  friction: {kinetic: 0.5}"),
+                   {"contact.friction.static=0.2"});
+  EXPECT_TRUE(has(e, "--set contact.friction.static=0.2")) << e.what();
+}
