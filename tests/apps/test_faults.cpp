@@ -273,7 +273,7 @@ TEST(Faults, ARerunKeepsThePreviousRunUntilItsFirstFrame) {
   // Gravity that overflows in the first simulated frame: the rerun fails at frame 1.
   fs::create_directories(d / "bad");
   std::string text = scene();
-  text.replace(text.find("time: {fps: 60"), 14, "time: {fps: 0.5, gravity: [0, -1.0e308, 0]");
+  text.replace(text.find("time: {fps: 60"), 14, "time: {fps: 1e-160, gravity: [0, -1e4, 0]");  // g dt^2 overflows
   const fs::path bad = write_scene(d / "bad", text);
   const Result r = run({"run", bad.string(), "--out", out.string(), "--solver", "none"}, d / "log2");
   EXPECT_EQ(r.code, 1) << r.out;
