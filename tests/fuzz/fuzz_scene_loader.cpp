@@ -18,7 +18,7 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
   ccfr::fuzz::quiet();
   // In-range scenes may legitimately need gigabytes; the loader's memory check must refuse them
   // under the fuzzer's 2 GB RSS limit (ASan roughly doubles the footprint), not the machine's.
-  ::setenv("CCFR_MEMORY_LIMIT_MB", "256", 1);
+  ::setenv("CCFR_MEMORY_LIMIT_MB", "128", 1);
   return 0;
 }
 
