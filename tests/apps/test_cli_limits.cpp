@@ -7,30 +7,16 @@
 #include <fstream>
 #include <string>
 
+#include "cli_support.hpp"
+
 namespace fs = std::filesystem;
 
 namespace {
-struct Result {
-  int code;
-  std::string out;  // stdout + stderr
-};
-
-Result run(const std::string& args) {
-  const std::string cmd = std::string(CCFR_EXE) + " " + args + " 2>&1";
-  Result r{0, ""};
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return {-1, "popen failed"};
-  std::array<char, 4096> buf;
-  while (size_t n = fread(buf.data(), 1, buf.size(), p)) r.out.append(buf.data(), n);
-  const int status = pclose(p);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
+using Result = ccfr::test::CliResult;
+Result run(const std::string& args) { return ccfr::test::run_ccfr(args); }
 
 fs::path scene_dir() {
-  const fs::path d = fs::temp_directory_path() / "ccfr_cli_limits";
-  fs::remove_all(d);
-  fs::create_directories(d);
+  const fs::path d = ccfr::test::scratch_dir("cli_limits");
   std::ofstream(d / "s.yaml")
       << "time: {frames: 1, substeps: 1}\n"
          "objects:\n"
