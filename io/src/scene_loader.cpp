@@ -15,6 +15,9 @@
 #include <set>
 #include <sstream>
 
+#include <yaml-cpp/eventhandler.h>
+#include <yaml-cpp/parser.h>
+
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
 #include "ccfr/geometry/generators.hpp"
@@ -720,22 +723,94 @@ void check_quotes(const YAML::Node& n, const std::string& text, const std::strin
   }
 }
 
-/// Parses the text of a scene file: one YAML document, every quoted string closed.
+/// Walks the documents of a YAML stream without building nodes. yaml-cpp 0.7's `LoadAll` loops
+/// forever (allocating an empty document per turn) on a token its parser cannot start a node with,
+/// e.g. a leading ',': each document then starts at the same mark. This counter stops there.
+class DocumentScan : public YAML::EventHandler {
+ public:
+  /// Start mark of each document seen, and where its first non-null node starts (if any).
+  struct Doc {
+    YAML::Mark start;
+    bool content = false;
+    YAML::Mark first;
+  };
+  std::vector<Doc> docs;
+
+  void OnDocumentStart(const YAML::Mark& mark) override { docs.push_back({mark, false, mark}); }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnAlias(const YAML::Mark& m, YAML::anchor_t) override { seen(m); }
+  void OnScalar(const YAML::Mark& m, const std::string&, YAML::anchor_t, const std::string&) override { seen(m); }
+  void OnSequenceStart(const YAML::Mark& m, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {
+    seen(m);
+  }
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark& m, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {
+    seen(m);
+  }
+  void OnMapEnd() override {}
+
+ private:
+  void seen(const YAML::Mark& m) {
+    if (!docs.back().content) docs.back().first = m;
+    docs.back().content = true;
+  }
+};
+
+/// Largest scene file read: scene files hold parameters, meshes live in their own files.
+constexpr size_t kMaxSceneBytes = size_t{4} << 20;
+
+/// Parses the text of a scene file: printable text, one YAML document, every quoted string closed.
 YAML::Node parse_yaml(const std::string& text, const std::string& label) {
-  std::vector<YAML::Node> docs;
+  if (text.size() > kMaxSceneBytes)
+    throw ConfigError(label, "", 0,
+                      "the scene file has " + std::to_string(text.size()) + " bytes; scene files are limited to " +
+                          std::to_string(kMaxSceneBytes >> 20) +
+                          " MiB (put meshes in .obj files and reference them with shape.path)");
+  // YAML allows no C0 control character but tab, LF and CR; yaml-cpp reads NUL as end of input.
+  int line = 1;
+  for (const char ch : text) {
+    const auto c = static_cast<unsigned char>(ch);
+    if (c == '\n') ++line;
+    if ((c < 0x20 && c != '\t' && c != '\n' && c != '\r') || c == 0x7f) {
+      char hex[8];
+      std::snprintf(hex, sizeof hex, "0x%02x", c);
+      throw ConfigError(label, "", line,
+                        std::string("the scene file is not text: control byte ") + hex +
+                            " (YAML allows only tab, newline and carriage return)");
+    }
+  }
+  DocumentScan scan;
   try {
-    docs = YAML::LoadAll(text);
+    std::istringstream in(text);
+    YAML::Parser parser(in);
+    while (parser.HandleNextDocument(scan)) {
+      const size_t n = scan.docs.size();
+      if (n >= 2 && scan.docs[n - 1].start.pos == scan.docs[n - 2].start.pos) {
+        const YAML::Mark& m = scan.docs[n - 1].start;
+        const size_t pos = m.pos >= 0 ? static_cast<size_t>(m.pos) : 0;
+        const std::string what = pos < text.size() ? std::string("'") + text[pos] + "'" : "end of input";
+        throw ConfigError(label, "", m.line + 1,
+                          "YAML syntax error: unexpected " + what + " at column " + std::to_string(m.column + 1) +
+                              " (no YAML node starts with it)");
+      }
+      if (n >= 2 && scan.docs[n - 1].content)
+        throw ConfigError(
+            label, "", scan.docs[n - 1].first.line + 1,
+            "a scene file holds one YAML document, but a second one starts here (after '---'); merge them or remove it");
+    }
   } catch (const YAML::ParserException& e) {
     throw ConfigError(label, "", e.mark.line + 1, "YAML syntax error: " + e.msg);
   }
-  for (size_t i = 1; i < docs.size(); ++i)
-    if (docs[i].IsDefined() && !docs[i].IsNull())
-      throw ConfigError(
-          label, "", docs[i].Mark().is_null() ? 0 : docs[i].Mark().line + 1,
-          "a scene file holds one YAML document, but a second one starts here (after '---'); merge them or remove it");
-  if (docs.empty()) return YAML::Node();
-  check_quotes(docs[0], text, label);
-  return docs[0];
+  if (scan.docs.empty()) return YAML::Node();
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);  // the scan above proved it terminates: one well-formed first document
+  } catch (const YAML::ParserException& e) {
+    throw ConfigError(label, "", e.mark.line + 1, "YAML syntax error: " + e.msg);
+  }
+  check_quotes(root, text, label);
+  return root;
 }
 
 LoadedScene load(YAML::Node root, const std::string& label, const fs::path& base_dir,

@@ -134,6 +134,27 @@ TEST(BadInput, ExtraDocumentsAndNonStringKeysAreErrors) {
   EXPECT_TRUE(has(e, "keys must be strings")) << e.what();
 }
 
+// yaml-cpp 0.7's LoadAll never returns on a token no node starts with (found by fuzzing: minutes
+// and gigabytes for one line); NUL bytes do the same. Both must be fast, clear syntax errors.
+TEST(BadInput, TokensNoNodeStartsWithAndControlBytesAreQuickErrors) {
+  auto e = config_error(",objects: [{name: c, kind: cloth}]\n");
+  EXPECT_EQ(e.line(), 1);
+  EXPECT_TRUE(has(e, "unexpected ','")) << e.what();
+  e = config_error(std::string(kBase) + "]\n");
+  EXPECT_TRUE(has(e, "YAML syntax error")) << e.what();
+  e = config_error(with(kBase, "time:", std::string("# a comment with a NUL \0 byte\ntime:", 35)));
+  EXPECT_EQ(e.line(), 2);
+  EXPECT_TRUE(has(e, "control byte 0x00")) << e.what();
+  e = config_error(with(kBase, "scene: t", "scene: t\x1b[31m"));
+  EXPECT_TRUE(has(e, "control byte 0x1b")) << e.what();
+  // Tabs inside a comment and CRLF line ends are text.
+  std::string crlf;
+  for (const char c : std::string(kBase)) crlf += c == '\n' ? std::string("\r\n") : std::string(1, c);
+  EXPECT_NO_THROW(io::load_scene_text(crlf + "#\ttab\r\n", "scene.yaml", "."));
+  e = config_error(std::string(kBase) + "#" + std::string(size_t{5} << 20, 'x') + "\n");
+  EXPECT_TRUE(has(e, "limited to 4 MiB")) << e.what();
+}
+
 TEST(BadInput, UnterminatedQuoteIsASyntaxErrorWithItsLine) {
   auto e = config_error(with(kBase, "  - name: sheet", "  - name: \"sheet"));
   EXPECT_EQ(e.line(), 8);
