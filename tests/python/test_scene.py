@@ -136,3 +136,18 @@ def test_other_errors_map_to_their_classes(tmp_path, data):
             pass
     with pytest.raises(ccfr.Error, match="unknown"):
         ccfr.project([0, 0, 0], [0, 0, 0], np.zeros((0, 4)), method="newton")
+
+
+def test_stub_covers_the_public_api(source_dir):
+    import ast
+    tree = ast.parse((source_dir / "python" / "ccfr" / "__init__.pyi").read_text())
+    declared = {n.name for n in tree.body if isinstance(n, (ast.ClassDef, ast.FunctionDef))}
+    assert set(ccfr.__all__) <= declared, set(ccfr.__all__) - declared
+    for cls in ("Simulation", "Scene", "Run", "AuditResult"):
+        node = next(n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == cls)
+        stubbed = {n.name for n in node.body if isinstance(n, ast.FunctionDef)} | {
+            n.target.id for n in node.body if isinstance(n, ast.AnnAssign)}
+        public = {a for a in dir(getattr(ccfr, cls)) if not a.startswith("_")}
+        assert public <= stubbed, (cls, public - stubbed)
+    for name in ccfr.__all__:
+        assert getattr(ccfr, name).__doc__, name
