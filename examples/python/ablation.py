@@ -53,7 +53,6 @@ def main():
     ax.axhline(1.0, color="k", lw=0.8, ls="--")
     ax.set_xlabel("frame")
     ax.set_ylabel("closest pair seen / ξ")
-    ax.set_yscale("log")
     ax.legend(fontsize=7)
     fig.tight_layout()
     out.mkdir(parents=True, exist_ok=True)
