@@ -88,23 +88,20 @@ int run_audit(const AuditCliOptions& o) {
     const bool unfinished = res.has_run_json && !res.completed();
     std::string scope = coverage(res);
     if (unfinished) scope = "partial run, status '" + status_text(res) + "'; " + scope;
-    std::string verdict;
+    const std::string verdict = io::audit_verdict(res, o.partial);
     int code = kExitClean;
-    if (!res.clean()) {
-      verdict = "fail";
+    if (verdict == "fail") {
       code = kExitPenetrations;
       std::printf("FAIL (%s): %d violations in %zu frames; first at frame %ld%s%s\n", scope.c_str(), res.violations,
                   res.bad_frames, res.first_bad_frame, res.first_example.empty() ? "" : ": ",
                   res.first_example.c_str());
-    } else if (unfinished && !o.partial) {
-      verdict = "incomplete";
+    } else if (verdict == "incomplete") {
       code = kExitIncomplete;
       std::printf(
           "INCOMPLETE (%s): the frames checked are clean, but the run did not complete; pass --partial to accept "
           "the frames present\n",
           scope.c_str());
     } else {
-      verdict = "pass";
       std::printf(
           "PASS (%s): no intersection, crossing or pair closer than (1 - tol) xi; min distance %.10g (%.9f xi) in "
           "%.2f s\n",

@@ -6,11 +6,10 @@
 #include <csignal>
 #include <cstdio>
 
-#include "audit_hook.hpp"
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
 #include "ccfr/core/parallel.hpp"
-#include "ccfr/io/output.hpp"
+#include "ccfr/io/run_recorder.hpp"
 #include "ccfr/io/scene_loader.hpp"
 
 namespace ccfr::app {
@@ -110,7 +109,7 @@ RunSummary run_scene(const RunOptions& opts) {
   summary.violations_opted_out = params.contact.on_violation == ViolationPolicy::warn;
 
   Simulation sim(std::move(loaded.scene));
-  if (params.debug.audit != AuditMode::off) sim.set_audit(make_audit_hook(sim.topology(), sim.positions(), params));
+  if (params.debug.audit != AuditMode::off) sim.set_audit(io::make_audit_hook(sim.topology(), sim.positions(), params));
 
   // Stop at once on a failed write (full disk, file-size limit, I/O error): the frame or row that
   // failed is not on disk, every earlier one is whole, and run.json says which file failed.
@@ -120,25 +119,13 @@ RunSummary run_scene(const RunOptions& opts) {
     spdlog::error("{}", e.what());
   };
   SignalScope signals;
-  std::unique_ptr<io::RunWriter> writer;
+  std::unique_ptr<io::RunRecorder> writer;
   if (!opts.out.empty()) {
-    io::RunMeta meta{params.scene_name,
-                     params.contact.solver,
-                     params.collision.broad_phase,
-                     params.contact.radius,
-                     params.contact.offset,
-                     params.contact.repulsion_range,
-                     params.time.fps,
-                     thread_count(),
-                     opts.command_line,
-                     opts.argv,
-                     std::nullopt};
-    if (const CollisionDetector* det = sim.contact_solver().collision_detector())
-      meta.initial_proximity = det->initial_proximity();
-    writer = std::make_unique<io::RunWriter>(opts.out, sim.topology(), loaded.resolved_json, meta, opts.force);
+    writer = std::make_unique<io::RunRecorder>(opts.out, sim, loaded.resolved_json,
+                                               io::make_run_meta(sim, opts.command_line, opts.argv),
+                                               params.time.frames, opts.force);
     try {
       writer->start();
-      if (params.output.frames) writer->write_frame(0, sim.positions());
     } catch (const Error& e) {
       output_failed(e);
     }
@@ -169,9 +156,7 @@ RunSummary run_scene(const RunOptions& opts) {
     if (fs.violations_remaining > 0 || fs.penetrations > 0) ++summary.violated_frames;
     if (writer) {
       try {
-        if (params.output.frames && (f % params.output.every == 0 || f == total))
-          writer->write_frame(f, sim.positions());
-        writer->write_stats(fs);
+        writer->record(fs);
       } catch (const Error& e) {
         output_failed(e);
         break;
@@ -195,7 +180,7 @@ RunSummary run_scene(const RunOptions& opts) {
       // "running" with the frames on disk, which is what the audit expects of a killed run.
       output_failed(e);
     }
-    summary.previous_kept = writer->discarded();
+    summary.previous_kept = writer->writer().discarded();
   }
   return summary;
 }

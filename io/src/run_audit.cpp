@@ -220,4 +220,10 @@ std::string audit_error_json(const std::string& message, int exit_code) {
          ",\n  \"error\": " + jstr(message) + "\n}\n";
 }
 
+std::string audit_verdict(const RunAuditResult& result, bool partial) {
+  if (!result.clean()) return "fail";
+  if (result.has_run_json && !result.completed() && !partial) return "incomplete";
+  return "pass";
+}
+
 }  // namespace ccfr::io

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <numbers>
 #include <set>
@@ -130,8 +131,9 @@ Motion read_motion(const YAML::Node& m) {
 
 class Builder {
  public:
-  Builder(const YAML::Node& input, const YAML::Node& resolved, const Context& ctx, fs::path base_dir)
-      : in_(input), cfg_(resolved), ctx_(ctx), base_(std::move(base_dir)) {}
+  Builder(const YAML::Node& input, const YAML::Node& resolved, const Context& ctx, fs::path base_dir,
+          const std::map<std::string, MeshArrays>* arrays = nullptr)
+      : in_(input), cfg_(resolved), ctx_(ctx), base_(std::move(base_dir)), arrays_(arrays) {}
 
   Scene build() {
     Scene scene;
@@ -471,6 +473,15 @@ class Builder {
       require(surface_kind, "use kind obstacle, shell or cloth");
       take(gen::plane(s["size"].as<double>(), s["resolution"].as<Index>()));
       g.shape.type = AnalyticShape::Type::plane;
+    } else if (type == "mesh" && arrays_ && arrays_->count(s["path"].as<std::string>())) {
+      g = array_geometry(arrays_->at(s["path"].as<std::string>()), kind, path,
+                         [&](bool ok, const std::string& what) {
+                           if (!ok)
+                             ctx_.fail(path + ".kind", in_node(path + ".kind"),
+                                       "arrays cannot make a " + std::string(to_string(kind)) + " object: " + what);
+                         });
+      if (kind != ObjectKind::obstacle) g.shape.type = AnalyticShape::Type::none;
+      return g;
     } else if (type == "mesh") {
       const std::string ppath = path + ".shape.path";
       fs::path file = s["path"].as<std::string>();
@@ -686,11 +697,77 @@ class Builder {
     }
   }
 
+  /// Geometry from in-memory arrays (load_scene_arrays): the checks of a mesh file, plus those of
+  /// edges and tets, which no file format of the loader carries.
+  RawGeometry array_geometry(const MeshArrays& a, ObjectKind kind, const std::string& path,
+                             const std::function<void(bool, const std::string&)>& require) const {
+    RawGeometry g;
+    const Index nv = static_cast<Index>(a.vertices.size());
+    const std::string vpath = path + ".vertices";
+    if (nv == 0) ctx_.fail(vpath, in_node(path), "no vertices");
+    for (Index i = 0; i < nv; ++i)
+      if (!a.vertices[i].allFinite())
+        ctx_.fail(vpath, in_node(path), "vertex " + std::to_string(i) + " is not finite");
+    auto check_range = [&](const std::string& what, const auto& rows) {
+      for (size_t r = 0; r < rows.size(); ++r)
+        for (int k = 0; k < rows[r].size(); ++k)
+          if (rows[r][k] < 0 || rows[r][k] >= nv)
+            ctx_.fail(path + "." + what, in_node(path),
+                      what + " row " + std::to_string(r) + ": vertex index " + std::to_string(rows[r][k]) +
+                          " out of range (the object has " + std::to_string(nv) + " vertices)");
+    };
+    check_range("faces", a.faces);
+    check_range("edges", a.edges);
+    check_range("tets", a.tets);
+    const bool surface_kind = kind == ObjectKind::cloth || kind == ObjectKind::shell || kind == ObjectKind::obstacle ||
+                              kind == ObjectKind::rigid;
+    auto only = [&](bool ok, const std::string& what) {
+      if (!ok) require(false, what);
+    };
+    g.v = a.vertices;
+    if (kind == ObjectKind::strand) {
+      only(a.faces.empty() && a.tets.empty(), "a strand takes edges, not faces or tets");
+      if (a.edges.empty()) ctx_.fail(path + ".edges", in_node(path), "a strand needs edges");
+      for (size_t r = 0; r < a.edges.size(); ++r) {
+        const Vec2i& e = a.edges[r];
+        if (e[0] == e[1])
+          ctx_.fail(path + ".edges", in_node(path), "edges row " + std::to_string(r) + " repeats vertex " +
+                                                        std::to_string(e[0]));
+        if (g.lines.empty() || g.lines.back().back() != e[0]) g.lines.push_back({e[0]});
+        g.lines.back().push_back(e[1]);
+      }
+    } else if (kind == ObjectKind::tet_solid) {
+      only(a.faces.empty() && a.edges.empty(), "a tet_solid takes tets (its surface is derived), not faces or edges");
+      if (a.tets.empty()) ctx_.fail(path + ".tets", in_node(path), "a tet_solid needs tets");
+      for (size_t r = 0; r < a.tets.size(); ++r) {
+        const Vec4i& t = a.tets[r];
+        const Vec3 e1 = g.v[t[1]] - g.v[t[0]], e2 = g.v[t[2]] - g.v[t[0]], e3 = g.v[t[3]] - g.v[t[0]];
+        const double scale = std::max({e1.norm(), e2.norm(), e3.norm()});
+        const double vol6 = e1.cross(e2).dot(e3);
+        if (!(vol6 > 1e-12 * scale * scale * scale))
+          ctx_.fail(path + ".tets", in_node(path),
+                    "tets row " + std::to_string(r) + " has " + (vol6 < 0 ? "negative" : "zero") +
+                        " volume; order each tet (a, b, c, d) so that (b-a)x(c-a).(d-a) > 0");
+      }
+      g.tets = a.tets;
+    } else if (kind == ObjectKind::particles) {
+      only(a.faces.empty() && a.edges.empty() && a.tets.empty(), "particles take vertices only");
+    } else {
+      only(surface_kind && a.edges.empty() && a.tets.empty(),
+           "a " + std::string(to_string(kind)) + " takes faces, not edges or tets");
+      if (a.faces.empty()) ctx_.fail(path + ".faces", in_node(path), "a " + std::string(to_string(kind)) + " needs faces");
+      check_faces(g.v, a.faces, kind, "faces", nullptr, path + ".faces", {path + ".kind"});
+      g.faces = a.faces;
+    }
+    return g;
+  }
+
   mutable double available_ = -1;
   const YAML::Node& in_;
   const YAML::Node& cfg_;
   const Context& ctx_;
   fs::path base_;
+  const std::map<std::string, MeshArrays>* arrays_;
 };
 
 /// A quoted scalar whose closing quote is missing swallows the rest of the file (yaml-cpp accepts
@@ -814,7 +891,8 @@ YAML::Node parse_yaml(const std::string& text, const std::string& label) {
 }
 
 LoadedScene load(YAML::Node root, const std::string& label, const fs::path& base_dir,
-                 const std::vector<std::string>& overrides, const std::string& default_name) {
+                 const std::vector<std::string>& overrides, const std::string& default_name,
+                 const std::map<std::string, MeshArrays>* arrays = nullptr) {
   Context ctx;
   ctx.file = label;
   if (!root.IsDefined() || root.IsNull()) root = YAML::Node(YAML::NodeType::Map);
@@ -830,7 +908,7 @@ LoadedScene load(YAML::Node root, const std::string& label, const fs::path& base
   }
   if (!root["scene"]) root["scene"] = default_name;
   const YAML::Node resolved = schema::resolve(root, scene_schema(), ctx);
-  Builder b(root, resolved, ctx, base_dir);
+  Builder b(root, resolved, ctx, base_dir, arrays);
   LoadedScene out;
   out.scene = b.build();
   out.resolved_json = schema::to_json(resolved, scene_schema(), 2);
@@ -856,6 +934,12 @@ LoadedScene load_scene_text(const std::string& yaml, const std::string& file_lab
                             const std::vector<std::string>& overrides) {
   const YAML::Node root = parse_yaml(yaml, file_label);
   return load(root, file_label, base_dir, overrides, fs::path(file_label).stem().string());
+}
+
+LoadedScene load_scene_arrays(const std::string& yaml, const std::string& file_label,
+                              const std::map<std::string, MeshArrays>& arrays, const std::vector<std::string>& overrides) {
+  const YAML::Node root = parse_yaml(yaml, file_label);
+  return load(root, file_label, fs::current_path(), overrides, fs::path(file_label).stem().string(), &arrays);
 }
 
 std::string config_reference_markdown() { return schema::reference_markdown(scene_schema()); }

@@ -33,8 +33,10 @@ Simulation::Simulation(Scene scene) : scene_(std::move(scene)) {
       for (Index lv : pin.vertices) is_kin[o.vertex_begin + lv] = true, motion_of[o.vertex_begin + lv] = &pin.motion;
     if (op.shape.type != AnalyticShape::Type::none) analytic_obstacles_.push_back(static_cast<Index>(oi));
   }
+  kin_slot_.assign(static_cast<size_t>(topo.num_vertices()), -1);
   for (Index v = 0; v < topo.num_vertices(); ++v)
     if (is_kin[v]) {
+      kin_slot_[v] = static_cast<Index>(kinematic_.size());
       kinematic_.push_back(v);
       kin_motion_.push_back(motion_of[v] && motion_of[v]->moves() ? motion_of[v] : nullptr);
     }
@@ -54,10 +56,18 @@ double Simulation::kinematic_targets(double t, Positions& target) {
   const auto& st = scene_.state;
   kinematic_step_.assign(st.x.size(), Vec3::Zero());
   double largest = 0.0;
+  // Driven vertices: the fraction of the frame done at t (1 within rounding of the frame's end,
+  // so that the target is reached exactly).
+  const double span = drive_t1_ - drive_t0_;
+  const double s = span <= 0.0 || t >= drive_t1_ - 1e-9 * span ? 1.0 : std::clamp((t - drive_t0_) / span, 0.0, 1.0);
   for (size_t k = 0; k < kinematic_.size(); ++k) {
-    if (!kin_motion_[k]) continue;
     const Index v = kinematic_[k];
-    target[v] = kin_motion_[k]->apply(st.rest[v], t);
+    if (!driven_.empty() && driven_[k]) {
+      target[v] = s == 1.0 ? driven_to_[k] : Vec3(driven_from_[k] + s * (driven_to_[k] - driven_from_[k]));
+    } else {
+      if (!kin_motion_[k]) continue;
+      target[v] = kin_motion_[k]->apply(st.rest[v], t);
+    }
     kinematic_step_[v] = target[v] - st.x[v];
     largest = std::max(largest, kinematic_step_[v].norm());
   }
@@ -281,7 +291,8 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
 
   // v_{n+1} = (x - x_n) / dt, then damping.
   const double keep = std::max(0.0, 1.0 - tp.damping * dt);
-  st.x.swap(anchor_);
+  // Copied rather than swapped: positions() keeps one buffer for the simulation's lifetime.
+  std::copy(anchor_.begin(), anchor_.end(), st.x.begin());
   parallel_for(nv, [&](Index b, Index e) {
     for (Index i = b; i < e; ++i) {
       st.v[i] = (st.x[i] - st.x_prev[i]) / dt;
@@ -308,11 +319,83 @@ void Simulation::check_audit(Index penetrations) {
   spdlog::error("frame {}: {}; continuing (contact.on_violation: warn)", frame_ + 1, what);
 }
 
+namespace {
+// One value per vertex, all finite: what the state setters accept.
+void check_state_array(const Positions& a, size_t n, const char* setter, const char* what) {
+  if (a.size() != n)
+    throw Error(std::string(setter) + ": " + std::to_string(a.size()) + " rows given, the scene has " +
+                std::to_string(n) + " vertices");
+  for (size_t i = 0; i < a.size(); ++i)
+    if (!a[i].allFinite())
+      throw Error(std::string(setter) + ": " + what + " of vertex " + std::to_string(i) + " is not finite");
+}
+}  // namespace
+
+void Simulation::set_positions(const Positions& x) {
+  auto& st = scene_.state;
+  check_state_array(x, st.x.size(), "set_positions", "position");
+  std::copy(x.begin(), x.end(), st.x.begin());  // in place: views of the buffer stay valid
+  st.x_prev = st.x;
+  for (size_t k = 0; k < driven_.size(); ++k)
+    if (driven_[k]) driven_from_[k] = driven_to_[k] = st.x[kinematic_[k]];
+}
+
+void Simulation::set_velocities(const Positions& v) {
+  auto& st = scene_.state;
+  check_state_array(v, st.v.size(), "set_velocities", "velocity");
+  std::copy(v.begin(), v.end(), st.v.begin());
+}
+
+void Simulation::set_kinematic_targets(std::span<const Index> vertices, std::span<const Vec3> targets) {
+  const auto& topo = scene_.topo;
+  if (vertices.size() != targets.size())
+    throw Error("set_kinematic_targets: " + std::to_string(vertices.size()) + " vertex indices but " +
+                std::to_string(targets.size()) + " targets");
+  for (size_t j = 0; j < vertices.size(); ++j) {
+    const Index v = vertices[j];
+    if (v < 0 || v >= topo.num_vertices())
+      throw Error("set_kinematic_targets: vertex index " + std::to_string(v) + " out of range: the scene has " +
+                  std::to_string(topo.num_vertices()) + " vertices");
+    const Index oi = topo.vertex_object[v];
+    const auto& o = topo.objects[oi];
+    if (kin_slot_[v] < 0)
+      throw Error("set_kinematic_targets: vertex " + std::to_string(v) + " (local " + std::to_string(v - o.vertex_begin) +
+                  " of object '" + o.name + "') is neither pinned nor part of an obstacle; pin it in the scene first");
+    if (scene_.params.contact.analytic_obstacles &&
+        std::find(analytic_obstacles_.begin(), analytic_obstacles_.end(), oi) != analytic_obstacles_.end())
+      throw Error("set_kinematic_targets: vertex " + std::to_string(v) + " belongs to obstacle '" + o.name +
+                  "', whose analytic shape follows its scripted motion only; set contact.analytic_obstacles: false "
+                  "to drive it");
+    if (!targets[j].allFinite())
+      throw Error("set_kinematic_targets: target " + std::to_string(j) + " (vertex " + std::to_string(v) +
+                  ") is not finite");
+  }
+  if (driven_.empty()) {
+    driven_.assign(kinematic_.size(), 0);
+    driven_from_.assign(kinematic_.size(), Vec3::Zero());
+    driven_to_.assign(kinematic_.size(), Vec3::Zero());
+  }
+  for (size_t j = 0; j < vertices.size(); ++j) {
+    const Index k = kin_slot_[vertices[j]];
+    driven_[k] = 1;
+    driven_to_[k] = targets[j];
+  }
+  drive_pending_ = true;
+}
+
 FrameStats Simulation::step_frame() {
   Stopwatch wall;
   FrameStats fs;
   const auto& tp = scene_.params.time;
   const double dt = 1.0 / (tp.fps * tp.substeps);
+  if (drive_pending_) {
+    // New targets are reached over this frame, starting from where the vertices are now.
+    for (size_t k = 0; k < driven_.size(); ++k)
+      if (driven_[k]) driven_from_[k] = scene_.state.x[kinematic_[k]];
+    drive_t0_ = scene_.state.time;
+    drive_t1_ = drive_t0_ + 1.0 / tp.fps;
+    drive_pending_ = false;
+  }
   for (int s = 0; s < tp.substeps; ++s) {
     const int pieces = subdivision(dt);
     for (int k = 0; k < pieces; ++k) substep(fs, s, dt / pieces);

@@ -69,6 +69,10 @@ RunAuditResult audit_run(const std::filesystem::path& dir, const RunAuditOptions
                          const FrameAuditCallback& on_frame = {},
                          const std::function<void(const RunAuditResult&)>& on_start = {});
 
+/// The verdict of an audit (docs/audit.md): "fail" when a checked frame is not clean; "incomplete"
+/// when clean but run.json says the run did not complete and `partial` is off; else "pass".
+std::string audit_verdict(const RunAuditResult& result, bool partial);
+
 /// The audit report written to DIR/audit.json (docs/audit.md): `verdict` ("pass", "fail",
 /// "incomplete"), `exit_code`, `partial` and the fields of `result`.
 std::string audit_report_json(const RunAuditResult& result, const std::string& verdict, int exit_code, bool partial);

@@ -5,6 +5,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <span>
 
 #include "ccfr/solvers/contact_solver.hpp"
 #include "ccfr/solvers/scene.hpp"
@@ -53,9 +54,31 @@ class Simulation {
 
   const Scene& scene() const { return scene_; }
   const Topology& topology() const { return scene_.topo; }
+  /// Current positions. The buffer stays the same for the simulation's lifetime (steps and setters
+  /// write into it), so a view of it (e.g. the Python binding's NumPy array) never dangles.
   const Positions& positions() const { return scene_.state.x; }
+  /// Current velocities; the same buffer for the simulation's lifetime, like positions().
+  const Positions& velocities() const { return scene_.state.v; }
+  /// Overwrites every vertex's position between frames (#V finite values, else ccfr::Error). The
+  /// positions become x_n and the anchors of the next frame: the separation guarantee holds from
+  /// them only if they keep every pair at least its offset apart (not checked here; the next
+  /// frame counts what it finds in violations_remaining). Vertices driven by
+  /// set_kinematic_targets hold their new position; scripted ones keep following their motion.
+  void set_positions(const Positions& x);
+  /// Overwrites every vertex's velocity between frames (#V finite values, else ccfr::Error).
+  void set_velocities(const Positions& v);
+  /// Drives kinematic vertices (pinned, or of an obstacle) from outside, e.g. a handle moved by a
+  /// script: during the next step_frame() vertex `vertices[k]` moves linearly from where it is to
+  /// `targets[k]`, reaching it at the end of the frame, and then holds there until the next
+  /// target (its scripted motion no longer applies). The step per substep piece obeys the same
+  /// bound r as scripted motion (automatic subdivision, else GuaranteeError naming
+  /// time.substeps). Throws ccfr::Error for a dynamic vertex, an index out of range, a
+  /// non-finite target, different lengths, or a vertex of an analytic obstacle (its SDF follows
+  /// the scripted motion only).
+  void set_kinematic_targets(std::span<const Index> vertices, std::span<const Vec3> targets);
   int frames_done() const { return frame_; }
   ContactSolver& contact_solver() { return *contact_; }
+  const ContactSolver& contact_solver() const { return *contact_; }
   const MaterialSystem& materials() const { return materials_; }
   /// Installs an audit run per frame or per substep according to debug.audit.
   void set_audit(AuditHook hook) { audit_ = std::move(hook); }
@@ -89,6 +112,13 @@ class Simulation {
   std::vector<bool> warned_capped_;  ///< per object: the capped-speed warning was given
   AuditHook audit_;
   int frame_ = 0;
+  // set_kinematic_targets: per slot of kinematic_, whether it is driven from outside, from where
+  // (its position when the frame started) and to where; the frame's start and end time.
+  std::vector<Index> kin_slot_;  ///< #V: slot in kinematic_, -1 for dynamic vertices
+  std::vector<char> driven_;
+  Positions driven_from_, driven_to_;
+  bool drive_pending_ = false;
+  double drive_t0_ = 0.0, drive_t1_ = 0.0;
 };
 
 }  // namespace ccfr

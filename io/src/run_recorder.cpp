@@ -1,0 +1,62 @@
+#include "ccfr/io/run_recorder.hpp"
+
+#include "ccfr/core/log.hpp"
+#include "ccfr/core/parallel.hpp"
+#include "ccfr/geometry_exact/audit.hpp"
+
+namespace ccfr::io {
+
+RunMeta make_run_meta(const Simulation& sim, std::string command_line, std::vector<std::string> argv) {
+  const SimulationParams& p = sim.scene().params;
+  RunMeta meta{p.scene_name,
+               p.contact.solver,
+               p.collision.broad_phase,
+               p.contact.radius,
+               p.contact.offset,
+               p.contact.repulsion_range,
+               p.time.fps,
+               thread_count(),
+               std::move(command_line),
+               std::move(argv),
+               std::nullopt};
+  if (const CollisionDetector* det = sim.contact_solver().collision_detector())
+    meta.initial_proximity = det->initial_proximity();
+  return meta;
+}
+
+AuditHook make_audit_hook(const Topology& topo, const Positions& initial, const SimulationParams& params) {
+  exact::AuditOptions opt;
+  opt.offset = params.contact.offset;
+  opt.tolerance = params.debug.audit_tolerance;
+  if (opt.offset <= 0.0) {
+    spdlog::warn("debug.audit needs contact.offset > 0; the audit is off for this run");
+    return {};
+  }
+  auto audit = std::make_shared<exact::PenetrationAudit>(topo, initial, opt);
+  return [audit](const Positions& x) {
+    const exact::FrameAudit fa = audit->audit_next(x);  // in order: raises the reduced offsets
+    if (!fa.clean() && !fa.examples.empty()) spdlog::debug("audit: {}", fa.examples.front().describe());
+    return fa.penetrations();
+  };
+}
+
+RunRecorder::RunRecorder(std::filesystem::path dir, const Simulation& sim, std::string resolved_config_json,
+                         RunMeta meta, int last_frame, bool force)
+    : sim_(sim),
+      writer_(std::move(dir), sim.topology(), std::move(resolved_config_json), std::move(meta), force),
+      last_frame_(last_frame) {}
+
+void RunRecorder::start() {
+  writer_.start();
+  if (sim_.scene().params.output.frames) writer_.write_frame(0, sim_.positions());
+}
+
+void RunRecorder::record(const FrameStats& s) {
+  const auto& out = sim_.scene().params.output;
+  if (out.frames && (s.frame % out.every == 0 || s.frame == last_frame_)) writer_.write_frame(s.frame, sim_.positions());
+  writer_.write_stats(s);
+}
+
+void RunRecorder::finish(const std::string& status) { writer_.finish(status); }
+
+}  // namespace ccfr::io

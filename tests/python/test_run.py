@@ -1,0 +1,86 @@
+"""A Python run writes what `ccfr run` writes, byte for byte (frames, stats without timings)."""
+import csv
+import io
+import json
+import subprocess
+
+import ccfr
+import pytest
+
+# Wall-clock columns of stats.csv: the only ones allowed to differ between two runs.
+TIMING = {"wall_s", "xpbd_s", "broad_s", "narrow_s", "resolution_s", "audit_s", "check_s"}
+
+
+def stats_without_timing(path):
+    rows = list(csv.reader(io.StringIO(path.read_text())))
+    keep = [i for i, name in enumerate(rows[0]) if name not in TIMING]
+    assert len(keep) == len(rows[0]) - len(TIMING)
+    return [[r[i] for i in keep] for r in rows]
+
+
+def cli_run(exe, config, out, *args):
+    subprocess.run([exe, "run", str(config), "--out", str(out), "--threads", "2", *args], check=True,
+                   capture_output=True)
+
+
+@pytest.mark.parametrize("solver", ["ccfr", "toi_clamp"])
+def test_python_run_is_bitwise_identical_to_ccfr_run(tmp_path, ccfr_exe, data, solver):
+    config = data / "small_drop.yaml"
+    cli_run(ccfr_exe, config, tmp_path / "cli", "--solver", solver, "--set", "output.every=2", "--frames", "5")
+
+    scene = ccfr.load_scene(config, overrides={"output.every": 2, "time.frames": 5})
+    sim = ccfr.Simulation(scene, solver=solver, threads=2)
+    with ccfr.Run(sim, tmp_path / "py") as run:
+        for _ in range(sim.frames):
+            run.step()
+
+    cli_frames = sorted((tmp_path / "cli" / "frames").iterdir())
+    py_frames = sorted((tmp_path / "py" / "frames").iterdir())
+    # Frame 0, every 2nd, and the last (5): the output.every rule of `ccfr run`.
+    assert [p.name for p in cli_frames] == ["frame_00000.obj", "frame_00002.obj", "frame_00004.obj",
+                                            "frame_00005.obj"]
+    assert [p.name for p in py_frames] == [p.name for p in cli_frames]
+    for a, b in zip(cli_frames, py_frames):
+        assert a.read_bytes() == b.read_bytes(), a.name
+    cli_stats = stats_without_timing(tmp_path / "cli" / "stats.csv")
+    assert len(cli_stats) == 6
+    assert stats_without_timing(tmp_path / "py" / "stats.csv") == cli_stats
+    # The contact actually happened (the comparison is not between two free falls).
+    assert max(int(r[cli_stats[0].index("constraints")]) for r in cli_stats[1:]) > 0
+
+    cli_json = json.loads((tmp_path / "cli" / "run.json").read_text())
+    py_json = json.loads((tmp_path / "py" / "run.json").read_text())
+    for key in ("scene", "solver", "radius", "offset", "fps", "status", "frames_written", "vertices", "config"):
+        assert py_json.get(key) == cli_json.get(key), key
+    assert py_json["status"] == "completed"
+
+
+def test_stats_dict_matches_stats_csv(tmp_path, data):
+    sim = ccfr.Simulation(ccfr.load_scene(data / "small_drop.yaml", overrides={"time.frames": 2}), threads=2)
+    assert sim.stats is None
+    with ccfr.Run(sim, tmp_path / "r") as run:
+        run.step(2)
+    rows = list(csv.DictReader(io.StringIO((tmp_path / "r" / "stats.csv").read_text())))
+    last = sim.stats
+    assert set(last) == set(rows[-1])
+    for key, text in rows[-1].items():
+        if key in TIMING:
+            continue
+        value = last[key]
+        if text == "":
+            assert value is None or value == float("inf"), key
+        elif isinstance(value, int):
+            assert value == int(text), key
+        else:
+            assert f"{value:.9g}" == text, key
+
+
+def test_failed_run_records_the_error(tmp_path, data):
+    sim = ccfr.Simulation(ccfr.load_scene(data / "small_drop.yaml"), threads=2)
+    with pytest.raises(RuntimeError, match="stop here"):
+        with ccfr.Run(sim, tmp_path / "r") as run:
+            run.step()
+            raise RuntimeError("stop here")
+    info = json.loads((tmp_path / "r" / "run.json").read_text())
+    assert info["status"] == "failed: stop here"
+    assert info["frames_written"] == 2  # frames 0 and 1, both whole
