@@ -7,7 +7,8 @@
 
 namespace ccfr::app {
 
-AuditHook make_audit_hook(const Topology& topo, const Positions& initial, const SimulationParams& params) {
+AuditHook make_audit_hook(const Topology& topo, const Positions& initial, const SimulationParams& params,
+                          std::shared_ptr<exact::PenetrationAudit>* audit_out) {
   exact::AuditOptions opt;
   opt.offset = params.contact.offset;
   opt.tolerance = params.debug.audit_tolerance;
@@ -16,6 +17,7 @@ AuditHook make_audit_hook(const Topology& topo, const Positions& initial, const 
     return {};
   }
   auto audit = std::make_shared<exact::PenetrationAudit>(topo, initial, opt);
+  if (audit_out) *audit_out = audit;
   return [audit](const Positions& x) {
     const exact::FrameAudit fa = audit->audit_next(x);  // in order: raises the reduced offsets
     if (!fa.clean() && !fa.examples.empty()) spdlog::debug("audit: {}", fa.examples.front().describe());
