@@ -74,6 +74,13 @@ void progress_bar(int done, int total, double last_s, const FrameStats& fs) {
 }
 }  // namespace
 
+int run_exit_code(const RunSummary& s) {
+  if (s.nothing_to_resume) return 0;
+  if (s.failed) return 1;
+  if (s.violated_frames > 0 && !s.violations_opted_out) return 3;
+  return 0;
+}
+
 void set_invocation(int argc, const char* const* argv) {
   invocation().assign(argv, argv + argc);
   if (!invocation().empty()) invocation()[0] = "ccfr";  // the program as typed may be a build path

@@ -51,6 +51,10 @@ struct RunSummary {
 /// `failed` set and the frames so far kept; configuration errors throw ccfr::Error.
 RunSummary run_scene(const RunOptions& opts);
 
+/// The exit code of `ccfr run` for a run that ended this way (docs/output.md): 0, 1 (stopped
+/// early), 3 (completed with violations under a solver without the guarantee).
+int run_exit_code(const RunSummary& s);
+
 /// Records the process's arguments (from main) for run.json: argv[0] is recorded as "ccfr".
 void set_invocation(int argc, const char* const* argv);
 const std::vector<std::string>& invocation_argv();

@@ -21,7 +21,7 @@ constexpr size_t kHeader = 8 + 4 + 8;  // magic, format, payload length
 static_assert(sizeof(double) == 8 && sizeof(Vec3) == 24, "checkpoint layout assumes packed doubles");
 
 const std::array<std::uint32_t, 256>& crc_table() {
-  static const std::array<std::uint32_t, 256> t = [] {
+  static const std::array<std::uint32_t, 256> table = [] {
     std::array<std::uint32_t, 256> t{};
     for (std::uint32_t i = 0; i < 256; ++i) {
       std::uint32_t c = i;
@@ -30,7 +30,7 @@ const std::array<std::uint32_t, 256>& crc_table() {
     }
     return t;
   }();
-  return t;
+  return table;
 }
 
 class Writer {
