@@ -11,6 +11,7 @@
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/io/sweep.hpp"
+#include "ccfr/solvers/contact_solver.hpp"
 #include "cli_support.hpp"
 
 namespace fs = std::filesystem;
@@ -69,6 +70,16 @@ TEST(SweepSpec, ProductZipAndCasesExpandToStableCells) {
   // Degenerate: one config, nothing swept: one cell.
   write(spec, "configs: [" + cfg("drape.yaml") + "]\n");
   EXPECT_EQ(ccfr::io::load_sweep_spec(spec).cells.size(), 1u);
+}
+
+TEST(SweepSpec, ThePaperSweepCoversEveryConfigAndSolver) {
+  const auto s = ccfr::io::load_sweep_spec(cfg("sweeps/paper.yaml"));
+  size_t scenes = 0;
+  for (const auto& e : fs::directory_iterator(fs::path(CCFR_SOURCE_DIR) / "configs"))
+    scenes += e.path().extension() == ".yaml";
+  EXPECT_EQ(s.configs.size(), scenes);
+  EXPECT_EQ(s.solvers, ccfr::contact_solver_names());  // every registered solver
+  EXPECT_EQ(s.cells.size(), scenes * s.solvers.size());
 }
 
 TEST(SweepSpec, BadSpecsNameFileKeyAndLine) {
