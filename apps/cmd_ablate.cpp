@@ -1,5 +1,6 @@
 // `ccfr ablate CONFIG --solvers a,b,c --out DIR`: the same scene once per contact solver, each run
-// audited, compared in DIR/ablation.csv, DIR/ablation.md and DIR/ablation.png.
+// audited, compared in DIR/ablation.csv, DIR/ablation.md and DIR/ablation.png. The solvers-only
+// case of `ccfr sweep` (sweep.hpp): the cells are DIR/<solver>, DIR/sweep.json describes them.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -16,26 +17,22 @@
 #include "commands.hpp"
 #include "frame_summary.hpp"
 #include "run_driver.hpp"
+#include "sweep.hpp"
 
 namespace ccfr::app {
 
 namespace {
 namespace fs = std::filesystem;
 
+/// The contact solvers `ccfr ablate` compares by default (one list, until solvers are registered
+/// with their own metadata).
+const char* const kDefaultSolvers = "ccfr,exact_projection,successive_projection,post_process";
+
 struct AblateOptions {
   RunOptions run;
-  std::string solvers = "ccfr,exact_projection,successive_projection,post_process";
+  std::string solvers = kDefaultSolvers;
   int audit_stride = 1;
   bool plot = true;
-};
-
-struct Row {
-  std::string solver, status, audit;
-  Aggregate frame, xpbd, broad, narrow, resolution;
-  long detected = 0, remaining_sum = 0, remaining_max = 0, halted = 0;
-  double min_over_xi = NAN;
-  Index audit_violations = 0;
-  size_t frames = 0;
 };
 
 std::vector<std::string> split(const std::string& s) {
@@ -46,99 +43,58 @@ std::vector<std::string> split(const std::string& s) {
   return out;
 }
 
-std::string fmt(double v, const char* f = "%.6f") {
-  if (!std::isfinite(v)) return "";
-  char b[64];
-  std::snprintf(b, sizeof b, f, v);
-  return b;
-}
-
+// The solvers-only case of a sweep: one cell per solver, in DIR/<solver>, run one after another
+// here with the given threads, collected into ablation.csv / ablation.md / ablation_frames.csv.
 int run_ablation(AblateOptions& o) {
+  if (!o.run.solver.empty())
+    throw Error("ccfr ablate compares the solvers of --solvers; --solver '" + o.run.solver +
+                "' would be ignored (use --solvers " + o.run.solver + ")");
   const auto names = split(o.solvers);
   if (names.empty()) throw Error("--solvers is empty");
   const auto valid = contact_solver_names();
   for (const auto& n : names)
     if (std::find(valid.begin(), valid.end(), n) == valid.end()) make_contact_solver(n);  // throws, listing valid names
-  const fs::path root = o.run.out;
-  fs::create_directories(root);
-  std::vector<Row> rows;
-  // Per frame and solver: what the solver reports and what the audit finds, so a baseline that
-  // leaves residual violations shows them frame by frame (ablation_frames.csv, plotted).
-  std::string frames_csv = "solver,frame,violations_detected,violations_remaining,halted_vertices,contact_vertices,audit_penetrations\n";
+  if (!fs::is_regular_file(o.run.config)) throw Error("scene file '" + o.run.config.string() + "' does not exist");
   // Every solver runs to the end so the table compares like with like; a guarantee broken
   // under ccfr shows as remaining violations and an audit failure instead of a stop.
   bool policy_set = false;
   for (const auto& s : o.run.overrides) policy_set = policy_set || s.rfind("contact.on_violation=", 0) == 0;
   if (!policy_set) o.run.overrides.push_back("contact.on_violation=warn");
-  for (const auto& name : names) {
-    RunOptions ro = o.run;
-    ro.solver = name;
-    ro.out = root / name;
-    ro.command_line = "ccfr ablate " + o.run.config.string() + " (solver " + name + ")";
-    spdlog::info("ablate: {} -> {}", name, ro.out.string());
-    const RunSummary s = run_scene(ro);
-    Row r;
-    r.solver = name;
-    r.status = s.status;
-    r.frames = s.frames.size();
-    r.frame = aggregate(s.frames, [](const FrameStats& f) { return f.wall_s; });
-    r.xpbd = aggregate(s.frames, [](const FrameStats& f) { return f.times.xpbd; });
-    r.broad = aggregate(s.frames, [](const FrameStats& f) { return f.times.broad; });
-    r.narrow = aggregate(s.frames, [](const FrameStats& f) { return f.times.narrow; });
-    r.resolution = aggregate(s.frames, [](const FrameStats& f) { return f.times.resolution; });
-    for (const auto& f : s.frames) {
-      r.detected += f.violations_detected;
-      r.remaining_sum += f.violations_remaining;
-      r.remaining_max = std::max<long>(r.remaining_max, f.violations_remaining);
-      r.halted += f.halted_vertices;
-    }
-    std::map<long, Index> audit_by_frame;
-    try {
-      io::RunAuditOptions ao;
-      ao.stride = o.audit_stride;
-      const auto a = io::audit_run(ro.out, ao, [&](long frame, const exact::FrameAudit& fa) { audit_by_frame[frame] = fa.penetrations(); });
-      r.audit = a.clean() ? "pass" : "fail";
-      r.audit_violations = a.violations;
-      r.min_over_xi = std::isfinite(a.min_distance) ? a.min_distance / a.offset : NAN;
-    } catch (const Error& e) {
-      r.audit = "error";
-      spdlog::error("ablate: audit of {} failed: {}", ro.out.string(), e.what());
-    }
-    for (const auto& f : s.frames) {
-      const auto it = audit_by_frame.find(f.frame);
-      frames_csv += name + "," + std::to_string(f.frame) + "," + std::to_string(f.violations_detected) + "," +
-                    std::to_string(f.violations_remaining) + "," + std::to_string(f.halted_vertices) + "," +
-                    std::to_string(f.contact_vertices) + "," + (it != audit_by_frame.end() ? std::to_string(it->second) : "") + "\n";
-    }
-    spdlog::info("ablate: {}: {} frames, mean {:.4f} s/frame, audit {} ({} violations)", name, r.frames, r.frame.mean, r.audit,
-                 r.audit_violations);
-    rows.push_back(r);
-  }
+  SweepLayout s;
+  s.dir = o.run.out;
+  s.audit_stride = o.audit_stride;
+  s.cells = io::expand_sweep({fs::absolute(o.run.config).lexically_normal()}, names, {}, {}, o.run.overrides,
+                             o.run.frames, /*solver_ids_only=*/true);
+  fs::create_directories(s.dir);
+  write_sweep(s);
+  std::vector<size_t> all(s.cells.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = i;
+  run_local(s, all, 1, o.run.threads);
+  const auto rows = collect_rows(s);
 
-  std::string csv =
-      "solver,frames,status,avg_frame_s,max_frame_s,median_frame_s,xpbd_s,broad_s,narrow_s,resolution_s,violations_detected,"
-      "violations_remaining,max_violations_remaining,halted_vertices,audit,audit_violations,min_distance_over_offset\n";
+  std::string frames_csv = "solver,frame,violations_detected,violations_remaining,halted_vertices,contact_vertices,audit_penetrations\n";
+  std::string csv = "solver," + metrics_header() + "\n";
   std::string md = "# Ablation of `" + o.run.config.string() + "`\n\nEach solver ran the same scene";
   md += o.run.frames >= 0 ? " for " + std::to_string(o.run.frames) + " frames" : std::string();
   md += "; every run was audited with `ccfr audit` (stride " + std::to_string(o.audit_stride) + ").\n\n";
   md += "| solver | frames | mean s/frame | max s/frame | XPBD | broad | narrow | resolution | violations detected | remaining (sum / max) | halted | audit | min dist / ξ |\n";
   md += "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& r : rows) {
-    std::string status = r.status;
-    std::replace(status.begin(), status.end(), ',', ';');
-    csv += r.solver + "," + std::to_string(r.frames) + "," + status + "," + fmt(r.frame.mean) + "," + fmt(r.frame.max) + "," +
-           fmt(r.frame.median) + "," + fmt(r.xpbd.mean) + "," + fmt(r.broad.mean) + "," + fmt(r.narrow.mean) + "," +
-           fmt(r.resolution.mean) + "," + std::to_string(r.detected) + "," + std::to_string(r.remaining_sum) + "," +
-           std::to_string(r.remaining_max) + "," + std::to_string(r.halted) + "," + r.audit + "," +
-           std::to_string(r.audit_violations) + "," + fmt(r.min_over_xi, "%.9f") + "\n";
-    md += "| `" + r.solver + "` | " + std::to_string(r.frames) + " | " + fmt(r.frame.mean, "%.4f") + " | " + fmt(r.frame.max, "%.4f") +
-          " | " + fmt(r.xpbd.mean, "%.4f") + " | " + fmt(r.broad.mean, "%.4f") + " | " + fmt(r.narrow.mean, "%.4f") + " | " +
-          fmt(r.resolution.mean, "%.4f") + " | " + std::to_string(r.detected) + " | " + std::to_string(r.remaining_sum) + " / " +
-          std::to_string(r.remaining_max) + " | " + std::to_string(r.halted) + " | " + r.audit +
+    csv += r.solver + "," + metrics_csv(r) + "\n";
+    md += "| `" + r.solver + "` | " + std::to_string(r.frames) + " | " + fmt_num(r.avg_s, "%.4f") + " | " +
+          fmt_num(r.max_s, "%.4f") + " | " + fmt_num(r.xpbd, "%.4f") + " | " + fmt_num(r.broad, "%.4f") + " | " +
+          fmt_num(r.narrow, "%.4f") + " | " + fmt_num(r.resolution, "%.4f") + " | " + std::to_string(r.detected) +
+          " | " + std::to_string(r.remaining_sum) + " / " + std::to_string(r.remaining_max) + " | " +
+          std::to_string(r.halted) + " | " + r.audit +
           (r.audit == "fail" ? " (" + std::to_string(r.audit_violations) + ")" : std::string()) + " | " +
-          fmt(r.min_over_xi, "%.6f") + " |\n";
+          fmt_num(r.min_over_xi, "%.6f") + " |\n";
+    for (const auto& f : r.per_frame)
+      frames_csv += r.solver + "," + std::to_string(f[0]) + "," + std::to_string(f[1]) + "," + std::to_string(f[2]) +
+                    "," + std::to_string(f[3]) + "," + std::to_string(f[4]) + "," + (f[5] >= 0 ? std::to_string(f[5]) : "") +
+                    "\n";
   }
   md += "\nTimes are seconds per frame (means over frames); the stage columns are the paper's breakdown.\n";
+  const fs::path root = s.dir;
   io::write_file_atomic(root / "ablation.csv", csv);
   io::write_file_atomic(root / "ablation.md", md);
   io::write_file_atomic(root / "ablation_frames.csv", frames_csv);

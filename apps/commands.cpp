@@ -37,6 +37,7 @@ void register_commands(CLI::App& app) {
   register_run(app);
   register_audit(app);
   register_ablate(app);
+  register_sweep(app);
   register_bench(app);
   register_render(app);
   register_schema(app);

@@ -19,6 +19,7 @@ void guarded(const std::function<int()>& body, int user_error_code = 2);
 void register_run(CLI::App& app);
 void register_audit(CLI::App& app);
 void register_ablate(CLI::App& app);
+void register_sweep(CLI::App& app);
 void register_bench(CLI::App& app);
 void register_render(CLI::App& app);
 void register_schema(CLI::App& app);

@@ -4,12 +4,16 @@
 
 #include <atomic>
 #include <csignal>
+#include <optional>
 #include <cstdio>
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
 #include "ccfr/core/parallel.hpp"
+#include "ccfr/geometry_exact/audit.hpp"
+#include "ccfr/io/checkpoint.hpp"
 #include "ccfr/io/run_recorder.hpp"
+#include "ccfr/io/run_info.hpp"
 #include "ccfr/io/scene_loader.hpp"
 
 namespace ccfr::app {
@@ -69,6 +73,13 @@ void progress_bar(int done, int total, double last_s, const FrameStats& fs) {
 }
 }  // namespace
 
+int run_exit_code(const RunSummary& s) {
+  if (s.nothing_to_resume) return 0;
+  if (s.failed) return 1;
+  if (s.violated_frames > 0 && !s.violations_opted_out) return 3;
+  return 0;
+}
+
 void set_invocation(int argc, const char* const* argv) {
   invocation().assign(argv, argv + argc);
   if (!invocation().empty()) invocation()[0] = "ccfr";  // the program as typed may be a build path
@@ -91,16 +102,60 @@ void add_run_options(CLI::App* cmd, RunOptions& opts) {
   cmd->add_option("--threads", opts.threads, "Worker threads (default: all cores)")->check(CLI::NonNegativeNumber);
 }
 
+namespace {
+// The checkpoint to resume from, checked against the scene it names as it is now.
+struct Resume {
+  io::Checkpoint ckpt;
+  std::filesystem::path file;
+};
+
+Resume load_resume(const std::filesystem::path& dir) {
+  if (!io::is_ccfr_run(dir)) throw Error("cannot resume '" + dir.string() + "': not a ccfr run directory (no run.json)");
+  const auto latest = io::latest_checkpoint(dir);
+  if (!latest)
+    throw Error("cannot resume '" + dir.string() + "': no checkpoint in '" + (dir / "checkpoints").string() +
+                "' (output.checkpoint_every was 0, or the run stopped before its first checkpoint); run it again");
+  Resume r{io::read_checkpoint(*latest), *latest};
+  if (r.ckpt.ccfr_version != io::version() || r.ckpt.git_commit != io::git_commit())
+    throw Error("checkpoint '" + latest->string() + "' was written by ccfr " + r.ckpt.ccfr_version + " (commit " +
+                r.ckpt.git_commit + "), this is ccfr " + io::version() + " (commit " + io::git_commit() +
+                "): the resumed run would not match an uninterrupted one; resume with that build or run again");
+  return r;
+}
+}  // namespace
+
 RunSummary run_scene(const RunOptions& opts) {
-  std::vector<std::string> overrides = opts.overrides;
-  if (opts.frames >= 0) overrides.push_back("time.frames=" + std::to_string(opts.frames));
-  if (!opts.solver.empty()) overrides.push_back("contact.solver=" + opts.solver);
+  std::optional<Resume> resume;
+  if (!opts.resume.empty()) resume = load_resume(opts.resume);
+  std::vector<std::string> overrides = resume ? resume->ckpt.overrides : opts.overrides;
+  if (!resume && opts.frames >= 0) overrides.push_back("time.frames=" + std::to_string(opts.frames));
+  if (!resume && !opts.solver.empty()) overrides.push_back("contact.solver=" + opts.solver);
   set_thread_count(opts.threads);
 
-  io::LoadedScene loaded = io::load_scene(opts.config, overrides);
+  const std::filesystem::path config = resume ? resume->ckpt.scene_file : opts.config;
+  io::LoadedScene loaded = [&] {
+    if (!resume) return io::load_scene(config, overrides);
+    try {
+      return io::load_scene(config, overrides);
+    } catch (const Error& e) {
+      throw Error("cannot resume from '" + resume->file.string() + "': its scene no longer loads: " + e.what());
+    }
+  }();
+  if (resume) {
+    const std::string diff = io::json_difference(resume->ckpt.resolved_config, loaded.resolved_json);
+    if (!diff.empty())
+      throw Error("checkpoint '" + resume->file.string() + "' does not match its scene '" + config.string() +
+                  "' as it is now: " + diff);
+    const std::uint64_t fp = io::scene_fingerprint(loaded.scene.topo, loaded.scene.state);
+    if (fp != resume->ckpt.scene_fingerprint)
+      throw Error("checkpoint '" + resume->file.string() + "' does not match its scene '" + config.string() +
+                  "': the meshes or initial positions changed since it was written (fingerprint " +
+                  fmt::format("{:016x}", resume->ckpt.scene_fingerprint) + ", now " + fmt::format("{:016x}", fp) + ")");
+  }
+  const std::uint64_t fingerprint = io::scene_fingerprint(loaded.scene.topo, loaded.scene.state);
   const SimulationParams params = loaded.scene.params;
   RunSummary summary;
-  summary.out = opts.out;
+  summary.out = resume ? opts.resume : opts.out;
   summary.offset = params.contact.offset;
   summary.solver = params.contact.solver;
   summary.vertices = loaded.scene.topo.num_vertices();
@@ -108,8 +163,37 @@ RunSummary run_scene(const RunOptions& opts) {
   summary.iterations = params.time.iterations;
   summary.violations_opted_out = params.contact.on_violation == ViolationPolicy::warn;
 
+  if (resume) {
+    const io::RunInfo info = io::read_run_info(opts.resume);
+    if (info.status == "completed") {
+      summary.nothing_to_resume = true;
+      summary.resumed_after = resume->ckpt.sim.frame;
+      return summary;
+    }
+  }
+
   Simulation sim(std::move(loaded.scene));
-  if (params.debug.audit != AuditMode::off) sim.set_audit(io::make_audit_hook(sim.topology(), sim.positions(), params));
+  std::shared_ptr<exact::PenetrationAudit> audit;
+  if (params.debug.audit != AuditMode::off)
+    sim.set_audit(io::make_audit_hook(sim.topology(), sim.positions(), params, &audit));
+  int first_frame = 1;
+  if (resume) {
+    const io::Checkpoint& c = resume->ckpt;
+    try {
+      sim.restore(c.sim);
+      if (audit) audit->restore_reduced_offsets(c.audit_offsets);
+      else if (!c.audit_offsets.empty()) throw Error("it holds audit state, but debug.audit is off");
+    } catch (const Error& e) {
+      throw Error("checkpoint '" + resume->file.string() + "' does not fit its scene: " + e.what());
+    }
+    if (c.sim.frame > params.time.frames)
+      throw Error("checkpoint '" + resume->file.string() + "' is at frame " + std::to_string(c.sim.frame) +
+                  ", beyond the run's " + std::to_string(params.time.frames) + " frames");
+    first_frame = c.sim.frame + 1;
+    summary.resumed_after = c.sim.frame;
+    summary.violated_frames = static_cast<size_t>(c.violated_frames);
+    spdlog::info("resuming '{}' after frame {} from '{}'", opts.resume.string(), c.sim.frame, resume->file.string());
+  }
 
   // Stop at once on a failed write (full disk, file-size limit, I/O error): the frame or row that
   // failed is not on disk, every earlier one is whole, and run.json says which file failed.
@@ -120,10 +204,28 @@ RunSummary run_scene(const RunOptions& opts) {
   };
   SignalScope signals;
   std::unique_ptr<io::RunRecorder> writer;
-  if (!opts.out.empty()) {
-    writer = std::make_unique<io::RunRecorder>(opts.out, sim, loaded.resolved_json,
-                                               io::make_run_meta(sim, opts.command_line, opts.argv),
-                                               params.time.frames, opts.force);
+  // A checkpoint of the state after the frames done so far, next to the frames (docs/output.md).
+  auto save_checkpoint = [&] {
+    io::Checkpoint c;
+    c.sim = sim.checkpoint();
+    c.ccfr_version = io::version();
+    c.git_commit = io::git_commit();
+    c.resolved_config = loaded.resolved_json;
+    c.scene_file = std::filesystem::absolute(config).lexically_normal();
+    c.overrides = overrides;
+    c.scene_fingerprint = fingerprint;
+    if (audit) c.audit_offsets = audit->reduced_offsets();
+    c.violated_frames = static_cast<std::int64_t>(summary.violated_frames);
+    c.frames_written = writer->writer().frames_written();
+    io::write_checkpoint(writer->writer().dir(), c);
+    summary.last_checkpoint = c.sim.frame;
+  };
+  if (!opts.out.empty() || resume) {
+    io::RunMeta meta = io::make_run_meta(sim, opts.command_line, opts.argv);
+    writer = resume ? std::make_unique<io::RunRecorder>(opts.resume, sim, loaded.resolved_json, std::move(meta),
+                                                        params.time.frames, io::RunWriter::ResumeAt{first_frame - 1})
+                    : std::make_unique<io::RunRecorder>(opts.out, sim, loaded.resolved_json, std::move(meta), params.time.frames,
+                                                        opts.force);
     try {
       writer->start();
     } catch (const Error& e) {
@@ -132,8 +234,17 @@ RunSummary run_scene(const RunOptions& opts) {
   }
   const bool tty = opts.progress && ::isatty(STDERR_FILENO);
   const int total = params.time.frames;
-  for (int f = 1; f <= total && !summary.failed; ++f) {
+  for (int f = first_frame; f <= total && !summary.failed; ++f) {
     if (const int sig = g_stop_signal) {
+      // Interrupted (Ctrl-C, scancel, a job's time limit): keep what was computed since the last
+      // checkpoint, so that --resume loses nothing.
+      if (writer && params.output.checkpoint_every > 0 && f - 1 > summary.last_checkpoint && f > first_frame) {
+        try {
+          save_checkpoint();
+        } catch (const Error& e) {
+          spdlog::error("{}", e.what());
+        }
+      }
       summary.status =
           (sig == SIGTERM ? "terminated after frame " : "interrupted after frame ") + std::to_string(f - 1);
       if (sig == SIGTERM) summary.status += " (SIGTERM)";
@@ -157,6 +268,8 @@ RunSummary run_scene(const RunOptions& opts) {
     if (writer) {
       try {
         writer->record(fs);
+        if (params.output.checkpoint_every > 0 && f % params.output.checkpoint_every == 0 && f < total)
+          save_checkpoint();
       } catch (const Error& e) {
         output_failed(e);
         break;

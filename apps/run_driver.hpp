@@ -21,6 +21,9 @@ struct RunOptions {
   std::string command_line;       ///< run.json `command_line`
   std::vector<std::string> argv;  ///< run.json `argv` (every argument as typed); empty: omitted
   bool force = false;             ///< --force: write into a non-empty directory that is not a ccfr run
+  /// --resume DIR: continue the run in DIR from its latest checkpoint (config, overrides, frames
+  /// and solver come from the checkpoint; `config` and `out` are ignored).
+  std::filesystem::path resume;
 };
 
 struct RunSummary {
@@ -39,11 +42,18 @@ struct RunSummary {
   /// The run stopped before its first simulated frame while rerunning into an existing run
   /// directory: its output was discarded and the previous run left as it was.
   bool previous_kept = false;
+  int resumed_after = -1;          ///< --resume: the checkpoint's frame; -1 for a fresh run
+  bool nothing_to_resume = false;  ///< --resume of a run that had already completed
+  int last_checkpoint = -1;        ///< frame of the last checkpoint written (-1: none)
 };
 
 /// Loads, simulates and (if opts.out is set) writes the run. Numerical failures end the run with
 /// `failed` set and the frames so far kept; configuration errors throw ccfr::Error.
 RunSummary run_scene(const RunOptions& opts);
+
+/// The exit code of `ccfr run` for a run that ended this way (docs/output.md): 0, 1 (stopped
+/// early), 3 (completed with violations under a solver without the guarantee).
+int run_exit_code(const RunSummary& s);
 
 /// Records the process's arguments (from main) for run.json: argv[0] is recorded as "ccfr".
 void set_invocation(int argc, const char* const* argv);

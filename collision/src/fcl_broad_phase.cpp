@@ -91,6 +91,10 @@ void FclBroadPhase::query_pairs(std::vector<IndexPair>& out) {
   if (!m.manager) return;
   CollideData data{&m.boxes, &out};
   m.manager->collide(&data, collect_pair);
+  // FCL's traversal order follows its tree, whose rebalancing depends on every earlier update: in
+  // pair order, a run resumed from a checkpoint (a fresh tree) gives the same contacts as one that
+  // never stopped.
+  std::sort(out.begin(), out.end());
 }
 
 }  // namespace ccfr

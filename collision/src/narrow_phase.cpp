@@ -608,6 +608,23 @@ double CollisionDetector::pair_offset(ContactKind kind, Index a, Index b) const 
   return slot >= 0 ? reduced_offset_[static_cast<size_t>(slot)] : params_.offset;
 }
 
+void CollisionDetector::restore_reduced_offsets(std::span<const double> offsets) {
+  if (offsets.size() != reduced_offset_.size())
+    throw Error("collision state: " + std::to_string(offsets.size()) + " reduced offsets given, this scene has " +
+                std::to_string(reduced_offset_.size()) + " sub-pairs that start closer than the offset");
+  const double xi = params_.offset;
+  for (size_t i = 0; i < offsets.size(); ++i)
+    if (!std::isfinite(offsets[i]) || offsets[i] < reduced_offset_[i] || offsets[i] > xi)
+      throw Error(fmt::format("collision state: reduced offset {} is {:.17g}, outside [{:.17g}, {:.17g}] (its initial "
+                              "value and the offset)",
+                              i, offsets[i], reduced_offset_[i], xi));
+  reduced_offset_.assign(offsets.begin(), offsets.end());
+  // Exactly the slots raise_reduced_offsets() would have kept: those still below ξ, ascending.
+  active_.clear();
+  for (size_t i = 0; i < reduced_offset_.size(); ++i)
+    if (reduced_offset_[i] < xi) active_.push_back(static_cast<Index>(i));
+}
+
 /// Initial proximity: \f$\xi_p \leftarrow \min(\xi, \max(\xi_p, (1 - m)\,d))\f$ at the anchors,
 /// which are feasible (d ≥ ξ_p), so the raised offset never exceeds the distance. One slot per
 /// task: no two writes meet, and the result does not depend on the thread count.

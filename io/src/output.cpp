@@ -67,6 +67,20 @@ fs::path normalized(const fs::path& dir) {
   return p;
 }
 
+// frames/frame_NNNNN.obj files with their frame numbers.
+std::vector<std::pair<long, fs::path>> list_frame_files(const fs::path& frames) {
+  std::vector<std::pair<long, fs::path>> out;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(frames, ec)) {
+    const std::string n = e.path().filename().string();
+    if (n.size() < 11 || n.rfind("frame_", 0) != 0 || e.path().extension() != ".obj") continue;
+    const std::string digits = n.substr(6, n.size() - 10);
+    if (digits.empty() || digits.find_first_not_of("0123456789") != std::string::npos) continue;
+    out.emplace_back(std::stol(digits), e.path());
+  }
+  return out;
+}
+
 bool is_temp_name(const std::string& name) { return name.find(".tmp") != std::string::npos; }
 
 // Temporary files of a crashed run: run.json.tmpPID, frames/frame_NNNNN.obj.tmpPID.
@@ -165,6 +179,60 @@ RunWriter::RunWriter(fs::path dir, const Topology& topo, std::string resolved_co
   remove_stale_temporaries(dir_);
 }
 
+RunWriter::RunWriter(fs::path dir, const Topology& topo, std::string resolved_config_json, RunMeta meta,
+                     ResumeAt resume)
+    : dir_(dir),
+      final_(std::move(dir)),
+      topo_(topo),
+      config_json_(std::move(resolved_config_json)),
+      meta_(std::move(meta)),
+      resume_frame_(resume.frame) {
+  std::ifstream in(final_ / "run.json");
+  const Json old = in ? Json::parse(in, nullptr, /*allow_exceptions=*/false) : Json();
+  if (!is_ccfr_run(final_) || !old.is_object())
+    throw Error("cannot resume '" + final_.string() + "': no run.json written by ccfr in it");
+  start_time_ = old.contains("start_time") && old["start_time"].is_string() ? old["start_time"].get<std::string>()
+                                                                             : utc_now();
+  Json resumed = old.contains("resumed") && old["resumed"].is_array() ? old["resumed"] : Json::array();
+  resumed.push_back({{"after_frame", resume.frame}, {"time", utc_now()}});
+  resumed_json_ = resumed.dump();
+  remove_stale_temporaries(final_);
+
+  // stats.csv: the header and exactly the rows of frames 1..F, then whatever the run wrote after
+  // its checkpoint, which is cut off and computed again.
+  const fs::path stats = final_ / "stats.csv";
+  std::ifstream sin(stats, std::ios::binary);
+  if (!sin) throw Error("cannot resume '" + final_.string() + "': cannot read '" + stats.string() + "'");
+  std::string line;
+  long long size = 0;
+  int rows = 0;
+  if (!std::getline(sin, line) || line != stats_header() || sin.eof())
+    throw Error("cannot resume: '" + stats.string() + "' does not start with the stats.csv header of this ccfr");
+  size = static_cast<long long>(line.size()) + 1;
+  while (rows < resume.frame && std::getline(sin, line) && !sin.eof()) {
+    if (line.rfind(std::to_string(rows + 1) + ",", 0) != 0)
+      throw Error("cannot resume: row " + std::to_string(rows + 1) + " of '" + stats.string() + "' is not frame " +
+                  std::to_string(rows + 1));
+    size += static_cast<long long>(line.size()) + 1;
+    ++rows;
+  }
+  if (rows < resume.frame)
+    throw Error("cannot resume: '" + stats.string() + "' has " + std::to_string(rows) +
+                " whole rows, the checkpoint is at frame " + std::to_string(resume.frame));
+  resume_stats_size_ = size;
+
+  std::error_code ec;
+  create_dirs(final_ / "frames");
+  for (const auto& p : list_frame_files(final_ / "frames")) {
+    if (p.first > resume.frame) {
+      fs::remove(p.second, ec);
+      if (ec) throw Error("cannot remove '" + p.second.string() + "': " + ec.message());
+    } else {
+      ++frames_written_;
+    }
+  }
+}
+
 RunWriter::~RunWriter() {
   if (stats_fd_ >= 0) ::close(stats_fd_);
   // Left by an exception before finish(): a staged run never replaces the previous one.
@@ -177,6 +245,15 @@ RunWriter::~RunWriter() {
 void RunWriter::start() {
   write_run_json("running", false);
   const fs::path p = dir_ / "stats.csv";
+  if (resume_frame_ >= 0) {
+    stats_fd_ = ::open(p.c_str(), O_WRONLY | O_CLOEXEC);
+    if (stats_fd_ < 0) io_error("cannot write", p, errno);
+    if (::ftruncate(stats_fd_, static_cast<off_t>(resume_stats_size_)) != 0 ||
+        ::lseek(stats_fd_, static_cast<off_t>(resume_stats_size_), SEEK_SET) < 0)
+      io_error("cannot write", p, errno);
+    stats_size_ = resume_stats_size_;
+    return;
+  }
   stats_fd_ = ::open(p.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (stats_fd_ < 0) io_error("cannot write", p, errno);
   stats_size_ = 0;
@@ -266,6 +343,7 @@ void RunWriter::write_run_json(const std::string& status, bool finished) {
   j["end_time"] = finished ? Json(utc_now()) : Json(nullptr);
   j["status"] = status;
   j["frames_written"] = frames_written_;
+  if (!resumed_json_.empty()) j["resumed"] = Json::parse(resumed_json_);
   j["vertices"] = topo_.num_vertices();
   if (const auto& ip = meta_.initial_proximity) {
     j["initial_proximity"] = {{"adjacent_excluded", ip->adjacent_excluded},

@@ -24,7 +24,8 @@ RunMeta make_run_meta(const Simulation& sim, std::string command_line, std::vect
   return meta;
 }
 
-AuditHook make_audit_hook(const Topology& topo, const Positions& initial, const SimulationParams& params) {
+AuditHook make_audit_hook(const Topology& topo, const Positions& initial, const SimulationParams& params,
+                          std::shared_ptr<exact::PenetrationAudit>* audit_out) {
   exact::AuditOptions opt;
   opt.offset = params.contact.offset;
   opt.tolerance = params.debug.audit_tolerance;
@@ -33,6 +34,7 @@ AuditHook make_audit_hook(const Topology& topo, const Positions& initial, const 
     return {};
   }
   auto audit = std::make_shared<exact::PenetrationAudit>(topo, initial, opt);
+  if (audit_out) *audit_out = audit;
   return [audit](const Positions& x) {
     const exact::FrameAudit fa = audit->audit_next(x);  // in order: raises the reduced offsets
     if (!fa.clean() && !fa.examples.empty()) spdlog::debug("audit: {}", fa.examples.front().describe());
@@ -46,9 +48,16 @@ RunRecorder::RunRecorder(std::filesystem::path dir, const Simulation& sim, std::
       writer_(std::move(dir), sim.topology(), std::move(resolved_config_json), std::move(meta), force),
       last_frame_(last_frame) {}
 
+RunRecorder::RunRecorder(std::filesystem::path dir, const Simulation& sim, std::string resolved_config_json,
+                         RunMeta meta, int last_frame, RunWriter::ResumeAt resume)
+    : sim_(sim),
+      writer_(std::move(dir), sim.topology(), std::move(resolved_config_json), std::move(meta), resume),
+      last_frame_(last_frame),
+      resumed_(true) {}
+
 void RunRecorder::start() {
   writer_.start();
-  if (sim_.scene().params.output.frames) writer_.write_frame(0, sim_.positions());
+  if (sim_.scene().params.output.frames && !resumed_) writer_.write_frame(0, sim_.positions());
 }
 
 void RunRecorder::record(const FrameStats& s) {

@@ -368,6 +368,7 @@ class Builder {
     p.debug.audit_tolerance = d["audit_tolerance"].as<double>();
     p.output.frames = cfg_["output"]["frames"].as<bool>();
     p.output.every = cfg_["output"]["every"].as<int>();
+    p.output.checkpoint_every = cfg_["output"]["checkpoint_every"].as<int>();
     if (p.contact.friction_kinetic > p.contact.friction_static && p.contact.friction_static > 0)
       ctx_.fail("contact.friction.kinetic", in_node("contact.friction.kinetic"),
                 "kinetic friction must not exceed static friction", {"contact.friction.static"});

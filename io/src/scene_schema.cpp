@@ -221,7 +221,12 @@ NodePtr build_scene_schema() {
                               "exact penetration audit during the run; fills the `penetrations` column of stats.csv")},
                 {"audit_tolerance", number(1e-6, "the audit flags pairs closer than (1 - tol) ξ", Range::unit())}})},
           {"output", map("what is written", {{"frames", boolean(true, "write frames/frame_*.obj")},
-                                             {"every", integer(1, "write every k-th frame (frame 0 always)", one)}})},
+                                             {"every", integer(1, "write every k-th frame (frame 0 always)", one)},
+                                             {"checkpoint_every",
+                                              integer(10,
+                                                      "write a checkpoint every k-th frame, and when the run is "
+                                                      "interrupted (0: never); `ccfr run --resume DIR` continues from it",
+                                                      Range::at_least(0))}})},
           {"materials", dict("named materials; `default` exists unless redefined", material)},
           {"objects", list("the objects of the scene", object)},
       });

@@ -28,6 +28,12 @@ const std::vector<SolverEntry>& solver_table() {
 }
 }  // namespace
 
+void ContactSolver::restore_state(std::span<const double> state) {
+  if (!state.empty())
+    throw Error("contact solver '" + std::string(name()) + "' keeps no state, but " + std::to_string(state.size()) +
+                " values were given to restore");
+}
+
 std::unique_ptr<ContactSolver> make_contact_solver(std::string_view name) {
   for (const auto& e : solver_table())
     if (name == e.name) return e.make();

@@ -1,5 +1,6 @@
 #include "ccfr/solvers/contact_solvers.hpp"
 
+#include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/geometry/distance.hpp"
@@ -24,6 +25,15 @@ void DetectingSolver::initialize(const Topology& topo, const SimState& state, co
     for (Index v = topo.objects[o].vertex_begin; v < topo.objects[o].vertex_end; ++v) friction_override_[v] = mu;
   }
   if (!any) friction_override_.clear();
+}
+
+std::vector<double> DetectingSolver::save_state() const {
+  return detector_ ? detector_->reduced_offsets() : std::vector<double>();
+}
+
+void DetectingSolver::restore_state(std::span<const double> state) {
+  if (!detector_) throw Error("contact solver '" + std::string(name()) + "': restore_state() before initialize()");
+  detector_->restore_reduced_offsets(state);
 }
 
 DetectionSummary DetectingSolver::detect(const Positions& anchor, const SimState& state, StepContext& ctx) {

@@ -52,6 +52,44 @@ Simulation::Simulation(Scene scene) : scene_(std::move(scene)) {
 
 Simulation::~Simulation() = default;
 
+SimulationCheckpoint Simulation::checkpoint() const {
+  const auto& st = scene_.state;
+  SimulationCheckpoint c;
+  c.frame = frame_;
+  c.time = st.time;
+  c.x = st.x;
+  c.v = st.v;
+  c.x_prev = st.x_prev;
+  c.solver_state = contact_->save_state();
+  c.warned_violation = warned_violation_;
+  c.warned_capped.assign(warned_capped_.begin(), warned_capped_.end());
+  return c;
+}
+
+void Simulation::restore(const SimulationCheckpoint& c) {
+  auto& st = scene_.state;
+  const size_t nv = st.x.size();
+  if (c.x.size() != nv || c.v.size() != nv || c.x_prev.size() != nv)
+    throw Error("checkpoint holds " + std::to_string(c.x.size()) + " positions and " + std::to_string(c.v.size()) +
+                " velocities, the scene has " + std::to_string(nv) + " vertices");
+  if (!c.warned_capped.empty() && c.warned_capped.size() != scene_.topo.objects.size())
+    throw Error("checkpoint has " + std::to_string(c.warned_capped.size()) + " objects, the scene has " +
+                std::to_string(scene_.topo.objects.size()));
+  if (c.frame < 0 || !std::isfinite(c.time) || c.time < 0.0)
+    throw Error("checkpoint frame " + std::to_string(c.frame) + " at time " + std::to_string(c.time) + " is invalid");
+  for (const Positions* p : {&c.x, &c.v, &c.x_prev})
+    for (size_t i = 0; i < nv; ++i)
+      if (!(*p)[i].allFinite()) throw Error("checkpoint has a non-finite value at vertex " + std::to_string(i));
+  contact_->restore_state(c.solver_state);
+  st.x = c.x;
+  st.v = c.v;
+  st.x_prev = c.x_prev;
+  st.time = c.time;
+  frame_ = c.frame;
+  warned_violation_ = c.warned_violation;
+  warned_capped_.assign(c.warned_capped.begin(), c.warned_capped.end());
+}
+
 double Simulation::kinematic_targets(double t, Positions& target) {
   const auto& st = scene_.state;
   kinematic_step_.assign(st.x.size(), Vec3::Zero());

@@ -239,6 +239,16 @@ void PenetrationAudit::raise_offsets(const Positions& x) {
       1024);
 }
 
+void PenetrationAudit::restore_reduced_offsets(std::span<const double> offsets) {
+  if (offsets.size() != reduced_offset_.size())
+    throw Error("audit state: " + std::to_string(offsets.size()) + " reduced offsets given, the audit has " +
+                std::to_string(reduced_offset_.size()));
+  for (size_t i = 0; i < offsets.size(); ++i)
+    if (!std::isfinite(offsets[i]) || offsets[i] < reduced_offset_[i] || offsets[i] > opt_.offset)
+      throw Error("audit state: reduced offset " + std::to_string(i) + " is outside its initial value and xi");
+  reduced_offset_.assign(offsets.begin(), offsets.end());
+}
+
 FrameAudit PenetrationAudit::audit_next(const Positions& x) {
   FrameAudit r = audit(x);
   raise_offsets(x);

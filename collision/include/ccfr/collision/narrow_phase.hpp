@@ -189,6 +189,13 @@ class CollisionDetector {
   const InitialProximity& initial_proximity() const { return proximity_; }
   /// Sub-pairs whose offset is still below ξ.
   Index num_reduced_active() const { return static_cast<Index>(active_.size()); }
+  /// The current offset of every sub-pair that started closer than ξ, by slot: the detector's only
+  /// state that changes during a run (checkpoints).
+  const std::vector<double>& reduced_offsets() const { return reduced_offset_; }
+  /// Restores reduced_offsets() saved from a detector built on the same initial configuration.
+  /// Throws ccfr::Error when they cannot be: another count, a non-finite value, or an offset below
+  /// its initial value or above ξ (offsets are only ever raised, up to ξ).
+  void restore_reduced_offsets(std::span<const double> offsets);
 
  private:
   void compute_exclusions(const Positions& initial);

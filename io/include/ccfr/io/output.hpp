@@ -45,6 +45,15 @@ class RunWriter {
   /// Checks and prepares DIR; throws ccfr::Error if it cannot be used (exit code 2 in `ccfr run`).
   RunWriter(std::filesystem::path dir, const Topology& topo, std::string resolved_config_json, RunMeta meta,
             bool force = false);
+  /// Continues the run in DIR after frame `resume_frame` (`ccfr run --resume`): run.json keeps its
+  /// start time and gains a `resumed` entry, frames after `resume_frame` and stats rows after it are
+  /// removed (the resumed run writes them again). Throws ccfr::Error if DIR is not a ccfr run or
+  /// its stats.csv lacks a row of frames 1 to `resume_frame`.
+  struct ResumeAt {
+    int frame = 0;
+  };
+  RunWriter(std::filesystem::path dir, const Topology& topo, std::string resolved_config_json, RunMeta meta,
+            ResumeAt resume);
   ~RunWriter();
   RunWriter(const RunWriter&) = delete;
   RunWriter& operator=(const RunWriter&) = delete;
@@ -79,6 +88,9 @@ class RunWriter {
   long long stats_size_ = 0;
   int frames_written_ = 0;
   bool staged_ = false, discarded_ = false;
+  int resume_frame_ = -1;            ///< frame resumed after; -1: a fresh run
+  long long resume_stats_size_ = 0;  ///< bytes of stats.csv kept (header and rows up to resume_frame_)
+  std::string resumed_json_;         ///< run.json `resumed` (JSON array), empty for a fresh run
 };
 
 /// ISO-8601 UTC timestamp of now.

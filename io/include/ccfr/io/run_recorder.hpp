@@ -10,6 +10,10 @@
 #include "ccfr/io/output.hpp"
 #include "ccfr/solvers/simulation.hpp"
 
+namespace ccfr::exact {
+class PenetrationAudit;
+}
+
 namespace ccfr::io {
 
 /// run.json's metadata of a run of `sim` (scene, solver, r, ξ, δ, fps, initial proximity) with
@@ -19,7 +23,9 @@ RunMeta make_run_meta(const Simulation& sim, std::string command_line, std::vect
 /// The in-simulation audit of debug.audit: the exact penetration audit of geometry_exact,
 /// referenced to `initial`, returning stats.csv's `penetrations`. Empty (with a warning) when
 /// contact.offset is 0.
-AuditHook make_audit_hook(const Topology& topo, const Positions& initial, const SimulationParams& params);
+/// `audit_out` (optional) receives the audit behind the hook, whose state a checkpoint saves.
+AuditHook make_audit_hook(const Topology& topo, const Positions& initial, const SimulationParams& params,
+                          std::shared_ptr<exact::PenetrationAudit>* audit_out = nullptr);
 
 /// Writes a simulation's frames, stats rows and run.json: frame 0 on start() when output.frames
 /// is on, frame f after step f when f is a multiple of output.every or the last frame, a stats
@@ -31,7 +37,11 @@ class RunRecorder {
   /// open-ended run from Python writes every output.every-th frame only).
   RunRecorder(std::filesystem::path dir, const Simulation& sim, std::string resolved_config_json, RunMeta meta,
               int last_frame, bool force = false);
-  /// Writes run.json ("running"), the stats header and frame 0.
+  /// Continues the run in `dir` after frame `resume.frame` (`ccfr run --resume`, RunWriter::ResumeAt):
+  /// start() then writes no frame 0.
+  RunRecorder(std::filesystem::path dir, const Simulation& sim, std::string resolved_config_json, RunMeta meta,
+              int last_frame, RunWriter::ResumeAt resume);
+  /// Writes run.json ("running"), the stats header and frame 0 (not when resuming).
   void start();
   /// Writes what belongs to the frame `s.frame` that the simulation has just finished.
   void record(const FrameStats& s);
@@ -43,6 +53,7 @@ class RunRecorder {
   const Simulation& sim_;
   RunWriter writer_;
   int last_frame_;
+  bool resumed_ = false;
 };
 
 }  // namespace ccfr::io

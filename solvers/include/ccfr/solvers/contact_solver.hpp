@@ -83,6 +83,12 @@ class ContactSolver {
   virtual std::string last_violation() const { return {}; }
   /// The solver's collision detection, if it has one (initial-proximity counts for run.json).
   virtual const CollisionDetector* collision_detector() const { return nullptr; }
+  /// State the solver carries from substep to substep beyond positions and velocities (for
+  /// checkpoints): opaque numbers, restored by restore_state() into a solver initialised on the
+  /// same scene. Empty for a stateless solver.
+  virtual std::vector<double> save_state() const { return {}; }
+  /// Restores save_state(); throws ccfr::Error when `state` cannot be this solver's on this scene.
+  virtual void restore_state(std::span<const double> state);
 };
 
 /// Creates the solver registered under `name`; throws ccfr::Error listing the valid names.

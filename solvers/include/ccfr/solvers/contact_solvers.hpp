@@ -29,6 +29,9 @@ class DetectingSolver : public ContactSolver {
   Index count_outside(const Positions& x, const Positions& anchor, const SimState& state,
                       StepContext& ctx) const override;
   std::string last_violation() const override { return last_violation_; }
+  /// The detector's reduced offsets (initial proximity), the only state kept between substeps.
+  std::vector<double> save_state() const override;
+  void restore_state(std::span<const double> state) override;
 
   const RegionSet& regions() const { return regions_; }
   const std::vector<ContactPair>& contacts() const { return contacts_; }

@@ -69,6 +69,7 @@ struct DebugParams {
 struct OutputParams {
   bool frames = true;  ///< write frames/frame_*.obj
   int every = 1;       ///< write every k-th frame (frame 0 always)
+  int checkpoint_every = 10;  ///< checkpoint every k-th frame and on SIGINT/SIGTERM (0: never)
 };
 
 struct MaterialParams {

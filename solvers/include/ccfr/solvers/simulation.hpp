@@ -2,6 +2,7 @@
 /// @file simulation.hpp
 /// The substep loop of DESIGN "Data flow of one substep" (paper Alg. "Our simulation loop at
 /// substep n"), with the contact solver as the pluggable stage.
+#include <cstdint>
 #include <functional>
 #include <limits>
 #include <memory>
@@ -36,6 +37,18 @@ struct FrameStats {
   /// Plesník projections replaced by the exact projection because they landed farther from the
   /// candidate than the anchor (summed over the resolution passes; 0 for other projectors).
   Index projector_fallbacks = 0;
+};
+
+/// Everything a Simulation carries from frame to frame beyond its scene (Simulation::checkpoint):
+/// with it, a Simulation built from the same scene continues exactly as the one that saved it.
+/// Kinematic vertices are part of `x`; their scripted motion is a function of `time`.
+struct SimulationCheckpoint {
+  int frame = 0;                      ///< frames done
+  double time = 0.0;                  ///< simulated time
+  Positions x, v, x_prev;             ///< #V positions, velocities, positions at the last substep's start
+  std::vector<double> solver_state;   ///< ContactSolver::save_state()
+  bool warned_violation = false;      ///< the once-per-run warnings already given
+  std::vector<std::uint8_t> warned_capped;  ///< per object (empty: none given yet)
 };
 
 /// A hook that audits positions (penetration count), e.g. the exact audit of geometry_exact.
@@ -80,6 +93,11 @@ class Simulation {
   ContactSolver& contact_solver() { return *contact_; }
   const ContactSolver& contact_solver() const { return *contact_; }
   const MaterialSystem& materials() const { return materials_; }
+  /// The state after frames_done() frames, for a checkpoint.
+  SimulationCheckpoint checkpoint() const;
+  /// Continues from `c`, saved by checkpoint() of a Simulation of the same scene. Throws
+  /// ccfr::Error naming what does not fit (vertex or object count, non-finite values, solver state).
+  void restore(const SimulationCheckpoint& c);
   /// Installs an audit run per frame or per substep according to debug.audit.
   void set_audit(AuditHook hook) { audit_ = std::move(hook); }
 

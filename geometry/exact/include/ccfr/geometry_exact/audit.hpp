@@ -23,6 +23,7 @@
 #include <cstdint>
 #include <limits>
 #include <string>
+#include <span>
 #include <vector>
 
 #include "ccfr/core/scene.hpp"
@@ -83,6 +84,11 @@ class PenetrationAudit {
   void raise_offsets(const Positions& x);
   /// audit(x), then raise_offsets(x): for the frames of a run, in order.
   FrameAudit audit_next(const Positions& x);
+  /// The current reduced offsets, in key order: the audit's only state that changes (checkpoints).
+  const std::vector<double>& reduced_offsets() const { return reduced_offset_; }
+  /// Restores reduced_offsets() of an audit of the same reference. Throws ccfr::Error on another
+  /// count, a non-finite value, or an offset below its initial value or above xi.
+  void restore_reduced_offsets(std::span<const double> offsets);
 
   const Topology& topology() const { return topo_; }
   const AuditOptions& options() const { return opt_; }

@@ -1,0 +1,694 @@
+// `ccfr sweep SPEC.yaml --out DIR` and its subcommands status, resume, collect and run-cell:
+// grids of scene × contact solver × parameter values, run here (--backend local) or as one Slurm
+// job array (--backend slurm), resumed from checkpoints, collected into one table. docs/cluster.md.
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "ccfr/core/error.hpp"
+#include "ccfr/core/log.hpp"
+#include "ccfr/io/checkpoint.hpp"
+#include "ccfr/io/obj.hpp"
+#include "ccfr/io/output.hpp"
+#include "ccfr/io/run_audit.hpp"
+#include "ccfr/io/run_info.hpp"
+#include "commands.hpp"
+#include "frame_summary.hpp"
+#include "run_driver.hpp"
+#include "sweep.hpp"
+
+namespace ccfr::app {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::ordered_json;
+
+namespace {
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+Json read_json(const fs::path& p) {
+  std::ifstream in(p);
+  if (!in) return Json();
+  Json j = Json::parse(in, nullptr, false);
+  return j.is_discarded() ? Json() : j;
+}
+
+// Output of a command run through the shell (sbatch, squeue, sacct), and its exit code.
+std::pair<int, std::string> capture(const std::string& cmd) {
+  std::string out;
+  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
+  if (!p) return {-1, "popen failed"};
+  char buf[4096];
+  while (size_t n = fread(buf, 1, sizeof buf, p)) out.append(buf, n);
+  const int st = pclose(p);
+  return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, out};
+}
+
+std::string quote(const std::string& a) {
+  std::string o = "'";
+  for (char c : a) o += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return o + "'";
+}
+
+fs::path self_exe() { return fs::read_symlink("/proc/self/exe"); }
+
+// Array index list "0-3,7" of sorted indices.
+std::string array_list(const std::vector<size_t>& idx) {
+  std::string s;
+  for (size_t i = 0; i < idx.size();) {
+    size_t j = i;
+    while (j + 1 < idx.size() && idx[j + 1] == idx[j] + 1) ++j;
+    s += (s.empty() ? "" : ",") + std::to_string(idx[i]) + (j > i ? "-" + std::to_string(idx[j]) : "");
+    i = j + 1;
+  }
+  return s;
+}
+
+int hardware_threads() { return std::max(1u, std::thread::hardware_concurrency()); }
+
+}  // namespace
+
+std::string fmt_num(double v, const char* f) {
+  if (!std::isfinite(v)) return "";
+  char b[64];
+  std::snprintf(b, sizeof b, f, v);
+  return b;
+}
+
+void write_sweep(const SweepLayout& s) {
+  fs::create_directories(s.dir / "logs");
+  const Json old = read_json(s.dir / "sweep.json");
+  Json j;
+  j["ccfr"] = {{"version", io::version()}, {"git_commit", io::git_commit()}};
+  j["spec"] = s.spec.empty() ? Json(nullptr) : Json(s.spec.string());
+  j["parameters"] = s.parameter_keys;
+  j["audit_stride"] = s.audit_stride;
+  j["resources"] = {{"cpus_per_task", s.resources.cpus_per_task},
+                    {"time", s.resources.time},
+                    {"memory", s.resources.memory},
+                    {"partition", s.resources.partition},
+                    {"account", s.resources.account}};
+  Json cells = Json::array();
+  for (const auto& c : s.cells) {
+    Json params = Json::object();
+    for (const auto& [k, v] : c.params) params[k] = v;
+    cells.push_back({{"id", c.id},
+                     {"config", c.config.string()},
+                     {"scene", c.scene},
+                     {"solver", c.solver},
+                     {"params", params},
+                     {"overrides", c.overrides}});
+  }
+  j["cells"] = cells;
+  j["slurm_jobs"] = old.is_object() && old.contains("slurm_jobs") ? old["slurm_jobs"] : Json::array();
+  io::write_file_atomic(s.dir / "sweep.json", j.dump(2) + "\n");
+}
+
+SweepLayout read_sweep(const fs::path& dir) {
+  const Json j = read_json(dir / "sweep.json");
+  if (!j.is_object() || !j.contains("cells"))
+    throw Error("'" + dir.string() + "' is not a sweep directory (no sweep.json written by ccfr sweep)");
+  SweepLayout s;
+  s.dir = dir;
+  s.spec = j["spec"].is_string() ? fs::path(j["spec"].get<std::string>()) : fs::path();
+  s.parameter_keys = j["parameters"].get<std::vector<std::string>>();
+  s.audit_stride = j["audit_stride"].get<int>();
+  const Json& r = j["resources"];
+  s.resources = {r["cpus_per_task"].get<int>(), r["time"].get<std::string>(), r["memory"].get<std::string>(),
+                 r["partition"].get<std::string>(), r["account"].get<std::string>()};
+  for (const auto& c : j["cells"]) {
+    io::SweepCell cell;
+    cell.id = c["id"].get<std::string>();
+    cell.config = c["config"].get<std::string>();
+    cell.scene = c["scene"].get<std::string>();
+    cell.solver = c["solver"].get<std::string>();
+    for (const auto& [k, v] : c["params"].items()) cell.params.emplace_back(k, v.get<std::string>());
+    cell.overrides = c["overrides"].get<std::vector<std::string>>();
+    s.cells.push_back(std::move(cell));
+  }
+  return s;
+}
+
+namespace {
+
+// `ccfr sweep run-cell DIR INDEX`: what one array task (or one local job) does. Continues from the
+// cell's checkpoint when it has one and has not completed, runs it from the start otherwise,
+// audits the frames into audit.json and records the outcome in DIR/logs/<id>.json.
+int run_cell(const fs::path& dir, long index, int threads) {
+  const SweepLayout s = read_sweep(dir);
+  if (index < 0 || index >= static_cast<long>(s.cells.size()))
+    throw Error("cell index " + std::to_string(index) + " is outside the sweep's " + std::to_string(s.cells.size()) +
+                " cells");
+  const io::SweepCell& c = s.cells[static_cast<size_t>(index)];
+  const fs::path out = dir / c.id;
+  RunOptions ro;
+  ro.threads = threads;
+  ro.progress = true;
+  const bool completed = io::is_ccfr_run(out) && io::read_run_info(out).status == "completed";
+  if (io::is_ccfr_run(out) && !completed && io::latest_checkpoint(out)) {
+    ro.resume = out;
+  } else {
+    ro.config = c.config;
+    ro.overrides = c.overrides;
+    ro.out = out;
+  }
+  ro.command_line = "ccfr sweep run-cell " + dir.string() + " " + std::to_string(index) + " (cell " + c.id + ")";
+  spdlog::info("sweep cell {} ({}): {}", index, c.id, ro.resume.empty() ? "from the start" : "resuming");
+  int code = 0;
+  std::string status;
+  if (completed) {
+    status = "completed";
+  } else {
+    const RunSummary r = run_scene(ro);
+    code = run_exit_code(r);
+    status = r.status;
+  }
+  // The audit of the frames written: pass, fail, or incomplete (clean frames of an unfinished run).
+  std::string verdict = "error";
+  try {
+    io::RunAuditOptions ao;
+    ao.stride = s.audit_stride;
+    const auto a = io::audit_run(out, ao);
+    verdict = !a.clean() ? "fail" : a.completed() ? "pass" : "incomplete";
+    const int acode = verdict == "fail" ? 1 : verdict == "pass" ? 0 : 4;
+    io::write_file_atomic(out / "audit.json", io::audit_report_json(a, verdict, acode, verdict == "incomplete"));
+  } catch (const Error& e) {
+    spdlog::error("sweep cell {}: audit failed: {}", c.id, e.what());
+  }
+  Json rec = {{"cell", c.id},       {"index", index},         {"exit_code", code},
+              {"status", status},   {"audit", verdict},       {"host", [] {
+                                                                   char h[256] = "";
+                                                                   ::gethostname(h, sizeof h - 1);
+                                                                   return std::string(h);
+                                                                 }()},
+              {"end_time", io::utc_now()}};
+  if (const char* job = std::getenv("SLURM_ARRAY_JOB_ID")) rec["slurm_job"] = job;
+  if (const char* task = std::getenv("SLURM_ARRAY_TASK_ID")) rec["slurm_task"] = task;
+  fs::create_directories(dir / "logs");
+  io::write_file_atomic(dir / "logs" / (c.id + ".json"), rec.dump(2) + "\n");
+  return code;
+}
+
+}  // namespace
+
+int run_local(const SweepLayout& s, const std::vector<size_t>& indices, int jobs, int threads) {
+  jobs = std::max(1, std::min<int>(jobs, static_cast<int>(indices.size())));
+  if (threads <= 0) threads = std::max(1, hardware_threads() / jobs);
+  const std::string exe = self_exe().string();
+  std::map<pid_t, std::pair<size_t, std::chrono::steady_clock::time_point>> running;
+  size_t next = 0, done = 0;
+  int failed = 0;
+  // Ctrl-C reaches every cell (one process group): each writes its checkpoint and stops; we wait.
+  auto start_one = [&] {
+    const size_t i = indices[next++];
+    const io::SweepCell& c = s.cells[i];
+    const fs::path log = s.dir / "logs" / (c.id + ".log");
+    const pid_t pid = fork();
+    if (pid == 0) {
+      const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+      if (fd >= 0) ::dup2(fd, 1), ::dup2(fd, 2);
+      const std::string dir = s.dir.string(), idx = std::to_string(i), th = std::to_string(threads);
+      ::execl(exe.c_str(), exe.c_str(), "sweep", "run-cell", dir.c_str(), idx.c_str(), "--threads", th.c_str(),
+              static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+    if (pid < 0) throw Error("cannot start a process for cell " + c.id);
+    running[pid] = {i, std::chrono::steady_clock::now()};
+    std::fprintf(stderr, "sweep: started %s (%zu of %zu, %d threads)\n", c.id.c_str(), next, indices.size(), threads);
+  };
+  while (next < indices.size() && static_cast<int>(running.size()) < jobs) start_one();
+  while (!running.empty()) {
+    int st = 0;
+    const pid_t pid = ::waitpid(-1, &st, 0);
+    if (pid < 0) break;
+    const auto it = running.find(pid);
+    if (it == running.end()) continue;
+    const auto [i, t0] = it->second;
+    running.erase(it);
+    ++done;
+    const int code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+    const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const std::string status = io::is_ccfr_run(s.dir / s.cells[i].id) ? io::read_run_info(s.dir / s.cells[i].id).status : "no run";
+    if (code != 0 && code != 3) ++failed;
+    std::fprintf(stderr, "sweep: [%zu/%zu] %s: %s (exit %d) in %.1f s\n", done, indices.size(), s.cells[i].id.c_str(),
+                 status.c_str(), code, secs);
+    if (next < indices.size()) start_one();
+  }
+  return failed;
+}
+
+namespace {
+
+// ---- Slurm ----------------------------------------------------------------------------------
+
+struct SlurmFlags {
+  int cpus = -1;
+  std::string time, memory, partition, account;
+  std::string sbatch = "sbatch";
+};
+
+void apply_flags(io::SweepResources& r, const SlurmFlags& f) {
+  if (f.cpus > 0) r.cpus_per_task = f.cpus;
+  if (!f.time.empty()) r.time = f.time;
+  if (!f.memory.empty()) r.memory = f.memory;
+  if (!f.partition.empty()) r.partition = f.partition;
+  if (!f.account.empty()) r.account = f.account;
+}
+
+// Writes DIR/sweep.sbatch (one array task per cell) and submits `indices` of it; records the job.
+std::string slurm_submit(const SweepLayout& s, const std::vector<size_t>& indices, const std::string& sbatch) {
+  const fs::path dir = fs::absolute(s.dir).lexically_normal();
+  const auto& r = s.resources;
+  std::string sh = "#!/bin/bash\n# Written by ccfr sweep: one array task per cell of " + dir.string() +
+                   "/sweep.json.\n#SBATCH --job-name=ccfr-sweep\n#SBATCH --cpus-per-task=" +
+                   std::to_string(r.cpus_per_task) + "\n";
+  if (!r.time.empty()) sh += "#SBATCH --time=" + r.time + "\n";
+  if (!r.memory.empty()) sh += "#SBATCH --mem=" + r.memory + "\n";
+  if (!r.partition.empty()) sh += "#SBATCH --partition=" + r.partition + "\n";
+  if (!r.account.empty()) sh += "#SBATCH --account=" + r.account + "\n";
+  sh += "#SBATCH --output=" + (dir / "logs" / "slurm-%A_%a.out").string() + "\n#SBATCH --chdir=" + dir.string() +
+        "\n# SIGTERM (scancel, the time limit) makes the cell write a checkpoint; `ccfr sweep resume` continues it.\n" +
+        "exec " + quote(self_exe().string()) + " sweep run-cell " + quote(dir.string()) +
+        " \"$SLURM_ARRAY_TASK_ID\" --threads \"${SLURM_CPUS_PER_TASK:-1}\"\n";
+  const fs::path script = dir / "sweep.sbatch";
+  io::write_file_atomic(script, sh);
+  fs::permissions(script, fs::perms::owner_exec, fs::perm_options::add);
+  const std::string array = array_list(indices);
+  const auto [code, out] = capture(sbatch + " --parsable --array=" + array + " " + quote(script.string()));
+  if (code != 0) throw Error("sbatch failed (exit " + std::to_string(code) + "): " + out);
+  std::string job = out.substr(0, out.find_first_of(";\n"));
+  if (job.empty() || job.find_first_not_of("0123456789") != std::string::npos)
+    throw Error("sbatch printed no job id: '" + out + "'");
+  Json j = read_json(dir / "sweep.json");
+  j["slurm_jobs"].push_back({{"job_id", job}, {"array", array}, {"submitted", io::utc_now()}});
+  io::write_file_atomic(dir / "sweep.json", j.dump(2) + "\n");
+  std::fprintf(stderr, "sweep: submitted job %s (array %s, %zu cells) with %s\n", job.c_str(), array.c_str(),
+               indices.size(), script.string().c_str());
+  return job;
+}
+
+// Slurm's view of the sweep's array tasks: cell index -> state (PENDING, RUNNING, COMPLETED,
+// CANCELLED, TIMEOUT, FAILED, ...) of its latest job; squeue for live tasks, sacct when accounting
+// is available (without it sacct fails and only run.json tells).
+std::map<size_t, std::string> slurm_states(const fs::path& dir) {
+  std::map<size_t, std::string> st;
+  const Json j = read_json(dir / "sweep.json");
+  if (!j.is_object() || !j.contains("slurm_jobs") || j["slurm_jobs"].empty()) return st;
+  std::string ids;
+  for (const auto& job : j["slurm_jobs"]) ids += (ids.empty() ? "" : ",") + job["job_id"].get<std::string>();
+  auto parse = [&](const std::string& text, char sep) {
+    std::istringstream in(text);
+    for (std::string line; std::getline(in, line);) {
+      const size_t us = line.find('_'), sp = line.find(sep);
+      if (us == std::string::npos || sp == std::string::npos || sp < us) continue;
+      const std::string task = line.substr(us + 1, sp - us - 1);
+      if (task.empty() || task.find_first_not_of("0123456789") != std::string::npos) continue;
+      std::string state = line.substr(sp + 1);
+      state = state.substr(0, state.find_first_of(" \t"));
+      st[std::stoul(task)] = state;  // later jobs come later: the latest state wins
+    }
+  };
+  const auto [sc, sacct] = capture("sacct -n -P -X -j " + ids + " -o JobID,State");
+  if (sc == 0) parse(sacct, '|');
+  const auto [qc, squeue] = capture("squeue -h -r -j " + ids + " -o '%i %T'");
+  if (qc == 0) parse(squeue, ' ');
+  return st;
+}
+
+// What a cell is now: queued / running (Slurm), completed, or why it stopped.
+std::string cell_state(const SweepLayout& s, size_t i, const std::map<size_t, std::string>& slurm) {
+  const auto it = slurm.find(i);
+  if (it != slurm.end() && (it->second == "PENDING" || it->second == "RUNNING" || it->second == "CONFIGURING" ||
+                            it->second == "COMPLETING" || it->second == "REQUEUED"))
+    return it->second == "PENDING" ? "queued" : "running";
+  const fs::path out = s.dir / s.cells[i].id;
+  if (!io::is_ccfr_run(out)) return it != slurm.end() ? "lost (" + it->second + ", no run)" : "not started";
+  const std::string status = io::read_run_info(out).status;
+  if (status == "completed") return "completed";
+  if (it != slurm.end() && it->second.rfind("CANCELLED", 0) == 0) return "cancelled";
+  if (it != slurm.end() && it->second == "TIMEOUT") return "timeout";
+  if (status.rfind("terminated", 0) == 0) return "terminated";
+  if (status.rfind("interrupted", 0) == 0) return "interrupted";
+  if (status.rfind("failed", 0) == 0) return "failed";
+  return "lost";  // run.json says running but nothing runs it: the node or process died
+}
+
+bool resumable(const std::string& state) {
+  return state != "completed" && state != "queued" && state != "running";
+}
+
+// ---- collect ----------------------------------------------------------------------------------
+
+std::vector<std::string> split_csv(const std::string& line) {
+  std::vector<std::string> c;
+  std::stringstream ss(line);
+  for (std::string t; std::getline(ss, t, ',');) c.push_back(t);
+  if (!line.empty() && line.back() == ',') c.emplace_back();
+  return c;
+}
+
+}  // namespace
+
+std::vector<CellRow> collect_rows(const SweepLayout& s) {
+  std::vector<CellRow> rows;
+  for (const auto& c : s.cells) {
+    CellRow r;
+    r.id = c.id;
+    r.scene = c.scene;
+    r.solver = c.solver;
+    for (const auto& [k, v] : c.params) r.values.push_back(v);
+    const fs::path out = s.dir / c.id;
+    if (!io::is_ccfr_run(out)) {
+      r.status = "not run";
+      r.audit = "";
+      rows.push_back(r);
+      continue;
+    }
+    const Json run = read_json(out / "run.json");
+    r.status = run.value("status", std::string());
+    if (r.solver.empty()) r.solver = run.value("solver", std::string());
+    // stats.csv, by column name.
+    std::istringstream in(read_text(out / "stats.csv"));
+    std::string line;
+    std::getline(in, line);
+    const auto header = split_csv(line);
+    auto col = [&](const char* name) {
+      return static_cast<size_t>(std::find(header.begin(), header.end(), name) - header.begin());
+    };
+    const size_t c_frame = col("frame"), c_wall = col("wall_s"), c_x = col("xpbd_s"), c_b = col("broad_s"),
+                 c_n = col("narrow_s"), c_r = col("resolution_s"), c_d = col("violations_detected"),
+                 c_rem = col("violations_remaining"), c_h = col("halted_vertices"), c_cv = col("contact_vertices");
+    std::vector<FrameStats> fsv;
+    while (std::getline(in, line)) {
+      const auto v = split_csv(line);
+      if (v.size() != header.size()) break;
+      FrameStats f;
+      f.frame = std::stoi(v[c_frame]);
+      f.wall_s = std::stod(v[c_wall]);
+      f.times.xpbd = std::stod(v[c_x]);
+      f.times.broad = std::stod(v[c_b]);
+      f.times.narrow = std::stod(v[c_n]);
+      f.times.resolution = std::stod(v[c_r]);
+      f.violations_detected = std::stoi(v[c_d]);
+      f.violations_remaining = std::stoi(v[c_rem]);
+      f.halted_vertices = std::stoi(v[c_h]);
+      f.contact_vertices = std::stoi(v[c_cv]);
+      fsv.push_back(f);
+    }
+    r.frames = fsv.size();
+    if (!fsv.empty()) {
+      const auto wall = aggregate(fsv, [](const FrameStats& f) { return f.wall_s; });
+      r.avg_s = wall.mean, r.max_s = wall.max, r.median_s = wall.median;
+      r.xpbd = aggregate(fsv, [](const FrameStats& f) { return f.times.xpbd; }).mean;
+      r.broad = aggregate(fsv, [](const FrameStats& f) { return f.times.broad; }).mean;
+      r.narrow = aggregate(fsv, [](const FrameStats& f) { return f.times.narrow; }).mean;
+      r.resolution = aggregate(fsv, [](const FrameStats& f) { return f.times.resolution; }).mean;
+    }
+    for (const auto& f : fsv) {
+      r.detected += f.violations_detected;
+      r.remaining_sum += f.violations_remaining;
+      r.remaining_max = std::max<long>(r.remaining_max, f.violations_remaining);
+      r.halted += f.halted_vertices;
+      r.contact_vertices += f.contact_vertices;
+    }
+    // The audit: the cell's own (run-cell writes it), or one made now.
+    Json audit = read_json(out / "audit.json");
+    const bool stale = !audit.is_object() || audit.value("frames_total", -1L) != run.value("frames_written", -2L) ||
+                       audit.value("status", Json()).dump() != Json(r.status).dump();
+    if (stale) {
+      try {
+        io::RunAuditOptions ao;
+        ao.stride = s.audit_stride;
+        const auto a = io::audit_run(out, ao);
+        const std::string verdict = !a.clean() ? "fail" : a.completed() ? "pass" : "incomplete";
+        const std::string text = io::audit_report_json(a, verdict, verdict == "fail" ? 1 : verdict == "pass" ? 0 : 4,
+                                                       verdict == "incomplete");
+        io::write_file_atomic(out / "audit.json", text);
+        audit = Json::parse(text);
+      } catch (const Error& e) {
+        spdlog::error("sweep collect: audit of {} failed: {}", out.string(), e.what());
+        audit = Json{{"verdict", "error"}};
+      }
+    }
+    r.audit = audit.value("verdict", std::string("error"));
+    r.audit_violations = audit.value("violations", 0L);
+    const double md = audit.contains("min_distance") && audit["min_distance"].is_number() ? audit["min_distance"].get<double>() : NAN;
+    const double off = audit.contains("offset") && audit["offset"].is_number() ? audit["offset"].get<double>() : NAN;
+    r.min_over_xi = md / off;
+    std::map<long, long> pen;
+    if (audit.contains("frames"))
+      for (const auto& f : audit["frames"])
+        pen[f["frame"].get<long>()] =
+            f["triangle_intersections"].get<long>() + f["segment_crossings"].get<long>() + f["close_pairs"].get<long>();
+    for (const auto& f : fsv) {
+      const auto it = pen.find(f.frame);
+      r.per_frame.push_back({f.frame, f.violations_detected, f.violations_remaining, f.halted_vertices,
+                             f.contact_vertices, it != pen.end() ? it->second : -1});
+    }
+    rows.push_back(std::move(r));
+  }
+  return rows;
+}
+
+std::string metrics_header() {
+  return "frames,status,avg_frame_s,max_frame_s,median_frame_s,xpbd_s,broad_s,narrow_s,resolution_s,violations_detected,"
+         "violations_remaining,max_violations_remaining,halted_vertices,audit,audit_violations,min_distance_over_offset";
+}
+
+std::string metrics_csv(const CellRow& r) {
+  std::string status = r.status;
+  std::replace(status.begin(), status.end(), ',', ';');
+  return std::to_string(r.frames) + "," + status + "," + fmt_num(r.avg_s) + "," + fmt_num(r.max_s) + "," +
+         fmt_num(r.median_s) + "," + fmt_num(r.xpbd) + "," + fmt_num(r.broad) + "," + fmt_num(r.narrow) + "," +
+         fmt_num(r.resolution) + "," + std::to_string(r.detected) + "," + std::to_string(r.remaining_sum) + "," +
+         std::to_string(r.remaining_max) + "," + std::to_string(r.halted) + "," + r.audit + "," +
+         std::to_string(r.audit_violations) + "," + fmt_num(r.min_over_xi, "%.9f");
+}
+
+namespace {
+
+int collect(const fs::path& dir, const std::string& metric, const std::string& against, bool plot) {
+  const SweepLayout s = read_sweep(dir);
+  const auto rows = collect_rows(s);
+  std::string head = "cell,scene,solver";
+  for (const auto& k : s.parameter_keys) head += "," + k;
+  std::string csv = head + ",halting_percent," + metrics_header() + "\n";
+  std::string md = "# Sweep `" + dir.filename().string() + "`\n\n" + std::to_string(rows.size()) +
+                   " cells; every run audited with the exact audit (`ccfr audit`, stride " +
+                   std::to_string(s.audit_stride) + "). Times are mean seconds per frame.\n\n| scene | solver |";
+  for (const auto& k : s.parameter_keys) md += " `" + k + "` |";
+  md += " status | frames | mean s/frame | max s/frame | XPBD | broad | narrow | resolution | violations detected | "
+        "remaining (sum / max) | halted (%) | audit | min dist / ξ |\n|---|---|";
+  for (size_t k = 0; k < s.parameter_keys.size(); ++k) md += "---|";
+  md += "---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const auto& r : rows) {
+    const double halting = r.contact_vertices > 0 ? 100.0 * r.halted / r.contact_vertices : NAN;
+    csv += r.id + "," + r.scene + "," + r.solver;
+    for (const auto& v : r.values) csv += "," + v;
+    csv += "," + fmt_num(halting, "%.4f") + "," + metrics_csv(r) + "\n";
+    md += "| " + r.scene + " | `" + r.solver + "` |";
+    for (const auto& v : r.values) md += " " + v + " |";
+    std::string status = r.status;
+    std::replace(status.begin(), status.end(), '|', '/');
+    md += " " + status + " | " + std::to_string(r.frames) + " | " + fmt_num(r.avg_s, "%.4f") + " | " +
+          fmt_num(r.max_s, "%.4f") + " | " + fmt_num(r.xpbd, "%.4f") + " | " + fmt_num(r.broad, "%.4f") + " | " +
+          fmt_num(r.narrow, "%.4f") + " | " + fmt_num(r.resolution, "%.4f") + " | " + std::to_string(r.detected) +
+          " | " + std::to_string(r.remaining_sum) + " / " + std::to_string(r.remaining_max) + " | " +
+          std::to_string(r.halted) + (std::isfinite(halting) ? " (" + fmt_num(halting, "%.2f") + ")" : "") + " | " +
+          r.audit + (r.audit == "fail" ? " (" + std::to_string(r.audit_violations) + ")" : "") + " | " +
+          fmt_num(r.min_over_xi, "%.4f") + " |\n";
+  }
+  io::write_file_atomic(dir / "sweep.csv", csv);
+  io::write_file_atomic(dir / "sweep.md", md);
+  std::fputs(md.c_str(), stdout);
+  if (plot) {
+    const std::string x = against.empty() && !s.parameter_keys.empty() ? s.parameter_keys.front() : against;
+    const fs::path script = fs::path(CCFR_SOURCE_DIR) / "scripts" / "plot_sweep.py";
+    if (!x.empty() && fs::exists(script) && fs::exists("/usr/bin/python3")) {
+      const std::string cmd = "/usr/bin/python3 " + quote(script.string()) + " " + quote((dir / "sweep.csv").string()) +
+                              " --metric " + quote(metric) + " --against " + quote(x) + " > /dev/null 2>&1";
+      if (std::system(cmd.c_str()) != 0) spdlog::warn("sweep collect: plotting failed ({}); the tables are written", cmd);
+    }
+  }
+  size_t bad = 0;
+  for (const auto& r : rows) bad += r.audit != "pass";
+  if (bad) std::fprintf(stderr, "sweep collect: %zu of %zu cells did not pass the audit or did not complete\n", bad, rows.size());
+  return bad ? 1 : 0;
+}
+
+struct SweepOptions {
+  fs::path spec, out;
+  std::string backend = "local";
+  int jobs = 1, threads = 0;
+  SlurmFlags slurm;
+  fs::path dir;  // subcommands
+  long index = -1;
+  std::string metric = "avg_frame_s", against;
+  bool plot = true;
+};
+
+int start_sweep(SweepOptions& o) {
+  io::SweepSpec spec = io::load_sweep_spec(o.spec);
+  SweepLayout s{o.out, spec.cells, spec.parameter_keys, spec.audit_stride, spec.resources, spec.file};
+  apply_flags(s.resources, o.slurm);
+  if (fs::exists(o.out / "sweep.json")) {
+    const SweepLayout old = read_sweep(o.out);
+    std::vector<std::string> a, b;
+    for (const auto& c : old.cells) a.push_back(c.id);
+    for (const auto& c : s.cells) b.push_back(c.id);
+    if (a != b)
+      throw Error("'" + o.out.string() + "' holds another sweep (its cells differ); choose another --out, or use `ccfr "
+                  "sweep resume`");
+  } else if (fs::exists(o.out) && !fs::is_empty(o.out)) {
+    throw Error("output directory '" + o.out.string() + "' is not empty and is not a sweep; choose another --out");
+  }
+  write_sweep(s);
+  std::vector<size_t> all(s.cells.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = i;
+  std::fprintf(stderr, "sweep: %zu cells in %s\n", all.size(), o.out.string().c_str());
+  if (o.backend == "slurm") {
+    slurm_submit(s, all, o.slurm.sbatch);
+    return 0;
+  }
+  const int failed = run_local(s, all, o.jobs, o.threads);
+  std::fprintf(stderr, "sweep: %zu cells done, %d failed; `ccfr sweep collect %s` tabulates them\n", all.size(), failed,
+               o.out.string().c_str());
+  return failed ? 1 : 0;
+}
+
+int sweep_status(const fs::path& dir) {
+  const SweepLayout s = read_sweep(dir);
+  const auto slurm = slurm_states(dir);
+  std::map<std::string, int> counts;
+  std::printf("%-60s %-14s %s\n", "cell", "state", "frames (latest checkpoint)");
+  for (size_t i = 0; i < s.cells.size(); ++i) {
+    const std::string st = cell_state(s, i, slurm);
+    ++counts[st.substr(0, st.find(' '))];
+    const fs::path out = dir / s.cells[i].id;
+    std::string frames = "-";
+    if (io::is_ccfr_run(out)) {
+      const auto info = io::read_run_info(out);
+      frames = std::to_string(info.frames.empty() ? 0 : info.frames.size() - 1);
+      if (const auto ck = io::latest_checkpoint(out)) frames += " (" + ck->filename().string() + ")";
+    }
+    std::printf("%-60s %-14s %s\n", s.cells[i].id.c_str(), st.c_str(), frames.c_str());
+  }
+  std::string summary;
+  for (const auto& [k, n] : counts) summary += (summary.empty() ? "" : ", ") + std::to_string(n) + " " + k;
+  std::printf("%zu cells: %s\n", s.cells.size(), summary.c_str());
+  return 0;
+}
+
+int resume(SweepOptions& o) {
+  SweepLayout s = read_sweep(o.dir);
+  apply_flags(s.resources, o.slurm);
+  const Json j = read_json(o.dir / "sweep.json");
+  const bool slurm_sweep = o.backend == "slurm" || (o.backend.empty() && !j["slurm_jobs"].empty());
+  const auto states = slurm_states(o.dir);
+  std::vector<size_t> todo;
+  for (size_t i = 0; i < s.cells.size(); ++i)
+    if (resumable(cell_state(s, i, states))) todo.push_back(i);
+  if (todo.empty()) {
+    std::fprintf(stderr, "sweep: nothing to resume: every cell completed, is queued or is running\n");
+    return 0;
+  }
+  for (size_t i : todo) std::fprintf(stderr, "sweep: resuming %s (%s)\n", s.cells[i].id.c_str(), cell_state(s, i, states).c_str());
+  if (slurm_sweep) {
+    write_sweep(s);
+    slurm_submit(s, todo, o.slurm.sbatch);
+    return 0;
+  }
+  return run_local(s, todo, o.jobs, o.threads) ? 1 : 0;
+}
+
+void add_slurm_flags(CLI::App* cmd, SweepOptions& o) {
+  cmd->add_option("--cpus-per-task", o.slurm.cpus, "Slurm: CPUs per cell (default: resources.cpus_per_task)")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--time", o.slurm.time, "Slurm: time limit per cell (sbatch --time)");
+  cmd->add_option("--mem", o.slurm.memory, "Slurm: memory per cell (sbatch --mem)");
+  cmd->add_option("--partition", o.slurm.partition, "Slurm: partition");
+  cmd->add_option("--account", o.slurm.account, "Slurm: account");
+  cmd->add_option("--sbatch", o.slurm.sbatch, "Slurm: the sbatch command (default: sbatch)");
+  cmd->add_option("--jobs", o.jobs, "Local: cells run at once (threads are split between them)")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--threads", o.threads, "Local: threads per cell (default: all cores / --jobs)")
+      ->check(CLI::NonNegativeNumber);
+}
+
+}  // namespace
+
+void register_sweep(CLI::App& app) {
+  auto o = std::make_shared<SweepOptions>();
+  auto log_level = std::make_shared<std::string>("info");
+  auto* cmd = app.add_subcommand("sweep",
+                                 "Run a grid of scenes x contact solvers x parameters here or on a Slurm cluster "
+                                 "(subcommands: status, resume, collect)");
+  cmd->add_option("spec", o->spec, "Sweep specification (YAML, docs/cluster.md)");
+  cmd->add_option("--out", o->out, "Sweep directory (one run directory per cell)");
+  cmd->add_option("--backend", o->backend, "local (default) or slurm")->check(CLI::IsMember({"local", "slurm"}));
+  add_slurm_flags(cmd, *o);
+  cmd->add_option("--log-level", *log_level, "trace, debug, info, warn, error or off");
+
+  auto* st = cmd->add_subcommand("status", "State of every cell (squeue/sacct and the cells' run.json)");
+  st->add_option("dir", o->dir, "Sweep directory")->required();
+  st->callback([o] { guarded([o] { return sweep_status(o->dir); }); });
+
+  auto* rs = cmd->add_subcommand("resume", "Run again every failed, cancelled, timed-out or lost cell from its checkpoint");
+  rs->add_option("dir", o->dir, "Sweep directory")->required();
+  rs->add_option("--backend", o->backend, "local or slurm (default: as the sweep was started)")
+      ->check(CLI::IsMember({"local", "slurm"}));
+  add_slurm_flags(rs, *o);
+  rs->callback([o, rs] {
+    init_logging("warn");
+    if (rs->count("--backend") == 0) o->backend.clear();
+    guarded([o] { return resume(*o); });
+  });
+
+  auto* co = cmd->add_subcommand("collect", "One table (sweep.csv, sweep.md) over every cell, and a plot");
+  co->add_option("dir", o->dir, "Sweep directory")->required();
+  co->add_option("--metric", o->metric, "Column of sweep.csv to plot")->capture_default_str();
+  co->add_option("--against", o->against, "Swept parameter on the x axis (default: the first)");
+  co->add_flag("!--no-plot", o->plot, "Do not draw sweep_<metric>.png");
+  co->callback([o] {
+    init_logging("warn");
+    guarded([o] { return collect(o->dir, o->metric, o->against, o->plot); });
+  });
+
+  auto* rc = cmd->add_subcommand("run-cell", "Run one cell (what each Slurm array task runs)");
+  rc->group("");  // internal
+  rc->add_option("dir", o->dir, "Sweep directory")->required();
+  rc->add_option("index", o->index, "Cell index")->required();
+  rc->add_option("--threads", o->threads, "Worker threads")->check(CLI::NonNegativeNumber);
+  rc->callback([o] {
+    init_logging("info");
+    guarded([o] { return run_cell(o->dir, o->index, o->threads); });
+  });
+
+  cmd->callback([o, log_level, cmd] {
+    if (!cmd->get_subcommands().empty()) return;
+    init_logging(*log_level);
+    guarded([o] {
+      if (o->spec.empty() || o->out.empty()) throw Error("usage: ccfr sweep SPEC.yaml --out DIR (or status/resume/collect DIR)");
+      return start_sweep(*o);
+    });
+  });
+}
+
+}  // namespace ccfr::app

@@ -1,0 +1,49 @@
+#pragma once
+// Sweeps (`ccfr sweep`, `ccfr ablate`): cells of scene × solver × parameter values, each one run
+// directory DIR/<cell id>, run here (local backend) or as a Slurm job array, then collected into
+// one table. docs/cluster.md.
+#include <cmath>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "ccfr/io/sweep.hpp"
+
+namespace ccfr::app {
+
+struct SweepLayout {
+  std::filesystem::path dir;
+  std::vector<io::SweepCell> cells;
+  std::vector<std::string> parameter_keys;
+  int audit_stride = 1;
+  io::SweepResources resources;
+  std::filesystem::path spec;  ///< empty for ablate
+};
+
+/// Writes DIR/sweep.json (the cells and how to run them) and creates DIR/logs.
+void write_sweep(const SweepLayout& s);
+/// Reads DIR/sweep.json back; throws ccfr::Error if DIR is not a sweep.
+SweepLayout read_sweep(const std::filesystem::path& dir);
+/// Runs `indices` here, `jobs` at once with `threads` each, as `ccfr sweep run-cell` processes
+/// logging to DIR/logs/<id>.log; progress lines on stderr. Returns the number of cells that failed.
+int run_local(const SweepLayout& s, const std::vector<size_t>& indices, int jobs, int threads);
+
+/// One row of the collected table.
+struct CellRow {
+  std::string id, scene, solver, status, audit;
+  std::vector<std::string> values;  ///< one per parameter key
+  size_t frames = 0;
+  double avg_s = NAN, max_s = NAN, median_s = NAN, xpbd = NAN, broad = NAN, narrow = NAN, resolution = NAN;
+  long detected = 0, remaining_sum = 0, remaining_max = 0, halted = 0, contact_vertices = 0;
+  long audit_violations = 0;
+  double min_over_xi = NAN;
+  std::vector<std::vector<long>> per_frame;  ///< frame, detected, remaining, halted, contact vertices, audit (-1)
+};
+/// Reads every cell's run.json, stats.csv and audit.json (auditing a run that has none).
+std::vector<CellRow> collect_rows(const SweepLayout& s);
+/// The metric columns shared by sweep.csv and ablation.csv, header and row.
+std::string metrics_header();
+std::string metrics_csv(const CellRow& r);
+std::string fmt_num(double v, const char* f = "%.6f");
+
+}  // namespace ccfr::app

@@ -1,0 +1,196 @@
+#include <yaml-cpp/yaml.h>
+
+#include <set>
+
+#include "ccfr/core/error.hpp"
+#include "ccfr/io/sweep.hpp"
+
+namespace ccfr::io {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+class SpecReader {
+ public:
+  explicit SpecReader(fs::path file) : file_(std::move(file)), label_(file_.string()) {}
+
+  [[noreturn]] void fail(const YAML::Node& n, const std::string& key, const std::string& msg) const {
+    throw ConfigError(label_, key, n.Mark().is_null() ? 0 : n.Mark().line + 1, msg);
+  }
+  std::string scalar(const YAML::Node& n, const std::string& key) const {
+    if (!n.IsScalar()) fail(n, key, "expected a value, not a list or map");
+    return n.Scalar();
+  }
+  int integer(const YAML::Node& n, const std::string& key, int lo) const {
+    const std::string s = scalar(n, key);
+    size_t used = 0;
+    int v = 0;
+    try {
+      v = std::stoi(s, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != s.size() || s.empty()) fail(n, key, "expected an integer, got '" + s + "'");
+    if (v < lo) fail(n, key, "must be >= " + std::to_string(lo) + ", got " + s);
+    return v;
+  }
+  std::vector<std::string> list(const YAML::Node& n, const std::string& key) const {
+    if (!n.IsSequence()) fail(n, key, "expected a list");
+    if (n.size() == 0) fail(n, key, "is an empty list");
+    std::vector<std::string> out;
+    for (size_t i = 0; i < n.size(); ++i) out.push_back(scalar(n[i], key + "[" + std::to_string(i) + "]"));
+    return out;
+  }
+  void only(const YAML::Node& n, const std::string& key, const std::set<std::string>& known) const {
+    if (!n.IsMap()) fail(n, key, "expected a map");
+    for (const auto& kv : n) {
+      const std::string k = kv.first.Scalar();
+      if (!known.count(k)) {
+        std::string list;
+        for (const auto& s : known) list += (list.empty() ? "" : ", ") + s;
+        fail(kv.first, key.empty() ? k : key + "." + k, "unknown key '" + k + "'; known: " + list);
+      }
+    }
+  }
+
+ private:
+  fs::path file_;
+  std::string label_;
+};
+
+// Characters kept in a cell id as they are; others become '_'.
+std::string id_part(const std::string& s) {
+  std::string o;
+  for (char c : s) o += (std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == '=' || c == '+') ? c : '_';
+  return o;
+}
+
+}  // namespace
+
+std::vector<SweepCell> expand_sweep(const std::vector<fs::path>& configs, const std::vector<std::string>& solvers,
+                                    const std::vector<std::string>& keys,
+                                    const std::vector<std::vector<std::string>>& cases,
+                                    const std::vector<std::string>& set, int frames, bool solver_ids_only) {
+  std::vector<SweepCell> cells;
+  const std::vector<std::string> solver_list = solvers.empty() ? std::vector<std::string>{""} : solvers;
+  const std::vector<std::vector<std::string>> case_list =
+      cases.empty() ? std::vector<std::vector<std::string>>{{}} : cases;
+  std::set<std::string> ids;
+  for (const auto& cfg : configs)
+    for (const auto& solver : solver_list)
+      for (const auto& values : case_list) {
+        SweepCell c;
+        c.config = cfg;
+        c.scene = cfg.stem().string();
+        c.solver = solver;
+        c.overrides = set;
+        if (frames >= 0) c.overrides.push_back("time.frames=" + std::to_string(frames));
+        if (!solver.empty()) c.overrides.push_back("contact.solver=" + solver);
+        std::string id = solver_ids_only ? id_part(solver) : id_part(c.scene) + "__" + id_part(solver.empty() ? "scene" : solver);
+        for (size_t k = 0; k < keys.size(); ++k) {
+          c.params.emplace_back(keys[k], values[k]);
+          c.overrides.push_back(keys[k] + "=" + values[k]);
+          id += "__" + id_part(keys[k] + "=" + values[k]);
+        }
+        if (!ids.insert(id).second)
+          throw Error("two cells of the sweep would share the id '" + id +
+                      "' (the same scene file name, solver and values twice); rename a scene or drop the duplicate");
+        c.id = id;
+        cells.push_back(std::move(c));
+      }
+  return cells;
+}
+
+SweepSpec load_sweep_spec(const fs::path& file) {
+  SweepSpec s;
+  s.file = fs::absolute(file).lexically_normal();
+  const SpecReader r(s.file);
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(s.file.string());
+  } catch (const YAML::BadFile&) {
+    throw Error("cannot read sweep spec '" + file.string() + "'");
+  } catch (const YAML::ParserException& e) {
+    throw ConfigError(file.string(), "", e.mark.line + 1, "YAML syntax error: " + e.msg);
+  }
+  r.only(root, "", {"configs", "solvers", "parameters", "combine", "cases", "set", "frames", "audit_stride", "resources"});
+  if (!root["configs"]) r.fail(root, "configs", "is required: the scene files of the sweep");
+  for (const auto& c : r.list(root["configs"], "configs")) {
+    fs::path p = fs::path(c).is_absolute() ? fs::path(c) : s.file.parent_path() / c;
+    p = p.lexically_normal();
+    if (!fs::is_regular_file(p)) r.fail(root["configs"], "configs", "scene file '" + p.string() + "' does not exist");
+    s.configs.push_back(p);
+  }
+  if (root["solvers"]) s.solvers = r.list(root["solvers"], "solvers");
+  std::string combine = "product";
+  if (root["combine"]) {
+    combine = r.scalar(root["combine"], "combine");
+    if (combine != "product" && combine != "zip")
+      r.fail(root["combine"], "combine", "must be product or zip, got '" + combine + "'");
+  }
+  if (root["parameters"] && root["cases"])
+    r.fail(root["cases"], "cases", "give either parameters (a grid) or cases (a list), not both");
+  if (const YAML::Node p = root["parameters"]) {
+    if (!p.IsMap()) r.fail(p, "parameters", "expected a map of key.path: [values]");
+    std::vector<std::vector<std::string>> values;
+    for (const auto& kv : p) {
+      const std::string key = kv.first.Scalar();
+      s.parameter_keys.push_back(key);
+      values.push_back(r.list(kv.second, "parameters." + key));
+    }
+    if (combine == "zip") {
+      for (size_t k = 1; k < values.size(); ++k)
+        if (values[k].size() != values[0].size())
+          r.fail(p[s.parameter_keys[k]], "parameters." + s.parameter_keys[k],
+                 "combine: zip needs lists of one length: " + std::to_string(values[k].size()) + " values, '" +
+                     s.parameter_keys[0] + "' has " + std::to_string(values[0].size()));
+      for (size_t i = 0; i < values[0].size(); ++i) {
+        std::vector<std::string> c;
+        for (const auto& v : values) c.push_back(v[i]);
+        s.cases.push_back(c);
+      }
+    } else {
+      s.cases = {{}};
+      for (const auto& v : values) {
+        std::vector<std::vector<std::string>> next;
+        for (const auto& c : s.cases)
+          for (const auto& x : v) {
+            next.push_back(c);
+            next.back().push_back(x);
+          }
+        s.cases = std::move(next);
+      }
+    }
+  } else if (const YAML::Node cs = root["cases"]) {
+    if (!cs.IsSequence() || cs.size() == 0) r.fail(cs, "cases", "expected a non-empty list of maps key.path: value");
+    for (size_t i = 0; i < cs.size(); ++i) {
+      const std::string key = "cases[" + std::to_string(i) + "]";
+      if (!cs[i].IsMap()) r.fail(cs[i], key, "expected a map key.path: value");
+      std::vector<std::string> keys, vals;
+      for (const auto& kv : cs[i]) keys.push_back(kv.first.Scalar()), vals.push_back(r.scalar(kv.second, key + "." + kv.first.Scalar()));
+      if (i == 0) s.parameter_keys = keys;
+      if (keys != s.parameter_keys)
+        r.fail(cs[i], key, "every case must set the same keys in the same order as cases[0]");
+      s.cases.push_back(vals);
+    }
+  }
+  if (const YAML::Node st = root["set"]) {
+    if (!st.IsMap()) r.fail(st, "set", "expected a map key.path: value");
+    for (const auto& kv : st) s.set.push_back(kv.first.Scalar() + "=" + r.scalar(kv.second, "set." + kv.first.Scalar()));
+  }
+  if (root["frames"]) s.frames = r.integer(root["frames"], "frames", 0);
+  if (root["audit_stride"]) s.audit_stride = r.integer(root["audit_stride"], "audit_stride", 1);
+  if (const YAML::Node res = root["resources"]) {
+    r.only(res, "resources", {"cpus_per_task", "time", "memory", "partition", "account"});
+    if (res["cpus_per_task"]) s.resources.cpus_per_task = r.integer(res["cpus_per_task"], "resources.cpus_per_task", 1);
+    if (res["time"]) s.resources.time = r.scalar(res["time"], "resources.time");
+    if (res["memory"]) s.resources.memory = r.scalar(res["memory"], "resources.memory");
+    if (res["partition"]) s.resources.partition = r.scalar(res["partition"], "resources.partition");
+    if (res["account"]) s.resources.account = r.scalar(res["account"], "resources.account");
+  }
+  s.cells = expand_sweep(s.configs, s.solvers, s.parameter_keys, s.cases, s.set, s.frames);
+  return s;
+}
+
+}  // namespace ccfr::io

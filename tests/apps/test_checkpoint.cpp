@@ -1,0 +1,294 @@
+// Checkpoints and `ccfr run --resume`: a run killed mid-way and resumed writes the same frames and
+// stats (timing columns aside) as one that was never interrupted; damaged or mismatched
+// checkpoints are refused naming the file and what does not fit. Runs the real binary.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "ccfr/core/error.hpp"
+#include "ccfr/io/checkpoint.hpp"
+#include "cli_support.hpp"
+
+namespace fs = std::filesystem;
+using ccfr::test::run_ccfr;
+
+namespace {
+
+std::string read(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+void write(const fs::path& p, const std::string& s) {
+  std::ofstream out(p, std::ios::binary | std::ios::trunc);
+  out << s;
+}
+
+std::string config(const std::string& name) { return std::string(CCFR_SOURCE_DIR) + "/configs/" + name; }
+
+/// stats.csv without the timing columns (wall_s, xpbd_s, broad_s, narrow_s, resolution_s, audit_s,
+/// check_s), which are the only ones allowed to differ between two runs of one scene.
+std::string stats_without_timing(const fs::path& csv) {
+  std::istringstream in(read(csv));
+  std::string out, line;
+  const std::vector<std::string> timing{"wall_s", "xpbd_s", "broad_s", "narrow_s", "resolution_s", "audit_s", "check_s"};
+  std::vector<bool> keep;
+  while (std::getline(in, line)) {
+    std::vector<std::string> cells;
+    std::stringstream ls(line);
+    for (std::string c; std::getline(ls, c, ',');) cells.push_back(c);
+    if (line.back() == ',') cells.emplace_back();
+    if (keep.empty())
+      for (const auto& c : cells) keep.push_back(std::find(timing.begin(), timing.end(), c) == timing.end());
+    EXPECT_EQ(cells.size(), keep.size()) << line;
+    for (size_t i = 0; i < cells.size() && i < keep.size(); ++i)
+      if (keep[i]) out += cells[i] + ",";
+    out += "\n";
+  }
+  return out;
+}
+
+/// Starts `ccfr args...` with its output into `log`.
+pid_t spawn(const std::vector<std::string>& args, const fs::path& log) {
+  std::vector<std::string> all{CCFR_EXE};
+  all.insert(all.end(), args.begin(), args.end());
+  const pid_t pid = fork();
+  if (pid == 0) {
+    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    ::dup2(fd, 1);
+    ::dup2(fd, 2);
+    std::vector<char*> argv;
+    for (auto& a : all) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    ::execv(argv[0], argv.data());
+    ::_exit(127);
+  }
+  return pid;
+}
+
+/// Runs `args` and sends `sig` as soon as the checkpoint of frame `at` exists; fails the test if
+/// the run ended before that. Returns the exit status.
+int run_and_interrupt(const std::vector<std::string>& args, const fs::path& dir, int at, int sig, const fs::path& log) {
+  const pid_t pid = spawn(args, log);
+  const fs::path ckpt = ccfr::io::checkpoint_path(dir, at);
+  int status = 0;
+  for (;;) {
+    if (fs::exists(ckpt)) {
+      ::kill(pid, sig);
+      break;
+    }
+    if (::waitpid(pid, &status, WNOHANG) == pid) {
+      ADD_FAILURE() << "the run ended before its checkpoint of frame " << at << " appeared:\n" << read(log);
+      return status;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  ::waitpid(pid, &status, 0);
+  return status;
+}
+
+/// Frames of two run directories, byte for byte.
+void expect_same_frames(const fs::path& a, const fs::path& b) {
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(a / "frames")) names.push_back(e.path().filename().string());
+  size_t nb = 0;
+  for (const auto& e : fs::directory_iterator(b / "frames")) nb += e.path().extension() == ".obj";
+  ASSERT_FALSE(names.empty());
+  EXPECT_EQ(names.size(), nb);
+  for (const auto& n : names) EXPECT_TRUE(read(a / "frames" / n) == read(b / "frames" / n)) << n << " differs";
+}
+
+struct Case {
+  const char* name;
+  const char* scene;
+  std::vector<std::string> sets;  // --set overrides of both runs
+  int frames, checkpoint_every, kill_at, signal;
+};
+
+void check_resume_is_identical(const Case& c) {
+  const fs::path root = ccfr::test::scratch_dir("checkpoint_" + std::string(c.name));
+  std::vector<std::string> args{"run", config(c.scene), "--frames", std::to_string(c.frames), "--log-level", "warn",
+                                "--set", "output.checkpoint_every=" + std::to_string(c.checkpoint_every)};
+  for (const auto& s : c.sets) args.insert(args.end(), {"--set", s});
+  auto with_out = [&](const fs::path& out) {
+    auto a = args;
+    a.insert(a.end(), {"--out", out.string()});
+    return a;
+  };
+  const fs::path ref = root / "uninterrupted", cut = root / "resumed";
+  std::string ref_cmd;
+  for (const auto& a : with_out(ref)) ref_cmd += "'" + a + "' ";
+  const auto r = run_ccfr(ref_cmd);
+  ASSERT_TRUE(r.code == 0 || r.code == 3) << r.out;
+
+  const int status = run_and_interrupt(with_out(cut), cut, c.kill_at, c.signal, root / "cut.log");
+  if (c.signal == SIGKILL) {
+    ASSERT_TRUE(WIFSIGNALED(status)) << read(root / "cut.log");
+  } else {
+    ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 1) << read(root / "cut.log");
+    EXPECT_NE(read(cut / "run.json").find("terminated after frame"), std::string::npos);
+  }
+  const auto latest = ccfr::io::latest_checkpoint(cut);
+  ASSERT_TRUE(latest.has_value());
+  const int at = ccfr::io::read_checkpoint(*latest).sim.frame;
+  ASSERT_GE(at, c.kill_at);
+  ASSERT_LT(at, c.frames) << "the run finished before it was interrupted; the test proves nothing";
+
+  // A different thread count: runs are deterministic across thread counts.
+  const auto res = run_ccfr("run --resume '" + cut.string() + "' --threads 1 --log-level warn");
+  ASSERT_TRUE(res.code == r.code) << res.out;
+  EXPECT_NE(res.out.find("resumed after frame " + std::to_string(at)), std::string::npos) << res.out;
+  expect_same_frames(ref, cut);
+  EXPECT_EQ(stats_without_timing(ref / "stats.csv"), stats_without_timing(cut / "stats.csv"));
+  const auto rj = nlohmann::json::parse(read(cut / "run.json"));
+  EXPECT_EQ(rj["status"], "completed");
+  EXPECT_EQ(rj["frames_written"], c.frames + 1);
+  ASSERT_TRUE(rj.contains("resumed"));
+  EXPECT_EQ(rj["resumed"][0]["after_frame"], at);
+
+  // Resuming a completed run is a no-op.
+  const auto again = run_ccfr("run --resume '" + cut.string() + "'");
+  EXPECT_EQ(again.code, 0) << again.out;
+  EXPECT_NE(again.out.find("nothing to resume"), std::string::npos) << again.out;
+}
+
+}  // namespace
+
+TEST(Checkpoint, Crc32MatchesTheStandardCheckValue) {
+  // The CRC-32 check value of "123456789" (IEEE 802.3 / zlib), and of the empty string.
+  EXPECT_EQ(ccfr::io::crc32("123456789"), 0xCBF43926u);
+  EXPECT_EQ(ccfr::io::crc32(""), 0u);
+}
+
+TEST(Checkpoint, EncodeDecodeRoundTrips) {
+  ccfr::io::Checkpoint c;
+  c.sim.frame = 7;
+  c.sim.time = 0.25;
+  c.sim.x = {ccfr::Vec3(1, 2, 3), ccfr::Vec3(-0.0, 1e-300, 4)};
+  c.sim.v = {ccfr::Vec3(0.5, 0, 0), ccfr::Vec3(0, 0, -9.81)};
+  c.sim.x_prev = c.sim.x;
+  c.sim.solver_state = {0.001, 0.002};
+  c.sim.warned_capped = {0, 1};
+  c.resolved_config = R"({"a": 1})";
+  c.scene_file = "/x/y.yaml";
+  c.overrides = {"time.frames=3", ""};
+  c.audit_offsets = {0.5};
+  c.violated_frames = 2;
+  c.frames_written = 8;
+  const auto d = ccfr::io::decode_checkpoint(ccfr::io::encode_checkpoint(c), "mem");
+  EXPECT_EQ(d.sim.frame, 7);
+  EXPECT_EQ(d.sim.x, c.sim.x);
+  EXPECT_EQ(d.sim.v, c.sim.v);
+  EXPECT_EQ(d.sim.solver_state, c.sim.solver_state);
+  EXPECT_EQ(d.sim.warned_capped, c.sim.warned_capped);
+  EXPECT_EQ(d.overrides, c.overrides);
+  EXPECT_EQ(d.audit_offsets, c.audit_offsets);
+  EXPECT_EQ(d.frames_written, 8);
+  // Degenerate: nothing at all, and a checkpoint of an empty scene.
+  EXPECT_THROW(ccfr::io::decode_checkpoint("", "empty"), ccfr::Error);
+  const auto e = ccfr::io::decode_checkpoint(ccfr::io::encode_checkpoint(ccfr::io::Checkpoint{}), "mem");
+  EXPECT_TRUE(e.sim.x.empty());
+}
+
+TEST(Checkpoint, JsonDifferenceNamesTheKeyPath) {
+  EXPECT_EQ(ccfr::io::json_difference(R"({"a":{"b":1}})", R"({"a":{"b":1}})"), "");
+  EXPECT_EQ(ccfr::io::json_difference(R"({"a":{"b":1,"c":[1,2]}})", R"({"a":{"b":1,"c":[1,3]}})"),
+            "a.c[1]: 2 in the checkpoint, 3 now");
+}
+
+// Pairs that start closer than ξ (reduced offsets: the detector's state) and the in-simulation audit
+// (its own reduced offsets), killed with SIGKILL between checkpoints.
+TEST(Checkpoint, SigkillThenResumeIsIdenticalWithReducedOffsetsAndAudit) {
+  check_resume_is_identical({"near", "stress/sheets_near.yaml", {"debug.audit=every_frame"}, 16, 3, 6, SIGKILL});
+}
+
+// A rigid body on cloth under a baseline solver; SIGTERM (scancel, a job's time limit) writes a
+// checkpoint of the frame it stopped after.
+TEST(Checkpoint, SigtermThenResumeIsIdenticalWithRigidBodiesAndABaseline) {
+  check_resume_is_identical(
+      {"cube", "cube_on_cloth.yaml", {"contact.solver=post_process", "contact.on_violation=warn"}, 14, 4, 4, SIGTERM});
+}
+
+TEST(Checkpoint, DamagedOrMismatchedCheckpointsAreRefused) {
+  const fs::path root = ccfr::test::scratch_dir("checkpoint_refusals");
+  const fs::path scene = root / "scene.yaml";
+  write(scene, read(config("two_sheets.yaml")));
+  const fs::path dir = root / "run";
+  const auto r = run_ccfr("run '" + scene.string() + "' --frames 5 --set output.checkpoint_every=2 --out '" +
+                          dir.string() + "' --log-level warn");
+  ASSERT_EQ(r.code, 0) << r.out;
+  // Pretend the run was cut short after its checkpoint of frame 4.
+  auto j = nlohmann::json::parse(read(dir / "run.json"));
+  j["status"] = "running";
+  write(dir / "run.json", j.dump());
+  const fs::path ck = ccfr::io::checkpoint_path(dir, 4);
+  ASSERT_TRUE(fs::exists(ck));
+  EXPECT_FALSE(fs::exists(ccfr::io::checkpoint_path(dir, 2))) << "older checkpoints are removed";
+  const std::string good = read(ck), frames_before = read(dir / "frames" / "frame_00005.obj");
+  const std::string resume = "run --resume '" + dir.string() + "'";
+
+  auto refused = [&](const std::string& bytes, const std::string& why) {
+    write(ck, bytes);
+    const auto res = run_ccfr(resume);
+    EXPECT_EQ(res.code, 2) << res.out;
+    EXPECT_NE(res.out.find(ck.string()), std::string::npos) << res.out;
+    EXPECT_NE(res.out.find(why), std::string::npos) << res.out;
+    EXPECT_EQ(read(dir / "frames" / "frame_00005.obj"), frames_before) << "a refused resume changes nothing";
+  };
+  std::string flipped = good;
+  flipped[flipped.size() / 2] ^= 0x10;
+  refused(flipped, "is corrupted: checksum mismatch");
+  refused(good.substr(0, good.size() - 9), "is truncated");
+  refused(good.substr(0, 12), "is truncated");
+  refused(good + "x", "trailing bytes");
+  std::string other_format = good;
+  other_format[8] = 2;
+  refused(other_format, "format version 2");
+  refused("not a checkpoint at all", "is not a ccfr checkpoint");
+
+  // The scene changed since: the first differing key is named.
+  write(ck, good);
+  std::string text = read(scene);
+  const size_t at = text.find("fps: 60");
+  ASSERT_NE(at, std::string::npos);
+  write(scene, text.substr(0, at) + "fps: 61" + text.substr(at + 7));
+  auto res = run_ccfr(resume);
+  EXPECT_EQ(res.code, 2) << res.out;
+  EXPECT_NE(res.out.find("does not match its scene"), std::string::npos) << res.out;
+  EXPECT_NE(res.out.find("time.fps: 60 in the checkpoint, 61 now"), std::string::npos) << res.out;
+  write(scene, text);
+
+  // Options that would change the run, and a directory without a checkpoint.
+  res = run_ccfr(resume + " --set contact.offset=0.02");
+  EXPECT_EQ(res.code, 2) << res.out;
+  EXPECT_NE(res.out.find("--resume continues a run exactly as it was configured"), std::string::npos) << res.out;
+  fs::remove(ck);
+  res = run_ccfr(resume);
+  EXPECT_EQ(res.code, 2) << res.out;
+  EXPECT_NE(res.out.find("no checkpoint in"), std::string::npos) << res.out;
+
+  // With the checkpoint back, the resume works and completes the run.
+  write(ck, good);
+  res = run_ccfr(resume + " --log-level warn");
+  EXPECT_EQ(res.code, 0) << res.out;
+  EXPECT_EQ(read(dir / "frames" / "frame_00005.obj"), frames_before);
+}
+
+// FCL's tree is rebalanced as it goes, so a resumed run's fresh tree traverses in another order;
+// the broad phase reports its pairs sorted, and the contacts come out the same.
+TEST(Checkpoint, ResumeIsIdenticalUnderTheFclBroadPhase) {
+  check_resume_is_identical({"fcl", "two_sheets.yaml", {"collision.broad_phase=fcl"}, 16, 4, 8, SIGKILL});
+}

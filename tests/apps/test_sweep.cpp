@@ -1,0 +1,170 @@
+// `ccfr sweep` with the local backend and `ccfr ablate` (its solvers-only case): strict specs, the
+// cells a spec expands to, each cell equal to the same `ccfr run` done by hand, status / resume /
+// collect. The Slurm backend is tested on a real cluster by tests/cluster/slurm_sweep.sh.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+
+#include "ccfr/core/error.hpp"
+#include "ccfr/io/sweep.hpp"
+#include "ccfr/solvers/contact_solver.hpp"
+#include "cli_support.hpp"
+
+namespace fs = std::filesystem;
+using ccfr::test::read_text;
+using ccfr::test::run_ccfr;
+
+namespace {
+
+void write(const fs::path& p, const std::string& s) {
+  std::ofstream out(p, std::ios::binary | std::ios::trunc);
+  out << s;
+}
+
+std::string cfg(const std::string& name) { return std::string(CCFR_SOURCE_DIR) + "/configs/" + name; }
+
+// Expects the spec to be refused with a message holding every one of `parts`.
+void expect_refused(const fs::path& spec, const std::string& text, std::initializer_list<std::string> parts) {
+  write(spec, text);
+  try {
+    ccfr::io::load_sweep_spec(spec);
+    ADD_FAILURE() << "accepted:\n" << text;
+  } catch (const ccfr::Error& e) {
+    for (const auto& p : parts) EXPECT_NE(std::string(e.what()).find(p), std::string::npos) << e.what() << "\nwanted: " << p;
+  }
+}
+
+}  // namespace
+
+TEST(SweepSpec, ProductZipAndCasesExpandToStableCells) {
+  const fs::path d = ccfr::test::scratch_dir("sweep_spec");
+  const fs::path spec = d / "s.yaml";
+  write(spec, "configs: [" + cfg("drape.yaml") + ", " + cfg("two_sheets.yaml") +
+                  "]\nsolvers: [ccfr, exact_projection, post_process]\nparameters:\n  contact.offset: [0.008, 0.01]\n"
+                  "  time.substeps: [2, 4]\nframes: 3\nset: {output.every: 2}\n");
+  const auto s = ccfr::io::load_sweep_spec(spec);
+  ASSERT_EQ(s.cells.size(), 2u * 3u * 2u * 2u);  // brute force: configs x solvers x offsets x substeps
+  EXPECT_EQ(s.cells[0].id, "drape__ccfr__contact.offset=0.008__time.substeps=2");
+  EXPECT_EQ(s.cells[1].id, "drape__ccfr__contact.offset=0.008__time.substeps=4");
+  EXPECT_EQ(s.cells.back().id, "two_sheets__post_process__contact.offset=0.01__time.substeps=4");
+  EXPECT_EQ(s.cells[0].overrides,
+            (std::vector<std::string>{"output.every=2", "time.frames=3", "contact.solver=ccfr", "contact.offset=0.008",
+                                      "time.substeps=2"}));
+  // The same spec gives the same ids.
+  const auto again = ccfr::io::load_sweep_spec(spec);
+  for (size_t i = 0; i < s.cells.size(); ++i) EXPECT_EQ(s.cells[i].id, again.cells[i].id);
+
+  write(spec, "configs: [" + cfg("drape.yaml") +
+                  "]\nparameters:\n  contact.offset: [0.008, 0.01, 0.012]\n  contact.radius: [0.004, 0.005, 0.006]\n"
+                  "combine: zip\n");
+  const auto z = ccfr::io::load_sweep_spec(spec);
+  ASSERT_EQ(z.cells.size(), 3u);
+  EXPECT_EQ(z.cells[2].id, "drape__scene__contact.offset=0.012__contact.radius=0.006");
+
+  write(spec, "configs: [" + cfg("drape.yaml") + "]\ncases:\n  - {contact.offset: 0.01}\n  - {contact.offset: 0.02}\n");
+  EXPECT_EQ(ccfr::io::load_sweep_spec(spec).cells.size(), 2u);
+  // Degenerate: one config, nothing swept: one cell.
+  write(spec, "configs: [" + cfg("drape.yaml") + "]\n");
+  EXPECT_EQ(ccfr::io::load_sweep_spec(spec).cells.size(), 1u);
+}
+
+TEST(SweepSpec, ThePaperSweepCoversEveryConfigAndSolver) {
+  const auto s = ccfr::io::load_sweep_spec(cfg("sweeps/paper.yaml"));
+  size_t scenes = 0;
+  for (const auto& e : fs::directory_iterator(fs::path(CCFR_SOURCE_DIR) / "configs"))
+    scenes += e.path().extension() == ".yaml";
+  EXPECT_EQ(s.configs.size(), scenes);
+  EXPECT_EQ(s.solvers, ccfr::contact_solver_names());  // every registered solver
+  EXPECT_EQ(s.cells.size(), scenes * s.solvers.size());
+}
+
+TEST(SweepSpec, BadSpecsNameFileKeyAndLine) {
+  const fs::path d = ccfr::test::scratch_dir("sweep_spec_bad");
+  const fs::path spec = d / "bad.yaml";
+  const std::string c = "configs: [" + cfg("drape.yaml") + "]\n";
+  expect_refused(spec, c + "solver: [ccfr]\n", {spec.string() + ":2:", "solver", "unknown key 'solver'"});
+  expect_refused(spec, c + "parameters:\n  contact.offset: [0.01, 0.02]\n  contact.radius: [0.005]\ncombine: zip\n",
+                 {spec.string() + ":4:", "parameters.contact.radius", "zip needs lists of one length"});
+  expect_refused(spec, c + "solvers: []\n", {"solvers", "empty list"});
+  expect_refused(spec, "configs: [missing.yaml]\n", {"configs", "does not exist"});
+  expect_refused(spec, c + "resources: {cpus: 2}\n", {"resources.cpus", "unknown key"});
+  expect_refused(spec, c + "frames: -1\n", {"frames", "must be >= 0"});
+  expect_refused(spec, "", {"expected a map"});
+  expect_refused(spec, c + "solvers: [ccfr, ccfr]\n", {"share the id"});
+}
+
+TEST(Sweep, LocalCellsEqualHandRunsAndResumeRunsWhatIsMissing) {
+  const fs::path d = ccfr::test::scratch_dir("sweep_local");
+  write(d / "s.yaml", "configs: [" + cfg("stress/cloth_near_floor.yaml") +
+                          "]\nsolvers: [ccfr, post_process]\nparameters:\n  contact.offset: [0.008, 0.01]\nframes: 3\n"
+                          "set: {contact.on_violation: warn}\n");
+  const fs::path out = d / "sweep";
+  auto r = run_ccfr("sweep '" + (d / "s.yaml").string() + "' --out '" + out.string() + "' --jobs 2");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("sweep: [4/4]"), std::string::npos) << r.out;
+
+  // One cell against the same run by hand: identical frames.
+  const std::string id = "cloth_near_floor__post_process__contact.offset=0.01";
+  r = run_ccfr("run '" + cfg("stress/cloth_near_floor.yaml") + "' --frames 3 --solver post_process --set contact.offset=0.01 "
+               "--set contact.on_violation=warn --out '" + (d / "by_hand").string() + "' --log-level warn");
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (int f = 0; f <= 3; ++f) {
+    const std::string n = "frames/frame_0000" + std::to_string(f) + ".obj";
+    EXPECT_EQ(read_text(out / id / n), read_text(d / "by_hand" / n)) << n;
+  }
+
+  r = run_ccfr("sweep collect '" + out.string() + "' --no-plot");
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::istringstream csv(read_text(out / "sweep.csv"));
+  std::string header, line;
+  std::getline(csv, header);
+  EXPECT_EQ(header.rfind("cell,scene,solver,contact.offset,halting_percent,frames,status,avg_frame_s", 0), 0u) << header;
+  int rows = 0;
+  while (std::getline(csv, line)) {
+    ++rows;
+    EXPECT_NE(line.find(",3,completed,"), std::string::npos) << line;
+    EXPECT_NE(line.find(",pass,"), std::string::npos) << line;
+  }
+  EXPECT_EQ(rows, 4);
+  EXPECT_NE(read_text(out / "sweep.md").find("| cloth_near_floor | `post_process` | 0.01 | completed | 3 |"), std::string::npos);
+
+  // A lost cell: status says so, resume runs it (and only it) again.
+  fs::remove_all(out / id);
+  r = run_ccfr("sweep status '" + out.string() + "'");
+  EXPECT_NE(r.out.find("4 cells: 3 completed, 1 not"), std::string::npos) << r.out;
+  r = run_ccfr("sweep resume '" + out.string() + "'");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("resuming " + id + " (not started)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("[1/1]"), std::string::npos) << r.out;
+  EXPECT_EQ(read_text(out / id / "frames/frame_00003.obj"), read_text(d / "by_hand/frames/frame_00003.obj"));
+  r = run_ccfr("sweep resume '" + out.string() + "'");
+  EXPECT_NE(r.out.find("nothing to resume"), std::string::npos) << r.out;
+
+  // Another spec into the same directory is refused.
+  write(d / "other.yaml", "configs: [" + cfg("stress/cloth_near_floor.yaml") + "]\n");
+  r = run_ccfr("sweep '" + (d / "other.yaml").string() + "' --out '" + out.string() + "'");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("holds another sweep"), std::string::npos) << r.out;
+}
+
+TEST(Sweep, AblateIsTheSolversOnlySweepAndRefusesSolver) {
+  const fs::path d = ccfr::test::scratch_dir("sweep_ablate");
+  auto r = run_ccfr("ablate '" + cfg("stress/cloth_near_floor.yaml") + "' --frames 2 --solver ccfr --out '" +
+                    (d / "a").string() + "'");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--solver 'ccfr' would be ignored"), std::string::npos) << r.out;
+  r = run_ccfr("ablate '" + cfg("stress/cloth_near_floor.yaml") + "' --frames 2 --solvers ccfr,none --no-plot --out '" +
+               (d / "a").string() + "'");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string csv = read_text(d / "a" / "ablation.csv");
+  EXPECT_EQ(csv.rfind("solver,frames,status,avg_frame_s", 0), 0u) << csv;
+  EXPECT_NE(csv.find("\nccfr,2,completed,"), std::string::npos) << csv;
+  EXPECT_NE(csv.find("\nnone,2,completed,"), std::string::npos) << csv;
+  EXPECT_TRUE(fs::exists(d / "a" / "ccfr" / "audit.json"));
+  EXPECT_TRUE(fs::exists(d / "a" / "sweep.json"));
+  EXPECT_EQ(nlohmann::json::parse(read_text(d / "a" / "ccfr" / "audit.json"))["verdict"], "pass");
+}
