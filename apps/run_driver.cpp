@@ -68,6 +68,14 @@ void progress_bar(int done, int total, double last_s, const FrameStats& fs) {
   if (done == total) std::fputc('\n', stderr);
   std::fflush(stderr);
 }
+
+// Velocity and the contact solver's per-vertex diagnostics, for the VTU point data.
+io::VertexFields vertex_fields(Simulation& sim) {
+  io::VertexFields f;
+  f.velocity = sim.scene().state.v;
+  sim.contact_solver().vertex_diagnostics(f.half_spaces, f.distance, f.halted);
+  return f;
+}
 }  // namespace
 
 void set_invocation(int argc, const char* const* argv) {
@@ -121,6 +129,8 @@ RunSummary run_scene(const RunOptions& opts) {
   };
   SignalScope signals;
   std::unique_ptr<io::RunWriter> writer;
+  bool want_fields = false;  // the per-vertex fields are only written to VTU
+  auto fields = [&] { return want_fields ? vertex_fields(sim) : io::VertexFields{}; };
   if (!opts.out.empty()) {
     io::RunMeta meta{params.scene_name,
                      params.contact.solver,
@@ -135,10 +145,13 @@ RunSummary run_scene(const RunOptions& opts) {
                      std::nullopt};
     if (const CollisionDetector* det = sim.contact_solver().collision_detector())
       meta.initial_proximity = det->initial_proximity();
+    if (!params.output.formats.empty()) meta.formats = io::parse_output_formats(params.output.formats);
+    meta.every = params.output.every;
+    for (io::OutputFormat fm : meta.formats) want_fields = want_fields || fm == io::OutputFormat::vtu;
     writer = std::make_unique<io::RunWriter>(opts.out, sim.topology(), loaded.resolved_json, meta, opts.force);
     try {
       writer->start();
-      if (params.output.frames) writer->write_frame(0, sim.positions());
+      if (params.output.frames) writer->write_frame(0, sim.positions(), fields());
     } catch (const Error& e) {
       output_failed(e);
     }
@@ -170,7 +183,7 @@ RunSummary run_scene(const RunOptions& opts) {
     if (writer) {
       try {
         if (params.output.frames && (f % params.output.every == 0 || f == total))
-          writer->write_frame(f, sim.positions());
+          writer->write_frame(f, sim.positions(), fields());
         writer->write_stats(fs);
       } catch (const Error& e) {
         output_failed(e);

@@ -363,6 +363,11 @@ class Builder {
     p.debug.audit_tolerance = d["audit_tolerance"].as<double>();
     p.output.frames = cfg_["output"]["frames"].as<bool>();
     p.output.every = cfg_["output"]["every"].as<int>();
+    if (const YAML::Node fm = cfg_["output"]["formats"]) {
+      for (size_t k = 0; k < fm.size(); ++k) p.output.formats.push_back(fm[k].as<std::string>());
+      if (p.output.formats.empty())
+        ctx_.fail("output.formats", in_node("output.formats"), "list at least one format (obj, ply, vtu, pc2, usda)");
+    }
     if (p.contact.friction_kinetic > p.contact.friction_static && p.contact.friction_static > 0)
       ctx_.fail("contact.friction.kinetic", in_node("contact.friction.kinetic"),
                 "kinetic friction must not exceed static friction", {"contact.friction.static"});

@@ -4,6 +4,7 @@
 
 #include "ccfr/collision/broad_phase.hpp"
 #include "ccfr/core/scene.hpp"
+#include "ccfr/io/formats.hpp"
 #include "ccfr/solvers/contact_solver.hpp"
 
 namespace ccfr::io {
@@ -220,8 +221,16 @@ NodePtr build_scene_schema() {
                               "off", [] { return std::vector<std::string>{"off", "every_frame", "every_substep"}; },
                               "exact penetration audit during the run; fills the `penetrations` column of stats.csv")},
                 {"audit_tolerance", number(1e-6, "the audit flags pairs closer than (1 - tol) ξ", Range::unit())}})},
-          {"output", map("what is written", {{"frames", boolean(true, "write frames/frame_*.obj")},
-                                             {"every", integer(1, "write every k-th frame (frame 0 always)", one)}})},
+          {"output", map("what is written",
+                         {{"frames", boolean(true, "write frames (in every format of `formats`)")},
+                          {"every", integer(1, "write every k-th frame (frame 0 always)", one)},
+                          // interop (docs/interop.md): formats besides the OBJ frames
+                          {"formats", list("formats of the frames; absent: [obj]. obj: frames/frame_N.obj (exact, "
+                                           "what `ccfr audit` reads); ply: frames/frame_N.ply (binary, float); vtu: "
+                                           "vtk/frame_N.vtu + vtk/frames.pvd with per-vertex fields (ParaView); "
+                                           "pc2: blender/*.pc2 point caches + first_frame.obj (Blender Mesh Cache); "
+                                           "usda: usd/scene.usda, time-sampled points",
+                                           choice("obj", output_format_names, "an output format"))}})},
           {"materials", dict("named materials; `default` exists unless redefined", material)},
           {"objects", list("the objects of the scene", object)},
       });

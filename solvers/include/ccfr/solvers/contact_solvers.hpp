@@ -29,6 +29,8 @@ class DetectingSolver : public ContactSolver {
   Index count_outside(const Positions& x, const Positions& anchor, const SimState& state,
                       StepContext& ctx) const override;
   std::string last_violation() const override { return last_violation_; }
+  void vertex_diagnostics(std::vector<std::int32_t>& half_spaces, std::vector<double>& distance,
+                          std::vector<std::uint8_t>& halted) const override;
 
   const RegionSet& regions() const { return regions_; }
   const std::vector<ContactPair>& contacts() const { return contacts_; }
@@ -45,6 +47,7 @@ class DetectingSolver : public ContactSolver {
   ContactResponse response_;
   std::vector<double> friction_override_;  ///< #V: material friction of the vertex's object (< 0: global)
   mutable std::string last_violation_;
+  Index num_vertices_ = 0;  ///< #V of the scene (the regions are empty before the first detection)
 };
 
 /// Projects every vertex that left its region back onto it with a Projector.
@@ -57,6 +60,8 @@ class RegionProjectionSolver final : public DetectingSolver {
   SolveResult resolve(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) override;
   bool clamps_to_radius() const override { return true; }
   bool guarantees_separation() const override { return projector_name_ != "successive_projection"; }
+  void vertex_diagnostics(std::vector<std::int32_t>& half_spaces, std::vector<double>& distance,
+                          std::vector<std::uint8_t>& halted) const override;
   /// Close sub-pairs (DetectingSolver) plus rigid-body vertices off their body's rigid placement.
   Index count_outside(const Positions& x, const Positions& anchor, const SimState& state,
                       StepContext& ctx) const override;
@@ -65,6 +70,8 @@ class RegionProjectionSolver final : public DetectingSolver {
   std::string name_, projector_name_;
   std::unique_ptr<Projector> projector_;
   RigidBodies rigid_;  ///< rigid bodies, whose correction is taken as a rigid motion
+  std::vector<std::uint8_t> halted_;  ///< #V: halted during frame `halted_frame_`
+  int halted_frame_ = -1;
 };
 
 /// The paper's baseline: after XPBD, every detected pair whose gap along its detection normal is

@@ -69,6 +69,8 @@ struct DebugParams {
 struct OutputParams {
   bool frames = true;  ///< write frames/frame_*.obj
   int every = 1;       ///< write every k-th frame (frame 0 always)
+  /// output.formats: obj, ply, vtu, pc2, usda (docs/interop.md); empty means obj only.
+  std::vector<std::string> formats;
 };
 
 struct MaterialParams {
