@@ -19,6 +19,7 @@
 #include "ccfr/core/log.hpp"
 #include "ccfr/geometry/generators.hpp"
 #include "ccfr/io/obj.hpp"
+#include "ccfr/io/tet_mesh.hpp"
 #include "scene_schema.hpp"
 
 namespace ccfr::io {
@@ -478,17 +479,51 @@ class Builder {
       fs::path file = s["path"].as<std::string>();
       std::string ext = file.extension().string();
       for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-      if (ext != ".obj")
+      const auto& exts = mesh_extensions();
+      if (std::find(exts.begin(), exts.end(), ext) == exts.end()) {
+        std::string list;
+        for (const auto& e : exts) list += (list.empty() ? "" : ", ") + e;
         ctx_.fail(ppath, in_node(ppath),
-                  ext.empty() ? "mesh file '" + file.string() + "' has no extension; ccfr reads Wavefront .obj meshes"
-                              : "unsupported mesh format '" + file.extension().string() + "' (ccfr reads .obj)");
+                  ext.empty() ? "mesh file '" + file.string() + "' has no extension (supported: " + list + ")"
+                              : "unsupported mesh format '" + file.extension().string() + "' (supported: " + list +
+                                    ")");
+      }
       if (file.is_relative()) file = base_ / file;
-      if (!fs::exists(file)) ctx_.fail(ppath, in_node(ppath), "mesh file '" + file.string() + "' does not exist");
+      if (!fs::exists(file) && ext != ".node" && ext != ".ele")
+        ctx_.fail(ppath, in_node(ppath), "mesh file '" + file.string() + "' does not exist");
+      if (ext != ".obj") {
+        require(kind == ObjectKind::tet_solid, "a tet mesh (" + ext + ") makes a tet_solid object");
+        TetMesh m;
+        try {
+          m = ext == ".msh" ? read_gmsh(file) : read_tetgen(file);
+        } catch (const Error& e) {
+          ctx_.fail(ppath, in_node(ppath), std::string("cannot read mesh: ") + e.what());
+        }
+        g.v = std::move(m.v);
+        g.tets = std::move(m.t);
+        return g;
+      }
       ObjMesh m;
       try {
         m = read_obj_mesh(file);
       } catch (const Error& e) {
         ctx_.fail(ppath, in_node(ppath), std::string("cannot read mesh: ") + e.what());
+      }
+      if (kind == ObjectKind::tet_solid) {
+        // A closed surface filled with tets by the tetgen program.
+        if (m.f.empty()) ctx_.fail(ppath, in_node(ppath), "mesh '" + file.string() + "' has no faces");
+        check_faces(m.v, m.f, ObjectKind::rigid, "mesh '" + file.string() + "'", &m.face_lines, ppath,
+                    {path + ".kind"});
+        TetMesh t;
+        try {
+          t = tetrahedralize(m.v, m.f, s["quality"].as<double>(), s["max_volume"].as<double>(),
+                             "mesh '" + file.string() + "'");
+        } catch (const Error& e) {
+          ctx_.fail(ppath, in_node(ppath), e.what());
+        }
+        g.v = std::move(t.v);
+        g.tets = std::move(t.t);
+        return g;
       }
       g.v = std::move(m.v);
       if (kind == ObjectKind::strand) {
