@@ -11,7 +11,9 @@
 #include <cstdlib>
 #include <fstream>
 #include <limits>
+#include <memory>
 #include <numbers>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -126,6 +128,35 @@ Motion read_motion(const YAML::Node& m) {
   return mo;
 }
 
+/// `pattern` with its one %d / %0Nd field replaced by `number`; nullopt unless it has exactly one.
+std::optional<std::string> sequence_name(const std::string& pattern, long number) {
+  std::string out;
+  int fields = 0;
+  for (size_t i = 0; i < pattern.size(); ++i) {
+    if (pattern[i] != '%') {
+      out += pattern[i];
+      continue;
+    }
+    if (i + 1 < pattern.size() && pattern[i + 1] == '%') {
+      out += '%';
+      ++i;
+      continue;
+    }
+    size_t j = i + 1;
+    const bool zero = j < pattern.size() && pattern[j] == '0';
+    size_t width = 0;
+    while (j < pattern.size() && std::isdigit(static_cast<unsigned char>(pattern[j])) && width < 100)
+      width = width * 10 + static_cast<size_t>(pattern[j++] - '0');
+    if (j >= pattern.size() || pattern[j] != 'd' || ++fields > 1) return std::nullopt;
+    std::string n = std::to_string(number);
+    if (n.size() < width) n.insert(0, width - n.size(), zero ? '0' : ' ');
+    out += n;
+    i = j;
+  }
+  if (fields != 1) return std::nullopt;
+  return out;
+}
+
 class Builder {
  public:
   Builder(const YAML::Node& input, const YAML::Node& resolved, const Context& ctx, fs::path base_dir)
@@ -185,6 +216,7 @@ class Builder {
       op.motion = read_motion(o["motion"]);
       op.initial_velocity = v3(o["velocity"]);
       op.shape = geoms[i].shape;
+      if (o["animation"]) read_animation(o, info, st, op, path);
       for (Index v = info.vertex_begin; v < info.vertex_end; ++v) st.v[v] = op.initial_velocity;
       read_pins(o["pins"], info, st, op, path);
     }
@@ -630,6 +662,46 @@ class Builder {
     g.shape.radius *= scale;
     g.shape.half_height *= scale;
     g.shape.half_extent *= scale;
+  }
+
+  /// An obstacle animated by an OBJ sequence: every file read, placed by `transform` and checked
+  /// against the object's vertex count; the object starts at the first file.
+  void read_animation(const YAML::Node& o, const ObjectInfo& info, SimState& st, ObjectParams& op,
+                      const std::string& path) {
+    const YAML::Node a = o["animation"];
+    const std::string apath = path + ".animation";
+    if (info.kind != ObjectKind::obstacle)
+      ctx_.fail(apath, in_node(apath), "only obstacles can be animated by a sequence", {path + ".kind"});
+    if (op.motion.moves())
+      ctx_.fail(apath, in_node(apath), "an object has either `motion` or `animation`, not both", {path + ".motion"});
+    const std::string pattern = a["path"].as<std::string>();
+    const double fps = a["fps"].as<double>() > 0 ? a["fps"].as<double>() : cfg_["time"]["fps"].as<double>();
+    auto anim = std::make_shared<VertexAnimation>();
+    for (long k = 0; k < a["count"].as<long>(); ++k) {
+      const long number = a["first"].as<long>() + k;
+      const std::optional<std::string> name = sequence_name(pattern, number);
+      if (!name)
+        ctx_.fail(apath + ".path", in_node(apath + ".path"),
+                  "'" + pattern + "' needs exactly one integer field such as %d or %03d (and %% for a percent sign)");
+      fs::path file = *name;
+      if (file.is_relative()) file = base_ / file;
+      RawGeometry g;
+      try {
+        g.v = read_obj_mesh(file).v;
+      } catch (const Error& e) {
+        ctx_.fail(apath + ".path", in_node(apath + ".path"), "file " + std::to_string(number) + ": " + e.what());
+      }
+      if (static_cast<Index>(g.v.size()) != info.num_vertices())
+        ctx_.fail(apath + ".path", in_node(apath + ".path"),
+                  "'" + file.string() + "' has " + std::to_string(g.v.size()) + " vertices, the object " +
+                      std::to_string(info.num_vertices()));
+      place(g, o["transform"]);
+      anim->times.push_back(static_cast<double>(k) / fps);
+      anim->keys.push_back(std::move(g.v));
+    }
+    for (Index k = 0; k < info.num_vertices(); ++k) st.x[info.vertex_begin + k] = anim->keys.front()[k];
+    op.motion.animation = std::move(anim);
+    op.shape.type = AnalyticShape::Type::none;  // the mesh moves on its own: no rigid analytic shape
   }
 
   void read_pins(const YAML::Node& pins, const ObjectInfo& info, SimState& st, ObjectParams& op,

@@ -162,6 +162,18 @@ NodePtr build_scene_schema() {
            vec3(std::array<double, 3>{0, 0, 0}, "initial velocity of every vertex (m/s)", Range::within(kMaxSpeed))},
           {"pins", list("pinned vertex groups", pin)},
           {"motion", motion_schema("obstacles: scripted rigid motion of the whole object")},
+          // Obstacle animation (docs/interop.md).
+          {"animation",
+           optional_map("obstacles: vertex positions from a sequence of OBJ files with the object's vertex count and "
+                        "order, interpolated linearly per substep (the automatic subdivision keeps each piece's step "
+                        "below r); the object starts at the first file; `transform` applies to every file",
+                        {{"path", string(std::nullopt,
+                                         "printf pattern of the files with one integer, relative to the scene file, "
+                                         "e.g. meshes/body_%03d.obj")},
+                         {"first", integer(0, "number of the first file", Range::non_negative())},
+                         {"count", integer(2, "number of files", Range{2, 100000, false, false})},
+                         {"fps", number(0.0, "files per second of simulated time; 0 means time.fps",
+                                        Range::up_to(kMaxFps))}})},
       });
   return map(
       "a ccfr scene",

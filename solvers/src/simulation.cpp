@@ -57,7 +57,9 @@ double Simulation::kinematic_targets(double t, Positions& target) {
   for (size_t k = 0; k < kinematic_.size(); ++k) {
     if (!kin_motion_[k]) continue;
     const Index v = kinematic_[k];
-    target[v] = kin_motion_[k]->apply(st.rest[v], t);
+    const Motion& m = *kin_motion_[k];
+    target[v] = m.animation ? m.animation->at(v - scene_.topo.object_of_vertex(v).vertex_begin, t)
+                            : m.apply(st.rest[v], t);
     kinematic_step_[v] = target[v] - st.x[v];
     largest = std::max(largest, kinematic_step_[v].norm());
   }

@@ -10,6 +10,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <regex>
+#include <sstream>
 #include <string>
 
 #include "ccfr/io/formats.hpp"
@@ -18,6 +19,7 @@
 
 namespace fs = std::filesystem;
 using nlohmann::json;
+using ccfr::Vec3;
 
 namespace {
 
@@ -246,6 +248,77 @@ TEST_F(Interop, UnknownFormatsAreRefused) {
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("output.formats[1]"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("s.yaml:3:"), std::string::npos) << r.out;
+}
+
+// An obstacle animated by an OBJ sequence follows the linear interpolation of its keys, and the
+// automatic subdivision splits substeps whose scripted step exceeds r.
+TEST(InteropInput, ObjSequenceAnimatesAnObstacleWithinTheStepBound) {
+  const fs::path d = ccfr::test::scratch_dir("interop_sequence");
+  const Vec3 offsets[] = {Vec3(0, 0, 0), Vec3(0.3, 0, 0), Vec3(0.3, 0.3, 0)};
+  const char* cube = "v 0 0 0\nv 0.1 0 0\nv 0.1 0.1 0\nv 0 0.1 0\nv 0 0 0.1\nv 0.1 0 0.1\nv 0.1 0.1 0.1\nv 0 0.1 0.1\n";
+  const std::string faces =
+      "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\nf 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\n";
+  for (int k = 0; k < 3; ++k) {
+    std::ofstream o(d / ("key_" + std::to_string(k) + ".obj"));
+    std::istringstream in(cube);
+    for (std::string v; std::getline(in, v);) {
+      double x, y, z;
+      std::sscanf(v.c_str(), "v %lf %lf %lf", &x, &y, &z);
+      o << "v " << x + offsets[k].x() << " " << y + offsets[k].y() << " " << z + offsets[k].z() << "\n";
+    }
+    o << faces;
+  }
+  std::ofstream(d / "s.yaml") << R"(time: {fps: 20, frames: 6, substeps: 2}
+contact: {radius: 0.005}
+objects:
+  - name: mover
+    kind: obstacle
+    shape: {type: mesh, path: key_0.obj}
+    animation: {path: key_%d.obj, count: 3, fps: 10}
+)";
+  const auto r = ccfr::test::run_ccfr("run " + (d / "s.yaml").string() + " --out " + (d / "run").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto rest = ccfr::io::read_frame_obj(d / "key_0.obj");
+  for (int f = 0; f <= 6; ++f) {
+    char name[32];
+    std::snprintf(name, sizeof name, "frame_%05d.obj", f);
+    const auto fr = ccfr::io::read_frame_obj(d / "run" / "frames" / name);
+    const double key = std::min(2.0, f / 20.0 * 10.0);  // the key index at t = f / 20
+    const int k0 = std::min(1, int(key));
+    const Vec3 off = offsets[k0] + (key - k0) * (offsets[k0 + 1] - offsets[k0]);
+    for (size_t v = 0; v < fr.v.size(); ++v) EXPECT_LT((fr.v[v] - (rest.v[v] + off)).norm(), 1e-12) << f << " " << v;
+  }
+  // 0.3 m per 0.1 s is 0.075 m per substep of 1/40 s: 17 pieces of at most 0.9 r = 4.5 mm each.
+  const std::string stats = ccfr::test::read_text(d / "run" / "stats.csv");
+  EXPECT_NE(stats.find("\n1,"), std::string::npos);
+  std::istringstream rows(stats);
+  std::string row;
+  std::getline(rows, row);
+  std::getline(rows, row);  // frame 1
+  EXPECT_EQ(row.substr(row.rfind(',', row.rfind(',') - 1) + 1, row.rfind(',') - row.rfind(',', row.rfind(',') - 1) - 1), "34")
+      << row;
+
+  // Bad sequences: a file with another vertex count, a pattern without a number.
+  std::ofstream(d / "key_9.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+  std::ofstream(d / "bad.yaml") << R"(objects:
+  - name: mover
+    kind: obstacle
+    shape: {type: mesh, path: key_0.obj}
+    animation: {path: key_%d.obj, first: 9, count: 2}
+)";
+  auto e = ccfr::test::run_ccfr("run " + (d / "bad.yaml").string() + " --out " + (d / "bad").string());
+  EXPECT_EQ(e.code, 2) << e.out;
+  EXPECT_NE(e.out.find("key_9.obj' has 3 vertices, the object 8"), std::string::npos) << e.out;
+  EXPECT_NE(e.out.find("bad.yaml:5: 'objects[0].animation.path': '"), std::string::npos) << e.out;
+  std::ofstream(d / "bad.yaml") << R"(objects:
+  - name: mover
+    kind: obstacle
+    shape: {type: mesh, path: key_0.obj}
+    animation: {path: key_%s.obj, count: 2}
+)";
+  e = ccfr::test::run_ccfr("run " + (d / "bad.yaml").string() + " --out " + (d / "bad").string());
+  EXPECT_EQ(e.code, 2) << e.out;
+  EXPECT_NE(e.out.find("key_%s.obj' needs exactly one integer field"), std::string::npos) << e.out;
 }
 
 }  // namespace
