@@ -217,6 +217,7 @@ class Builder {
       op.initial_velocity = v3(o["velocity"]);
       op.shape = geoms[i].shape;
       if (o["animation"]) read_animation(o, info, st, op, path);
+      if (o["keyframes"]) read_keyframes(o, info, st, op, path);
       for (Index v = info.vertex_begin; v < info.vertex_end; ++v) st.v[v] = op.initial_velocity;
       read_pins(o["pins"], info, st, op, path);
     }
@@ -702,6 +703,40 @@ class Builder {
     for (Index k = 0; k < info.num_vertices(); ++k) st.x[info.vertex_begin + k] = anim->keys.front()[k];
     op.motion.animation = std::move(anim);
     op.shape.type = AnalyticShape::Type::none;  // the mesh moves on its own: no rigid analytic shape
+  }
+
+  /// An obstacle moved by keyframed rigid transforms of its placed geometry.
+  void read_keyframes(const YAML::Node& o, const ObjectInfo& info, SimState& st, ObjectParams& op,
+                      const std::string& path) {
+    const YAML::Node keys = o["keyframes"];
+    const std::string kpath = path + ".keyframes";
+    if (info.kind != ObjectKind::obstacle)
+      ctx_.fail(kpath, in_node(kpath), "only obstacles can be keyframed", {path + ".kind"});
+    if (op.motion.moves())
+      ctx_.fail(kpath, in_node(kpath), "an object has one of `motion`, `animation` and `keyframes`");
+    if (keys.size() == 0) ctx_.fail(kpath, in_node(kpath), "list at least one key");
+    auto anim = std::make_shared<VertexAnimation>();
+    for (size_t k = 0; k < keys.size(); ++k) {
+      const YAML::Node key = keys[k];
+      const std::string p = kpath + "[" + std::to_string(k) + "]";
+      const double t = key["time"].as<double>();
+      if (k > 0 && !(t > anim->times.back()))
+        ctx_.fail(p + ".time", in_node(p + ".time"), "key times must increase", {kpath + "[" + std::to_string(k - 1) + "].time"});
+      const Vec3 axis = v3(key["rotate_axis"]), c = v3(key["center"]);
+      const double ang = key["rotate_deg"].as<double>() * std::numbers::pi / 180.0;
+      if (k > 0 && (c - anim->center).norm() > 0)
+        ctx_.fail(p + ".center", in_node(p + ".center"), "every key rotates about the same center",
+                  {kpath + "[0].center"});
+      anim->center = c;
+      anim->times.push_back(t);
+      anim->rotations.push_back(ang != 0.0 && axis.norm() > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(ang, axis.normalized()))
+                                                               : Eigen::Quaterniond::Identity());
+      anim->translations.push_back(v3(key["translate"]));
+    }
+    anim->rest.assign(st.x.begin() + info.vertex_begin, st.x.begin() + info.vertex_end);
+    for (Index k = 0; k < info.num_vertices(); ++k) st.x[info.vertex_begin + k] = anim->at(k, 0.0);
+    op.motion.animation = std::move(anim);
+    op.shape.type = AnalyticShape::Type::none;
   }
 
   void read_pins(const YAML::Node& pins, const ObjectInfo& info, SimState& st, ObjectParams& op,

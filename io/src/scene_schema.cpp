@@ -174,6 +174,17 @@ NodePtr build_scene_schema() {
                          {"count", integer(2, "number of files", Range{2, 100000, false, false})},
                          {"fps", number(0.0, "files per second of simulated time; 0 means time.fps",
                                         Range::up_to(kMaxFps))}})},
+          {"keyframes",
+           list("obstacles: keyframed rigid transforms of the placed geometry, slerped and lerped between keys "
+                "(held before the first and after the last; the object starts at its pose at time 0)",
+                map("one key",
+                    {{"time", required_number("time of the key (s)", Range::up_to(kMaxTime))},
+                     {"translate", vec3(std::array<double, 3>{0, 0, 0}, "translation (m)", Range::within(kMaxLength))},
+                     {"rotate_axis", vec3(std::array<double, 3>{0, 1, 0}, "rotation axis", Range::within(kMaxLength))},
+                     {"rotate_deg", number(0.0, "rotation about rotate_axis through `center` (degrees)",
+                                           Range::within(kMaxAngleDeg))},
+                     {"center", vec3(std::array<double, 3>{0, 0, 0}, "a point on the rotation axis (m)",
+                                     Range::within(kMaxLength))}}))},
       });
   return map(
       "a ccfr scene",

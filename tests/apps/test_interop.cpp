@@ -3,6 +3,7 @@
 // (python3-vtk9), against the exact OBJ frames of the same run.
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -319,6 +320,43 @@ objects:
   e = ccfr::test::run_ccfr("run " + (d / "bad.yaml").string() + " --out " + (d / "bad").string());
   EXPECT_EQ(e.code, 2) << e.out;
   EXPECT_NE(e.out.find("key_%s.obj' needs exactly one integer field"), std::string::npos) << e.out;
+}
+
+// Keyframed rigid transforms: slerp of the rotation, lerp of the translation, checked against
+// the closed form (a rotation by a times the key angle) at every frame.
+TEST(InteropInput, KeyframedObstacleFollowsSlerpAndLerp) {
+  const fs::path d = ccfr::test::scratch_dir("interop_keyframes");
+  std::ofstream(d / "s.yaml") << R"(time: {fps: 20, frames: 4}
+objects:
+  - name: box
+    kind: obstacle
+    shape: {type: box, size: [0.1, 0.1, 0.1]}
+    keyframes:
+      - {time: 0}
+      - {time: 0.1, rotate_deg: 90, center: [0, 0, 0], translate: [0.2, 0, 0]}
+)";
+  // Every key names the same center (the default, the origin): the second key repeats it.
+  const auto r = ccfr::test::run_ccfr("run " + (d / "s.yaml").string() + " --out " + (d / "run").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto rest = ccfr::io::read_frame_obj(d / "run" / "frames" / "frame_00000.obj");
+  for (int f = 1; f <= 4; ++f) {
+    char name[32];
+    std::snprintf(name, sizeof name, "frame_%05d.obj", f);
+    const auto fr = ccfr::io::read_frame_obj(d / "run" / "frames" / name);
+    const double a = std::min(1.0, f / 20.0 / 0.1);
+    const Eigen::AngleAxisd rot(a * M_PI / 2, Vec3::UnitY());
+    for (size_t v = 0; v < fr.v.size(); ++v)
+      EXPECT_LT((fr.v[v] - (rot * rest.v[v] + a * Vec3(0.2, 0, 0))).norm(), 1e-12) << f << " " << v;
+  }
+  std::ofstream(d / "bad.yaml") << R"(objects:
+  - name: box
+    kind: obstacle
+    shape: {type: box, size: [0.1, 0.1, 0.1]}
+    keyframes: [{time: 0.2}, {time: 0.1}]
+)";
+  const auto e = ccfr::test::run_ccfr("run " + (d / "bad.yaml").string() + " --out " + (d / "bad").string());
+  EXPECT_EQ(e.code, 2) << e.out;
+  EXPECT_NE(e.out.find("'objects[0].keyframes[1].time': key times must increase"), std::string::npos) << e.out;
 }
 
 }  // namespace

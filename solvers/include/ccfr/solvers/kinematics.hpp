@@ -3,6 +3,7 @@
 /// Scripted rigid motion of kinematic vertices (obstacles, pinned handles).
 #include <limits>
 #include <memory>
+#include <Eigen/Geometry>
 #include <vector>
 
 #include "ccfr/core/types.hpp"
@@ -14,6 +15,13 @@ namespace ccfr {
 struct VertexAnimation {
   std::vector<double> times;        ///< strictly increasing
   std::vector<Positions> keys;      ///< per time: the object's vertices, in its local order
+  /// Keyframed rigid transforms instead of `keys` (non-empty rotations): at times[k] a vertex at
+  /// rest position p0 is at center + rotations[k] (p0 - center) + translations[k]; between keys
+  /// the rotation is slerped and the translation lerped.
+  std::vector<Eigen::Quaterniond> rotations;
+  std::vector<Vec3> translations;
+  Vec3 center = Vec3::Zero();
+  Positions rest;  ///< the object's rest positions (keyframed mode)
   /// Position of local vertex `local` at time t.
   Vec3 at(Index local, double t) const;
 };
