@@ -41,6 +41,7 @@ void register_commands(CLI::App& app) {
   register_bench(app);
   register_render(app);
   register_schema(app);
+  register_export(app);
 }
 
 }  // namespace ccfr::app

@@ -23,5 +23,6 @@ void register_sweep(CLI::App& app);
 void register_bench(CLI::App& app);
 void register_render(CLI::App& app);
 void register_schema(CLI::App& app);
+void register_export(CLI::App& app);
 
 }  // namespace ccfr::app

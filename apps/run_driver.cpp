@@ -71,6 +71,7 @@ void progress_bar(int done, int total, double last_s, const FrameStats& fs) {
   if (done == total) std::fputc('\n', stderr);
   std::fflush(stderr);
 }
+
 }  // namespace
 
 int run_exit_code(const RunSummary& s) {

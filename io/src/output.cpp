@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -102,7 +103,8 @@ bool is_leftover_run(const fs::path& d) {
   if (is_ccfr_run(d)) return true;
   for (const auto& e : fs::directory_iterator(d, ec)) {
     const std::string n = e.path().filename().string();
-    if (n != "frames" && n != "stats.csv" && n != "audit.json" && n != "render" && n.rfind("run.json", 0) != 0)
+    if (n != "frames" && n != "stats.csv" && n != "audit.json" && n != "render" && n != "vtk" && n != "blender" &&
+        n != "usd" && n.rfind("run.json", 0) != 0)
       return false;
   }
   return !ec;
@@ -168,7 +170,8 @@ RunWriter::RunWriter(fs::path dir, const Topology& topo, std::string resolved_co
     dir_ = final_;
     // --force: the directory is reused as it is, except for frames of whatever wrote it before.
     for (const auto& e : fs::directory_iterator(final_ / "frames", ec))
-      if (e.path().filename().string().rfind("frame_", 0) == 0 && e.path().extension() == ".obj")
+      if (e.path().filename().string().rfind("frame_", 0) == 0 &&
+          (e.path().extension() == ".obj" || e.path().extension() == ".ply"))
         fs::remove(e.path(), ec);
   } else {
     throw Error("output directory '" + final_.string() +
@@ -177,6 +180,8 @@ RunWriter::RunWriter(fs::path dir, const Topology& topo, std::string resolved_co
   }
   create_dirs(dir_ / "frames");
   remove_stale_temporaries(dir_);
+  for (OutputFormat f : meta_.formats)
+    if (f != OutputFormat::obj) sinks_.push_back(make_frame_sink(f, topo_, meta_.fps, meta_.every));
 }
 
 RunWriter::RunWriter(fs::path dir, const Topology& topo, std::string resolved_config_json, RunMeta meta,
@@ -187,6 +192,15 @@ RunWriter::RunWriter(fs::path dir, const Topology& topo, std::string resolved_co
       config_json_(std::move(resolved_config_json)),
       meta_(std::move(meta)),
       resume_frame_(resume.frame) {
+  // PC2, USDA and the VTU collection (.pvd) hold every frame in one file; only OBJ and PLY
+  // frames continue cleanly. The others are rebuilt from the OBJ frames by `ccfr export`.
+  for (const OutputFormat f : meta_.formats)
+    if (f != OutputFormat::obj && f != OutputFormat::ply) {
+      const std::string name = output_format_names()[static_cast<size_t>(f)];
+      throw Error("cannot resume '" + final_.string() + "': output.formats has '" + name +
+                  "', whose files span the whole run; resume with output.formats [obj] (or [obj, ply]) and "
+                  "rebuild it afterwards with `ccfr export " + final_.string() + " --format " + name + "`");
+    }
   std::ifstream in(final_ / "run.json");
   const Json old = in ? Json::parse(in, nullptr, /*allow_exceptions=*/false) : Json();
   if (!is_ccfr_run(final_) || !old.is_object())
@@ -260,10 +274,14 @@ void RunWriter::start() {
   write_stats_line(stats_header());
 }
 
-void RunWriter::write_frame(int frame, const Positions& x) {
-  char name[32];
-  std::snprintf(name, sizeof name, "frame_%05d.obj", frame);
-  write_frame_obj(dir_ / "frames" / name, topo_, x);
+void RunWriter::write_frame(int frame, const Positions& x, const VertexFields& fields) {
+  if (std::find(meta_.formats.begin(), meta_.formats.end(), OutputFormat::obj) != meta_.formats.end()) {
+    char name[32];
+    std::snprintf(name, sizeof name, "frame_%05d.obj", frame);
+    write_frame_obj(dir_ / "frames" / name, topo_, x);
+  }
+  const double time = meta_.fps > 0 ? frame / meta_.fps : 0.0;
+  for (auto& s : sinks_) s->write(dir_, frame, time, x, fields);
   ++frames_written_;
   write_run_json("running", false);  // a killed run still tells how many frames are on disk
 }
@@ -318,6 +336,7 @@ void RunWriter::finish(const std::string& status) {
     if (status != "completed") return discard();
     commit();
   }
+  for (auto& s : sinks_) s->finish(dir_);
   if (stats_fd_ >= 0) {
     const int rc = ::close(stats_fd_);
     stats_fd_ = -1;

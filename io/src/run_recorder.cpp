@@ -1,6 +1,9 @@
 #include "ccfr/io/run_recorder.hpp"
 
+#include <algorithm>
+
 #include "ccfr/core/log.hpp"
+#include "ccfr/io/formats.hpp"
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/geometry_exact/audit.hpp"
 
@@ -21,6 +24,8 @@ RunMeta make_run_meta(const Simulation& sim, std::string command_line, std::vect
                std::nullopt};
   if (const CollisionDetector* det = sim.contact_solver().collision_detector())
     meta.initial_proximity = det->initial_proximity();
+  if (!p.output.formats.empty()) meta.formats = parse_output_formats(p.output.formats);
+  meta.every = p.output.every;
   return meta;
 }
 
@@ -42,28 +47,44 @@ AuditHook make_audit_hook(const Topology& topo, const Positions& initial, const 
   };
 }
 
+namespace {
+bool writes_vtu(const RunMeta& meta) {
+  return std::find(meta.formats.begin(), meta.formats.end(), OutputFormat::vtu) != meta.formats.end();
+}
+}  // namespace
+
 RunRecorder::RunRecorder(std::filesystem::path dir, const Simulation& sim, std::string resolved_config_json,
                          RunMeta meta, int last_frame, bool force)
     : sim_(sim),
+      want_fields_(writes_vtu(meta)),
       writer_(std::move(dir), sim.topology(), std::move(resolved_config_json), std::move(meta), force),
       last_frame_(last_frame) {}
 
 RunRecorder::RunRecorder(std::filesystem::path dir, const Simulation& sim, std::string resolved_config_json,
                          RunMeta meta, int last_frame, RunWriter::ResumeAt resume)
     : sim_(sim),
+      want_fields_(writes_vtu(meta)),
       writer_(std::move(dir), sim.topology(), std::move(resolved_config_json), std::move(meta), resume),
       last_frame_(last_frame),
       resumed_(true) {}
 
 void RunRecorder::start() {
   writer_.start();
-  if (sim_.scene().params.output.frames && !resumed_) writer_.write_frame(0, sim_.positions());
+  if (sim_.scene().params.output.frames && !resumed_) writer_.write_frame(0, sim_.positions(), fields());
 }
 
 void RunRecorder::record(const FrameStats& s) {
   const auto& out = sim_.scene().params.output;
-  if (out.frames && (s.frame % out.every == 0 || s.frame == last_frame_)) writer_.write_frame(s.frame, sim_.positions());
+  if (out.frames && (s.frame % out.every == 0 || s.frame == last_frame_)) writer_.write_frame(s.frame, sim_.positions(), fields());
   writer_.write_stats(s);
+}
+
+VertexFields RunRecorder::fields() const {
+  VertexFields f;
+  if (!want_fields_) return f;  // only the VTU frames carry per-vertex fields
+  f.velocity = sim_.scene().state.v;
+  sim_.contact_solver().vertex_diagnostics(f.half_spaces, f.distance, f.halted);
+  return f;
 }
 
 void RunRecorder::finish(const std::string& status) { writer_.finish(status); }

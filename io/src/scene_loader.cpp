@@ -12,7 +12,9 @@
 #include <fstream>
 #include <functional>
 #include <limits>
+#include <memory>
 #include <numbers>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -23,6 +25,7 @@
 #include "ccfr/core/log.hpp"
 #include "ccfr/geometry/generators.hpp"
 #include "ccfr/io/obj.hpp"
+#include "ccfr/io/tet_mesh.hpp"
 #include "scene_schema.hpp"
 
 namespace ccfr::io {
@@ -129,6 +132,35 @@ Motion read_motion(const YAML::Node& m) {
   return mo;
 }
 
+/// `pattern` with its one %d / %0Nd field replaced by `number`; nullopt unless it has exactly one.
+std::optional<std::string> sequence_name(const std::string& pattern, long number) {
+  std::string out;
+  int fields = 0;
+  for (size_t i = 0; i < pattern.size(); ++i) {
+    if (pattern[i] != '%') {
+      out += pattern[i];
+      continue;
+    }
+    if (i + 1 < pattern.size() && pattern[i + 1] == '%') {
+      out += '%';
+      ++i;
+      continue;
+    }
+    size_t j = i + 1;
+    const bool zero = j < pattern.size() && pattern[j] == '0';
+    size_t width = 0;
+    while (j < pattern.size() && std::isdigit(static_cast<unsigned char>(pattern[j])) && width < 100)
+      width = width * 10 + static_cast<size_t>(pattern[j++] - '0');
+    if (j >= pattern.size() || pattern[j] != 'd' || ++fields > 1) return std::nullopt;
+    std::string n = std::to_string(number);
+    if (n.size() < width) n.insert(0, width - n.size(), zero ? '0' : ' ');
+    out += n;
+    i = j;
+  }
+  if (fields != 1) return std::nullopt;
+  return out;
+}
+
 class Builder {
  public:
   Builder(const YAML::Node& input, const YAML::Node& resolved, const Context& ctx, fs::path base_dir,
@@ -189,6 +221,8 @@ class Builder {
       op.motion = read_motion(o["motion"]);
       op.initial_velocity = v3(o["velocity"]);
       op.shape = geoms[i].shape;
+      if (o["animation"]) read_animation(o, info, st, op, path);
+      if (o["keyframes"]) read_keyframes(o, info, st, op, path);
       for (Index v = info.vertex_begin; v < info.vertex_end; ++v) st.v[v] = op.initial_velocity;
       read_pins(o["pins"], info, st, op, path);
     }
@@ -369,6 +403,11 @@ class Builder {
     p.output.frames = cfg_["output"]["frames"].as<bool>();
     p.output.every = cfg_["output"]["every"].as<int>();
     p.output.checkpoint_every = cfg_["output"]["checkpoint_every"].as<int>();
+    if (const YAML::Node fm = cfg_["output"]["formats"]) {
+      for (size_t k = 0; k < fm.size(); ++k) p.output.formats.push_back(fm[k].as<std::string>());
+      if (p.output.formats.empty())
+        ctx_.fail("output.formats", in_node("output.formats"), "list at least one format (obj, ply, vtu, pc2, usda)");
+    }
     if (p.contact.friction_kinetic > p.contact.friction_static && p.contact.friction_static > 0)
       ctx_.fail("contact.friction.kinetic", in_node("contact.friction.kinetic"),
                 "kinetic friction must not exceed static friction", {"contact.friction.static"});
@@ -488,17 +527,51 @@ class Builder {
       fs::path file = s["path"].as<std::string>();
       std::string ext = file.extension().string();
       for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-      if (ext != ".obj")
+      const auto& exts = mesh_extensions();
+      if (std::find(exts.begin(), exts.end(), ext) == exts.end()) {
+        std::string list;
+        for (const auto& e : exts) list += (list.empty() ? "" : ", ") + e;
         ctx_.fail(ppath, in_node(ppath),
-                  ext.empty() ? "mesh file '" + file.string() + "' has no extension; ccfr reads Wavefront .obj meshes"
-                              : "unsupported mesh format '" + file.extension().string() + "' (ccfr reads .obj)");
+                  ext.empty() ? "mesh file '" + file.string() + "' has no extension (supported: " + list + ")"
+                              : "unsupported mesh format '" + file.extension().string() + "' (supported: " + list +
+                                    ")");
+      }
       if (file.is_relative()) file = base_ / file;
-      if (!fs::exists(file)) ctx_.fail(ppath, in_node(ppath), "mesh file '" + file.string() + "' does not exist");
+      if (!fs::exists(file) && ext != ".node" && ext != ".ele")
+        ctx_.fail(ppath, in_node(ppath), "mesh file '" + file.string() + "' does not exist");
+      if (ext != ".obj") {
+        require(kind == ObjectKind::tet_solid, "a tet mesh (" + ext + ") makes a tet_solid object");
+        TetMesh m;
+        try {
+          m = ext == ".msh" ? read_gmsh(file) : read_tetgen(file);
+        } catch (const Error& e) {
+          ctx_.fail(ppath, in_node(ppath), std::string("cannot read mesh: ") + e.what());
+        }
+        g.v = std::move(m.v);
+        g.tets = std::move(m.t);
+        return g;
+      }
       ObjMesh m;
       try {
         m = read_obj_mesh(file);
       } catch (const Error& e) {
         ctx_.fail(ppath, in_node(ppath), std::string("cannot read mesh: ") + e.what());
+      }
+      if (kind == ObjectKind::tet_solid) {
+        // A closed surface filled with tets by the tetgen program.
+        if (m.f.empty()) ctx_.fail(ppath, in_node(ppath), "mesh '" + file.string() + "' has no faces");
+        check_faces(m.v, m.f, ObjectKind::rigid, "mesh '" + file.string() + "'", &m.face_lines, ppath,
+                    {path + ".kind"});
+        TetMesh t;
+        try {
+          t = tetrahedralize(m.v, m.f, s["quality"].as<double>(), s["max_volume"].as<double>(),
+                             "mesh '" + file.string() + "'");
+        } catch (const Error& e) {
+          ctx_.fail(ppath, in_node(ppath), e.what());
+        }
+        g.v = std::move(t.v);
+        g.tets = std::move(t.t);
+        return g;
       }
       g.v = std::move(m.v);
       if (kind == ObjectKind::strand) {
@@ -605,6 +678,80 @@ class Builder {
     g.shape.radius *= scale;
     g.shape.half_height *= scale;
     g.shape.half_extent *= scale;
+  }
+
+  /// An obstacle animated by an OBJ sequence: every file read, placed by `transform` and checked
+  /// against the object's vertex count; the object starts at the first file.
+  void read_animation(const YAML::Node& o, const ObjectInfo& info, SimState& st, ObjectParams& op,
+                      const std::string& path) {
+    const YAML::Node a = o["animation"];
+    const std::string apath = path + ".animation";
+    if (info.kind != ObjectKind::obstacle)
+      ctx_.fail(apath, in_node(apath), "only obstacles can be animated by a sequence", {path + ".kind"});
+    if (op.motion.moves())
+      ctx_.fail(apath, in_node(apath), "an object has either `motion` or `animation`, not both", {path + ".motion"});
+    const std::string pattern = a["path"].as<std::string>();
+    const double fps = a["fps"].as<double>() > 0 ? a["fps"].as<double>() : cfg_["time"]["fps"].as<double>();
+    auto anim = std::make_shared<VertexAnimation>();
+    for (long k = 0; k < a["count"].as<long>(); ++k) {
+      const long number = a["first"].as<long>() + k;
+      const std::optional<std::string> name = sequence_name(pattern, number);
+      if (!name)
+        ctx_.fail(apath + ".path", in_node(apath + ".path"),
+                  "'" + pattern + "' needs exactly one integer field such as %d or %03d (and %% for a percent sign)");
+      fs::path file = *name;
+      if (file.is_relative()) file = base_ / file;
+      RawGeometry g;
+      try {
+        g.v = read_obj_mesh(file).v;
+      } catch (const Error& e) {
+        ctx_.fail(apath + ".path", in_node(apath + ".path"), "file " + std::to_string(number) + ": " + e.what());
+      }
+      if (static_cast<Index>(g.v.size()) != info.num_vertices())
+        ctx_.fail(apath + ".path", in_node(apath + ".path"),
+                  "'" + file.string() + "' has " + std::to_string(g.v.size()) + " vertices, the object " +
+                      std::to_string(info.num_vertices()));
+      place(g, o["transform"]);
+      anim->times.push_back(static_cast<double>(k) / fps);
+      anim->keys.push_back(std::move(g.v));
+    }
+    for (Index k = 0; k < info.num_vertices(); ++k) st.x[info.vertex_begin + k] = anim->keys.front()[k];
+    op.motion.animation = std::move(anim);
+    op.shape.type = AnalyticShape::Type::none;  // the mesh moves on its own: no rigid analytic shape
+  }
+
+  /// An obstacle moved by keyframed rigid transforms of its placed geometry.
+  void read_keyframes(const YAML::Node& o, const ObjectInfo& info, SimState& st, ObjectParams& op,
+                      const std::string& path) {
+    const YAML::Node keys = o["keyframes"];
+    const std::string kpath = path + ".keyframes";
+    if (info.kind != ObjectKind::obstacle)
+      ctx_.fail(kpath, in_node(kpath), "only obstacles can be keyframed", {path + ".kind"});
+    if (op.motion.moves())
+      ctx_.fail(kpath, in_node(kpath), "an object has one of `motion`, `animation` and `keyframes`");
+    if (keys.size() == 0) ctx_.fail(kpath, in_node(kpath), "list at least one key");
+    auto anim = std::make_shared<VertexAnimation>();
+    for (size_t k = 0; k < keys.size(); ++k) {
+      const YAML::Node key = keys[k];
+      const std::string p = kpath + "[" + std::to_string(k) + "]";
+      const double t = key["time"].as<double>();
+      if (k > 0 && !(t > anim->times.back()))
+        ctx_.fail(p + ".time", in_node(p + ".time"), "key times must increase", {kpath + "[" + std::to_string(k - 1) + "].time"});
+      const Vec3 axis = v3(key["rotate_axis"]), c = v3(key["center"]);
+      const double ang = key["rotate_deg"].as<double>() * std::numbers::pi / 180.0;
+      if (k > 0 && (c - anim->center).norm() > 0)
+        ctx_.fail(p + ".center", in_node(p + ".center"), "every key rotates about the same center",
+                  {kpath + "[0].center"});
+      anim->center = c;
+      anim->times.push_back(t);
+      anim->rotations.push_back(ang != 0.0 && axis.norm() > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(ang, axis.normalized()))
+                                                               : Eigen::Quaterniond::Identity());
+      anim->translations.push_back(v3(key["translate"]));
+    }
+    anim->rest.assign(st.x.begin() + info.vertex_begin, st.x.begin() + info.vertex_end);
+    for (Index k = 0; k < info.num_vertices(); ++k) st.x[info.vertex_begin + k] = anim->at(k, 0.0);
+    op.motion.animation = std::move(anim);
+    op.shape.type = AnalyticShape::Type::none;
   }
 
   void read_pins(const YAML::Node& pins, const ObjectInfo& info, SimState& st, ObjectParams& op,

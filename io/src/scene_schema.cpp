@@ -4,6 +4,7 @@
 
 #include "ccfr/collision/broad_phase.hpp"
 #include "ccfr/core/scene.hpp"
+#include "ccfr/io/formats.hpp"
 #include "ccfr/solvers/contact_solver.hpp"
 
 namespace ccfr::io {
@@ -99,8 +100,18 @@ NodePtr shape_schema() {
                         {"teeth", integer(12, "number of teeth", one)},
                         {"tooth_length", number(0.4, "tooth length below the spine (m)", pos)},
                         {"tooth_width", number(0.02, "tooth width along x (m)", pos)}})},
-          {"mesh", map("a Wavefront OBJ file (triangles; `l` lines for strands)",
-                       {{"path", string(std::nullopt, "path, relative to the scene file")}})},
+          // Mesh inputs (docs/interop.md).
+          {"mesh", map("a mesh file: Wavefront .obj (triangles; `l` lines for strands; a closed surface makes a "
+                       "tet_solid through the tetgen program), TetGen .node/.ele or Gmsh .msh (v2, v4 ASCII) tet "
+                       "meshes for tet_solid",
+                       {{"path", string(std::nullopt, "path, relative to the scene file")},
+                        {"quality", number(2.0,
+                                           "tet_solid from a surface .obj: tetgen's radius-edge ratio bound (-q); 0 "
+                                           "turns quality refinement off",
+                                           Range{0, 100, false, false})},
+                        {"max_volume", number(0.0, "tet_solid from a surface .obj: largest tet volume (m³, tetgen -a); "
+                                                   "0 means no bound",
+                                              Range::up_to(kMaxLength))}})},
       });
 }
 
@@ -151,6 +162,29 @@ NodePtr build_scene_schema() {
            vec3(std::array<double, 3>{0, 0, 0}, "initial velocity of every vertex (m/s)", Range::within(kMaxSpeed))},
           {"pins", list("pinned vertex groups", pin)},
           {"motion", motion_schema("obstacles: scripted rigid motion of the whole object")},
+          // Obstacle animation (docs/interop.md).
+          {"animation",
+           optional_map("obstacles: vertex positions from a sequence of OBJ files with the object's vertex count and "
+                        "order, interpolated linearly per substep (the automatic subdivision keeps each piece's step "
+                        "below r); the object starts at the first file; `transform` applies to every file",
+                        {{"path", string(std::nullopt,
+                                         "printf pattern of the files with one integer, relative to the scene file, "
+                                         "e.g. meshes/body_%03d.obj")},
+                         {"first", integer(0, "number of the first file", Range::non_negative())},
+                         {"count", integer(2, "number of files", Range{2, 100000, false, false})},
+                         {"fps", number(0.0, "files per second of simulated time; 0 means time.fps",
+                                        Range::up_to(kMaxFps))}})},
+          {"keyframes",
+           list("obstacles: keyframed rigid transforms of the placed geometry, slerped and lerped between keys "
+                "(held before the first and after the last; the object starts at its pose at time 0)",
+                map("one key",
+                    {{"time", required_number("time of the key (s)", Range::up_to(kMaxTime))},
+                     {"translate", vec3(std::array<double, 3>{0, 0, 0}, "translation (m)", Range::within(kMaxLength))},
+                     {"rotate_axis", vec3(std::array<double, 3>{0, 1, 0}, "rotation axis", Range::within(kMaxLength))},
+                     {"rotate_deg", number(0.0, "rotation about rotate_axis through `center` (degrees)",
+                                           Range::within(kMaxAngleDeg))},
+                     {"center", vec3(std::array<double, 3>{0, 0, 0}, "a point on the rotation axis (m)",
+                                     Range::within(kMaxLength))}}))},
       });
   return map(
       "a ccfr scene",
@@ -220,13 +254,21 @@ NodePtr build_scene_schema() {
                               "off", [] { return std::vector<std::string>{"off", "every_frame", "every_substep"}; },
                               "exact penetration audit during the run; fills the `penetrations` column of stats.csv")},
                 {"audit_tolerance", number(1e-6, "the audit flags pairs closer than (1 - tol) ξ", Range::unit())}})},
-          {"output", map("what is written", {{"frames", boolean(true, "write frames/frame_*.obj")},
-                                             {"every", integer(1, "write every k-th frame (frame 0 always)", one)},
-                                             {"checkpoint_every",
-                                              integer(10,
-                                                      "write a checkpoint every k-th frame, and when the run is "
-                                                      "interrupted (0: never); `ccfr run --resume DIR` continues from it",
-                                                      Range::at_least(0))}})},
+          {"output", map("what is written",
+                         {{"frames", boolean(true, "write frames (in every format of `formats`)")},
+                          {"every", integer(1, "write every k-th frame (frame 0 always)", one)},
+                          {"checkpoint_every",
+                           integer(10,
+                                   "write a checkpoint every k-th frame, and when the run is "
+                                   "interrupted (0: never); `ccfr run --resume DIR` continues from it",
+                                   Range::at_least(0))},
+                          // interop (docs/interop.md): formats besides the OBJ frames
+                          {"formats", list("formats of the frames; absent: [obj]. obj: frames/frame_N.obj (exact, "
+                                           "what `ccfr audit` reads); ply: frames/frame_N.ply (binary, float); vtu: "
+                                           "vtk/frame_N.vtu + vtk/frames.pvd with per-vertex fields (ParaView); "
+                                           "pc2: blender/*.pc2 point caches + first_frame.obj (Blender Mesh Cache); "
+                                           "usda: usd/scene.usda, time-sampled points",
+                                           choice("obj", output_format_names, "an output format"))}})},
           {"materials", dict("named materials; `default` exists unless redefined", material)},
           {"objects", list("the objects of the scene", object)},
       });

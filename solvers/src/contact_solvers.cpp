@@ -16,6 +16,7 @@ void DetectingSolver::initialize(const Topology& topo, const SimState& state, co
   const CollisionParams cp{params.contact.radius, params.contact.offset, params.contact.repulsion_range};
   detector_ = std::make_unique<CollisionDetector>(topo, state.x, cp, make_broad_phase(params.collision.broad_phase));
   regions_.clear(topo.num_vertices());
+  num_vertices_ = topo.num_vertices();
   friction_override_.assign(static_cast<size_t>(topo.num_vertices()), -1.0);
   bool any = false;
   for (size_t o = 0; o < topo.objects.size(); ++o) {
@@ -145,7 +146,11 @@ void RegionProjectionSolver::initialize(const Topology& topo, const SimState& st
 
 SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& anchor, const SimState& state,
                                             StepContext& ctx) {
-  const BatchStats b = project_all(*projector_, regions_, anchor, x, state.inv_mass);
+  if (ctx.frame != halted_frame_ || halted_.size() != x.size()) {
+    halted_.assign(x.size(), 0);
+    halted_frame_ = ctx.frame;
+  }
+  const BatchStats b = project_all(*projector_, regions_, anchor, x, state.inv_mass, halted_);
   SolveResult r;
   r.violations_detected = b.violated;
   r.violations_remaining = b.remaining;
@@ -165,6 +170,26 @@ Index RegionProjectionSolver::count_outside(const Positions& x, const Positions&
                                             StepContext& ctx) const {
   // A rigid body is exact to round-off; 1e-9 of its extent is far above that and far below ξ.
   return DetectingSolver::count_outside(x, anchor, state, ctx) + (rigid_.empty() ? 0 : rigid_.count_deformed(x, 1e-9));
+}
+
+void DetectingSolver::vertex_diagnostics(std::vector<std::int32_t>& half_spaces, std::vector<double>& distance,
+                                         std::vector<std::uint8_t>&) const {
+  const Index n = num_vertices_;
+  half_spaces.assign(static_cast<size_t>(n), 0);
+  for (Index v = 0; v < std::min(n, regions_.num_vertices()); ++v) half_spaces[v] = static_cast<std::int32_t>(regions_.of(v).size());
+  distance.assign(static_cast<size_t>(n), std::numeric_limits<double>::quiet_NaN());
+  for (const ContactPair& c : contacts_)
+    for (int k = 0; k < c.size(); ++k) {
+      double& d = distance[static_cast<size_t>(c.v[k])];
+      if (!(d <= c.distance)) d = c.distance;  // NaN (none yet) or farther
+    }
+}
+
+void RegionProjectionSolver::vertex_diagnostics(std::vector<std::int32_t>& half_spaces, std::vector<double>& distance,
+                                                std::vector<std::uint8_t>& halted) const {
+  DetectingSolver::vertex_diagnostics(half_spaces, distance, halted);
+  halted = halted_;
+  halted.resize(half_spaces.size(), 0);
 }
 
 SolveResult PostProcessSolver::resolve(Positions& x, const Positions&, const SimState& state, StepContext& ctx) {

@@ -104,7 +104,9 @@ double Simulation::kinematic_targets(double t, Positions& target) {
       target[v] = s == 1.0 ? driven_to_[k] : Vec3(driven_from_[k] + s * (driven_to_[k] - driven_from_[k]));
     } else {
       if (!kin_motion_[k]) continue;
-      target[v] = kin_motion_[k]->apply(st.rest[v], t);
+      const Motion& m = *kin_motion_[k];
+      target[v] = m.animation ? m.animation->at(v - scene_.topo.object_of_vertex(v).vertex_begin, t)
+                              : m.apply(st.rest[v], t);
     }
     kinematic_step_[v] = target[v] - st.x[v];
     largest = std::max(largest, kinematic_step_[v].norm());

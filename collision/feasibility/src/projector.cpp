@@ -113,7 +113,7 @@ ProjectResult unusable_input(const Vec3& x_anchor) {
 }
 
 BatchStats project_all(const Projector& projector, const RegionSet& regions, const Positions& anchor, Positions& x,
-                       std::span<const double> inv_mass) {
+                       std::span<const double> inv_mass, std::span<std::uint8_t> halted_marks) {
   const Index n = regions.num_vertices();
   if (static_cast<Index>(anchor.size()) != n || static_cast<Index>(x.size()) != n ||
       (!inv_mass.empty() && static_cast<Index>(inv_mass.size()) != n))
@@ -135,7 +135,10 @@ BatchStats project_all(const Projector& projector, const RegionSet& regions, con
       ++s.violated;
       s.iterations += r.iterations;
       if (r.status == ProjectStatus::projected) ++s.projected;
-      if (r.status == ProjectStatus::halted) ++s.halted;
+      if (r.status == ProjectStatus::halted) {
+        ++s.halted;
+        if (!halted_marks.empty()) halted_marks[v] = 1;
+      }
       if (r.status == ProjectStatus::infeasible) ++s.infeasible;
       if (r.fell_back) ++s.fallbacks;
       x[v] = r.x;

@@ -2,12 +2,14 @@
 /// @file output.hpp
 /// The output directory contract: run.json, frames/frame_NNNNN.obj, stats.csv (DESIGN "Contracts").
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "ccfr/collision/narrow_phase.hpp"
 #include "ccfr/core/scene.hpp"
+#include "ccfr/io/formats.hpp"
 #include "ccfr/solvers/simulation.hpp"
 
 namespace ccfr::io {
@@ -25,6 +27,9 @@ struct RunMeta {
   std::vector<std::string> argv;  ///< every argument, exactly; empty: not recorded
   /// What the initial configuration did to contact (clarification 5), when the solver detects.
   std::optional<InitialProximity> initial_proximity;
+  /// output.formats (docs/interop.md); obj writes frames/frame_NNNNN.obj.
+  std::vector<OutputFormat> formats{OutputFormat::obj};
+  int every = 1;  ///< output.every (the PC2 sample rate)
 };
 
 /// True if DIR/run.json is a JSON object with the ccfr marker (`"ccfr": {"version": ...}`).
@@ -59,8 +64,9 @@ class RunWriter {
   RunWriter& operator=(const RunWriter&) = delete;
   /// Writes run.json ("running") and the stats.csv header.
   void start();
-  /// Writes frames/frame_NNNNN.obj, then rewrites run.json with the new frames_written.
-  void write_frame(int frame, const Positions& x);
+  /// Writes the frame in every format of RunMeta::formats (frames/frame_NNNNN.obj, ...), then
+  /// rewrites run.json with the new frames_written. `fields` feed the VTU point data.
+  void write_frame(int frame, const Positions& x, const VertexFields& fields = {});
   /// Appends one stats row; the first row puts a staged run in place of the previous one.
   void write_stats(const FrameStats& s);
   /// Rewrites run.json with the end time, the number of frames written and a status
@@ -83,6 +89,7 @@ class RunWriter {
   const Topology& topo_;
   std::string config_json_;
   RunMeta meta_;
+  std::vector<std::unique_ptr<FrameSink>> sinks_;
   std::string start_time_;
   int stats_fd_ = -1;
   long long stats_size_ = 0;

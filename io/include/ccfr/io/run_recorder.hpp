@@ -50,7 +50,11 @@ class RunRecorder {
   RunWriter& writer() { return writer_; }
 
  private:
+  /// Velocity and the contact solver's per-vertex diagnostics when a VTU frame is written, else empty.
+  VertexFields fields() const;
+
   const Simulation& sim_;
+  bool want_fields_ = false;
   RunWriter writer_;
   int last_frame_;
   bool resumed_ = false;

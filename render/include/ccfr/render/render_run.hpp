@@ -9,6 +9,7 @@
 #include <string_view>
 #include <vector>
 
+#include "ccfr/core/process.hpp"
 #include "ccfr/render/renderer.hpp"
 
 namespace ccfr::render {
@@ -50,8 +51,8 @@ Bounds scan_obj_bounds(const std::filesystem::path& path);
 RunRenderSummary render_frames(const std::vector<std::filesystem::path>& frames, const RunRenderOptions& options,
                                const ProgressCallback& progress = {});
 
-/// Looks a program up on PATH.
-std::optional<std::filesystem::path> find_program(std::string_view name);
+/// Looks a program up on PATH (core/process.hpp).
+using ccfr::find_program;
 
 /// Encodes `images` (same size, in order) into an H.264 MP4 at `fps` with ffmpeg.
 /// Returns false and explains why in `message` when ffmpeg is missing or fails.

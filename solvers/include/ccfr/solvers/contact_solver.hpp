@@ -3,6 +3,7 @@
 /// The pluggable part of the substep (DESIGN "Data flow of one substep"): detection at the anchors,
 /// contact response inside XPBD, and the resolution that keeps every vertex in its region.
 /// Implementations are chosen by `contact.solver` through make_contact_solver()'s factory table.
+#include <cstdint>
 #include <limits>
 #include <memory>
 #include <span>
@@ -81,6 +82,12 @@ class ContactSolver {
   /// One violation of the last count_outside() that found any, for error messages (e.g. "vertex
   /// 12 of 'cloth' - face 3 of 'lid' at 0.0093, offset 0.01"); empty if none.
   virtual std::string last_violation() const { return {}; }
+  /// Per-vertex diagnostics for the VTU point data (docs/interop.md), each #V or left empty when
+  /// the solver has no such notion: half-spaces of the vertex's region at the last detection,
+  /// distance to the nearest primitive among the detected contacts (NaN: none in range), and
+  /// whether the vertex halted (fell back to its anchor) during the current frame.
+  virtual void vertex_diagnostics(std::vector<std::int32_t>& half_spaces, std::vector<double>& distance,
+                                  std::vector<std::uint8_t>& halted) const {}
   /// The solver's collision detection, if it has one (initial-proximity counts for run.json).
   virtual const CollisionDetector* collision_detector() const { return nullptr; }
   /// State the solver carries from substep to substep beyond positions and velocities (for

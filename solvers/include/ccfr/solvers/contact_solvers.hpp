@@ -32,6 +32,8 @@ class DetectingSolver : public ContactSolver {
   /// The detector's reduced offsets (initial proximity), the only state kept between substeps.
   std::vector<double> save_state() const override;
   void restore_state(std::span<const double> state) override;
+  void vertex_diagnostics(std::vector<std::int32_t>& half_spaces, std::vector<double>& distance,
+                          std::vector<std::uint8_t>& halted) const override;
 
   const RegionSet& regions() const { return regions_; }
   const std::vector<ContactPair>& contacts() const { return contacts_; }
@@ -48,6 +50,7 @@ class DetectingSolver : public ContactSolver {
   ContactResponse response_;
   std::vector<double> friction_override_;  ///< #V: material friction of the vertex's object (< 0: global)
   mutable std::string last_violation_;
+  Index num_vertices_ = 0;  ///< #V of the scene (the regions are empty before the first detection)
 };
 
 /// Projects every vertex that left its region back onto it with a Projector.
@@ -60,6 +63,8 @@ class RegionProjectionSolver final : public DetectingSolver {
   SolveResult resolve(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) override;
   bool clamps_to_radius() const override { return true; }
   bool guarantees_separation() const override { return projector_name_ != "successive_projection"; }
+  void vertex_diagnostics(std::vector<std::int32_t>& half_spaces, std::vector<double>& distance,
+                          std::vector<std::uint8_t>& halted) const override;
   /// Close sub-pairs (DetectingSolver) plus rigid-body vertices off their body's rigid placement.
   Index count_outside(const Positions& x, const Positions& anchor, const SimState& state,
                       StepContext& ctx) const override;
@@ -68,6 +73,8 @@ class RegionProjectionSolver final : public DetectingSolver {
   std::string name_, projector_name_;
   std::unique_ptr<Projector> projector_;
   RigidBodies rigid_;  ///< rigid bodies, whose correction is taken as a rigid motion
+  std::vector<std::uint8_t> halted_;  ///< #V: halted during frame `halted_frame_`
+  int halted_frame_ = -1;
 };
 
 /// The paper's baseline: after XPBD, every detected pair whose gap along its detection normal is

@@ -70,6 +70,8 @@ struct OutputParams {
   bool frames = true;  ///< write frames/frame_*.obj
   int every = 1;       ///< write every k-th frame (frame 0 always)
   int checkpoint_every = 10;  ///< checkpoint every k-th frame and on SIGINT/SIGTERM (0: never)
+  /// output.formats: obj, ply, vtu, pc2, usda (docs/interop.md); empty means obj only.
+  std::vector<std::string> formats;
 };
 
 struct MaterialParams {

@@ -107,9 +107,10 @@ struct BatchStats {
 /// @param anchor   #V anchor positions (the positions the regions were built at)
 /// @param x        #V candidate positions, overwritten with the projected ones
 /// @param inv_mass #V inverse masses; an empty span means every vertex is dynamic
+/// @param halted_marks #V flags set to 1 for each vertex that halted (empty: not recorded)
 /// @throws std::invalid_argument when the array sizes do not match `regions.num_vertices()`
 BatchStats project_all(const Projector& projector, const RegionSet& regions, const Positions& anchor, Positions& x,
-                       std::span<const double> inv_mass);
+                       std::span<const double> inv_mass, std::span<std::uint8_t> halted_marks = {});
 
 /// Smallest constraint value \f$\min_k (\mathbf{x} - \mathbf{x}_a)\cdot\mathbf{n}_k + d_k\f$;
 /// +infinity for no planes, NaN when `x` or a plane is not finite.

@@ -1,0 +1,66 @@
+#pragma once
+/// @file formats.hpp
+/// Output formats besides the OBJ frames (docs/interop.md): binary PLY per frame, VTU per frame
+/// with a PVD collection (ParaView), PC2 point caches with the first frame as OBJ (Blender's Mesh
+/// Cache modifier), and one time-sampled USDA file (Blender, Houdini, usdview).
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "ccfr/core/scene.hpp"
+#include "ccfr/core/types.hpp"
+
+namespace ccfr::io {
+
+enum class OutputFormat { obj, ply, vtu, pc2, usda };
+
+/// Names accepted by `output.formats` and `ccfr export --format`, in this order.
+std::vector<std::string> output_format_names();
+std::optional<OutputFormat> output_format_from_string(std::string_view name);
+/// Parses a list of names ("obj", "vtu", ...); throws ccfr::Error naming the unknown one.
+std::vector<OutputFormat> parse_output_formats(const std::vector<std::string>& names);
+
+/// Per-vertex data written next to the positions (VTU point data). An empty vector means the
+/// field is not known (e.g. `ccfr export` from frames on disk knows only velocity).
+struct VertexFields {
+  Positions velocity;                ///< m/s
+  std::vector<std::uint8_t> halted;  ///< 1 if the vertex halted (fell back to its anchor) in this frame
+  std::vector<std::int32_t> half_spaces;  ///< half-spaces of its region at the last detection
+  /// Distance to the nearest primitive among the detected contacts (m); NaN if none was in range.
+  std::vector<double> distance;
+};
+
+/// Writes one format of a run directory, frame by frame. Paths are relative to the directory
+/// passed in each call, so that a staged run (DIR.ccfr-new) can be renamed between frames.
+class FrameSink {
+ public:
+  virtual ~FrameSink() = default;
+  /// Writes frame `frame` (simulated time `time`); every file it leaves is whole (atomic rename,
+  /// or for PC2 the sample count in the header raised only after the samples are on disk).
+  virtual void write(const std::filesystem::path& dir, int frame, double time, const Positions& x,
+                     const VertexFields& fields) = 0;
+  /// After the last frame (also of a run stopped early): files that need every frame (USDA).
+  virtual void finish(const std::filesystem::path& dir) {}
+};
+
+/// A sink for `format` (not obj: the OBJ frames are RunWriter's own). `every` is output.every
+/// (the PC2 sample rate in frames).
+std::unique_ptr<FrameSink> make_frame_sink(OutputFormat format, const Topology& topo, double fps, int every);
+
+/// Folders a format writes into, relative to the run directory ("frames", "vtk", "blender", "usd").
+std::string format_folder(OutputFormat format);
+
+/// Reads a binary PLY frame written by the `ply` sink (float x y z), for tests and export.
+Positions read_ply_positions(const std::filesystem::path& path);
+
+/// Re-exports a run directory's OBJ frames into `formats` (written into `out`, by default the run
+/// directory itself). Velocities are backward differences of consecutive frames on disk. Returns
+/// the number of frames exported. Throws ccfr::Error on a missing run or unreadable frame.
+int export_run(const std::filesystem::path& run_dir, const std::vector<OutputFormat>& formats,
+               const std::filesystem::path& out = {});
+
+}  // namespace ccfr::io
