@@ -39,6 +39,7 @@ void register_commands(CLI::App& app) {
   register_ablate(app);
   register_bench(app);
   register_render(app);
+  register_plot(app);
   register_schema(app);
 }
 

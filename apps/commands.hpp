@@ -22,5 +22,6 @@ void register_ablate(CLI::App& app);
 void register_bench(CLI::App& app);
 void register_render(CLI::App& app);
 void register_schema(CLI::App& app);
+void register_plot(CLI::App& app);
 
 }  // namespace ccfr::app

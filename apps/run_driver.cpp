@@ -1,12 +1,14 @@
 #include "run_driver.hpp"
 
-#include <unistd.h>
-
 #include <atomic>
+#include <chrono>
+#include <optional>
 #include <csignal>
 #include <cstdio>
 
 #include "audit_hook.hpp"
+#include "progress.hpp"
+#include "scene_advice.hpp"
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
 #include "ccfr/core/parallel.hpp"
@@ -59,15 +61,6 @@ class SignalScope {
   Handler int_, term_, xfsz_;
 };
 
-void progress_bar(int done, int total, double last_s, const FrameStats& fs) {
-  const int width = 30;
-  const int filled = total > 0 ? width * done / total : width;
-  std::fprintf(stderr, "\r[%.*s%*s] %d/%d  %.3f s/frame  viol %d/%d  halted %d ", filled,
-               "##############################", width - filled, "", done, total, last_s, fs.violations_detected,
-               fs.violations_remaining, fs.halted_vertices);
-  if (done == total) std::fputc('\n', stderr);
-  std::fflush(stderr);
-}
 }  // namespace
 
 void set_invocation(int argc, const char* const* argv) {
@@ -99,6 +92,8 @@ RunSummary run_scene(const RunOptions& opts) {
   set_thread_count(opts.threads);
 
   io::LoadedScene loaded = io::load_scene(opts.config, overrides);
+  if (opts.advise)
+    for (const std::string& advice : scene_advice(loaded.scene)) spdlog::warn("{}", advice);
   const SimulationParams params = loaded.scene.params;
   RunSummary summary;
   summary.out = opts.out;
@@ -143,8 +138,10 @@ RunSummary run_scene(const RunOptions& opts) {
       output_failed(e);
     }
   }
-  const bool tty = opts.progress && ::isatty(STDERR_FILENO);
   const int total = params.time.frames;
+  std::optional<ProgressReporter> progress;
+  if (opts.progress) progress.emplace(opts.progress_label, total);
+  const auto started = std::chrono::steady_clock::now();
   for (int f = 1; f <= total && !summary.failed; ++f) {
     if (const int sig = g_stop_signal) {
       summary.status =
@@ -177,16 +174,19 @@ RunSummary run_scene(const RunOptions& opts) {
         break;
       }
     }
-    if (tty)
-      progress_bar(f, total, fs.wall_s, fs);
-    else if (opts.progress)
-      spdlog::info(
-          "frame {}/{}: {:.3f} s (xpbd {:.3f}, broad {:.3f}, narrow {:.3f}, resolution {:.3f}); violations {}/{}; "
-          "halted {}{}",
-          f, total, fs.wall_s, fs.times.xpbd, fs.times.broad, fs.times.narrow, fs.times.resolution,
-          fs.violations_detected, fs.violations_remaining, fs.halted_vertices,
-          fs.penetrations >= 0 ? "; penetrations " + std::to_string(fs.penetrations) : std::string());
+    if (progress && progress->on_terminal())
+      progress->update(f, fmt::format("{:.3f} s/frame  viol {}/{}  halted {}", fs.wall_s, fs.violations_detected,
+                                      fs.violations_remaining, fs.halted_vertices));
+    else if (progress)
+      progress->update(
+          f, fmt::format("{:.3f} s (xpbd {:.3f}, broad {:.3f}, narrow {:.3f}, resolution {:.3f}); violations {}/{}; "
+                         "halted {}{}",
+                         fs.wall_s, fs.times.xpbd, fs.times.broad, fs.times.narrow, fs.times.resolution,
+                         fs.violations_detected, fs.violations_remaining, fs.halted_vertices,
+                         fs.penetrations >= 0 ? "; penetrations " + std::to_string(fs.penetrations) : std::string()));
   }
+  if (progress) progress->finish();
+  summary.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   if (writer) {
     try {
       writer->finish(summary.status);

@@ -31,6 +31,33 @@ inline CliResult run_ccfr(const std::string& args) {
   return r;
 }
 
+struct CliStreams {
+  int code = -1;    ///< exit code, -1 if the process did not exit normally
+  std::string out;  ///< stdout alone
+  std::string err;  ///< stderr alone
+};
+
+/// Runs `env CCFR_EXE args` through the shell with stdout and stderr collected apart (stderr
+/// through a file in `scratch`); `env` prefixes variables ("CCFR_PYTHON=/bin/false").
+inline CliStreams run_ccfr_split(const std::string& args, const std::filesystem::path& scratch,
+                                 const std::string& env = "") {
+  const std::filesystem::path err = scratch / "stderr.txt";
+  const std::string cmd = env + (env.empty() ? "" : " ") + std::string(CCFR_EXE) + " " + args + " 2> '" +
+                          err.string() + "'";
+  CliStreams r;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return r;
+  std::array<char, 4096> buf;
+  while (size_t n = fread(buf.data(), 1, buf.size(), p)) r.out.append(buf.data(), n);
+  const int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::ifstream in(err);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  r.err = ss.str();
+  return r;
+}
+
 /// BUILD/test-scratch/NAME, not created (for runs that must create it themselves).
 inline std::filesystem::path scratch_path(const std::string& name) {
   return std::filesystem::path(CCFR_BINARY_DIR) / "test-scratch" / name;
