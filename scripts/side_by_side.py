@@ -45,6 +45,8 @@ def caption(run_dir, frame):
                  (row.get("close_pairs", 0), "pairs closer than ξ")]
         bad = [f"{n:,} {what}" for n, what in found if n]
         here = f"frame {frame}: " + (", ".join(bad) if bad else "clean")
+        if row.get("min_distance") is not None and audit.get("offset"):
+            here += f" (closest pair {row['min_distance'] / audit['offset']:.5f} ξ)"
     return f"{solver}\n{whole}\n{here}", ("#2e7d32" if verdict == "PASS" else "#c62828")
 
 
@@ -61,14 +63,14 @@ def main(argv=None):
         print(f"error: {e}", file=sys.stderr)
         return 2
     h, w = panels[0][0].shape[:2]
-    fig, axes = plt.subplots(1, len(panels), figsize=(len(panels) * w / 100, h / 100 + 0.9), dpi=100)
+    fig, axes = plt.subplots(1, len(panels), figsize=(len(panels) * w / 100, h / 100 + 1.0), dpi=100,
+                             constrained_layout=True)
     for ax, (img, text, colour) in zip(axes, panels):
         ax.imshow(img)
         ax.set_axis_off()
         ax.set_title(text, fontsize=10, color=colour)
     if a.title:
         fig.suptitle(a.title, fontsize=11)
-    fig.tight_layout()
     try:
         fig.savefig(a.out)
     except OSError as e:
