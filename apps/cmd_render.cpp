@@ -142,8 +142,8 @@ void register_render(CLI::App& app) {
       ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--no-ground", o->no_ground, "Do not draw the checkered floor");
   cmd->add_flag("--no-shadows", o->no_shadows, "Do not cast shadows from the key light");
-  cmd->add_flag("--video", o->video, "Also write DIR/render/video.mp4 (needs ffmpeg)");
-  cmd->add_flag("--sheet", o->sheet, "Also write DIR/render/sheet.png, a grid of evenly spaced frames");
+  cmd->add_flag("--video", o->video, "Also write video.mp4 into the output folder (needs ffmpeg; plays at fps / every)");
+  cmd->add_flag("--sheet", o->sheet, "Also write sheet.png into the output folder, a grid of evenly spaced frames");
   cmd->add_option("--sheet-frames", o->sheet_frames, "Frames on the contact sheet")
       ->check(CLI::Range(1, 400))
       ->capture_default_str();
