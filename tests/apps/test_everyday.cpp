@@ -22,18 +22,7 @@ using ccfr::test::run_ccfr_split;
 bool has(const std::string& text, const std::string& what) { return text.find(what) != std::string::npos; }
 
 // Sheet edges 0.2 / 4 = 0.05; ξ = 0.005 is 0.1 of that; the sheet is still: no advice.
-const char* kScene = R"(scene: everyday
-time: {fps: 60, frames: 3, substeps: 2, iterations: 2, xpbd_sweeps: 4}
-contact: {solver: ccfr, radius: 0.01, offset: 0.005, repulsion_range: 0.001}
-objects:
-  - name: sheet
-    kind: cloth
-    shape: {type: grid, size: [0.2, 0.2], resolution: [4, 4]}
-    transform: {translate: [0, 0.02, 0]}
-  - name: floor
-    kind: obstacle
-    shape: {type: plane, size: 1.0, resolution: 2}
-)";
+const std::string kScene = ccfr::test::sheet_on_floor_scene("everyday");
 
 fs::path write_scene(const std::string& name, const std::string& yaml = kScene) {
   const fs::path d = ccfr::test::scratch_dir("everyday_" + name);

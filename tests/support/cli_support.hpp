@@ -31,6 +31,22 @@ inline CliResult run_ccfr(const std::string& args) {
   return r;
 }
 
+/// A sheet over a floor, 3 frames (edges 0.05, ξ = 0.005): the smallest scene with contact.
+inline std::string sheet_on_floor_scene(const std::string& name) {
+  return "scene: " + name + R"(
+time: {fps: 60, frames: 3, substeps: 2, iterations: 2, xpbd_sweeps: 4}
+contact: {solver: ccfr, radius: 0.01, offset: 0.005, repulsion_range: 0.001}
+objects:
+  - name: sheet
+    kind: cloth
+    shape: {type: grid, size: [0.2, 0.2], resolution: [4, 4]}
+    transform: {translate: [0, 0.02, 0]}
+  - name: floor
+    kind: obstacle
+    shape: {type: plane, size: 1.0, resolution: 2}
+)";
+}
+
 struct CliStreams {
   int code = -1;    ///< exit code, -1 if the process did not exit normally
   std::string out;  ///< stdout alone
