@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "ccfr/core/error.hpp"
@@ -13,6 +14,7 @@
 #include "ccfr/io/obj.hpp"
 #include "ccfr/io/run_audit.hpp"
 #include "commands.hpp"
+#include "progress.hpp"
 
 namespace ccfr::app {
 
@@ -71,17 +73,24 @@ int run_audit(const AuditCliOptions& o) {
       std::printf("%8s %12s %12s %12s %16s %12s\n", "frame", "tri_isect", "seg_cross", "close", "min_dist", "min/xi");
     };
     double xi = 0.0;
+    // The table rows go to stdout; the bar on stderr is erased before each row and redrawn after.
+    std::optional<ProgressReporter> progress;
+    long audited = 0;
     const auto on_frame = [&](long n, const exact::FrameAudit& r) {
+      if (progress) progress->clear();
       std::printf("%8ld %12d %12d %12d %16.10g %12.9f\n", n, r.triangle_intersections, r.segment_crossings,
                   r.close_pairs, r.min_distance,
                   std::isfinite(r.min_distance) && xi > 0 ? r.min_distance / xi : INFINITY);
       for (const exact::AuditExample& e : r.examples) std::printf("         %s\n", e.describe().c_str());
       std::fflush(stdout);
+      if (progress) progress->update(++audited, "frame " + std::to_string(n));
     };
     const io::RunAuditResult res = io::audit_run(o.dir, o.audit, on_frame, [&](const io::RunAuditResult& r) {
       xi = r.offset;
       on_start(r);
+      progress.emplace("audit frame", static_cast<long>(r.frames_checked), 5.0);
     });
+    if (progress) progress->finish();
 
     // A run without run.json has no status to check; a run.json that does not say "completed"
     // (running: killed or still going; interrupted; failed) only passes with --partial.

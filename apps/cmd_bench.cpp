@@ -1,11 +1,15 @@
 // `ccfr bench CONFIG`: runs a scene without writing anything and prints per-stage medians, for
 // profiling and for docs/performance.md.
+#include <cmath>
 #include <cstdio>
 
+#include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
 #include "ccfr/core/parallel.hpp"
+#include "ccfr/io/scene_loader.hpp"
 #include "commands.hpp"
 #include "frame_summary.hpp"
+#include "progress.hpp"
 #include "run_driver.hpp"
 
 namespace ccfr::app {
@@ -16,10 +20,29 @@ struct BenchOptions {
   int warmup = 0;
 };
 
+// Counts print as integers; a median of an even number of frames may end in .5.
+std::string count_text(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, v == std::floor(v) ? "%.0f" : "%.1f", v);
+  return b;
+}
+
 int run_bench(const BenchOptions& o) {
+  // The frames come from --frames or the scene; the scene is loaded first so that a warm-up
+  // that would leave nothing to measure is refused before minutes of simulation.
+  int frames_total = o.run.frames;
+  if (frames_total < 0) {
+    std::vector<std::string> overrides = o.run.overrides;
+    if (!o.run.solver.empty()) overrides.push_back("contact.solver=" + o.run.solver);
+    frames_total = io::load_scene(o.run.config, overrides).scene.params.time.frames;
+  }
+  if (o.warmup >= frames_total)
+    throw Error("--warmup " + std::to_string(o.warmup) + " leaves no frame to measure: it must be smaller than the " +
+                std::to_string(frames_total) + " frames simulated (" +
+                (o.run.frames >= 0 ? std::string("--frames") : "time.frames of " + o.run.config.string()) + ")");
   RunOptions ro = o.run;
   ro.out.clear();
-  ro.progress = false;
+  ro.progress_label = "bench frame";
   const RunSummary s = run_scene(ro);
   std::vector<FrameStats> frames(s.frames.begin() + std::min<size_t>(o.warmup, s.frames.size()), s.frames.end());
   std::printf("bench %s: solver %s, %d vertices, %d substeps x %d iterations, %d threads, %zu frames (%d warm-up skipped)\n",
@@ -35,13 +58,18 @@ int run_bench(const BenchOptions& o) {
   line("broad phase", [](const FrameStats& f) { return f.times.broad; });
   line("narrow phase", [](const FrameStats& f) { return f.times.narrow; });
   line("resolution", [](const FrameStats& f) { return f.times.resolution; });
-  line("candidates", [](const FrameStats& f) { return f.candidates; });
-  line("constraints", [](const FrameStats& f) { return f.constraints; });
-  line("violations", [](const FrameStats& f) { return f.violations_detected; });
-  line("remaining", [](const FrameStats& f) { return f.violations_remaining; });
-  line("halted", [](const FrameStats& f) { return f.halted_vertices; });
-  line("outer iterations", [](const FrameStats& f) { return f.outer_iterations; });
-  std::printf("status: %s\n", s.status.c_str());
+  std::printf("%-20s %12s %12s %12s\n", "count (per frame)", "median", "mean", "max");
+  auto count = [&](const char* name, const std::function<double(const FrameStats&)>& get) {
+    const Aggregate a = aggregate(frames, get);
+    std::printf("%-20s %12s %12.1f %12s\n", name, count_text(a.median).c_str(), a.mean, count_text(a.max).c_str());
+  };
+  count("candidates", [](const FrameStats& f) { return f.candidates; });
+  count("constraints", [](const FrameStats& f) { return f.constraints; });
+  count("violations", [](const FrameStats& f) { return f.violations_detected; });
+  count("remaining", [](const FrameStats& f) { return f.violations_remaining; });
+  count("halted", [](const FrameStats& f) { return f.halted_vertices; });
+  count("outer iterations", [](const FrameStats& f) { return f.outer_iterations; });
+  std::printf("status: %s; %zu frames in %s\n", s.status.c_str(), s.frames.size(), format_duration(s.wall_s).c_str());
   return s.failed ? 1 : 0;
 }
 }  // namespace
@@ -50,7 +78,8 @@ void register_bench(CLI::App& app) {
   auto o = std::make_shared<BenchOptions>();
   auto* cmd = app.add_subcommand("bench", "Run a scene without output and print per-stage medians (profiling)");
   cmd->add_option("config", o->run.config, "Scene file (YAML)")->required();
-  cmd->add_option("--warmup", o->warmup, "Frames excluded from the statistics")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--warmup", o->warmup, "Frames excluded from the statistics (fewer than the frames simulated)")
+      ->check(CLI::NonNegativeNumber);
   add_run_options(cmd, o->run);
   cmd->callback([o] {
     init_logging("warn");

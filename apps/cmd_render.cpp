@@ -1,7 +1,5 @@
 // `ccfr render DIR`: one PNG per frame of a run directory (Embree ray casting, ccfr::render),
 // optionally a contact sheet and an MP4. Exit codes: 0 done, 2 bad input.
-#include <unistd.h>
-
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -14,6 +12,7 @@
 #include "ccfr/io/run_info.hpp"
 #include "ccfr/render/render_run.hpp"
 #include "commands.hpp"
+#include "progress.hpp"
 
 namespace ccfr::app {
 
@@ -39,6 +38,7 @@ struct RenderCliOptions {
   bool sheet = false;
   bool no_ground = false;
   bool no_shadows = false;
+  bool frame_all = false;
   int sheet_frames = 12;
   int sheet_columns = 4;
   double fps = 0.0;
@@ -65,6 +65,7 @@ int run_render(const RenderCliOptions& o) {
   opt.render.up = render::parse_axis(o.up);
   opt.render.fov_deg = o.fov;
   if (!o.camera.empty()) opt.camera = render::parse_camera(o.camera, opt.render.up);
+  if (!o.frame_all) opt.frame_exclude = info.obstacles;  // frame the subject, not the floor
   opt.every = o.every;
   opt.sheet = o.sheet;
   opt.sheet_frames = o.sheet_frames;
@@ -77,26 +78,28 @@ int run_render(const RenderCliOptions& o) {
               info.frames.size(), o.width, o.height, thread_count(), opt.out.string().c_str());
   std::fflush(stdout);
 
-  const bool tty = ::isatty(STDERR_FILENO) != 0;
-  const auto progress = [tty](int done, int total, const fs::path& png) {
-    if (tty) {
-      const int width = 30;
-      const int filled = total > 0 ? width * done / total : width;
-      std::fprintf(stderr, "\r[%.*s%*s] %d/%d  %s ", filled, "##############################", width - filled, "",
-                   done, total, png.filename().string().c_str());
-      if (done == total) std::fputc('\n', stderr);
-      std::fflush(stderr);
-    } else if (done == total || done % 10 == 0) {
-      std::fprintf(stderr, "rendered %d/%d frames\n", done, total);
-    }
+  ProgressReporter progress("render frame", static_cast<long>(count), 5.0);
+  const auto on_frame = [&progress](int done, int, const fs::path& png) {
+    progress.update(done, png.filename().string());
   };
-  const render::RunRenderSummary s = render::render_frames(info.frames, opt, progress);
+  const render::RunRenderSummary s = render::render_frames(info.frames, opt, on_frame);
+  progress.finish();
 
-  std::printf("%zu images, %.3f s per frame (camera eye %.4g,%.4g,%.4g target %.4g,%.4g,%.4g fov %.4g; "
+  std::printf("%zu images in %s, %.3f s per frame (camera eye %.4g,%.4g,%.4g target %.4g,%.4g,%.4g fov %.4g; "
               "strand radius %.3g, point radius %.3g)\n",
-              s.images.size(), s.seconds_per_frame, s.view.camera.eye.x(), s.view.camera.eye.y(),
+              s.images.size(), format_duration(progress.elapsed_s()).c_str(), s.seconds_per_frame, s.view.camera.eye.x(), s.view.camera.eye.y(),
               s.view.camera.eye.z(), s.view.camera.target.x(), s.view.camera.target.y(), s.view.camera.target.z(),
               s.view.camera.fov_deg, s.view.strand_radius, s.view.point_radius);
+  if (!o.camera.empty())
+    std::printf("camera: as given by --camera\n");
+  else if (!opt.frame_exclude.empty())
+    std::printf("camera: fitted to the objects other than the obstacles (%s); --frame-all fits all of them\n",
+                [&] {
+                  std::string names;
+                  for (const std::string& n : opt.frame_exclude) names += (names.empty() ? "" : ", ") + n;
+                  return names;
+                }()
+                    .c_str());
   if (!s.sheet.empty()) std::printf("contact sheet: %s\n", s.sheet.string().c_str());
   if (!s.video.empty()) std::printf("video: %s\n", s.video.string().c_str());
   if (o.video && s.video.empty()) std::printf("%s\n", s.video_note.c_str());
@@ -115,6 +118,9 @@ void register_render(CLI::App& app) {
   cmd->add_option("--camera", o->camera,
                   "Fixed camera \"eye_x,eye_y,eye_z,target_x,target_y,target_z,fov_deg\" "
                   "(default: fitted to the bounds of all drawn frames)");
+  cmd->add_flag("--frame-all", o->frame_all,
+                "Fit the camera to every object; by default obstacles (floors, walls) are drawn but left out of "
+                "the fit, so the simulated objects fill the picture");
   cmd->add_option("--up", o->up, "Up axis: x, y, z or -x, -y, -z (the floor is drawn below the scene along it)")
       ->capture_default_str();
   cmd->add_option("--fov", o->fov, "Vertical field of view of the fitted camera, degrees")
@@ -136,8 +142,8 @@ void register_render(CLI::App& app) {
       ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--no-ground", o->no_ground, "Do not draw the checkered floor");
   cmd->add_flag("--no-shadows", o->no_shadows, "Do not cast shadows from the key light");
-  cmd->add_flag("--video", o->video, "Also write DIR/render/video.mp4 (needs ffmpeg)");
-  cmd->add_flag("--sheet", o->sheet, "Also write DIR/render/sheet.png, a grid of evenly spaced frames");
+  cmd->add_flag("--video", o->video, "Also write video.mp4 into the output folder (needs ffmpeg; plays at fps / every)");
+  cmd->add_flag("--sheet", o->sheet, "Also write sheet.png into the output folder, a grid of evenly spaced frames");
   cmd->add_option("--sheet-frames", o->sheet_frames, "Frames on the contact sheet")
       ->check(CLI::Range(1, 400))
       ->capture_default_str();

@@ -1,16 +1,56 @@
 // `ccfr run CONFIG`: simulate a scene and write the output directory of the contract.
+#include <algorithm>
+#include <cstdio>
 #include <filesystem>
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
 #include "commands.hpp"
+#include "progress.hpp"
 #include "run_driver.hpp"
 
 namespace ccfr::app {
 
+namespace {
+
+// The closing summary on stdout: where the output went, how long it took, what is left to
+// check, and the command that checks it.
+void print_summary(const RunSummary& s) {
+  const std::string dir = std::filesystem::absolute(s.out).string();
+  if (s.previous_kept) {
+    std::printf("%s: %zu frames; output discarded, the previous run in %s was kept\n", s.status.c_str(),
+                s.frames.size(), dir.c_str());
+    return;
+  }
+  if (s.resumed_after >= 0)
+    std::printf("%s: resumed after frame %d, %zu more frames, output in %s\n", s.status.c_str(), s.resumed_after,
+                s.frames.size(), dir.c_str());
+  else
+    std::printf("%s: %zu frames, output in %s\n", s.status.c_str(), s.frames.size(), dir.c_str());
+  long detected = 0, remaining_frames = 0, remaining_max = 0, halted = 0, penetrations = 0;
+  bool audited = false;
+  for (const FrameStats& f : s.frames) {
+    detected += f.violations_detected;
+    remaining_frames += f.violations_remaining > 0;
+    remaining_max = std::max<long>(remaining_max, f.violations_remaining);
+    halted += f.halted_vertices;
+    if (f.penetrations >= 0) audited = true, penetrations += f.penetrations;
+  }
+  const double per_frame = s.frames.empty() ? 0.0 : s.wall_s / static_cast<double>(s.frames.size());
+  std::printf("  time: %s (%.3f s/frame); solver %s, %d vertices, %d substeps x %d iterations\n",
+              format_duration(s.wall_s).c_str(), per_frame, s.solver.c_str(), s.vertices, s.substeps, s.iterations);
+  std::printf("  contact: %ld violations detected; %ld frames left violations after a substep (at most %ld); %ld "
+              "vertex halts",
+              detected, remaining_frames, remaining_max, halted);
+  if (audited) std::printf(", %ld penetrations found by debug.audit", penetrations);
+  std::printf("\n  next: ccfr audit %s\n", dir.c_str());
+  std::fflush(stdout);
+}
+
+}  // namespace
+
 void register_run(CLI::App& app) {
   auto opts = std::make_shared<RunOptions>();
-  auto log_level = std::make_shared<std::string>("info");
   auto* cmd = app.add_subcommand("run", "Simulate a scene file and write run.json, frames/ and stats.csv");
   cmd->add_option("config", opts->config, "Scene file (YAML); not with --resume");
   cmd->add_option("--out", opts->out, "Output directory (default: out/<scene file name>)");
@@ -20,10 +60,8 @@ void register_run(CLI::App& app) {
   cmd->add_option("--resume", opts->resume,
                   "Continue the run in this directory from its latest checkpoint (output.checkpoint_every); only "
                   "--threads and --log-level may be given with it");
-  cmd->add_option("--log-level", *log_level, "trace, debug, info, warn, error or off")
-      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "off"}));
-  cmd->callback([opts, log_level, &app] {
-    init_logging(*log_level);
+  cmd->callback([opts] {
+    init_logging("info");
     guarded([&] {
       if (!opts->resume.empty()) {
         // The checkpoint carries the configuration: anything that would change it is refused.
@@ -37,21 +75,13 @@ void register_run(CLI::App& app) {
       if (opts->out.empty() && opts->resume.empty()) opts->out = std::filesystem::path("out") / opts->config.stem();
       opts->command_line = invocation_string();
       opts->argv = invocation_argv();
+      opts->advise = true;
       const RunSummary s = run_scene(*opts);
       if (s.nothing_to_resume) {
-        std::fprintf(stderr, "nothing to resume: %s has completed\n",
-                     std::filesystem::absolute(s.out).string().c_str());
+        std::printf("nothing to resume: %s has completed\n", std::filesystem::absolute(s.out).string().c_str());
         return 0;
       }
-      if (s.previous_kept)
-        std::fprintf(stderr, "%s: %zu frames; output discarded, the previous run in %s was kept\n", s.status.c_str(),
-                     s.frames.size(), std::filesystem::absolute(s.out).string().c_str());
-      else if (s.resumed_after >= 0)
-        std::fprintf(stderr, "%s: resumed after frame %d, %zu more frames, output in %s\n", s.status.c_str(),
-                     s.resumed_after, s.frames.size(), std::filesystem::absolute(s.out).string().c_str());
-      else
-        std::fprintf(stderr, "%s: %zu frames, output in %s\n", s.status.c_str(), s.frames.size(),
-                     std::filesystem::absolute(s.out).string().c_str());
+      print_summary(s);
       if (s.failed) return 1;
       if (s.violated_frames > 0 && !s.violations_opted_out) {
         // A baseline without the guarantee ran to the end (contact.on_violation: auto); its

@@ -40,6 +40,7 @@ void register_commands(CLI::App& app) {
   register_sweep(app);
   register_bench(app);
   register_render(app);
+  register_plot(app);
   register_schema(app);
   register_export(app);
 }

@@ -24,5 +24,6 @@ void register_bench(CLI::App& app);
 void register_render(CLI::App& app);
 void register_schema(CLI::App& app);
 void register_export(CLI::App& app);
+void register_plot(CLI::App& app);
 
 }  // namespace ccfr::app

@@ -2,11 +2,13 @@
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
+#include <memory>
 #include <string>
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
 #include "commands.hpp"
+#include "progress.hpp"
 #include "run_driver.hpp"
 
 namespace {
@@ -57,7 +59,30 @@ int main(int argc, char** argv) {
   CLI::App app{"ccfr: penetration-free XPBD simulation with Convex Collision-Free Regions"};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string(ccfr::app::version_string()));
+  ccfr::init_logging("info");  // logs to stderr from the start, whatever a subcommand logs first
+  // Global options, accepted before or after the subcommand (fallthrough); they take effect while
+  // parsing, so a subcommand's own default level (warn for audit, bench, render) gives way to them.
+  auto explicit_level = std::make_shared<bool>(false);
+  app.add_option_function<std::string>(
+         "--log-level",
+         [explicit_level](const std::string& level) {
+           *explicit_level = true;
+           ccfr::set_log_level_override(level);
+         },
+         "Log level on stderr: trace, debug, info, warn, error or off (default: info for run and ablate, warn "
+         "for the others)")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "off"}))
+      ->trigger_on_parse();
+  app.add_flag_callback(
+         "-q,--quiet",
+         [explicit_level] {
+           ccfr::app::set_quiet(true);
+           if (!*explicit_level) ccfr::set_log_level_override("warn");
+         },
+         "No progress and no info logs (warnings and errors still on stderr); results still on stdout")
+      ->trigger_on_parse();
   ccfr::app::register_commands(app);
+  for (CLI::App* sub : app.get_subcommands({})) sub->fallthrough();
   ccfr::app::set_invocation(argc, argv);  // run.json records the command line as typed
   readable_checks(app);
   try {

@@ -1,11 +1,10 @@
 #include "run_driver.hpp"
 
-#include <unistd.h>
-
 #include <atomic>
+#include <chrono>
 #include <csignal>
-#include <optional>
 #include <cstdio>
+#include <optional>
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
@@ -15,6 +14,8 @@
 #include "ccfr/io/run_recorder.hpp"
 #include "ccfr/io/run_info.hpp"
 #include "ccfr/io/scene_loader.hpp"
+#include "progress.hpp"
+#include "scene_advice.hpp"
 
 namespace ccfr::app {
 
@@ -61,16 +62,6 @@ class SignalScope {
   using Handler = void (*)(int);
   Handler int_, term_, xfsz_;
 };
-
-void progress_bar(int done, int total, double last_s, const FrameStats& fs) {
-  const int width = 30;
-  const int filled = total > 0 ? width * done / total : width;
-  std::fprintf(stderr, "\r[%.*s%*s] %d/%d  %.3f s/frame  viol %d/%d  halted %d ", filled,
-               "##############################", width - filled, "", done, total, last_s, fs.violations_detected,
-               fs.violations_remaining, fs.halted_vertices);
-  if (done == total) std::fputc('\n', stderr);
-  std::fflush(stderr);
-}
 
 }  // namespace
 
@@ -154,6 +145,8 @@ RunSummary run_scene(const RunOptions& opts) {
                   fmt::format("{:016x}", resume->ckpt.scene_fingerprint) + ", now " + fmt::format("{:016x}", fp) + ")");
   }
   const std::uint64_t fingerprint = io::scene_fingerprint(loaded.scene.topo, loaded.scene.state);
+  if (opts.advise && !resume)
+    for (const std::string& advice : scene_advice(loaded.scene)) spdlog::warn("{}", advice);
   const SimulationParams params = loaded.scene.params;
   RunSummary summary;
   summary.out = resume ? opts.resume : opts.out;
@@ -233,8 +226,11 @@ RunSummary run_scene(const RunOptions& opts) {
       output_failed(e);
     }
   }
-  const bool tty = opts.progress && ::isatty(STDERR_FILENO);
   const int total = params.time.frames;
+  // With --resume, progress and ETA count the frames still to run.
+  std::optional<ProgressReporter> progress;
+  if (opts.progress) progress.emplace(opts.progress_label, total - first_frame + 1);
+  const auto started = std::chrono::steady_clock::now();
   for (int f = first_frame; f <= total && !summary.failed; ++f) {
     if (const int sig = g_stop_signal) {
       // Interrupted (Ctrl-C, scancel, a job's time limit): keep what was computed since the last
@@ -276,16 +272,19 @@ RunSummary run_scene(const RunOptions& opts) {
         break;
       }
     }
-    if (tty)
-      progress_bar(f, total, fs.wall_s, fs);
-    else if (opts.progress)
-      spdlog::info(
-          "frame {}/{}: {:.3f} s (xpbd {:.3f}, broad {:.3f}, narrow {:.3f}, resolution {:.3f}); violations {}/{}; "
-          "halted {}{}",
-          f, total, fs.wall_s, fs.times.xpbd, fs.times.broad, fs.times.narrow, fs.times.resolution,
-          fs.violations_detected, fs.violations_remaining, fs.halted_vertices,
-          fs.penetrations >= 0 ? "; penetrations " + std::to_string(fs.penetrations) : std::string());
+    if (progress && progress->on_terminal())
+      progress->update(f - first_frame + 1, fmt::format("{:.3f} s/frame  viol {}/{}  halted {}", fs.wall_s, fs.violations_detected,
+                                      fs.violations_remaining, fs.halted_vertices));
+    else if (progress)
+      progress->update(
+          f - first_frame + 1, fmt::format("{:.3f} s (xpbd {:.3f}, broad {:.3f}, narrow {:.3f}, resolution {:.3f}); violations {}/{}; "
+                         "halted {}{}",
+                         fs.wall_s, fs.times.xpbd, fs.times.broad, fs.times.narrow, fs.times.resolution,
+                         fs.violations_detected, fs.violations_remaining, fs.halted_vertices,
+                         fs.penetrations >= 0 ? "; penetrations " + std::to_string(fs.penetrations) : std::string()));
   }
+  if (progress) progress->finish();
+  summary.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   if (writer) {
     try {
       writer->finish(summary.status);

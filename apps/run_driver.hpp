@@ -17,7 +17,9 @@ struct RunOptions {
   std::string solver;                  ///< empty: from the scene
   std::vector<std::string> overrides;  ///< --set key.path=value
   int threads = 0;                     ///< 0: all hardware threads
-  bool progress = true;
+  bool progress = true;                ///< per-frame progress with ETA (progress.hpp) unless --quiet
+  std::string progress_label = "frame";  ///< starts each progress line
+  bool advise = false;                 ///< warn about r, ξ, speeds out of range (scene_advice.hpp)
   std::string command_line;       ///< run.json `command_line`
   std::vector<std::string> argv;  ///< run.json `argv` (every argument as typed); empty: omitted
   bool force = false;             ///< --force: write into a non-empty directory that is not a ccfr run
@@ -35,6 +37,7 @@ struct RunSummary {
   std::string solver;
   Index vertices = 0;
   int substeps = 0, iterations = 0;
+  double wall_s = 0.0;  ///< wall-clock time of the frame loop
   /// Frames that ended with violations remaining or audit penetrations, which the run went on
   /// past (contact.on_violation = warn, or auto under a solver without the guarantee).
   size_t violated_frames = 0;

@@ -3,6 +3,9 @@
 
 Usage: plot_ablation.py DIR [--out PNG] [--title TEXT]
 
+The title names the scene (from the solver runs' run.json); count panels switch to a log scale
+when the counts span more than two decades, each bar carries its count, legends sit outside.
+
 Panels: mean time per frame split into XPBD / broad / narrow / resolution (with the maximum
 frame time as a marker), violations detected vs remaining, halted vertices, and the minimum
 distance over the offset xi (below 1 means a pair ended closer than xi) with the audit verdict.
@@ -11,6 +14,7 @@ Exit codes: 0 written, 2 bad input.
 """
 import argparse
 import csv
+import json
 import math
 import os
 import sys
@@ -64,6 +68,42 @@ def audit_verdict(text):
     return t, "0.5"
 
 
+def scene_name(directory, rows):
+    """The scene of the ablation: the `scene` of a solver run's run.json (ccfr ablate writes one
+    sub-directory per solver), else the `scene` column, else the directory's name."""
+    for r in rows:
+        run_json = os.path.join(directory, r.get("solver", ""), "run.json")
+        try:
+            with open(run_json) as f:
+                scene = json.load(f).get("scene")
+            if scene:
+                return str(scene)
+        except (OSError, ValueError, AttributeError):
+            pass
+    scenes = sorted({r.get("scene", "") for r in rows} - {""})
+    return ", ".join(scenes) if scenes else os.path.basename(directory)
+
+
+def count_axis(ax, bars_values):
+    """Counts spanning more than two decades (ccfr's 7 halts beside toi_clamp's 36,375) go on a
+    symmetric log axis, so that small nonzero counts stay visible next to zeros."""
+    positive = [v for v in bars_values if v > 0]
+    if positive and max(positive) / min(positive) >= 100:
+        ax.set_yscale("symlog", linthresh=1)
+        ax.set_ylim(0, 3 * max(positive))
+        ax.set_ylabel(ax.get_ylabel() + " (log scale)")
+
+
+def label_bars(ax, bars):
+    """Each bar's count as an integer above it (a zero is a label, not an invisible bar)."""
+    ax.bar_label(bars, labels=[f"{int(round(b.get_height())):,}" for b in bars], fontsize=7, padding=2)
+
+
+def legend_outside(ax):
+    """The legend to the right of the axes, never over the bars."""
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
+
+
 def note(ax, text):
     ax.text(0.5, 0.5, text, transform=ax.transAxes, ha="center", va="center", color="0.4")
 
@@ -97,7 +137,7 @@ def plot_per_frame(ax_r, ax_a, rows):
             ax.set_yscale("symlog", linthresh=1)
         else:
             note(ax, "none in any frame")
-        ax.legend(fontsize=8)
+        legend_outside(ax)
 
 
 def main(argv=None):
@@ -144,7 +184,7 @@ def main(argv=None):
         if "max_frame_s" in header:
             ax_t.scatter(x, [1000.0 * v for v in col(rows, "max_frame_s")], color="0.15", marker="v", s=30,
                          label="slowest frame", zorder=3)
-        ax_t.legend(fontsize=8)
+        legend_outside(ax_t)
     elif "avg_frame_s" in header:
         ax_t.bar(x, [1000.0 * v for v in z(col(rows, "avg_frame_s"))], color="0.5", width=0.6)
     else:
@@ -156,19 +196,20 @@ def main(argv=None):
     if rows and have:
         w = 0.8 / len(have)
         for k, (c, colr) in enumerate(zip(have, ["#dd8452", "#c44e52"])):
-            ax_v.bar([i + (k - (len(have) - 1) / 2) * w for i in x], z(col(rows, c)), width=w, color=colr,
-                     label=c.replace("violations_", ""))
-        ax_v.legend(fontsize=8)
-        vmax = max(max(z(col(rows, c))) for c in have)
-        if vmax > 1000:
-            ax_v.set_yscale("symlog", linthresh=10)
+            bars = ax_v.bar([i + (k - (len(have) - 1) / 2) * w for i in x], z(col(rows, c)), width=w, color=colr,
+                            label=c.replace("violations_", ""))
+            label_bars(ax_v, bars)
+        legend_outside(ax_v)
+        count_axis(ax_v, [v for c in have for v in z(col(rows, c))])
     else:
         note(ax_v, "no violation columns" if rows else "no solvers")
 
     ax_h.set_title("Halted vertices (projection fallbacks)")
     ax_h.set_ylabel("vertices")
     if rows and "halted_vertices" in header:
-        ax_h.bar(x, z(col(rows, "halted_vertices")), color="#8172b3", width=0.6)
+        halted = z(col(rows, "halted_vertices"))
+        label_bars(ax_h, ax_h.bar(x, halted, color="#8172b3", width=0.6))
+        count_axis(ax_h, halted)
     else:
         note(ax_h, "no halted_vertices column" if rows else "no solvers")
 
@@ -190,7 +231,8 @@ def main(argv=None):
     for ax in (ax_t, ax_v, ax_h, ax_d):
         ax.set_xticks(x)
         ax.set_xticklabels(labels, rotation=20 if len(rows) > 4 else 0, fontsize=8)
-    fig.suptitle(a.title or f"Ablation: {os.path.basename(os.path.dirname(os.path.abspath(path)))}")
+    directory = os.path.dirname(os.path.abspath(path))
+    fig.suptitle(a.title or f"Ablation of scene '{scene_name(directory, rows)}': {len(rows)} contact solvers")
     try:
         fig.savefig(out, dpi=110)
     except OSError as e:

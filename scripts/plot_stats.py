@@ -151,11 +151,24 @@ def plot_min_distance(ax, frames, columns, offset):
     ax.set_ylim(0, 1.4 * top if top > 0 else 1.0)
 
 
+def run_scene(csv_path):
+    """The scene name and solver from run.json next to stats.csv ("twisting_cloth, solver ccfr"), or None."""
+    try:
+        with open(os.path.join(os.path.dirname(os.path.abspath(csv_path)), "run.json")) as f:
+            meta = json.load(f)
+        scene, solver = meta.get("scene"), meta.get("solver")
+    except (OSError, ValueError, AttributeError):
+        return None
+    if not scene:
+        return None
+    return f"{scene}, solver {solver}" if solver else str(scene)
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("path", help="run directory holding stats.csv, or the CSV file itself")
     p.add_argument("--out", help="output PNG (default: stats.png next to stats.csv)")
-    p.add_argument("--title", help="figure title (default: the run directory's name)")
+    p.add_argument("--title", help="figure title (default: the scene and solver from run.json, else the run directory's name)")
     a = p.parse_args(argv)
 
     csv_path = os.path.join(a.path, "stats.csv") if os.path.isdir(a.path) else a.path
@@ -169,7 +182,7 @@ def main(argv=None):
         return 2
     frames = frame_axis(columns)
     out = a.out or os.path.join(os.path.dirname(os.path.abspath(csv_path)), "stats.png")
-    title = a.title or os.path.basename(os.path.dirname(os.path.abspath(csv_path)))
+    title = a.title or run_scene(csv_path) or os.path.basename(os.path.dirname(os.path.abspath(csv_path)))
 
     # A fourth panel when distances were measured: the guarantee is min distance >= xi.
     has_distance = any(not math.isnan(v) for v in columns.get("min_distance", []))

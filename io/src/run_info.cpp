@@ -48,6 +48,12 @@ RunInfo read_run_info(const fs::path& dir, bool require_run_json) {
     info.has_run_json = true;
     if (n["status"] && n["status"].IsScalar()) info.status = n["status"].as<std::string>();
     if (n["frames_written"] && n["frames_written"].IsScalar()) info.frames_written = n["frames_written"].as<long>();
+    // The resolved scene (run.json `config`): the renderer frames its pictures on what is not an obstacle.
+    if (n["config"] && n["config"].IsMap() && n["config"]["objects"] && n["config"]["objects"].IsSequence())
+      for (const YAML::Node& o : n["config"]["objects"])
+        if (o.IsMap() && o["kind"] && o["kind"].IsScalar() && o["kind"].as<std::string>() == "obstacle" && o["name"] &&
+            o["name"].IsScalar())
+          info.obstacles.push_back(o["name"].as<std::string>());
   } catch (const YAML::Exception& e) {
     throw Error("'" + rj.string() + "' is not valid JSON: " + e.msg);
   }

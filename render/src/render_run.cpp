@@ -1,11 +1,15 @@
 #include "ccfr/render/render_run.hpp"
 
+#include <fcntl.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
+#include <cctype>
 #include <chrono>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -23,6 +27,10 @@ namespace ccfr::render {
 
 namespace fs = std::filesystem;
 
+namespace {
+constexpr double kSubjectTrim = 0.02;  ///< fraction of subject vertices ignored at each end of each axis
+}  // namespace
+
 std::vector<size_t> select_frames(size_t count, int every) {
   std::vector<size_t> picked;
   if (count == 0) return picked;
@@ -32,16 +40,29 @@ std::vector<size_t> select_frames(size_t count, int every) {
   return picked;
 }
 
-Bounds scan_obj_bounds(const fs::path& path) {
+Bounds scan_obj_bounds(const fs::path& path) { return scan_obj_bounds(path, {}); }
+
+Bounds scan_obj_bounds(const fs::path& path, const std::vector<std::string>& exclude, double trim) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error("cannot open '" + path.string() + "'");
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   Bounds b;
   const char* s = text.c_str();
   const char* end = s + text.size();
-  // Only "v x y z" lines matter for bounds; everything else is skipped line by line.
+  // Only "v x y z" lines matter for bounds, and "o"/"g" lines for `exclude`; everything else is
+  // skipped line by line.
+  bool skipping = false;
+  std::array<std::vector<double>, 3> coords;  // only with trim > 0
   while (s < end) {
-    if (s[0] == 'v' && s + 1 < end && (s[1] == ' ' || s[1] == '\t')) {
+    const void* nl = std::memchr(s, '\n', static_cast<size_t>(end - s));
+    const char* line_end = nl ? static_cast<const char*>(nl) : end;
+    if (!exclude.empty() && (s[0] == 'o' || s[0] == 'g') && s + 1 < end && (s[1] == ' ' || s[1] == '\t')) {
+      std::string name(s + 2, line_end);
+      while (!name.empty() && std::isspace(static_cast<unsigned char>(name.back()))) name.pop_back();
+      while (!name.empty() && std::isspace(static_cast<unsigned char>(name.front()))) name.erase(name.begin());
+      skipping = std::find(exclude.begin(), exclude.end(), name) != exclude.end();
+    }
+    if (!skipping && s[0] == 'v' && s + 1 < end && (s[1] == ' ' || s[1] == '\t')) {
       const char* q = s + 2;
       Vec3 p = Vec3::Zero();
       bool ok = true;
@@ -51,10 +72,24 @@ Bounds scan_obj_bounds(const fs::path& path) {
         ok = next != q && std::isfinite(p[c]);
         q = next;
       }
-      if (ok) b.extend(p);
+      if (ok) {
+        b.extend(p);
+        if (trim > 0)
+          for (int c = 0; c < 3; ++c) coords[c].push_back(p[c]);
+      }
     }
-    const void* nl = std::memchr(s, '\n', static_cast<size_t>(end - s));
-    s = nl ? static_cast<const char*>(nl) + 1 : end;
+    s = nl ? line_end + 1 : end;
+  }
+  // Per axis, the k-th smallest and k-th largest coordinate instead of the extremes.
+  const size_t n = coords[0].size();
+  const size_t k = static_cast<size_t>(std::floor(std::min(trim, 0.49) * static_cast<double>(n)));
+  if (k == 0) return b;
+  for (int c = 0; c < 3; ++c) {
+    std::vector<double>& v = coords[c];
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
+    b.lo[c] = v[k];
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(n - 1 - k), v.end());
+    b.hi[c] = v[n - 1 - k];
   }
   return b;
 }
@@ -135,8 +170,24 @@ RunRenderSummary render_frames(const std::vector<fs::path>& frames, const RunRen
   Bounds bounds;
   for (size_t i : picked) bounds.extend(scan_obj_bounds(frames[i]));
 
+  // The fitted camera looks at the subject: the objects not in frame_exclude (the floor and other
+  // obstacles), without the 2 % of vertices farthest out along each axis (a few grains falling off
+  // the floor), widened by a fifth of their size each way so their surroundings stay in view.
+  std::optional<Camera> camera = options.camera;
+  if (!camera && !options.frame_exclude.empty()) {
+    Bounds subject;
+    for (size_t i : picked) subject.extend(scan_obj_bounds(frames[i], options.frame_exclude, kSubjectTrim));
+    if (!subject.empty()) {
+      const Vec3 pad = Vec3::Constant(0.2 * std::max(subject.diagonal(), 1e-9));
+      subject.extend(subject.lo - pad);
+      subject.extend(subject.hi + pad);
+      const double aspect =
+          static_cast<double>(std::max(options.render.width, 1)) / std::max(options.render.height, 1);
+      camera = fit_camera(subject, aspect, options.render.up, options.render.fov_deg);
+    }
+  }
   const io::Frame first = io::read_frame_obj(frames[picked.front()]);
-  summary.view = resolve_view(bounds, first, options.render, options.camera);
+  summary.view = resolve_view(bounds, first, options.render, camera);
 
   // Tiles of the contact sheet: evenly spaced over the drawn frames, the first and last included.
   std::vector<size_t> sheet_slots;

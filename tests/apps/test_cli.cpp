@@ -20,18 +20,7 @@ Result run(const std::string& args) { return ccfr::test::run_ccfr(args); }
 fs::path scratch(const std::string& name) { return ccfr::test::scratch_dir("cli_" + name); }
 std::string read(const fs::path& p) { return ccfr::test::read_text(p); }
 
-const char* kScene = R"(scene: tiny
-time: {fps: 60, frames: 3, substeps: 2, iterations: 2, xpbd_sweeps: 4}
-contact: {solver: ccfr, radius: 0.01, offset: 0.005, repulsion_range: 0.001}
-objects:
-  - name: sheet
-    kind: cloth
-    shape: {type: grid, size: [0.2, 0.2], resolution: [4, 4]}
-    transform: {translate: [0, 0.02, 0]}
-  - name: floor
-    kind: obstacle
-    shape: {type: plane, size: 1.0, resolution: 2}
-  - name: hair
+const std::string kScene = ccfr::test::sheet_on_floor_scene("tiny") + R"(  - name: hair
     kind: strand
     shape: {type: strands, count: 2, vertices: 5, length: 0.1, spread: 0.05}
     transform: {translate: [0, 0.2, 0]}
@@ -156,7 +145,7 @@ TEST(Cli, EverySubcommandHasHelp) {
 
 TEST(Cli, InSimulationAuditFillsThePenetrationsColumn) {
   const fs::path d = scratch("simaudit");
-  std::ofstream(d / "scene.yaml") << std::string(kScene) + "debug: {audit: every_frame}\n";
+  std::ofstream(d / "scene.yaml") << kScene + "debug: {audit: every_frame}\n";
   auto column = [](const fs::path& csv) {
     std::ifstream in(csv);
     std::string header, line;

@@ -31,6 +31,49 @@ inline CliResult run_ccfr(const std::string& args) {
   return r;
 }
 
+/// A sheet over a floor, 3 frames (edges 0.05, ξ = 0.005): the smallest scene with contact.
+inline std::string sheet_on_floor_scene(const std::string& name) {
+  return "scene: " + name + R"(
+time: {fps: 60, frames: 3, substeps: 2, iterations: 2, xpbd_sweeps: 4}
+contact: {solver: ccfr, radius: 0.01, offset: 0.005, repulsion_range: 0.001}
+objects:
+  - name: sheet
+    kind: cloth
+    shape: {type: grid, size: [0.2, 0.2], resolution: [4, 4]}
+    transform: {translate: [0, 0.02, 0]}
+  - name: floor
+    kind: obstacle
+    shape: {type: plane, size: 1.0, resolution: 2}
+)";
+}
+
+struct CliStreams {
+  int code = -1;    ///< exit code, -1 if the process did not exit normally
+  std::string out;  ///< stdout alone
+  std::string err;  ///< stderr alone
+};
+
+/// Runs `env CCFR_EXE args` through the shell with stdout and stderr collected apart (stderr
+/// through a file in `scratch`); `env` prefixes variables ("CCFR_PYTHON=/bin/false").
+inline CliStreams run_ccfr_split(const std::string& args, const std::filesystem::path& scratch,
+                                 const std::string& env = "") {
+  const std::filesystem::path err = scratch / "stderr.txt";
+  const std::string cmd = env + (env.empty() ? "" : " ") + std::string(CCFR_EXE) + " " + args + " 2> '" +
+                          err.string() + "'";
+  CliStreams r;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return r;
+  std::array<char, 4096> buf;
+  while (size_t n = fread(buf.data(), 1, buf.size(), p)) r.out.append(buf.data(), n);
+  const int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::ifstream in(err);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  r.err = ss.str();
+  return r;
+}
+
 /// BUILD/test-scratch/NAME, not created (for runs that must create it themselves).
 inline std::filesystem::path scratch_path(const std::string& name) {
   return std::filesystem::path(CCFR_BINARY_DIR) / "test-scratch" / name;

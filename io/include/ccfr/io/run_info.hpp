@@ -19,6 +19,7 @@ struct RunInfo {
   std::string status;        ///< `status` of run.json ("completed", "running", "failed: ...", ...); empty if absent
   long frames_written = -1;  ///< `frames_written` of run.json; -1 if absent
   std::vector<std::filesystem::path> frames;  ///< frames/frame_*.obj present on disk, in order
+  std::vector<std::string> obstacles;         ///< names of the objects of kind obstacle (config.objects)
 };
 
 /// Reads DIR/run.json and lists DIR/frames/frame_*.obj. Throws ccfr::Error if DIR or run.json

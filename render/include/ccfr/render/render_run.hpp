@@ -17,6 +17,9 @@ namespace ccfr::render {
 struct RunRenderOptions {
   RenderOptions render;
   std::optional<Camera> camera;   ///< fixed camera; otherwise fitted to the bounds of every drawn frame
+  /// Objects (by `o` name) the fitted camera leaves out of its bounds, so that a small subject on
+  /// a large floor fills the picture; they are still drawn. Ignored when nothing else is left.
+  std::vector<std::string> frame_exclude;
   std::filesystem::path out;      ///< output folder (created)
   int every = 1;                  ///< draw every k-th frame (the last frame is always drawn)
   bool sheet = false;             ///< write out/sheet.png
@@ -45,6 +48,10 @@ std::vector<size_t> select_frames(size_t count, int every);
 /// Bounds of the `v` lines of an OBJ file, read without building the frame.
 /// Throws ccfr::Error if the file cannot be read.
 Bounds scan_obj_bounds(const std::filesystem::path& path);
+/// The same, leaving out the vertices of the objects (`o` blocks) named in `exclude`; with
+/// `trim` > 0, per axis the floor(trim · n)-th smallest and largest coordinates bound the box, so
+/// that a few outlying vertices do not (n: vertices counted).
+Bounds scan_obj_bounds(const std::filesystem::path& path, const std::vector<std::string>& exclude, double trim = 0.0);
 
 /// Renders `frames` (OBJ files of one run, in order) to `options.out`/frame_NNNNN.png (named
 /// after each OBJ's stem). Throws ccfr::Error for unreadable frames or an unwritable folder.
@@ -53,6 +60,9 @@ RunRenderSummary render_frames(const std::vector<std::filesystem::path>& frames,
 
 /// Looks a program up on PATH (core/process.hpp).
 using ccfr::find_program;
+
+/// Runs a program without a shell (core/process.hpp).
+using ccfr::run_process;
 
 /// Encodes `images` (same size, in order) into an H.264 MP4 at `fps` with ffmpeg.
 /// Returns false and explains why in `message` when ffmpeg is missing or fails.
