@@ -1,7 +1,10 @@
 #!/usr/bin/env python3
 """Writes the measured part of docs/results.md from the runs of scripts/reproduce-results
 (out/results/<scene>) and the ablations (out/ablate/<scene>/ablation.csv).
-Usage: /usr/bin/python3 scripts/results_md.py [RESULTS_DIR] [ABLATE_DIR] > table.md"""
+Usage: /usr/bin/python3 scripts/results_md.py [--regenerate] [RESULTS_DIR] [ABLATE_DIR] > table.md
+  --regenerate: first runs scripts/reproduce-results into RESULTS_DIR (every paper scene, peak RSS
+  recorded by /usr/bin/time) and the twisting-cloth ablation (ccfr against post_process, every
+  frame audited) into ABLATE_DIR, so the whole table comes from one command."""
 import csv, json, os, re, statistics, subprocess, sys
 
 PAPER = {  # Table "Performance results" (seconds per frame, 8-core i9-11900)
@@ -11,6 +14,29 @@ PAPER = {  # Table "Performance results" (seconds per frame, 8-core i9-11900)
     "particles": (3182, 0.026110, 0.064368, 0.008049, 0.006509, 0.007527, 0.002347),
     "codimensional": (13586, 0.208647, 0.305605, 0.079522, 0.026361, 0.081292, 0.016530),
 }
+# Table "Comparison with Lu et al." (CCFR's own average s/frame there; no max or stage breakdown).
+PAPER_AVG_ONLY = {"three_cubes": (379, 0.0038)}
+# Peak broad-phase candidates per frame reported by the paper (twisting cloth, its max frame).
+PAPER_PEAK_CANDIDATES = {"twisting_cloth": 8.3e6}
+# Scenes of the ablation run by --regenerate, with the solvers compared.
+ABLATIONS = {"twisting_cloth": "ccfr,post_process"}
+
+
+def regenerate(root, res, abl, exe):
+    subprocess.run([os.path.join(root, "scripts", "reproduce-results"), res], check=True, stdout=subprocess.DEVNULL)
+    for scene, solvers in ABLATIONS.items():
+        out = os.path.join(abl, scene)
+        subprocess.run([exe, "ablate", os.path.join(root, "configs", scene + ".yaml"), "--solvers", solvers,
+                        "--out", out, "--audit-stride", "1", "--log-level", "warn"], check=False)
+
+
+def peak_rss_mb(res, scene):
+    """Peak RSS of the run (MB), from the /usr/bin/time record of scripts/reproduce-results."""
+    path = os.path.join(res, scene + ".time")
+    if not os.path.isfile(path):
+        return None
+    m = re.search(r"maxrss_kb=(\d+)", open(path).read())
+    return int(m.group(1)) / 1024.0 if m else None
 
 
 def rows(path):
@@ -25,11 +51,14 @@ def audit_line(exe, d):
 
 def main():
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    res = sys.argv[1] if len(sys.argv) > 1 else os.path.join(root, "out", "results")
-    abl = sys.argv[2] if len(sys.argv) > 2 else os.path.join(root, "out", "ablate")
-    exe = os.path.join(root, "build", "apps", "ccfr")
-    print("| scene | vertices (paper) | frames | substeps x iterations | avg s/frame (paper) | max s/frame (paper) | XPBD | broad | narrow | resolution (share) | max violations / frame | max remaining | halted, total (per frame; % of collision points; % of vertices) | audit | min dist / ξ |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    args = [a for a in sys.argv[1:] if a != "--regenerate"]
+    res = args[0] if len(args) > 0 else os.path.join(root, "out", "results")
+    abl = args[1] if len(args) > 1 else os.path.join(root, "out", "ablate")
+    exe = os.path.join(os.environ.get("CCFR_BUILD_DIR", os.path.join(root, "build")), "apps", "ccfr")
+    if "--regenerate" in sys.argv[1:]:
+        regenerate(root, res, abl, exe)
+    print("| scene | vertices (paper) | frames | substeps x iterations | avg s/frame (paper) | max s/frame (paper) | XPBD | broad | narrow | resolution (share) | peak candidates / frame (paper) | peak RSS | max violations / frame | max remaining | halted, total (per frame; % of collision points; % of vertices) | audit | min dist / ξ |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for scene in sorted(os.listdir(res)):
         d = os.path.join(res, scene)
         if not os.path.isfile(os.path.join(d, "stats.csv")):
@@ -51,9 +80,16 @@ def main():
         contacts = sum(f("contact_vertices")) if "contact_vertices" in r[0] else 0
         per_point = f"{100 * halted / contacts:.2f} %" if contacts > 0 else "n/a"
         pv = lambda i: f" ({p[i]:.3f})" if p else ""
+        if not p and scene in PAPER_AVG_ONLY:
+            pv = lambda i: f" ({PAPER_AVG_ONLY[scene][1]:.4f})" if i == 1 else ""
+        peak = int(max(f("candidates")))
+        paper_peak = PAPER_PEAK_CANDIDATES.get(scene)
+        peak_s = f"{peak / 1e6:.2f} M" + (f" ({paper_peak / 1e6:.1f} M)" if paper_peak else "")
+        rss = peak_rss_mb(res, scene)
+        rss_s = f"{rss:.0f} MB" if rss is not None else "n/a"
         print(f"| {scene} | {run['vertices']}{' (' + format(p[0], ',') + ')' if p else ''} | {len(r)} | {t['substeps']} x {t['iterations']} | "
               f"{avg:.3f}{pv(1)} | {max(f('wall_s')):.3f}{pv(2)} | {mean('xpbd_s'):.3f} | {mean('broad_s'):.3f} | {mean('narrow_s'):.3f} | "
-              f"{mean('resolution_s'):.4f} ({100 * mean('resolution_s') / avg:.1f} %) | {int(max(f('violations_detected')))} | "
+              f"{mean('resolution_s'):.4f} ({100 * mean('resolution_s') / avg:.1f} %) | {peak_s} | {rss_s} | {int(max(f('violations_detected')))} | "
               f"{int(max(f('violations_remaining')))} | {int(halted)} ({halted / len(r):.0f}; {per_point}; {100 * halted / len(r) / run['vertices']:.2f} %) | "
               f"{verdict} | {ratio.group(1) if ratio else ''} |")
     if os.path.isdir(abl):

@@ -14,6 +14,12 @@ void check_finite_boxes(std::span<const AABB> boxes, std::string_view who) {
                   " is not finite (NaN or infinite positions)");
 }
 
+void BroadPhase::check_fixed_count(size_t num_boxes) const {
+  if (!fixed_.empty() && fixed_.size() != num_boxes)
+    throw Error(std::string(name()) + " broad phase: " + std::to_string(fixed_.size()) + " fixed flags for " +
+                std::to_string(num_boxes) + " boxes");
+}
+
 void BruteForceBroadPhase::build(std::span<const AABB> boxes) {
   check_finite_boxes(boxes, name());
   boxes_.assign(boxes.begin(), boxes.end());
@@ -27,13 +33,14 @@ void BruteForceBroadPhase::update(std::span<const AABB> boxes) {
 
 void BruteForceBroadPhase::query_pairs(std::vector<IndexPair>& out) {
   out.clear();
+  check_fixed_count(boxes_.size());
   const Index n = static_cast<Index>(boxes_.size());
   const Index chunks = default_chunk_count(n);
   std::vector<std::vector<IndexPair>> parts(static_cast<size_t>(chunks));
   parallel_chunks(n, chunks, [&](Index c, Index begin, Index end) {
     for (Index i = begin; i < end; ++i)
       for (Index j = i + 1; j < n; ++j)
-        if (boxes_[i].overlaps(boxes_[j])) parts[c].emplace_back(i, j);
+        if (boxes_[i].overlaps(boxes_[j]) && !both_fixed(i, j)) parts[c].emplace_back(i, j);
   });
   for (const auto& p : parts) out.insert(out.end(), p.begin(), p.end());
 }
@@ -52,7 +59,8 @@ void BvhBroadPhase::update(std::span<const AABB> boxes) {
 
 void BvhBroadPhase::query_pairs(std::vector<IndexPair>& out) {
   out.clear();
-  bvh_.self_pairs(out);
+  check_fixed_count(static_cast<size_t>(bvh_.size()));
+  bvh_.self_pairs(out, fixed_);
 }
 
 namespace {

@@ -30,6 +30,7 @@ class BoxObject final : public fcl::CollisionObjectd {
 
 struct CollideData {
   const std::vector<AABB>* boxes;
+  const std::vector<std::uint8_t>* fixed;  ///< empty: nothing fixed
   std::vector<IndexPair>* out;
 };
 
@@ -39,6 +40,8 @@ bool collect_pair(fcl::CollisionObjectd* o1, fcl::CollisionObjectd* o2, void* da
   auto& d = *static_cast<CollideData*>(data);
   Index a = static_cast<const BoxObject*>(o1)->id(), b = static_cast<const BoxObject*>(o2)->id();
   if (a > b) std::swap(a, b);
+  // FCL's tree cannot prune fixed-fixed subtrees; such pairs are dropped here (the bvh skips them).
+  if (!d.fixed->empty() && (*d.fixed)[a] && (*d.fixed)[b]) return false;
   if ((*d.boxes)[a].overlaps((*d.boxes)[b])) d.out->emplace_back(a, b);
   return false;  // never stop early: we want every pair
 }
@@ -89,7 +92,8 @@ void FclBroadPhase::query_pairs(std::vector<IndexPair>& out) {
   out.clear();
   Impl& m = *impl_;
   if (!m.manager) return;
-  CollideData data{&m.boxes, &out};
+  check_fixed_count(m.boxes.size());
+  CollideData data{&m.boxes, &fixed_, &out};
   m.manager->collide(&data, collect_pair);
   // FCL's traversal order follows its tree, whose rebalancing depends on every earlier update: in
   // pair order, a run resumed from a checkpoint (a fresh tree) gives the same contacts as one that

@@ -446,7 +446,27 @@ CollisionDetector::CollisionDetector(const Topology& topo, const Positions& init
 CollisionDetector::~CollisionDetector() = default;
 
 void CollisionDetector::compute_exclusions(const Positions& initial) {
+  // Obstacles are scripted: nothing between two obstacle primitives is ever constrained (see the
+  // close sub-pairs below), so their pairs are not even enumerated.
+  movable_.assign(static_cast<size_t>(prims_.size()), 0);
+  for (Index p = 0; p < prims_.size(); ++p) {
+    const Index e = prims_.element(p);
+    auto obstacle = [&](Index v) { return topo_.objects[topo_.vertex_object[v]].kind == ObjectKind::obstacle; };
+    switch (prims_.kind(p)) {
+      case PrimitiveKind::triangle:
+        movable_[p] = obstacle(topo_.faces[e][0]) && obstacle(topo_.faces[e][1]) && obstacle(topo_.faces[e][2]);
+        break;
+      case PrimitiveKind::edge:
+        movable_[p] = obstacle(topo_.edges[e][0]) && obstacle(topo_.edges[e][1]);
+        break;
+      case PrimitiveKind::point:
+        movable_[p] = obstacle(e);
+        break;
+    }
+  }
+  broad_->set_fixed(movable_);  // here: the obstacle flags
   broad_->query_pairs(candidates_);
+  broad_->set_fixed({});
   const Index n = static_cast<Index>(candidates_.size());
   const Index chunks = default_chunk_count(n);
   std::vector<std::vector<CloseSubPair>> close(static_cast<size_t>(chunks));
@@ -658,17 +678,10 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
                 std::to_string(x.size()) + " and " + std::to_string(inv_mass.size()));
   stats = DetectionStats{};
   Stopwatch watch;
-  compute_primitive_boxes(prims_, topo_, x, box_inflation(params_.radius, params_.offset, params_.repulsion_range),
-                          boxes_);
-  broad_->update(boxes_);
-  broad_->query_pairs(candidates_);
-  stats.broad_s = watch.seconds();
-  stats.candidates = static_cast<Index>(candidates_.size());
-
-  watch.restart();
-  if (!active_.empty()) raise_reduced_offsets(x);
-  // A primitive with no movable vertex can only meet another immovable one in vain.
+  // A primitive with no movable vertex can only meet another immovable one in vain: such pairs
+  // are never enumerated (a static obstacle against itself would dominate the broad phase).
   movable_.resize(static_cast<size_t>(prims_.size()));
+  fixed_.resize(static_cast<size_t>(prims_.size()));
   parallel_for(
       prims_.size(),
       [&](Index begin, Index end) {
@@ -686,9 +699,20 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
               movable_[p] = inv_mass[e] > 0;
               break;
           }
+          fixed_[p] = !movable_[p];
         }
       },
       4096);
+  compute_primitive_boxes(prims_, topo_, x, box_inflation(params_.radius, params_.offset, params_.repulsion_range),
+                          boxes_);
+  broad_->update(boxes_);
+  broad_->set_fixed(fixed_);
+  broad_->query_pairs(candidates_);
+  stats.broad_s = watch.seconds();
+  stats.candidates = static_cast<Index>(candidates_.size());
+
+  watch.restart();
+  if (!active_.empty()) raise_reduced_offsets(x);
 
   const Index n = stats.candidates;
   const Index chunks = default_chunk_count(n);

@@ -120,48 +120,78 @@ void Bvh::refit(std::span<const AABB> boxes) {
   gather(boxes);
 }
 
-void Bvh::leaf_pairs(Index leaf, std::vector<std::pair<Index, Index>>& out) const {
+void Bvh::leaf_pairs(Index leaf, const std::uint8_t* fixed_sorted, const std::uint8_t* live,
+                     std::vector<std::pair<Index, Index>>& out) const {
   const Node& L = nodes_[leaf];
   const Index lend = L.first + L.count;
   auto emit = [&](Index i, Index j) {
     const Index a = order_[i], b = order_[j];
     out.emplace_back(std::min(a, b), std::max(a, b));
   };
+  auto both_fixed = [&](Index i, Index j) { return fixed_sorted && fixed_sorted[i] && fixed_sorted[j]; };
+  // A leaf of flagged boxes only looks at subtrees that hold an unflagged one.
+  const bool leaf_live = !live || live[leaf];
   // Pairs inside the leaf.
-  for (Index i = L.first; i < lend; ++i)
-    for (Index j = i + 1; j < lend; ++j)
-      if (sorted_[i].overlaps(sorted_[j])) emit(i, j);
+  if (leaf_live)
+    for (Index i = L.first; i < lend; ++i)
+      for (Index j = i + 1; j < lend; ++j)
+        if (sorted_[i].overlaps(sorted_[j]) && !both_fixed(i, j)) emit(i, j);
   // Pairs with leaves after this one in depth-first order: each leaf pair is found exactly once.
   std::array<Index, kMaxStack> stack;
   int top = 0;
   stack[top++] = 0;
   while (top > 0) {
-    const Node& n = nodes_[stack[--top]];
-    if (n.first + n.count <= lend || !n.box.overlaps(L.box)) continue;
+    const Index id = stack[--top];
+    const Node& n = nodes_[id];
+    if (n.first + n.count <= lend || !n.box.overlaps(L.box) || (!leaf_live && !live[id])) continue;
     if (n.right >= 0) {
       stack[top++] = n.right;
-      stack[top++] = static_cast<Index>(&n - nodes_.data()) + 1;
+      stack[top++] = id + 1;
       continue;
     }
     for (Index i = L.first; i < lend; ++i) {
       const AABB& bi = sorted_[i];
       if (!bi.overlaps(n.box)) continue;
       for (Index j = n.first; j < n.first + n.count; ++j)
-        if (bi.overlaps(sorted_[j])) emit(i, j);
+        if (bi.overlaps(sorted_[j]) && !both_fixed(i, j)) emit(i, j);
     }
   }
 }
 
-void Bvh::self_pairs(std::vector<std::pair<Index, Index>>& out) const {
+void Bvh::self_pairs(std::vector<std::pair<Index, Index>>& out) const { self_pairs(out, {}); }
+
+void Bvh::self_pairs(std::vector<std::pair<Index, Index>>& out, std::span<const std::uint8_t> fixed) const {
   out.clear();
   const Index num_leaves = static_cast<Index>(leaves_.size());
   if (num_leaves == 0) return;
+  if (!fixed.empty() && static_cast<Index>(fixed.size()) != num_boxes_)
+    throw Error("Bvh::self_pairs: " + std::to_string(fixed.size()) + " fixed flags, the tree holds " +
+                std::to_string(num_boxes_) + " boxes");
+  std::vector<std::uint8_t> fixed_sorted, live;
+  if (!fixed.empty()) {
+    fixed_sorted.resize(order_.size());
+    for (size_t k = 0; k < order_.size(); ++k) fixed_sorted[k] = fixed[order_[k]] != 0;
+    // Children follow their parent in depth-first order, so a reverse sweep is bottom-up.
+    live.resize(nodes_.size());
+    for (Index n = static_cast<Index>(nodes_.size()) - 1; n >= 0; --n) {
+      const Node& node = nodes_[n];
+      if (node.right < 0) {
+        std::uint8_t any = 0;
+        for (Index k = node.first; k < node.first + node.count; ++k) any |= !fixed_sorted[k];
+        live[n] = any;
+      } else {
+        live[n] = live[n + 1] | live[node.right];
+      }
+    }
+  }
+  const std::uint8_t* fs = fixed.empty() ? nullptr : fixed_sorted.data();
+  const std::uint8_t* lv = fixed.empty() ? nullptr : live.data();
   const Index chunks = default_chunk_count(num_leaves);
   std::vector<std::vector<std::pair<Index, Index>>> parts(static_cast<size_t>(chunks));
   parallel_chunks(num_leaves, chunks, [&](Index c, Index begin, Index end) {
     auto& part = parts[c];
     part.reserve(static_cast<size_t>(end - begin) * 64);
-    for (Index l = begin; l < end; ++l) leaf_pairs(leaves_[l], part);
+    for (Index l = begin; l < end; ++l) leaf_pairs(leaves_[l], fs, lv, part);
   });
   std::vector<size_t> offset(parts.size() + 1, 0);
   for (size_t c = 0; c < parts.size(); ++c) offset[c + 1] = offset[c] + parts[c].size();

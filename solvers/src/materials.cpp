@@ -122,7 +122,8 @@ bool tet_deviatoric_constraint(const std::array<Vec3, 4>& x, const Eigen::Matrix
   ds.col(2) = x[3] - x[0];
   const Eigen::Matrix3d f = ds * rest_inverse;
   if (!f.allFinite()) return false;
-  const Eigen::Matrix3d diff = f - polar_rotation(f);
+  // Newton instead of the SVD: the material stage of tet scenes is dominated by this (issue 13).
+  const Eigen::Matrix3d diff = f - polar_rotation_newton(f);
   const double norm = diff.norm();
   // At (or within round-off of) a rotation the constraint holds and its direction is undefined.
   if (!(norm > 1e-14)) return false;
@@ -151,6 +152,27 @@ Eigen::Matrix3d polar_rotation(const Eigen::Matrix3d& a) {
   // reflection: the closest rotation, and the right answer for flat bodies (rank 2).
   Eigen::Vector3d d(1.0, 1.0, (u * v.transpose()).determinant() < 0.0 ? -1.0 : 1.0);
   return u * d.asDiagonal() * v.transpose();
+}
+
+Eigen::Matrix3d polar_rotation_newton(const Eigen::Matrix3d& a) {
+  constexpr int kMaxIterations = 16;  // never reached for det A > 1e-6 ‖A‖³ (σ_min/σ_max ≥ 1e-6 roughly)
+  Eigen::Matrix3d x = a;
+  for (int it = 0; it < kMaxIterations; ++it) {
+    const double norm_sq = x.squaredNorm();
+    const double det = x.determinant();
+    if (!(det > 1e-6 * norm_sq * std::sqrt(norm_sq))) break;  // inverted, flat or NaN: SVD
+    // X^{-T} = cof(X) / det X, the cofactor columns being cross products of X's columns.
+    Eigen::Matrix3d inv_t;
+    inv_t.col(0) = x.col(1).cross(x.col(2)) / det;
+    inv_t.col(1) = x.col(2).cross(x.col(0)) / det;
+    inv_t.col(2) = x.col(0).cross(x.col(1)) / det;
+    const double zeta = std::sqrt(std::sqrt(inv_t.squaredNorm() / norm_sq));
+    const Eigen::Matrix3d next = 0.5 * (zeta * x + inv_t / zeta);
+    const double step_sq = (next - x).squaredNorm();
+    x = next;
+    if (step_sq < 1e-24) return x;
+  }
+  return polar_rotation(a);
 }
 
 void solve_shape_matching(std::span<Vec3> x, std::span<const double> w, std::span<const Vec3> q,

@@ -123,6 +123,31 @@ TEST_P(EveryBroadPhase, ScenesMatchBruteForceAfterRefits) {
   }
 }
 
+// Pairs of two fixed boxes are never reported; every other overlapping pair is. Reference: the
+// brute-force pair set without fixed flags, filtered afterwards.
+TEST_P(EveryBroadPhase, FixedPairsAreNeverReported) {
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    const std::vector<AABB> boxes = random_soup(seed, 1200, 0.08);
+    auto g = test::rng(seed + 50);
+    std::vector<std::uint8_t> fixed(boxes.size());
+    // Seed 1: every box fixed (nothing reported); 2: a random half; 3: one box free.
+    for (size_t i = 0; i < fixed.size(); ++i) fixed[i] = seed == 1 ? 1 : (seed == 2 ? (g() & 1) : (i != 37));
+    std::vector<IndexPair> expected;
+    for (const auto& [i, j] : reference_pairs(boxes))
+      if (!(fixed[i] && fixed[j])) expected.emplace_back(i, j);
+    auto bp = make_broad_phase(GetParam());
+    bp->build(boxes);
+    bp->set_fixed(fixed);
+    EXPECT_EQ(sorted_pairs(*bp), expected) << GetParam() << ", seed " << seed;
+    if (seed == 1) EXPECT_TRUE(expected.empty());
+    if (seed == 3) EXPECT_FALSE(expected.empty());
+    bp->set_fixed({});  // cleared: every pair again
+    EXPECT_EQ(sorted_pairs(*bp), reference_pairs(boxes)) << GetParam();
+    bp->set_fixed(std::vector<std::uint8_t>(boxes.size() + 1, 0));
+    EXPECT_THROW(sorted_pairs(*bp), Error) << GetParam() << ": flag count differs from the box count";
+  }
+}
+
 TEST_P(EveryBroadPhase, RejectsNonFiniteBoxes) {
   std::vector<AABB> boxes = random_soup(7, 100, 0.1);
   auto bp = make_broad_phase(GetParam());

@@ -478,6 +478,29 @@ TEST(ShapeMatching, PolarRotationIsAProperRotation) {
   EXPECT_LT((xpbd::polar_rotation(rot * Eigen::Vector3d(1, 2, 3).asDiagonal()) - rot).norm(), 1e-12);
 }
 
+// The Newton polar iteration (issue 13: it replaces the SVD in the tet sweeps) against the SVD:
+// the same rotation within 1e-12 for stretched, sheared and compressed F, and the SVD's answer for
+// inverted, rank-deficient, zero and NaN input (the fallback).
+TEST(PolarRotation, NewtonMatchesSvd) {
+  auto g = test::rng(7);
+  for (int trial = 0; trial < 400; ++trial) {
+    Mat3 a = random_rotation(g) * (Mat3::Identity() + (trial % 4 == 0 ? 0.9 : 0.3) * Mat3::Random());
+    if (trial % 7 == 0) a.col(2) = a.col(0) * 0.5 + a.col(1) * 0.25;  // rank 2 (flat tet)
+    if (trial % 5 == 0) a.col(1) = -a.col(1);                           // inverted
+    if (trial % 11 == 0) a = Mat3::Zero();                              // fully degenerate
+    if (trial % 13 == 0) a = random_rotation(g) * Eigen::Vector3d(1.0, 1e-3, 1e-3).asDiagonal();  // squashed
+    const Mat3 svd = xpbd::polar_rotation(a);
+    const Mat3 r = xpbd::polar_rotation_newton(a);
+    EXPECT_LT((r - svd).norm(), 1e-12) << "trial " << trial << "\n" << a;
+    EXPECT_NEAR(r.determinant(), 1.0, 1e-12);
+  }
+  Mat3 nan = Mat3::Identity();
+  nan(1, 2) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(xpbd::polar_rotation_newton(nan).allFinite(), xpbd::polar_rotation(nan).allFinite());
+  const Mat3 rot = random_rotation(g);
+  EXPECT_LT((xpbd::polar_rotation_newton(rot * Eigen::Vector3d(1, 2, 3).asDiagonal()) - rot).norm(), 1e-12);
+}
+
 TEST(ShapeMatching, FlatAndReflectedInputStaysFinite) {
   // A planar body mirrored through its plane must come back as a rotation, not a reflection.
   const std::vector<Vec3> q{Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(-1, 0, 0), Vec3(0, -1, 0)};

@@ -4,6 +4,7 @@
 /// Implementations are interchangeable behind this batch interface and selected by name
 /// (`collision.broad_phase` in YAML) through make_broad_phase(). Adding one is one new source file
 /// plus one line in the factory table of broad_phase.cpp (see docs/collision.md).
+#include <cstdint>
 #include <memory>
 #include <span>
 #include <string>
@@ -27,10 +28,21 @@ class BroadPhase {
   /// New boxes for the same primitives (same count and order): refit, do not rebuild.
   /// Throws ccfr::Error if a box is not finite or the count differs from build().
   virtual void update(std::span<const AABB> boxes) = 0;
-  /// Every pair (i, j), i < j, whose boxes overlap (closed intervals), appended to `out` after
-  /// clearing it. The pair set is exact; the order is deterministic for given input.
+  /// Every pair (i, j), i < j, whose boxes overlap (closed intervals) and that are not both
+  /// fixed (set_fixed), appended to `out` after clearing it. The pair set is exact; the order is
+  /// deterministic for given input. Throws ccfr::Error if the fixed flags do not match the boxes.
   virtual void query_pairs(std::vector<IndexPair>& out) = 0;
   virtual std::string_view name() const = 0;
+
+  /// Flags primitives that cannot move (#P, or empty: none), kept until the next call. A pair of
+  /// two fixed primitives can never change, so query_pairs() never reports it: a static obstacle
+  /// is never paired with itself or another obstacle (the bvh does not even enumerate such pairs).
+  void set_fixed(std::span<const std::uint8_t> fixed) { fixed_.assign(fixed.begin(), fixed.end()); }
+
+ protected:
+  bool both_fixed(Index a, Index b) const { return !fixed_.empty() && fixed_[a] && fixed_[b]; }
+  void check_fixed_count(size_t num_boxes) const;
+  std::vector<std::uint8_t> fixed_;
 };
 
 /// O(P²) reference: tests every pair. For tests and tiny scenes only.

@@ -218,6 +218,7 @@ class CollisionDetector {
   std::vector<AABB> boxes_;
   std::vector<IndexPair> candidates_;
   std::vector<std::uint8_t> movable_;
+  std::vector<std::uint8_t> fixed_;  ///< !movable_, handed to the broad phase
   std::vector<std::vector<ContactPair>> contact_buffers_;
   std::vector<Index> block_cursor_;  ///< #blocks by #V plane counts, then write cursors
 };

@@ -2,6 +2,7 @@
 /// @file bvh.hpp
 /// A flat bounding volume hierarchy over boxes: built once, refitted each pass, and queried for
 /// all overlapping pairs in parallel. Used by the `bvh` broad phase and the penetration audit.
+#include <cstdint>
 #include <span>
 #include <utility>
 #include <vector>
@@ -23,6 +24,10 @@ class Bvh {
   /// contents of `out`. Parallel over fixed chunks of leaves; the output order is deterministic
   /// for given input (independent of thread timing and thread count).
   void self_pairs(std::vector<std::pair<Index, Index>>& out) const;
+  /// As above, but pairs of two boxes flagged in `fixed` (#B by original index, or empty for none)
+  /// are never enumerated: subtrees holding only flagged boxes are skipped against each other, so a
+  /// large static mesh costs nothing against itself (only its pairs with unflagged boxes remain).
+  void self_pairs(std::vector<std::pair<Index, Index>>& out, std::span<const std::uint8_t> fixed) const;
   /// Indices of boxes overlapping `box`, appended to `out` in a deterministic order. A box with a
   /// NaN coordinate overlaps nothing.
   void query(const AABB& box, std::vector<Index>& out) const;
@@ -39,7 +44,10 @@ class Bvh {
   };
   void build_node(Index id, Index first, Index count, int leaf_size, const std::vector<Vec3>& centres);
   void gather(std::span<const AABB> boxes);
-  void leaf_pairs(Index leaf, std::vector<std::pair<Index, Index>>& out) const;
+  /// `fixed_sorted` (#boxes in order_ order) and `live` (#nodes: the subtree holds an unflagged
+  /// box) are null when nothing is flagged.
+  void leaf_pairs(Index leaf, const std::uint8_t* fixed_sorted, const std::uint8_t* live,
+                  std::vector<std::pair<Index, Index>>& out) const;
 
   std::vector<Node> nodes_;
   std::vector<Index> order_;   ///< #boxes: box ids, leaf-contiguous
