@@ -24,7 +24,7 @@ namespace fs = std::filesystem;
 
 struct AblateOptions {
   RunOptions run;
-  std::string solvers = "ccfr,exact_projection,successive_projection,post_process";
+  std::string solvers;  ///< empty: every registered contact solver
   int audit_stride = 1;
   bool plot = true;
 };
@@ -54,11 +54,9 @@ std::string fmt(double v, const char* f = "%.6f") {
 }
 
 int run_ablation(AblateOptions& o) {
-  const auto names = split(o.solvers);
+  const auto names = o.solvers.empty() ? registered_contact_solvers() : split(o.solvers);
   if (names.empty()) throw Error("--solvers is empty");
-  const auto valid = contact_solver_names();
-  for (const auto& n : names)
-    if (std::find(valid.begin(), valid.end(), n) == valid.end()) make_contact_solver(n);  // throws, listing valid names
+  for (const auto& n : names) contact_solvers().at(n);  // throws, listing the registered names
   const fs::path root = o.run.out;
   fs::create_directories(root);
   std::vector<Row> rows;
@@ -161,7 +159,9 @@ void register_ablate(CLI::App& app) {
   auto log_level = std::make_shared<std::string>("info");
   auto* cmd = app.add_subcommand("ablate", "Run one scene under several contact solvers, audit each run, compare them");
   cmd->add_option("config", o->run.config, "Scene file (YAML)")->required();
-  cmd->add_option("--solvers", o->solvers, "Comma-separated contact solvers")->capture_default_str();
+  std::string all;
+  for (const auto& n : registered_contact_solvers()) all += (all.empty() ? "" : ",") + n;
+  cmd->add_option("--solvers", o->solvers, "Comma-separated contact solvers (default: every registered one: " + all + ")");
   cmd->add_option("--out", o->run.out, "Output directory (one sub-directory per solver)")->required();
   cmd->add_option("--audit-stride", o->audit_stride, "Audit every K-th frame")->check(CLI::PositiveNumber);
   cmd->add_flag("!--no-plot", o->plot, "Do not draw ablation.png");

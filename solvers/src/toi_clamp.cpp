@@ -1,5 +1,8 @@
 #include "ccfr/solvers/toi_clamp.hpp"
 
+#include "builtin_solvers.hpp"
+#include "ccfr/solvers/step_bound.hpp"
+
 #include <algorithm>
 #include <cmath>
 
@@ -120,17 +123,7 @@ SolveResult TimeOfImpactClampSolver::resolve(Positions& x, const Positions& anch
 
   // Path ends: the candidates under the step bound r, with the same expression as the substep
   // loop's clamp, so that leaving x untouched at t* = 1 ends exactly at e.
-  end_.resize(x.size());
-  parallel_for(
-      nv,
-      [&](Index b, Index e) {
-        for (Index i = b; i < e; ++i) {
-          const Vec3 d = x[i] - anchor[i];
-          const double len = d.norm();
-          end_[i] = len > r ? Vec3(anchor[i] + (r / len) * d) : x[i];
-        }
-      },
-      4096);
+  apply_step_bound(x, anchor, state.inv_mass, r, ctx.params.time.advance_tolerance, end_);
 
   // Times of impact with a per-chunk minimum; min and counts are order-independent, so the result
   // is the same for any thread count.
@@ -204,6 +197,27 @@ SolveResult TimeOfImpactClampSolver::resolve(Positions& x, const Positions& anch
     });
   for (Index c : chunk_close) res.violations_remaining += c;
   return res;
+}
+
+void register_toi_clamp_solver(ContactSolverRegistry& registry) {
+  const ToiClampParams d;  // the specs' defaults are the struct's
+  registry.add({"toi_clamp",
+                "time-of-impact clamp of the whole system along a -> x with Additive CCD (Lu et al. 2023 baseline)",
+                {ParamSpec::number("scale", d.scale,
+                                   "s: each advancement covers this fraction of what the distance bound allows", 0.0,
+                                   1.0, true, false),
+                 ParamSpec::integer("max_iterations", d.max_iterations,
+                                    "advancement steps per pair before giving up with the (safe) time reached", 1),
+                 ParamSpec::number("touch_tolerance", d.touch_tolerance,
+                                   "a pair whose gap d - ξ is at most this fraction of ξ counts as touching (toi = 0)",
+                                   0.0, 1.0)},
+                [](const ParamValues& v) {
+                  ToiClampParams p;
+                  p.scale = v.number("scale");
+                  p.max_iterations = static_cast<int>(v.integer("max_iterations"));
+                  p.touch_tolerance = v.number("touch_tolerance");
+                  return std::make_unique<TimeOfImpactClampSolver>(p);
+                }});
 }
 
 }  // namespace ccfr
