@@ -32,12 +32,10 @@ SolveResult TimeOfImpactClampSolver::resolve(Positions& x, const Positions& anch
   const Index chunks = default_chunk_count(np);
   std::vector<double> chunk_min(static_cast<size_t>(chunks), 1.0);
   std::vector<Index> chunk_hits(static_cast<size_t>(chunks), 0);
-  std::vector<long long> chunk_iters(static_cast<size_t>(chunks), 0);
   if (np > 0)
     parallel_chunks(np, chunks, [&](Index chunk, Index b, Index e) {
       double tmin = 1.0;
       Index hits = 0;
-      long long iters = 0;
       std::array<Vec3, 4> x0, x1;
       for (Index c = b; c < e; ++c) {
         const ContactPair& cp = contacts_[c];
@@ -47,24 +45,19 @@ SolveResult TimeOfImpactClampSolver::resolve(Positions& x, const Positions& anch
           x1[k] = k < n ? end_[cp.v[k]] : Vec3::Zero();
         }
         const AccdResult a = additive_ccd(cp.kind, x0, x1, cp.offset, params_);
-        iters += a.iterations;
         if (a.toi < 1.0) ++hits;
         tmin = std::min(tmin, a.toi);
       }
       chunk_min[chunk] = tmin;
       chunk_hits[chunk] = hits;
-      chunk_iters[chunk] = iters;
     });
   double t_star = 1.0;
   SolveResult res;
   res.contact_vertices = contact_vertex_count(state.inv_mass);
-  last_iterations_ = 0;
   for (Index c = 0; c < chunks; ++c) {
     t_star = std::min(t_star, chunk_min[c]);
     res.violations_detected += chunk_hits[c];
-    last_iterations_ += chunk_iters[c];
   }
-  last_toi_ = t_star;
 
   // Lu et al. interpolate the whole system, not just the pairs in contact.
   if (t_star < 1.0) {

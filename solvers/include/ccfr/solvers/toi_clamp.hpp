@@ -42,16 +42,10 @@ class TimeOfImpactClampSolver final : public DetectingSolver {
   bool clamps_to_radius() const override { return true; }
 
   const ToiClampParams& params() const { return params_; }
-  /// \f$ t^* \f$ of the last resolve() (1 when nothing was detected).
-  double last_toi() const { return last_toi_; }
-  /// Advancement steps of the last resolve(), summed over pairs.
-  long long last_iterations() const { return last_iterations_; }
 
  private:
   ToiClampParams params_;
   Positions end_;  ///< #V path ends e_i of the current resolve()
-  double last_toi_ = 1.0;
-  long long last_iterations_ = 0;
 };
 
 }  // namespace ccfr
