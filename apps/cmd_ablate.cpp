@@ -17,6 +17,7 @@
 #include "commands.hpp"
 #include "frame_summary.hpp"
 #include "run_driver.hpp"
+#include "plot_script.hpp"
 #include "sweep.hpp"
 
 namespace ccfr::app {
@@ -24,13 +25,9 @@ namespace ccfr::app {
 namespace {
 namespace fs = std::filesystem;
 
-/// The contact solvers `ccfr ablate` compares by default (one list, until solvers are registered
-/// with their own metadata).
-const char* const kDefaultSolvers = "ccfr,exact_projection,successive_projection,post_process";
-
 struct AblateOptions {
   RunOptions run;
-  std::string solvers = kDefaultSolvers;
+  std::string solvers;  ///< empty: every registered contact solver
   int audit_stride = 1;
   bool plot = true;
 };
@@ -49,11 +46,9 @@ int run_ablation(AblateOptions& o) {
   if (!o.run.solver.empty())
     throw Error("ccfr ablate compares the solvers of --solvers; --solver '" + o.run.solver +
                 "' would be ignored (use --solvers " + o.run.solver + ")");
-  const auto names = split(o.solvers);
+  const auto names = o.solvers.empty() ? registered_contact_solvers() : split(o.solvers);
   if (names.empty()) throw Error("--solvers is empty");
-  const auto valid = contact_solver_names();
-  for (const auto& n : names)
-    if (std::find(valid.begin(), valid.end(), n) == valid.end()) make_contact_solver(n);  // throws, listing valid names
+  for (const auto& n : names) contact_solvers().at(n);  // throws, listing the registered names
   if (!fs::is_regular_file(o.run.config)) throw Error("scene file '" + o.run.config.string() + "' does not exist");
   // Every solver runs to the end so the table compares like with like; a guarantee broken
   // under ccfr shows as remaining violations and an audit failure instead of a stop.
@@ -100,11 +95,9 @@ int run_ablation(AblateOptions& o) {
   io::write_file_atomic(root / "ablation_frames.csv", frames_csv);
   std::fputs(md.c_str(), stdout);
   if (o.plot) {
-    const fs::path script = fs::path(CCFR_SOURCE_DIR) / "scripts" / "plot_ablation.py";
-    if (fs::exists(script) && fs::exists("/usr/bin/python3")) {
-      const std::string cmd = "/usr/bin/python3 '" + script.string() + "' '" + root.string() + "' > /dev/null 2>&1";
-      if (std::system(cmd.c_str()) != 0) spdlog::warn("ablate: plotting failed ({}); the tables are written", cmd);
-    }
+    std::string why;
+    if (!run_plot_script("plot_ablation.py", {root.string()}, why))
+      spdlog::warn("ablate: no ablation.png ({}); the tables are written", why);
   }
   bool all_ran = true;
   for (const auto& r : rows) all_ran = all_ran && r.audit != "error";
@@ -117,7 +110,9 @@ void register_ablate(CLI::App& app) {
   auto log_level = std::make_shared<std::string>("info");
   auto* cmd = app.add_subcommand("ablate", "Run one scene under several contact solvers, audit each run, compare them");
   cmd->add_option("config", o->run.config, "Scene file (YAML)")->required();
-  cmd->add_option("--solvers", o->solvers, "Comma-separated contact solvers")->capture_default_str();
+  std::string all;
+  for (const auto& n : registered_contact_solvers()) all += (all.empty() ? "" : ",") + n;
+  cmd->add_option("--solvers", o->solvers, "Comma-separated contact solvers (default: every registered one: " + all + ")");
   cmd->add_option("--out", o->run.out, "Output directory (one sub-directory per solver)")->required();
   cmd->add_option("--audit-stride", o->audit_stride, "Audit every K-th frame")->check(CLI::PositiveNumber);
   cmd->add_flag("!--no-plot", o->plot, "Do not draw ablation.png");

@@ -7,7 +7,7 @@
 namespace ccfr::app {
 
 void register_schema(CLI::App& app) {
-  auto* cmd = app.add_subcommand("schema", "Print the reference of every scene-file key (Markdown table)");
+  auto* cmd = app.add_subcommand("schema", "Print the reference of every scene-file key and every registered component (Markdown)");
   cmd->callback([] {
     guarded([] {
       std::fputs(io::config_reference_markdown().c_str(), stdout);

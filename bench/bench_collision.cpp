@@ -22,7 +22,7 @@ namespace {
 
 using namespace ccfr;
 
-constexpr CollisionParams kParams{0.005, 0.01, 0.0005};
+constexpr ContactModel kParams{0.005, 0.01, 0.0005};
 
 struct Scene {
   Topology topo;

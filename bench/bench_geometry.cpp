@@ -91,7 +91,7 @@ void BM_BvhRefitSelfPairs(benchmark::State& state) {
   state.counters["pairs"] = static_cast<double>(pairs.size());
   set_thread_count(0);
 }
-// Args: threads, crumple amplitude in mm (0: flat 1 m cloth as in DESIGN.md).
+// Args: threads, crumple amplitude in mm (0: a flat 1 m cloth).
 BENCHMARK(BM_BvhRefitSelfPairs)->Args({1, 0})->Args({2, 0})->Args({1, 100})->Args({2, 100})
     ->Unit(benchmark::kMillisecond)->UseRealTime();
 

@@ -1,7 +1,5 @@
 #include "ccfr/collision/broad_phase.hpp"
 
-#include <functional>
-
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/parallel.hpp"
 
@@ -61,37 +59,6 @@ void BvhBroadPhase::query_pairs(std::vector<IndexPair>& out) {
   out.clear();
   check_fixed_count(static_cast<size_t>(bvh_.size()));
   bvh_.self_pairs(out, fixed_);
-}
-
-namespace {
-struct BroadPhaseEntry {
-  const char* name;
-  std::function<std::unique_ptr<BroadPhase>()> make;
-};
-
-// The factory table: one line per broad phase.
-const std::vector<BroadPhaseEntry>& broad_phase_table() {
-  static const std::vector<BroadPhaseEntry> table = {
-      {"bvh", [] { return std::make_unique<BvhBroadPhase>(); }},
-      {"fcl", [] { return std::make_unique<FclBroadPhase>(); }},
-      {"brute_force", [] { return std::make_unique<BruteForceBroadPhase>(); }},
-  };
-  return table;
-}
-}  // namespace
-
-std::unique_ptr<BroadPhase> make_broad_phase(std::string_view name) {
-  for (const auto& e : broad_phase_table())
-    if (name == e.name) return e.make();
-  std::string list;
-  for (const auto& n : broad_phase_names()) list += (list.empty() ? "" : ", ") + n;
-  throw Error("unknown broad phase '" + std::string(name) + "'; available: " + list);
-}
-
-std::vector<std::string> broad_phase_names() {
-  std::vector<std::string> names;
-  for (const auto& e : broad_phase_table()) names.emplace_back(e.name);
-  return names;
 }
 
 // Measured on a 16k-vertex crumpled cloth (docs/perf/collision.md): the flat BVH refit + parallel

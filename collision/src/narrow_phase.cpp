@@ -428,7 +428,7 @@ double key_distance_sq(const Topology& topo, const Positions& x, std::uint64_t k
 
 }  // namespace
 
-CollisionDetector::CollisionDetector(const Topology& topo, const Positions& initial, CollisionParams params,
+CollisionDetector::CollisionDetector(const Topology& topo, const Positions& initial, ContactModel params,
                                      std::unique_ptr<BroadPhase> broad_phase)
     : topo_(topo), params_(params), prims_(build_collision_primitives(topo)), broad_(std::move(broad_phase)) {
   if (!broad_) throw Error("CollisionDetector: no broad phase given");

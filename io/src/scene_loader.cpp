@@ -21,11 +21,14 @@
 #include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/parser.h>
 
+#include "ccfr/collision/broad_phase.hpp"
 #include "ccfr/core/error.hpp"
+#include "ccfr/feasibility/projector.hpp"
 #include "ccfr/core/log.hpp"
 #include "ccfr/geometry/generators.hpp"
 #include "ccfr/io/obj.hpp"
 #include "ccfr/io/tet_mesh.hpp"
+#include "ccfr/solvers/contact_solver.hpp"
 #include "scene_schema.hpp"
 
 namespace ccfr::io {
@@ -385,15 +388,14 @@ class Builder {
     p.contact.friction_static = c["friction"]["static"].as<double>();
     p.contact.friction_kinetic = c["friction"]["kinetic"].as<double>();
     p.contact.epsilon = c["epsilon"].as<double>();
-    p.contact.max_projection_iterations = c["max_projection_iterations"].as<int>();
-    p.contact.redundancy_tolerance = c["redundancy_tolerance"].as<double>();
-    p.contact.projection_sweeps = c["projection_sweeps"].as<int>();
     p.contact.analytic_obstacles = c["analytic_obstacles"].as<bool>();
     const std::string policy = c["on_violation"].as<std::string>();
     p.contact.on_violation = policy == "error"  ? ViolationPolicy::error
                              : policy == "warn" ? ViolationPolicy::warn
                                                 : ViolationPolicy::automatic;
+    p.contact.solver_params = component_params(contact_solvers(), "contact", "solver");
     p.collision.broad_phase = cfg_["collision"]["broad_phase"].as<std::string>();
+    p.collision.broad_phase_params = component_params(broad_phases(), "collision", "broad_phase");
     const auto d = cfg_["debug"];
     const std::string audit = d["audit"].as<std::string>();
     p.debug.audit = audit == "every_frame"     ? AuditMode::every_frame
@@ -411,6 +413,44 @@ class Builder {
     if (p.contact.friction_kinetic > p.contact.friction_static && p.contact.friction_static > 0)
       ctx_.fail("contact.friction.kinetic", in_node("contact.friction.kinetic"),
                 "kinetic friction must not exceed static friction", {"contact.friction.static"});
+  }
+
+  /// The parameters of the component that `section.selector` names, from its section
+  /// `section.<name>.*`. A section set in the input for another component is an error: its values
+  /// would silently do nothing.
+  template <class R>
+  ParamValues component_params(const R& registry, const std::string& section, const std::string& selector) {
+    const std::string chosen = cfg_[section][selector].template as<std::string>();
+    const YAML::Node given = in_[section];
+    for (const auto& e : registry.entries()) {
+      if (e.name == chosen || e.params.empty() || !given || !given.IsMap() || !given[e.name]) continue;
+      const std::string path = section + "." + e.name;
+      ctx_.fail(path, in_node(path),
+                "parameters of " + registry.kind() + " '" + e.name + "' are set, but " + section + "." + selector +
+                    " is '" + chosen + "'; remove the section or set " + section + "." + selector + ": " + e.name,
+                {section + "." + selector});
+    }
+    ParamValues v;
+    const auto* entry = registry.find(chosen);
+    if (!entry) return v;  // the schema's choice already rejected unknown names
+    for (const auto& spec : entry->params) {
+      const YAML::Node n = cfg_[section][chosen][spec.key];
+      switch (spec.type) {
+        case ParamType::boolean:
+          v.set(spec.key, n.template as<bool>());
+          break;
+        case ParamType::integer:
+          v.set(spec.key, n.template as<long long>());
+          break;
+        case ParamType::number:
+          v.set(spec.key, n.template as<double>());
+          break;
+        case ParamType::choice:
+          v.set(spec.key, n.template as<std::string>());
+          break;
+      }
+    }
+    return v;
   }
 
   MaterialParams material(const std::string& name, const std::string& path) {
@@ -1038,6 +1078,21 @@ YAML::Node parse_yaml(const std::string& text, const std::string& label) {
   return root;
 }
 
+/// Keys that moved into a solver's own section: a clear error instead of "unknown key".
+void check_moved_keys(const YAML::Node& root, const Context& ctx) {
+  static const std::pair<const char*, const char*> kMoved[] = {
+      {"max_projection_iterations", "contact.ccfr.max_iterations"},
+      {"redundancy_tolerance", "contact.ccfr.redundancy_tolerance"},
+      {"projection_sweeps", "contact.successive_projection.sweeps or contact.post_process.sweeps"},
+  };
+  const YAML::Node c = root["contact"];
+  if (!c || !c.IsMap()) return;  // a missing key is an invalid node: IsMap() would throw
+  for (const auto& [old, now] : kMoved)
+    if (c[old])
+      ctx.fail(std::string("contact.") + old, c[old],
+               std::string("this key moved to ") + now + ", the section of the solver it belongs to (docs/config.md)");
+}
+
 LoadedScene load(YAML::Node root, const std::string& label, const fs::path& base_dir,
                  const std::vector<std::string>& overrides, const std::string& default_name,
                  const std::map<std::string, MeshArrays>* arrays = nullptr) {
@@ -1055,6 +1110,7 @@ LoadedScene load(YAML::Node root, const std::string& label, const fs::path& base
     ctx.overrides.emplace_back(path, "--set " + o);
   }
   if (!root["scene"]) root["scene"] = default_name;
+  check_moved_keys(root, ctx);
   const YAML::Node resolved = schema::resolve(root, scene_schema(), ctx);
   Builder b(root, resolved, ctx, base_dir, arrays);
   LoadedScene out;
@@ -1090,6 +1146,27 @@ LoadedScene load_scene_arrays(const std::string& yaml, const std::string& file_l
   return load(root, file_label, fs::current_path(), overrides, fs::path(file_label).stem().string(), &arrays);
 }
 
-std::string config_reference_markdown() { return schema::reference_markdown(scene_schema()); }
+namespace {
+template <class R>
+void component_table(std::string& o, const R& registry, const std::string& section) {
+  o += "\n| " + registry.kind() + " | parameters | description |\n|---|---|---|\n";
+  for (const auto& e : registry.entries()) {
+    std::string keys;
+    for (const auto& p : e.params)
+      keys += (keys.empty() ? "`" : ", `") + (section.empty() ? p.key : section + e.name + "." + p.key) + "`";
+    o += "| `" + e.name + "` | " + (keys.empty() ? std::string("none") : keys) + " | " + e.description + " |\n";
+  }
+}
+}  // namespace
+
+std::string config_reference_markdown() {
+  std::string o = schema::reference_markdown(scene_schema());
+  // The registered components, read from the registries like the schema above.
+  component_table(o, contact_solvers(), "contact.");
+  component_table(o, broad_phases(), "collision.");
+  // Projectors are chosen through the contact solver built on them, which exposes their keys.
+  component_table(o, projectors(), "");
+  return o;
+}
 
 }  // namespace ccfr::io

@@ -6,6 +6,7 @@
 #include "ccfr/core/scene.hpp"
 #include "ccfr/io/formats.hpp"
 #include "ccfr/solvers/contact_solver.hpp"
+#include "ccfr/solvers/params.hpp"
 
 namespace ccfr::io {
 
@@ -115,20 +116,98 @@ NodePtr shape_schema() {
       });
 }
 
+/// A registered parameter as a schema node: type, default, range and doc come from the registry.
+NodePtr param_node(const ParamSpec& spec) {
+  const Range r{spec.min, spec.max, spec.min_open, spec.max_open};
+  switch (spec.type) {
+    case ParamType::boolean:
+      return boolean(std::get<bool>(spec.default_value), spec.doc);
+    case ParamType::integer:
+      return integer(std::get<long long>(spec.default_value), spec.doc, r);
+    case ParamType::number:
+      return number(std::get<double>(spec.default_value), spec.doc, r);
+    case ParamType::choice: {
+      auto choices = spec.choices;
+      return choice(std::get<std::string>(spec.default_value), [choices] { return choices; }, spec.doc);
+    }
+  }
+  return nullptr;
+}
+
+/// One map per registered component that has parameters of its own, keyed by its name: the
+/// section `<selector's parent>.<name>.*`, valid only while `selector` names that component.
+template <class R>
+void add_component_sections(std::vector<Field>& fields, const R& registry, const std::string& selector) {
+  for (const auto& e : registry.entries()) {
+    if (e.params.empty()) continue;
+    std::vector<Field> keys;
+    for (const auto& spec : e.params) keys.push_back({spec.key, param_node(spec)});
+    fields.push_back({e.name, map("parameters of " + registry.kind() + " `" + e.name + "` (" + e.description +
+                                      "); only with `" + selector + ": " + e.name + "`",
+                                  std::move(keys))});
+  }
+}
+
+std::vector<Field> contact_fields() {
+  const ContactParams d;  // defaults have one owner: the struct
+  const Range pos = Range::positive();
+  std::vector<Field> f = {
+      {"solver", choice(d.solver, registered_contact_solvers, "contact solver: one of the registered methods (table of contact solvers below)")},
+      {"radius", number(d.radius, "r: search radius and per-iteration step bound (m)", Range::positive_up_to(kMaxLength))},
+      {"offset", number(d.offset, "ξ: minimum separation between primitives (m)", Range::up_to(kMaxLength))},
+      {"repulsion_range",
+       number(d.repulsion_range, "δ: repulsion acts while the gap beyond ξ is below δ (m)", Range::up_to(kMaxLength))},
+      {"stiffness", number(d.stiffness, "k: repulsion stiffness; XPBD compliance 1/k", pos)},
+      {"visibility_width",
+       number(d.visibility_width, "δ_v: occlusion smoothstep width of the visibility weights (m); 0 means δ",
+              Range::up_to(kMaxLength))},
+      {"friction", map("friction on active contacts (Macklin et al. 2014)",
+                       {{"static", number(d.friction_static, "static coefficient μ_s", Range::non_negative())},
+                        {"kinetic", number(d.friction_kinetic, "kinetic coefficient μ_k", Range::non_negative())}})},
+      {"epsilon", number(d.epsilon,
+                         "ε: retraction of a projected point toward its anchor, relative to ξ (the region-projection "
+                         "solvers use ε ξ; 1e-4 gives 1e-6 m at ξ = 0.01 as in the paper, and stays below the "
+                         "per-vertex share of a gap at small ξ)",
+                         Range{0, 0.1, false, false})},
+      {"analytic_obstacles", boolean(d.analytic_obstacles,
+                                     "obstacles with an analytic shape (sphere, plane, box, cylinder) also collide "
+                                     "through their exact SDF")},
+      {"on_violation", choice(
+                           "auto", [] { return std::vector<std::string>{"auto", "error", "warn"}; },
+                           "a substep that ends with pairs closer than their offset (or a deformed rigid body): "
+                           "`error` stops the run before the frame is written (non-zero exit), `warn` logs at error "
+                           "level and goes on, `auto` is error for the solvers that guarantee separation (ccfr, "
+                           "exact_projection) and warn for the baselines")},
+  };
+  add_component_sections(f, contact_solvers(), "contact.solver");
+  return f;
+}
+
+std::vector<Field> collision_fields() {
+  const DetectionParams d;
+  std::vector<Field> f = {{"broad_phase", choice(d.broad_phase, broad_phase_names, "broad phase")}};
+  add_component_sections(f, broad_phases(), "collision.broad_phase");
+  return f;
+}
+
 NodePtr build_scene_schema() {
-  const Range pos = Range::positive(), nonneg = Range::non_negative(), one = Range::at_least(1);
+  const TimeParams td;
+  const DebugParams dd;
+  const OutputParams od;
+  const MaterialParams md;
+  const Range nonneg = Range::non_negative(), one = Range::at_least(1);
   auto material = map(
       "a material",
       {
           {"density",
-           number(0.1, "kg/m² for cloth and shells, kg/m for strands, kg/m³ for solids and rigids, kg per particle",
+           number(md.density, "kg/m² for cloth and shells, kg/m for strands, kg/m³ for solids and rigids, kg per particle",
                   Range::positive_up_to(kMaxDensity))},
-          {"stretch_compliance", number(0.0, "XPBD compliance of edge lengths (m/N); 0 is inextensible", nonneg)},
-          {"bend_compliance", number(0.1, "XPBD compliance of bending (1/(N m)); cloth, shells and strands", nonneg)},
-          {"volume_compliance", number(0.0, "tet solids: compliance of volume preservation, 1/λ (1/Pa)", nonneg)},
+          {"stretch_compliance", number(md.stretch_compliance, "XPBD compliance of edge lengths (m/N); 0 is inextensible", nonneg)},
+          {"bend_compliance", number(md.bend_compliance, "XPBD compliance of bending (1/(N m)); cloth, shells and strands", nonneg)},
+          {"volume_compliance", number(md.volume_compliance, "tet solids: compliance of volume preservation, 1/λ (1/Pa)", nonneg)},
           {"shear_compliance",
-           number(1e-6, "tet solids: compliance of the deviatoric (shape) term, 1/μ (1/Pa)", nonneg)},
-          {"friction", number(-1.0, "friction coefficient of this material; < 0 uses contact.friction")},
+           number(md.shear_compliance, "tet solids: compliance of the deviatoric (shape) term, 1/μ (1/Pa)", nonneg)},
+          {"friction", number(md.friction, "friction coefficient of this material; < 0 uses contact.friction")},
       });
   auto pin = map(
       "a group of pinned vertices, optionally moved by a script",
@@ -192,73 +271,42 @@ NodePtr build_scene_schema() {
           {"scene", optional_string("scene name (default: the file name without extension)")},
           {"time",
            map("time stepping",
-               {{"fps", number(60.0, "frames per second", Range::positive_up_to(kMaxFps))},
-                {"frames", integer(120, "frames to simulate", nonneg)},
-                {"substeps", integer(10, "substeps per frame", one)},
-                {"iterations", integer(4, "outer solver iterations per substep, each with collision detection", one)},
+               {{"fps", number(td.fps, "frames per second", Range::positive_up_to(kMaxFps))},
+                {"frames", integer(td.frames, "frames to simulate", nonneg)},
+                {"substeps", integer(td.substeps, "substeps per frame", one)},
+                {"iterations", integer(td.iterations, "outer solver iterations per substep, each with collision detection", one)},
                 {"max_iterations",
-                 integer(0,
+                 integer(td.max_iterations,
                          "outer iterations continue past `iterations` while a vertex has not reached its intended "
                          "advance (held back by the step bound r), up to this many; 0 means 4 x iterations",
                          Range{0, 4096, false, false})},
-                {"xpbd_sweeps", integer(1, "material constraint sweeps per outer iteration", one)},
-                {"gravity", vec3(std::array<double, 3>{0, -9.81, 0}, "gravity (m/s²)", Range::within(kMaxAccel))},
-                {"damping", number(0.0, "fraction of velocity removed per second", Range{0, 1e3, false, false})},
+                {"xpbd_sweeps", integer(td.xpbd_sweeps, "material constraint sweeps per outer iteration", one)},
+                {"gravity", vec3(std::array<double, 3>{td.gravity.x(), td.gravity.y(), td.gravity.z()}, "gravity (m/s²)", Range::within(kMaxAccel))},
+                {"damping", number(td.damping, "fraction of velocity removed per second", Range{0, 1e3, false, false})},
                 {"advance_tolerance",
-                 number(0.01,
+                 number(td.advance_tolerance,
                         "outer iterations stop when no vertex is held back by the step bound by more than tol · r (a "
                         "vertex may thus arrive up to tol · r short per substep)",
                         Range::unit())},
                 {"max_subdivision",
-                 integer(64,
+                 integer(td.max_subdivision,
                          "most pieces a substep is split into automatically when scripted vertices move more than r or "
                          "the free-flight advance exceeds (max_iterations - 1) r; beyond it a scripted step is an "
                          "error and a dynamic one a warning naming the object",
                          Range{1, 4096, false, false})}})},
-          {"contact",
-           map("contact handling",
-               {{"solver", choice("ccfr", contact_solver_names, "contact solver")},
-                {"radius",
-                 number(0.005, "r: search radius and per-iteration step bound (m)", Range::positive_up_to(kMaxLength))},
-                {"offset", number(0.01, "ξ: minimum separation between primitives (m)", Range::up_to(kMaxLength))},
-                {"repulsion_range",
-                 number(0.0005, "δ: repulsion acts while the gap beyond ξ is below δ (m)", Range::up_to(kMaxLength))},
-                {"stiffness", number(1e4, "k: repulsion stiffness; XPBD compliance 1/k", pos)},
-                {"visibility_width",
-                 number(0.0, "δ_v: occlusion smoothstep width of the visibility weights (m); 0 means δ",
-                        Range::up_to(kMaxLength))},
-                {"friction", map("friction on active contacts (Macklin et al. 2014)",
-                                 {{"static", number(0.0, "static coefficient μ_s", nonneg)},
-                                  {"kinetic", number(0.0, "kinetic coefficient μ_k", nonneg)}})},
-                {"epsilon", number(1e-4,
-                                   "ε: retraction of a projected point toward its anchor, relative to ξ (the "
-                                   "projectors use ε ξ; 1e-4 gives 1e-6 m at ξ = 0.01 as in the paper, and stays below "
-                                   "the per-vertex share of a gap at small ξ)",
-                                   Range{0, 0.1, false, false})},
-                {"max_projection_iterations", integer(4, "projection passes before a vertex halts (falls back)", one)},
-                {"redundancy_tolerance", number(1e-12, "tolerance of the redundant-constraint test", pos)},
-                {"projection_sweeps", integer(16, "successive_projection: cyclic sweeps", one)},
-                {"analytic_obstacles", boolean(false,
-                                               "obstacles with an analytic shape (sphere, plane, box, cylinder) also "
-                                               "collide through their exact SDF")},
-                {"on_violation", choice(
-                                     "auto", [] { return std::vector<std::string>{"auto", "error", "warn"}; },
-                                     "a substep that ends with pairs closer than their offset (or a deformed rigid "
-                                     "body): `error` stops the run before the frame is written (non-zero exit), `warn` "
-                                     "logs at error level and goes on, `auto` is error for the solvers that guarantee "
-                                     "separation (ccfr, exact_projection) and warn for the baselines")}})},
-          {"collision", map("collision detection", {{"broad_phase", choice("bvh", broad_phase_names, "broad phase")}})},
+          {"contact", map("contact handling", contact_fields())},
+          {"collision", map("collision detection", collision_fields())},
           {"debug",
            map("diagnostics",
                {{"audit", choice(
                               "off", [] { return std::vector<std::string>{"off", "every_frame", "every_substep"}; },
                               "exact penetration audit during the run; fills the `penetrations` column of stats.csv")},
-                {"audit_tolerance", number(1e-6, "the audit flags pairs closer than (1 - tol) ξ", Range::unit())}})},
+                {"audit_tolerance", number(dd.audit_tolerance, "the audit flags pairs closer than (1 - tol) ξ", Range::unit())}})},
           {"output", map("what is written",
-                         {{"frames", boolean(true, "write frames (in every format of `formats`)")},
-                          {"every", integer(1, "write every k-th frame (frame 0 always)", one)},
+                         {{"frames", boolean(od.frames, "write frames (in every format of `formats`)")},
+                          {"every", integer(od.every, "write every k-th frame (frame 0 always)", one)},
                           {"checkpoint_every",
-                           integer(10,
+                           integer(od.checkpoint_every,
                                    "write a checkpoint every k-th frame, and when the run is "
                                    "interrupted (0: never); `ccfr run --resume DIR` continues from it",
                                    Range::at_least(0))},
@@ -277,16 +325,18 @@ NodePtr build_scene_schema() {
 }  // namespace
 
 const NodePtr& scene_schema() {
-  static const NodePtr s = build_scene_schema();
+  // Rebuilt when a component was registered since (downstream code may register after a first load).
+  static NodePtr s;
+  static size_t built_for = 0;
+  const size_t n = contact_solvers().entries().size() + broad_phases().entries().size();
+  if (!s || n != built_for) s = build_scene_schema(), built_for = n;
   return s;
 }
 
 const NodePtr& material_schema() {
-  static const NodePtr m = [] {
-    for (const auto& f : scene_schema()->fields)
-      if (f.key == "materials") return f.node->item;
-    return NodePtr();
-  }();
+  static NodePtr m;
+  for (const auto& f : scene_schema()->fields)
+    if (f.key == "materials") m = f.node->item;
   return m;
 }
 

@@ -1,32 +1,12 @@
+// The contact-solver registry. The built-in entries live next to their implementations and are
+// added here on first use (a static library drops self-registering objects nobody references).
 #include "ccfr/solvers/contact_solver.hpp"
 
-#include <functional>
-
 #include "ccfr/core/error.hpp"
-#include "ccfr/solvers/contact_solvers.hpp"
-#include "ccfr/solvers/toi_clamp.hpp"
+
+#include "builtin_solvers.hpp"
 
 namespace ccfr {
-
-namespace {
-struct SolverEntry {
-  const char* name;
-  std::function<std::unique_ptr<ContactSolver>()> make;
-};
-
-// The factory table: adding a contact solver is one new file plus one line here.
-const std::vector<SolverEntry>& solver_table() {
-  static const std::vector<SolverEntry> table = {
-      {"ccfr", [] { return std::make_unique<RegionProjectionSolver>("ccfr", "plesnik"); }},
-      {"exact_projection", [] { return std::make_unique<RegionProjectionSolver>("exact_projection", "exact"); }},
-      {"successive_projection", [] { return std::make_unique<RegionProjectionSolver>("successive_projection", "successive_projection"); }},
-      {"post_process", [] { return std::make_unique<PostProcessSolver>(); }},
-      {"toi_clamp", [] { return std::make_unique<TimeOfImpactClampSolver>(); }},
-      {"none", [] { return std::make_unique<NoContactSolver>(); }},
-  };
-  return table;
-}
-}  // namespace
 
 void ContactSolver::restore_state(std::span<const double> state) {
   if (!state.empty())
@@ -34,18 +14,25 @@ void ContactSolver::restore_state(std::span<const double> state) {
                 " values were given to restore");
 }
 
-std::unique_ptr<ContactSolver> make_contact_solver(std::string_view name) {
-  for (const auto& e : solver_table())
-    if (name == e.name) return e.make();
-  std::string list;
-  for (const auto& n : contact_solver_names()) list += (list.empty() ? "" : ", ") + n;
-  throw Error("unknown contact solver '" + std::string(name) + "'; available: " + list);
+ContactSolverRegistry& contact_solvers() {
+  static ContactSolverRegistry registry = [] {
+    ContactSolverRegistry r("contact solver");
+    register_region_projection_solvers(r);
+    register_post_process_solver(r);
+    register_toi_clamp_solver(r);
+    r.add({"none",
+           "no deformable contact at all (analytic obstacles still push when contact.analytic_obstacles is on); "
+           "the ablation's lower bound on cost",
+           {}, [](const ParamValues&) { return std::make_unique<NoContactSolver>(); }});
+    return r;
+  }();
+  return registry;
 }
 
-std::vector<std::string> contact_solver_names() {
-  std::vector<std::string> names;
-  for (const auto& e : solver_table()) names.emplace_back(e.name);
-  return names;
+std::unique_ptr<ContactSolver> make_contact_solver(std::string_view name, const ParamValues& params) {
+  return contact_solvers().make(name, params);
 }
+
+std::vector<std::string> registered_contact_solvers() { return contact_solvers().names(); }
 
 }  // namespace ccfr

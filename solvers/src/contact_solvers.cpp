@@ -1,6 +1,9 @@
 #include "ccfr/solvers/contact_solvers.hpp"
 
 #include "ccfr/core/error.hpp"
+
+#include "builtin_solvers.hpp"
+
 #include "ccfr/core/log.hpp"
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/geometry/distance.hpp"
@@ -13,8 +16,8 @@
 namespace ccfr {
 
 void DetectingSolver::initialize(const Topology& topo, const SimState& state, const SimulationParams& params) {
-  const CollisionParams cp{params.contact.radius, params.contact.offset, params.contact.repulsion_range};
-  detector_ = std::make_unique<CollisionDetector>(topo, state.x, cp, make_broad_phase(params.collision.broad_phase));
+  detector_ = std::make_unique<CollisionDetector>(
+      topo, state.x, params.contact, make_broad_phase(params.collision.broad_phase, params.collision.broad_phase_params));
   regions_.clear(topo.num_vertices());
   num_vertices_ = topo.num_vertices();
   friction_override_.assign(static_cast<size_t>(topo.num_vertices()), -1.0);
@@ -37,7 +40,7 @@ void DetectingSolver::restore_state(std::span<const double> state) {
   detector_->restore_reduced_offsets(state);
 }
 
-DetectionSummary DetectingSolver::detect(const Positions& anchor, const SimState& state, StepContext& ctx) {
+DetectResult DetectingSolver::detect(const Positions& anchor, const SimState& state, StepContext& ctx) {
   DetectionStats ds;
   detector_->detect(anchor, state.inv_mass, regions_, contacts_, ds, ctx.kinematic_step);
   ctx.times.broad += ds.broad_s;
@@ -46,7 +49,7 @@ DetectionSummary DetectingSolver::detect(const Positions& anchor, const SimState
     ScopedTimer t(ctx.times.narrow);  // contact bookkeeping for the response belongs to the narrow phase
     response_.prepare(contacts_, state.size(), ctx.params.contact);
   }
-  DetectionSummary s;
+  DetectResult s;
   s.candidates = ds.candidates;
   s.constraints = ds.constraints;
   for (const auto& c : contacts_) s.min_distance = std::min(s.min_distance, c.distance);
@@ -91,7 +94,8 @@ Index DetectingSolver::contact_vertex_count(std::span<const double> inv_mass) co
   return n;
 }
 
-Index DetectingSolver::count_outside(const Positions& x, const Positions&, const SimState&, StepContext& ctx) const {
+std::optional<Index> DetectingSolver::count_outside(const Positions& x, const Positions&, const SimState&,
+                                                   StepContext& ctx) const {
   const double keep = 1.0 - ctx.params.debug.audit_tolerance;
   std::atomic<Index> close{0};
   std::atomic<Index> first{std::numeric_limits<Index>::max()};
@@ -128,18 +132,15 @@ void DetectingSolver::respond(Positions& x, const Positions& anchor, const SimSt
   response_.apply(x, state.x_prev, state.inv_mass, ctx.params.contact, ctx.dt, friction_override_);
 }
 
-RegionProjectionSolver::RegionProjectionSolver(std::string solver_name, std::string projector_name)
-    : name_(std::move(solver_name)), projector_name_(std::move(projector_name)) {}
+RegionProjectionSolver::RegionProjectionSolver(std::string solver_name, std::string projector_name, ParamValues params)
+    : name_(std::move(solver_name)), projector_name_(std::move(projector_name)), projector_params_(std::move(params)) {}
 
 void RegionProjectionSolver::initialize(const Topology& topo, const SimState& state, const SimulationParams& params) {
   DetectingSolver::initialize(topo, state, params);
-  ProjectorParams pp;
+  ProjectorParams pp = apply_projector_params(ProjectorParams{}, projector_params_);
   // ε scales with ξ: an absolute 1e-6 exceeds a vertex's share of a gap at ξ = 0.001, and every
   // projection then snapped back to the anchor (a card stack that could not move).
   pp.epsilon = params.contact.epsilon * params.contact.offset;
-  pp.max_iterations = params.contact.max_projection_iterations;
-  pp.redundancy_tolerance = params.contact.redundancy_tolerance;
-  pp.sweeps = params.contact.projection_sweeps;
   projector_ = make_projector(projector_name_, pp);
   rigid_ = RigidBodies(topo, state);
 }
@@ -166,10 +167,10 @@ SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& ancho
   return r;
 }
 
-Index RegionProjectionSolver::count_outside(const Positions& x, const Positions& anchor, const SimState& state,
-                                            StepContext& ctx) const {
+std::optional<Index> RegionProjectionSolver::count_outside(const Positions& x, const Positions& anchor,
+                                                          const SimState& state, StepContext& ctx) const {
   // A rigid body is exact to round-off; 1e-9 of its extent is far above that and far below ξ.
-  return DetectingSolver::count_outside(x, anchor, state, ctx) + (rigid_.empty() ? 0 : rigid_.count_deformed(x, 1e-9));
+  return *DetectingSolver::count_outside(x, anchor, state, ctx) + (rigid_.empty() ? 0 : rigid_.count_deformed(x, 1e-9));
 }
 
 void DetectingSolver::vertex_diagnostics(std::vector<std::int32_t>& half_spaces, std::vector<double>& distance,
@@ -193,7 +194,6 @@ void RegionProjectionSolver::vertex_diagnostics(std::vector<std::int32_t>& half_
 }
 
 SolveResult PostProcessSolver::resolve(Positions& x, const Positions&, const SimState& state, StepContext& ctx) {
-  const auto& p = ctx.params.contact;
   const auto& w = state.inv_mass;
   SolveResult r;
   r.contact_vertices = contact_vertex_count(w);
@@ -201,7 +201,7 @@ SolveResult PostProcessSolver::resolve(Positions& x, const Positions&, const Sim
     if (contact_gap(c, x) < 0.0) ++r.violations_detected;
   // Sequential Gauss-Seidel: this is the conventional pass the paper compares against, whose
   // order dependence is part of what the comparison shows.
-  for (int sweep = 0; sweep < p.projection_sweeps; ++sweep) {
+  for (int sweep = 0; sweep < sweeps_; ++sweep) {
     bool any = false;
     for (const auto& c : contacts_) {
       const double gap = contact_gap(c, x);
@@ -218,6 +218,31 @@ SolveResult PostProcessSolver::resolve(Positions& x, const Positions&, const Sim
   for (const auto& c : contacts_)
     if (contact_gap(c, x) < -1e-9) ++r.violations_remaining;
   return r;
+}
+
+void register_region_projection_solvers(ContactSolverRegistry& registry) {
+  // Each exposes its projector's own parameters under contact.<solver>.*.
+  auto add = [&](const char* name, const char* projector, const char* description) {
+    registry.add({name, description, projectors().at(projector).params,
+                  [name = std::string(name), projector = std::string(projector)](const ParamValues& v) {
+                    return std::make_unique<RegionProjectionSolver>(name, projector, v);
+                  }});
+  };
+  add("ccfr", "plesnik",
+      "per-vertex convex collision-free regions, Plesník projection, halting fallback (the paper; guarantees "
+      "separation)");
+  add("exact_projection", "exact", "the same regions, the exact Euclidean projection (guarantees separation)");
+  add("successive_projection", "successive_projection",
+      "the same regions, naive cyclic projection onto one half-space at a time (related work)");
+}
+
+void register_post_process_solver(ContactSolverRegistry& registry) {
+  registry.add({"post_process",
+                "conventional XPBD thickness constraints on the detected pairs inside ξ, Gauss-Seidel, no regions "
+                "(the paper's baseline)",
+                {ParamSpec::integer("sweeps", PostProcessSolver::kDefaultSweeps,
+                                    "Gauss-Seidel sweeps over the thickness constraints per outer iteration", 1)},
+                [](const ParamValues& v) { return std::make_unique<PostProcessSolver>(static_cast<int>(v.integer("sweeps"))); }});
 }
 
 }  // namespace ccfr

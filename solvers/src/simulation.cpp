@@ -8,6 +8,7 @@
 #include "ccfr/core/log.hpp"
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/solvers/obstacles.hpp"
+#include "ccfr/solvers/step_bound.hpp"
 
 namespace ccfr {
 
@@ -16,7 +17,7 @@ Simulation::Simulation(Scene scene) : scene_(std::move(scene)) {
   const auto& topo = scene_.topo;
   auto& st = scene_.state;
   const auto& params = scene_.params;
-  contact_ = make_contact_solver(params.contact.solver);
+  contact_ = make_contact_solver(params.contact.solver, params.contact.solver_params);
 
   // Material constraints of every object kind (docs/materials.md); coloured with the final pins.
   materials_ = MaterialSystem(topo, st, params);
@@ -261,7 +262,7 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
   for (int it = 0; it < bound; ++it) {
     ctx.iteration = it;
     ctx.kinematic_step = (it == 0 && kin_moves) ? std::span<const Vec3>(kinematic_step_) : std::span<const Vec3>();
-    const DetectionSummary det = contact_->detect(anchor_, st, ctx);
+    const DetectResult det = contact_->detect(anchor_, st, ctx);
     fs.candidates = std::max(fs.candidates, det.candidates);
     fs.constraints = std::max(fs.constraints, det.constraints);
     fs.min_distance = std::min(fs.min_distance, det.min_distance);
@@ -297,30 +298,13 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
     worst = -1;
     worst_len = 0.0;
     if (contact_->clamps_to_radius()) {
-      std::vector<Index> chunk_count(static_cast<size_t>(default_chunk_count(nv)), 0), chunk_worst(chunk_count.size(), -1);
-      std::vector<double> chunk_len(chunk_count.size(), 0.0);
-      parallel_chunks(nv, static_cast<Index>(chunk_count.size()), [&](Index c, Index b, Index e) {
-        for (Index i = b; i < e; ++i) {
-          if (st.inv_mass[i] == 0.0) continue;  // scripted motion is not bounded by r
-          const Vec3 d = solve_[i] - anchor_[i];
-          const double len = d.norm();
-          if (len > r) {
-            solve_[i] = anchor_[i] + (r / len) * d;
-            if (len > r * (1.0 + tp.advance_tolerance)) {
-              ++chunk_count[c];
-              if (len > chunk_len[c]) chunk_len[c] = len, chunk_worst[c] = i;
-            }
-          }
-        }
-      });
-      for (size_t c = 0; c < chunk_count.size(); ++c) {
-        clamped += chunk_count[c];
-        if (chunk_len[c] > worst_len) worst_len = chunk_len[c], worst = chunk_worst[c];
-      }
+      const StepBoundResult sb = apply_step_bound(solve_, anchor_, st.inv_mass, r, tp.advance_tolerance, solve_);
+      clamped += sb.held_back;
+      worst = sb.worst;
+      worst_len = sb.worst_length;
     }
     // What the substep really ends with, after the clamp and the analytic push.
-    const Index recount = contact_->count_outside(solve_, anchor_, st, ctx);
-    if (recount >= 0) remaining = recount;
+    if (const auto recount = contact_->count_outside(solve_, anchor_, st, ctx)) remaining = *recount;
     anchor_.swap(solve_);
     if (clamped == 0) break;  // every vertex reached its intended advance
   }

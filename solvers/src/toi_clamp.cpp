@@ -1,5 +1,8 @@
 #include "ccfr/solvers/toi_clamp.hpp"
 
+#include "builtin_solvers.hpp"
+#include "ccfr/solvers/step_bound.hpp"
+
 #include <algorithm>
 #include <cmath>
 
@@ -8,105 +11,6 @@
 #include "ccfr/geometry/distance.hpp"
 
 namespace ccfr {
-
-namespace {
-
-/// Stencil vertices of a sub-pair kind, and how many of them belong to side A.
-int stencil_size(ContactKind kind) {
-  switch (kind) {
-    case ContactKind::vf:
-    case ContactKind::ee:
-      return 4;
-    case ContactKind::ve:
-      return 3;
-    case ContactKind::vv:
-      return 2;
-  }
-  return 2;
-}
-int stencil_side_a(ContactKind kind) { return kind == ContactKind::ee ? 2 : 1; }
-
-double sub_pair_distance_sq(ContactKind kind, const std::array<Vec3, 4>& x) {
-  switch (kind) {
-    case ContactKind::vf:
-      return point_triangle(x[0], x[1], x[2], x[3]).distance_sq;
-    case ContactKind::ee:
-      return edge_edge(x[0], x[1], x[2], x[3]).distance_sq;
-    case ContactKind::ve:
-      return point_edge(x[0], x[1], x[2]).distance_sq;
-    case ContactKind::vv:
-      return point_point_distance_sq(x[0], x[1]);
-  }
-  return point_point_distance_sq(x[0], x[1]);
-}
-
-/// g = d - ξ written as (d² - ξ²) / (d + ξ): the closest-point routines give d², and near contact
-/// the difference of squares keeps the digits that sqrt(d²) - ξ would cancel. At d = ξ = 0 the
-/// gap is 0 (a point pair with no separation required only touches when it coincides).
-double gap_of(double d_sq, double xi) {
-  const double d = std::sqrt(d_sq);
-  const double denom = d + xi;
-  return denom > 0.0 ? (d_sq - xi * xi) / denom : 0.0;
-}
-
-}  // namespace
-
-double sub_pair_distance(ContactKind kind, const std::array<Vec3, 4>& x) {
-  return std::sqrt(sub_pair_distance_sq(kind, x));
-}
-
-AccdResult additive_ccd(ContactKind kind, const std::array<Vec3, 4>& x0, const std::array<Vec3, 4>& x1,
-                        double min_separation, const ToiClampParams& params) {
-  const int n = stencil_size(kind), na = stencil_side_a(kind);
-  const double xi = min_separation, s = params.scale;
-  AccdResult res;
-
-  std::array<Vec3, 4> p;
-  Vec3 mean = Vec3::Zero();
-  for (int k = 0; k < n; ++k) mean += (p[k] = x1[k] - x0[k]);
-  mean /= n;
-  double max_a = 0.0, max_b = 0.0;
-  for (int k = 0; k < n; ++k) {
-    double& side_max = k < na ? max_a : max_b;
-    side_max = std::max(side_max, (p[k] - mean).norm());
-  }
-  const double l_p = max_a + max_b;
-
-  const double gap0 = gap_of(sub_pair_distance_sq(kind, x0), xi);
-  if (!(gap0 > params.touch_tolerance * xi)) {  // touching or inside ξ already (or NaN): no conservative step
-    res.toi = 0.0;
-    res.impact = true;
-    return res;
-  }
-  if (l_p <= 0.0) return res;  // a rigid translation of the stencil never changes its distance
-
-  const double stop_gap = (1.0 - s) * gap0;
-  double t = 0.0, gap = gap0;
-  std::array<Vec3, 4> xt = x0;
-  for (int it = 0; it < params.max_iterations; ++it) {
-    const double step = s * gap / l_p;
-    if (t + step >= 1.0) {  // the bound holds up to t + step: no impact within [0, 1]
-      res.toi = 1.0;
-      res.iterations = it;
-      return res;
-    }
-    const double t_next = t + step;
-    // Positions from x0 at each trial time instead of accumulated increments: no drift.
-    for (int k = 0; k < n; ++k) xt[k] = x0[k] + t_next * p[k];
-    const double gap_next = gap_of(sub_pair_distance_sq(kind, xt), xi);
-    res.iterations = it + 1;
-    // Stop at the last time whose gap is still (1 - s) g(0): the next outer iteration then starts
-    // from a positive gap. The first step is always kept (its gap is >= (1 - s) g(0) by the bound;
-    // only rounding can put it below).
-    if (t > 0.0 && gap_next < stop_gap) break;
-    t = t_next;
-    gap = gap_next;
-    if (!(gap > 0.0)) break;  // rounding at a vanishing gap: t is the last safe time reached
-  }
-  res.toi = t;
-  res.impact = true;
-  return res;
-}
 
 TimeOfImpactClampSolver::TimeOfImpactClampSolver(ToiClampParams params) : params_(params) {
   if (!(params_.scale > 0.0 && params_.scale <= 1.0) || params_.max_iterations < 1 || !(params_.touch_tolerance >= 0.0))
@@ -120,17 +24,7 @@ SolveResult TimeOfImpactClampSolver::resolve(Positions& x, const Positions& anch
 
   // Path ends: the candidates under the step bound r, with the same expression as the substep
   // loop's clamp, so that leaving x untouched at t* = 1 ends exactly at e.
-  end_.resize(x.size());
-  parallel_for(
-      nv,
-      [&](Index b, Index e) {
-        for (Index i = b; i < e; ++i) {
-          const Vec3 d = x[i] - anchor[i];
-          const double len = d.norm();
-          end_[i] = len > r ? Vec3(anchor[i] + (r / len) * d) : x[i];
-        }
-      },
-      4096);
+  apply_step_bound(x, anchor, state.inv_mass, r, ctx.params.time.advance_tolerance, end_);
 
   // Times of impact with a per-chunk minimum; min and counts are order-independent, so the result
   // is the same for any thread count.
@@ -138,12 +32,10 @@ SolveResult TimeOfImpactClampSolver::resolve(Positions& x, const Positions& anch
   const Index chunks = default_chunk_count(np);
   std::vector<double> chunk_min(static_cast<size_t>(chunks), 1.0);
   std::vector<Index> chunk_hits(static_cast<size_t>(chunks), 0);
-  std::vector<long long> chunk_iters(static_cast<size_t>(chunks), 0);
   if (np > 0)
     parallel_chunks(np, chunks, [&](Index chunk, Index b, Index e) {
       double tmin = 1.0;
       Index hits = 0;
-      long long iters = 0;
       std::array<Vec3, 4> x0, x1;
       for (Index c = b; c < e; ++c) {
         const ContactPair& cp = contacts_[c];
@@ -153,24 +45,19 @@ SolveResult TimeOfImpactClampSolver::resolve(Positions& x, const Positions& anch
           x1[k] = k < n ? end_[cp.v[k]] : Vec3::Zero();
         }
         const AccdResult a = additive_ccd(cp.kind, x0, x1, cp.offset, params_);
-        iters += a.iterations;
         if (a.toi < 1.0) ++hits;
         tmin = std::min(tmin, a.toi);
       }
       chunk_min[chunk] = tmin;
       chunk_hits[chunk] = hits;
-      chunk_iters[chunk] = iters;
     });
   double t_star = 1.0;
   SolveResult res;
   res.contact_vertices = contact_vertex_count(state.inv_mass);
-  last_iterations_ = 0;
   for (Index c = 0; c < chunks; ++c) {
     t_star = std::min(t_star, chunk_min[c]);
     res.violations_detected += chunk_hits[c];
-    last_iterations_ += chunk_iters[c];
   }
-  last_toi_ = t_star;
 
   // Lu et al. interpolate the whole system, not just the pairs in contact.
   if (t_star < 1.0) {
@@ -204,6 +91,27 @@ SolveResult TimeOfImpactClampSolver::resolve(Positions& x, const Positions& anch
     });
   for (Index c : chunk_close) res.violations_remaining += c;
   return res;
+}
+
+void register_toi_clamp_solver(ContactSolverRegistry& registry) {
+  const ToiClampParams d;  // the specs' defaults are the struct's
+  registry.add({"toi_clamp",
+                "time-of-impact clamp of the whole system along a -> x with Additive CCD (Lu et al. 2023 baseline)",
+                {ParamSpec::number("scale", d.scale,
+                                   "s: each advancement covers this fraction of what the distance bound allows", 0.0,
+                                   1.0, true, false),
+                 ParamSpec::integer("max_iterations", d.max_iterations,
+                                    "advancement steps per pair before giving up with the (safe) time reached", 1),
+                 ParamSpec::number("touch_tolerance", d.touch_tolerance,
+                                   "a pair whose gap d - ξ is at most this fraction of ξ counts as touching (toi = 0)",
+                                   0.0, 1.0)},
+                [](const ParamValues& v) {
+                  ToiClampParams p;
+                  p.scale = v.number("scale");
+                  p.max_iterations = static_cast<int>(v.integer("max_iterations"));
+                  p.touch_tolerance = v.number("touch_tolerance");
+                  return std::make_unique<TimeOfImpactClampSolver>(p);
+                }});
 }
 
 }  // namespace ccfr

@@ -2,6 +2,7 @@
 // Blender (Mesh Cache modifier on the PC2 caches, run headless) and VTK's own XML reader
 // (python3-vtk9), against the exact OBJ frames of the same run.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <Eigen/Geometry>
 #include <cmath>
@@ -70,9 +71,11 @@ json result_of(const std::string& out) {
 
 class Interop : public ::testing::Test {
  protected:
-  static fs::path run_dir() { return ccfr::test::scratch_path("interop") / "run"; }
+  // ctest runs each test in its own process, in parallel: one directory per process.
+  static std::string scratch_name() { return "interop-" + std::to_string(::getpid()); }
+  static fs::path run_dir() { return ccfr::test::scratch_path(scratch_name()) / "run"; }
   static void SetUpTestSuite() {
-    const fs::path d = ccfr::test::scratch_dir("interop");
+    const fs::path d = ccfr::test::scratch_dir(scratch_name());
     std::ofstream(d / "scene.yaml") << kScene;
     const auto r = ccfr::test::run_ccfr("run " + (d / "scene.yaml").string() + " --out " + run_dir().string());
     ASSERT_EQ(r.code, 0) << r.out;
@@ -225,7 +228,7 @@ TEST_F(Interop, BlenderPlaysThePointCachesAsWritten) {
 }
 
 TEST_F(Interop, ExportFromDiskMatchesTheLiveWriters) {
-  const fs::path out = ccfr::test::scratch_path("interop") / "exported";
+  const fs::path out = ccfr::test::scratch_path(scratch_name()) / "exported";
   fs::remove_all(out);
   const auto r = ccfr::test::run_ccfr("export " + run_dir().string() + " --format ply,pc2,usda,vtu --out " + out.string());
   ASSERT_EQ(r.code, 0) << r.out;

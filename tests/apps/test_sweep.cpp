@@ -78,7 +78,7 @@ TEST(SweepSpec, ThePaperSweepCoversEveryConfigAndSolver) {
   for (const auto& e : fs::directory_iterator(fs::path(CCFR_SOURCE_DIR) / "configs"))
     scenes += e.path().extension() == ".yaml";
   EXPECT_EQ(s.configs.size(), scenes);
-  EXPECT_EQ(s.solvers, ccfr::contact_solver_names());  // every registered solver
+  EXPECT_EQ(s.solvers, ccfr::registered_contact_solvers());  // every registered solver
   EXPECT_EQ(s.cells.size(), scenes * s.solvers.size());
 }
 

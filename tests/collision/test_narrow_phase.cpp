@@ -19,7 +19,7 @@ namespace ccfr {
 namespace {
 
 constexpr double kR = 0.005, kXi = 0.01, kDelta = 0.0005;
-const CollisionParams kParams{kR, kXi, kDelta};
+const ContactModel kParams{kR, kXi, kDelta};
 
 /// A sub-pair named by its vertices: kind, side A (sorted, padded), side B (sorted, padded);
 /// the two sides of the symmetric kinds (ee, vv) in lexicographic order.

@@ -23,7 +23,7 @@ namespace ccfr {
 namespace {
 
 constexpr double kR = 0.005, kXi = 0.01;
-const CollisionParams kParams{kR, kXi, 0.0005};
+const ContactModel kParams{kR, kXi, 0.0005};
 
 /// The primitives of objects 0 and 1, listed once, and their distance through the kernels.
 struct PairGeometry {

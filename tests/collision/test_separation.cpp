@@ -18,7 +18,7 @@ namespace ccfr {
 namespace {
 
 constexpr double kR = 0.005, kXi = 0.01;
-const CollisionParams kParams{kR, kXi, 0.0005};
+const ContactModel kParams{kR, kXi, 0.0005};
 
 /// Smallest distance between the collision primitives of objects 0 and 1 of `s` at `x`,
 /// through the kernels: vertex-face both ways, edge-edge, vertex-edge and vertex-vertex as the

@@ -238,3 +238,40 @@ TEST(Obj, MalformedAndNonFiniteFramesNameFileAndLine) {
   EXPECT_THROW(io::read_frame_obj(p), Error);
   EXPECT_THROW(io::read_frame_obj(fs::temp_directory_path() / "ccfr_no_such.obj"), Error);
 }
+
+// Solver-specific keys live in the solver's own section, read from the registry.
+TEST(SceneLoader, SolverSectionsReachTheSolverAndAreRefusedForAnotherSolver) {
+  std::string y = kBase;
+  y.replace(y.find("  radius: 0.01\n"), 15, "  radius: 0.01\n  solver: toi_clamp\n  toi_clamp: {scale: 0.5}\n");
+  const auto s = io::load_scene_text(y, "scene.yaml", ".");
+  EXPECT_EQ(s.scene.params.contact.solver, "toi_clamp");
+  EXPECT_DOUBLE_EQ(s.scene.params.contact.solver_params.number("scale"), 0.5);
+  EXPECT_EQ(s.scene.params.contact.solver_params.integer("max_iterations"), 1000);  // the registered default
+  EXPECT_NE(s.resolved_json.find("\"scale\": 0.5"), std::string::npos) << s.resolved_json;
+
+  // The same section under another solver: the section, its line and the selecting key.
+  std::string other = y;
+  other.replace(other.find("solver: toi_clamp"), 17, "solver: ccfr");
+  const auto e = config_error(other);
+  EXPECT_EQ(e.key_path(), "contact.toi_clamp");
+  EXPECT_EQ(e.line(), 8);
+  EXPECT_NE(e.detail().find("contact.solver is 'ccfr'"), std::string::npos) << e.what();
+  // Out of range, from the registered spec.
+  const auto r = config_error(y, {"contact.toi_clamp.scale=0"});
+  EXPECT_EQ(r.key_path(), "contact.toi_clamp.scale");
+  // Unknown key inside a section lists the solver's keys.
+  std::string unknown = y;
+  unknown.replace(unknown.find("{scale: 0.5}"), 12, "{scael: 0.5}");
+  const auto u = config_error(unknown);
+  EXPECT_EQ(u.key_path(), "contact.toi_clamp.scael");
+  EXPECT_NE(u.detail().find("scale"), std::string::npos) << u.what();
+}
+
+TEST(SceneLoader, MovedKeysNameTheirNewPlace) {
+  std::string y = kBase;
+  y.replace(y.find("  radius: 0.01\n"), 15, "  radius: 0.01\n  projection_sweeps: 8\n");
+  const auto e = config_error(y);
+  EXPECT_EQ(e.key_path(), "contact.projection_sweeps");
+  EXPECT_EQ(e.line(), 7);
+  EXPECT_NE(e.detail().find("contact.successive_projection.sweeps"), std::string::npos) << e.what();
+}

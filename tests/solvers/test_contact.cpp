@@ -94,7 +94,7 @@ TEST(Halting, TightRegionsReportHaltingInsteadOfHanging) {
   s.params.contact.offset = 0.01;
   s.params.contact.radius = 0.005;
   s.params.contact.repulsion_range = 0.0;
-  s.params.contact.max_projection_iterations = 1;
+  s.params.contact.solver_params.set("max_iterations", 1LL);
   s.params.time.substeps = 4;
   s.params.time.iterations = 2;
   Simulation sim(std::move(s));

@@ -1,7 +1,6 @@
 #include "ccfr/feasibility/projector.hpp"
 
 #include <cmath>
-#include <functional>
 #include <limits>
 #include <stdexcept>
 
@@ -17,23 +16,6 @@ namespace {
 
 /// A vertex counts as remaining outside when a value is below this (or NaN) after projection.
 constexpr double kRemainingSlack = 1e-9;
-
-struct FactoryEntry {
-  std::string_view name;
-  std::unique_ptr<Projector> (*make)(const ProjectorParams&);
-};
-
-/// The one table of projectors; make_projector and projector_names read only this.
-constexpr FactoryEntry kProjectors[] = {
-    {"plesnik",
-     [](const ProjectorParams& p) -> std::unique_ptr<Projector> { return std::make_unique<PlesnikProjector>(p); }},
-    {"successive_projection",
-     [](const ProjectorParams& p) -> std::unique_ptr<Projector> {
-       return std::make_unique<SuccessiveProjectionProjector>(p);
-     }},
-    {"exact",
-     [](const ProjectorParams& p) -> std::unique_ptr<Projector> { return std::make_unique<ExactProjector>(p); }},
-};
 
 }  // namespace
 
@@ -64,25 +46,55 @@ void validate(const ProjectorParams& p) {
   if (p.sweeps < 1) bad("sweeps", ">= 1");
 }
 
-std::unique_ptr<Projector> make_projector(std::string_view name, const ProjectorParams& params) {
-  for (const auto& e : kProjectors)
-    if (e.name == name) {
-      validate(params);
-      return e.make(params);
-    }
-  std::string valid;
-  for (const auto& e : kProjectors) {
-    if (!valid.empty()) valid += ", ";
-    valid += e.name;
-  }
-  throw Error("unknown projector '" + std::string(name) + "'; valid projectors: " + valid);
+ProjectorRegistry& projectors() {
+  static ProjectorRegistry registry = [] {
+    const ProjectorParams d;  // the specs' defaults are the struct's: one owner
+    ProjectorRegistry r("projector");
+    r.add({"plesnik",
+           "Plesník's finite projection onto the violated half-spaces, re-check, halting fallback (the paper)",
+           {ParamSpec::integer("max_iterations", d.max_iterations,
+                               "projection passes (project, re-check every plane) before the vertex halts at its anchor",
+                               1),
+            ParamSpec::number("redundancy_tolerance", d.redundancy_tolerance,
+                              "a new plane whose equation is dependent on the stored ones within this is skipped", 0.0)},
+           [](const ParamValues&, const ProjectorParams& p) -> std::unique_ptr<Projector> {
+             return std::make_unique<PlesnikProjector>(p);
+           }});
+    r.add({"successive_projection", "cyclic projection onto one half-space at a time (related work), no fallback",
+           {ParamSpec::integer("sweeps", d.sweeps, "cyclic sweeps over the half-spaces", 1)},
+           [](const ParamValues&, const ProjectorParams& p) -> std::unique_ptr<Projector> {
+             return std::make_unique<SuccessiveProjectionProjector>(p);
+           }});
+    r.add({"exact", "the exact Euclidean projection (active set with a dual certificate)", {},
+           [](const ParamValues&, const ProjectorParams& p) -> std::unique_ptr<Projector> {
+             return std::make_unique<ExactProjector>(p);
+           }});
+    return r;
+  }();
+  return registry;
 }
 
-std::vector<std::string> projector_names() {
-  std::vector<std::string> out;
-  for (const auto& e : kProjectors) out.emplace_back(e.name);
-  return out;
+ProjectorParams apply_projector_params(ProjectorParams base, const ParamValues& values) {
+  for (const auto& [key, v] : values.values()) {
+    if (key == "max_iterations")
+      base.max_iterations = static_cast<int>(values.integer(key));
+    else if (key == "redundancy_tolerance")
+      base.redundancy_tolerance = values.number(key);
+    else if (key == "sweeps")
+      base.sweeps = static_cast<int>(values.integer(key));
+    else
+      throw Error("projector parameter '" + key + "' does not exist");
+  }
+  return base;
 }
+
+std::unique_ptr<Projector> make_projector(std::string_view name, const ProjectorParams& params) {
+  const auto& e = projectors().at(name);
+  validate(params);
+  return e.make(ParamValues{}, params);
+}
+
+std::vector<std::string> projector_names() { return projectors().names(); }
 
 BatchStats& BatchStats::operator+=(const BatchStats& o) {
   violated += o.violated;

@@ -2,8 +2,8 @@
 /// @file broad_phase.hpp
 /// Broad phase: given one box per collision primitive, report every pair of overlapping boxes.
 /// Implementations are interchangeable behind this batch interface and selected by name
-/// (`collision.broad_phase` in YAML) through make_broad_phase(). Adding one is one new source file
-/// plus one line in the factory table of broad_phase.cpp (see docs/collision.md).
+/// (`collision.broad_phase` in YAML) through the registry broad_phases(). Adding one is one new
+/// source file and its registration (docs/extending.md).
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -12,6 +12,7 @@
 #include <utility>
 #include <vector>
 
+#include "ccfr/core/registry.hpp"
 #include "ccfr/geometry/aabb.hpp"
 #include "ccfr/geometry/bvh.hpp"
 
@@ -95,9 +96,13 @@ class FclBroadPhase final : public BroadPhase {
 /// phase calls it before touching its tree (FCL's tree crashes on NaN boxes).
 void check_finite_boxes(std::span<const AABB> boxes, std::string_view who);
 
-/// Creates the broad phase registered under `name`; throws ccfr::Error listing the valid names.
-std::unique_ptr<BroadPhase> make_broad_phase(std::string_view name);
-/// Names accepted by make_broad_phase(), in factory-table order.
+/// The registry of broad phases: bvh, fcl, brute_force, then whatever downstream code adds.
+using BroadPhaseRegistry = Registry<BroadPhase>;
+BroadPhaseRegistry& broad_phases();
+/// Creates the broad phase registered under `name` with `params` (defaults for the rest); throws
+/// ccfr::Error listing the valid names.
+std::unique_ptr<BroadPhase> make_broad_phase(std::string_view name, const ParamValues& params = {});
+/// Registered names, in registration order.
 std::vector<std::string> broad_phase_names();
 /// The broad phase used when none is configured: the fastest measured one ("bvh").
 std::string_view default_broad_phase_name();

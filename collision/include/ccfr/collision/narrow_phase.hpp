@@ -16,18 +16,12 @@
 
 #include "ccfr/collision/broad_phase.hpp"
 #include "ccfr/collision/primitives.hpp"
+#include "ccfr/core/contact_model.hpp"
 #include "ccfr/core/scene.hpp"
 #include "ccfr/feasibility/region.hpp"
 #include "ccfr/geometry/adjacency.hpp"
 
 namespace ccfr {
-
-/// Distances of the contact model (paper notation).
-struct CollisionParams {
-  double radius = 0.005;            ///< r: search radius; pairs interact while φ < 2r
-  double offset = 0.01;             ///< ξ: minimum separation (thickness)
-  double repulsion_range = 0.0005;  ///< δ: repulsion band beyond ξ; only widens the boxes
-};
 
 /// The sub-pair kinds. The first-named primitive is side A of a ContactPair.
 enum class ContactKind : std::uint8_t {
@@ -148,7 +142,7 @@ class CollisionDetector {
  public:
   /// Builds the primitives and the broad phase at `initial` (#V) and records the exclusions
   /// (one spdlog info line with their counts). Throws ccfr::Error on non-finite positions.
-  CollisionDetector(const Topology& topo, const Positions& initial, CollisionParams params,
+  CollisionDetector(const Topology& topo, const Positions& initial, ContactModel params,
                     std::unique_ptr<BroadPhase> broad_phase);
   ~CollisionDetector();
   CollisionDetector(const CollisionDetector&) = delete;
@@ -172,7 +166,7 @@ class CollisionDetector {
   void detect(const Positions& x, std::span<const double> inv_mass, RegionSet& regions,
               std::vector<ContactPair>& contacts, DetectionStats& stats, std::span<const Vec3> kinematic_step = {});
 
-  const CollisionParams& params() const { return params_; }
+  const ContactModel& params() const { return params_; }
   const CollisionPrimitives& primitives() const { return prims_; }
   const BroadPhase& broad_phase() const { return *broad_; }
   /// The primitive pairs of the last broad-phase query.
@@ -205,7 +199,7 @@ class CollisionDetector {
                 std::vector<ContactPair>& contacts, RegionSet& regions);
 
   const Topology& topo_;
-  CollisionParams params_;
+  ContactModel params_;
   CollisionPrimitives prims_;
   std::unique_ptr<BroadPhase> broad_;
   detail::InitialPairTable initial_;

@@ -18,7 +18,6 @@ struct SimState {
 
   Index size() const { return static_cast<Index>(x.size()); }
   void resize(Index n);
-  bool is_kinematic(Index v) const { return inv_mass[v] == 0.0; }
 };
 
 }  // namespace ccfr

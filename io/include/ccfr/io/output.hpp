@@ -1,6 +1,6 @@
 #pragma once
 /// @file output.hpp
-/// The output directory contract: run.json, frames/frame_NNNNN.obj, stats.csv (DESIGN "Contracts").
+/// The output directory contract: run.json, frames/frame_NNNNN.obj, stats.csv (docs/output.md).
 #include <filesystem>
 #include <memory>
 #include <optional>

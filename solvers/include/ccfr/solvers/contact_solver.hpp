@@ -1,16 +1,19 @@
 #pragma once
 /// @file contact_solver.hpp
-/// The pluggable part of the substep (DESIGN "Data flow of one substep"): detection at the anchors,
-/// contact response inside XPBD, and the resolution that keeps every vertex in its region.
-/// Implementations are chosen by `contact.solver` through make_contact_solver()'s factory table.
+/// The pluggable part of the substep (docs/architecture.md, "One substep"): detection at the
+/// anchors, contact response inside XPBD, and the resolution that keeps every vertex in its region.
+/// Implementations are chosen by `contact.solver` from the registry contact_solvers(); adding one
+/// is one new file plus its registration (docs/extending.md).
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include "ccfr/core/registry.hpp"
 #include "ccfr/core/scene.hpp"
 #include "ccfr/core/state.hpp"
 #include "ccfr/core/timer.hpp"
@@ -34,8 +37,8 @@ struct StepContext {
   std::span<const Vec3> kinematic_step = {};
 };
 
-/// Counts of one detection pass.
-struct DetectionSummary {
+/// Counts of one detection pass, as a contact solver reports them (collision's own counters are DetectionStats).
+struct DetectResult {
   Index candidates = 0;                                           ///< broad-phase pairs
   Index constraints = 0;                                          ///< half-spaces (or contact constraints) produced
   double min_distance = std::numeric_limits<double>::infinity();  ///< closest pair seen, |x_A - x_B|
@@ -61,7 +64,7 @@ class ContactSolver {
   /// Once, with the initial configuration (exclusions of pairs already close at rest).
   virtual void initialize(const Topology& topo, const SimState& state, const SimulationParams& params) {}
   /// Start of an outer iteration: detection at `anchor`, the last feasible positions (#V).
-  virtual DetectionSummary detect(const Positions& anchor, const SimState& state, StepContext& ctx) { return {}; }
+  virtual DetectResult detect(const Positions& anchor, const SimState& state, StepContext& ctx) { return {}; }
   /// Contact response (repulsion within δ) and friction applied to the candidate positions `x`.
   virtual void respond(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) {}
   /// Brings `x` back into the feasible set anchored at `anchor`.
@@ -74,10 +77,11 @@ class ContactSolver {
   /// Violations at the positions `x` the substep really ends with, recounted after the loop's own
   /// changes (the r-clamp, the analytic-obstacle push), as the audit would count them: detected
   /// sub-pairs whose exact distance is below (1 - debug.audit_tolerance) times their offset, plus
-  /// rigid-body vertices that left their body's rigid placement; -1 if the solver detects nothing.
-  virtual Index count_outside(const Positions& x, const Positions& anchor, const SimState& state,
-                              StepContext& ctx) const {
-    return -1;
+  /// rigid-body vertices that left their body's rigid placement. Empty for a solver that detects
+  /// nothing (its own resolve() count stands).
+  virtual std::optional<Index> count_outside(const Positions& x, const Positions& anchor, const SimState& state,
+                                             StepContext& ctx) const {
+    return std::nullopt;
   }
   /// One violation of the last count_outside() that found any, for error messages (e.g. "vertex
   /// 12 of 'cloth' - face 3 of 'lid' at 0.0093, offset 0.01"); empty if none.
@@ -98,10 +102,17 @@ class ContactSolver {
   virtual void restore_state(std::span<const double> state);
 };
 
-/// Creates the solver registered under `name`; throws ccfr::Error listing the valid names.
-std::unique_ptr<ContactSolver> make_contact_solver(std::string_view name);
-/// Names accepted by make_contact_solver(), in factory-table order.
-std::vector<std::string> contact_solver_names();
+/// The registry of contact solvers: ccfr, exact_projection, successive_projection, post_process,
+/// toi_clamp, none, then whatever downstream code adds. An entry's parameters are the keys of
+/// `contact.<name>.*` in scene files; its factory receives them checked, with defaults filled in.
+using ContactSolverRegistry = Registry<ContactSolver>;
+ContactSolverRegistry& contact_solvers();
+
+/// Creates the solver registered under `name` from its own parameters `params` (defaults for the
+/// keys not given); throws ccfr::Error listing the valid names, or naming a bad parameter.
+std::unique_ptr<ContactSolver> make_contact_solver(std::string_view name, const ParamValues& params = {});
+/// Every registered contact solver, in registration order (`ccfr ablate`'s default list).
+std::vector<std::string> registered_contact_solvers();
 
 /// `none`: no deformable contact at all (obstacles still collide through their SDF when
 /// contact.analytic_obstacles is on). The ablation's lower bound on cost.

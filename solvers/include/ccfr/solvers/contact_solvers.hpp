@@ -21,13 +21,13 @@ namespace ccfr {
 class DetectingSolver : public ContactSolver {
  public:
   void initialize(const Topology& topo, const SimState& state, const SimulationParams& params) override;
-  DetectionSummary detect(const Positions& anchor, const SimState& state, StepContext& ctx) override;
+  DetectResult detect(const Positions& anchor, const SimState& state, StepContext& ctx) override;
   void respond(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) override;
   /// Detected sub-pairs closer than (1 - debug.audit_tolerance) times their offset at `x`, by their
   /// exact closest points at `x` (not along the detection normal). Sub-pairs not detected were
   /// farther than 2r + ξ at the anchors, and every vertex moved at most r, so they are not closer.
-  Index count_outside(const Positions& x, const Positions& anchor, const SimState& state,
-                      StepContext& ctx) const override;
+  std::optional<Index> count_outside(const Positions& x, const Positions& anchor, const SimState& state,
+                                     StepContext& ctx) const override;
   std::string last_violation() const override { return last_violation_; }
   /// The detector's reduced offsets (initial proximity), the only state kept between substeps.
   std::vector<double> save_state() const override;
@@ -56,8 +56,9 @@ class DetectingSolver : public ContactSolver {
 /// Projects every vertex that left its region back onto it with a Projector.
 class RegionProjectionSolver final : public DetectingSolver {
  public:
-  /// `solver_name` is the factory name; `projector_name` one of projector_names().
-  RegionProjectionSolver(std::string solver_name, std::string projector_name);
+  /// `solver_name` is the registry name; `projector_name` one of projector_names(); `params` the
+  /// values of the projector's own specs (e.g. plesnik's max_iterations), folded into its ProjectorParams.
+  RegionProjectionSolver(std::string solver_name, std::string projector_name, ParamValues params = {});
   std::string_view name() const override { return name_; }
   void initialize(const Topology& topo, const SimState& state, const SimulationParams& params) override;
   SolveResult resolve(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) override;
@@ -66,11 +67,12 @@ class RegionProjectionSolver final : public DetectingSolver {
   void vertex_diagnostics(std::vector<std::int32_t>& half_spaces, std::vector<double>& distance,
                           std::vector<std::uint8_t>& halted) const override;
   /// Close sub-pairs (DetectingSolver) plus rigid-body vertices off their body's rigid placement.
-  Index count_outside(const Positions& x, const Positions& anchor, const SimState& state,
-                      StepContext& ctx) const override;
+  std::optional<Index> count_outside(const Positions& x, const Positions& anchor, const SimState& state,
+                                     StepContext& ctx) const override;
 
  private:
   std::string name_, projector_name_;
+  ParamValues projector_params_;
   std::unique_ptr<Projector> projector_;
   RigidBodies rigid_;  ///< rigid bodies, whose correction is taken as a rigid motion
   std::vector<std::uint8_t> halted_;  ///< #V: halted during frame `halted_frame_`
@@ -79,11 +81,16 @@ class RegionProjectionSolver final : public DetectingSolver {
 
 /// The paper's baseline: after XPBD, every detected pair whose gap along its detection normal is
 /// below ξ gets a thickness constraint \f$C = \mathbf{n}^\top\sum_k w_k\mathbf{x}_k - \xi \ge 0\f$,
-/// solved Gauss-Seidel in pair order for `contact.projection_sweeps` sweeps. No regions, no step bound.
+/// solved Gauss-Seidel in pair order for `contact.post_process.sweeps` sweeps. No regions, no step bound.
 class PostProcessSolver final : public DetectingSolver {
  public:
+  static constexpr int kDefaultSweeps = 16;
+  explicit PostProcessSolver(int sweeps = kDefaultSweeps) : sweeps_(sweeps) {}
   std::string_view name() const override { return "post_process"; }
   SolveResult resolve(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) override;
+
+ private:
+  int sweeps_;
 };
 
 }  // namespace ccfr

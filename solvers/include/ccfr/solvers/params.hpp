@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "ccfr/core/contact_model.hpp"
+#include "ccfr/core/registry.hpp"
 #include "ccfr/core/types.hpp"
 #include "ccfr/solvers/kinematics.hpp"
 
@@ -40,25 +42,24 @@ enum class ViolationPolicy {
   warn,       ///< log at error level, count in stats.csv and go on (ablations of the baselines)
 };
 
-struct ContactParams {
-  std::string solver = "ccfr";        ///< contact solver (factory name)
-  double radius = 0.005;              ///< r: search radius and per-iteration step bound
-  double offset = 0.01;               ///< ξ: minimum separation
-  double repulsion_range = 0.0005;    ///< δ: repulsion acts while the gap beyond ξ is below δ
+/// The contact section: the contact model (r, ξ, δ, friction; one owner, shared with collision
+/// detection and the audit) plus the choice of solver and the settings every solver shares.
+struct ContactParams : ContactModel {
+  std::string solver = "ccfr";        ///< contact solver (a name in contact_solvers())
+  /// The solver's own parameters (`contact.<solver>.*`, the keys of its registry entry); keys not
+  /// set take the registered defaults, keys the solver does not declare are an error.
+  ParamValues solver_params;
   double stiffness = 1e4;             ///< k: repulsion stiffness, XPBD compliance 1/k
   double visibility_width = 0.0;      ///< δ_v: occlusion smoothstep width (0: δ)
-  double friction_static = 0.0;       ///< μ_s
-  double friction_kinetic = 0.0;      ///< μ_k
   double epsilon = 1e-4;              ///< ε relative to ξ: projectors retract by ε ξ (absolute 1e-6 at ξ = 0.01)
-  int max_projection_iterations = 4;  ///< Alg. projectOntoConvexRegion budget before halting
-  double redundancy_tolerance = 1e-12;  ///< Alg. orthogonalProjection redundancy test
-  int projection_sweeps = 16;         ///< successive_projection: cyclic sweeps
   bool analytic_obstacles = false;    ///< obstacles with an analytic shape also collide through their SDF
   ViolationPolicy on_violation = ViolationPolicy::automatic;  ///< see ViolationPolicy
 };
 
-struct CollisionSettings {
-  std::string broad_phase = "bvh";  ///< broad phase (factory name)
+/// The collision section: which broad phase, and its own parameters (`collision.<broad_phase>.*`).
+struct DetectionParams {
+  std::string broad_phase = "bvh";  ///< broad phase (a name in broad_phases())
+  ParamValues broad_phase_params;   ///< keys of its registry entry; defaults for the rest
 };
 
 struct DebugParams {
@@ -111,7 +112,7 @@ struct SimulationParams {
   std::string scene_name;
   TimeParams time;
   ContactParams contact;
-  CollisionSettings collision;
+  DetectionParams collision;
   DebugParams debug;
   OutputParams output;
   std::vector<ObjectParams> objects;  ///< parallel to Topology::objects

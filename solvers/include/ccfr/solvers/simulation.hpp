@@ -1,6 +1,6 @@
 #pragma once
 /// @file simulation.hpp
-/// The substep loop of DESIGN "Data flow of one substep" (paper Alg. "Our simulation loop at
+/// The substep loop of docs/architecture.md, "One substep" (paper Alg. "Our simulation loop at
 /// substep n"), with the contact solver as the pluggable stage.
 #include <cstdint>
 #include <functional>

@@ -10,6 +10,7 @@
 #include <string_view>
 #include <vector>
 
+#include "ccfr/core/registry.hpp"
 #include "ccfr/core/types.hpp"
 #include "ccfr/feasibility/region.hpp"
 
@@ -57,8 +58,9 @@ struct ProjectorParams {
   /// A half-space counts as satisfied when its value is >= -feasibility_tolerance. Absorbs
   /// floating-point rounding in the re-checks; far below any physical offset ξ.
   double feasibility_tolerance = 1e-12;
-  /// Cyclic sweeps of `successive_projection` over the half-spaces. Default 10.
-  int sweeps = 10;
+  /// Cyclic sweeps of `successive_projection` over the half-spaces. Default 16, the value every
+  /// scene run used (the scene schema and this struct once disagreed: 16 and 10).
+  int sweeps = 16;
 };
 
 /// Projects a candidate position into the region
@@ -76,11 +78,22 @@ class Projector {
   virtual std::string_view name() const = 0;
 };
 
-/// Creates a projector by key: "plesnik", "successive_projection" or "exact".
+/// The registry of projectors: plesnik, successive_projection, exact. An entry's parameter specs
+/// name the ProjectorParams fields it reads (defaults from ProjectorParams{}); the contact solvers
+/// built on a projector expose those keys in their own scene-file section. The factory receives
+/// the complete ProjectorParams; apply_projector_params() folds a solver's values into them.
+using ProjectorRegistry = Registry<Projector, const ProjectorParams&>;
+ProjectorRegistry& projectors();
+
+/// `base` with the values of a projector's specs (max_iterations, redundancy_tolerance, sweeps)
+/// set from `values`. @throws ccfr::Error for a key that is not a ProjectorParams field.
+ProjectorParams apply_projector_params(ProjectorParams base, const ParamValues& values);
+
+/// Creates a projector by key: "plesnik", "successive_projection", "exact" or a registered one.
 /// @throws ccfr::Error for an unknown key (the message lists the valid ones) or invalid parameters.
 std::unique_ptr<Projector> make_projector(std::string_view name, const ProjectorParams& params = {});
 
-/// The valid keys of make_projector, in table order.
+/// The registered keys, in registration order.
 std::vector<std::string> projector_names();
 
 /// Checks a parameter set. @throws ccfr::Error naming the first invalid field.
