@@ -602,20 +602,20 @@ int resume(SweepOptions& o) {
   const Json j = read_json(o.dir / "sweep.json");
   const bool slurm_sweep = o.backend == "slurm" || (o.backend.empty() && !j["slurm_jobs"].empty());
   const auto states = slurm_states(o.dir);
-  std::vector<size_t> todo;
+  std::vector<size_t> to_resume;
   for (size_t i = 0; i < s.cells.size(); ++i)
-    if (resumable(cell_state(s, i, states))) todo.push_back(i);
-  if (todo.empty()) {
+    if (resumable(cell_state(s, i, states))) to_resume.push_back(i);
+  if (to_resume.empty()) {
     std::fprintf(stderr, "sweep: nothing to resume: every cell completed, is queued or is running\n");
     return 0;
   }
-  for (size_t i : todo) std::fprintf(stderr, "sweep: resuming %s (%s)\n", s.cells[i].id.c_str(), cell_state(s, i, states).c_str());
+  for (size_t i : to_resume) std::fprintf(stderr, "sweep: resuming %s (%s)\n", s.cells[i].id.c_str(), cell_state(s, i, states).c_str());
   if (slurm_sweep) {
     write_sweep(s);
-    slurm_submit(s, todo, o.slurm.sbatch);
+    slurm_submit(s, to_resume, o.slurm.sbatch);
     return 0;
   }
-  return run_local(s, todo, o.jobs, o.threads) ? 1 : 0;
+  return run_local(s, to_resume, o.jobs, o.threads) ? 1 : 0;
 }
 
 void add_slurm_flags(CLI::App* cmd, SweepOptions& o) {

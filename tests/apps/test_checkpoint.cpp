@@ -61,28 +61,11 @@ std::string stats_without_timing(const fs::path& csv) {
   return out;
 }
 
-/// Starts `ccfr args...` with its output into `log`.
-pid_t spawn(const std::vector<std::string>& args, const fs::path& log) {
-  std::vector<std::string> all{CCFR_EXE};
-  all.insert(all.end(), args.begin(), args.end());
-  const pid_t pid = fork();
-  if (pid == 0) {
-    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    ::dup2(fd, 1);
-    ::dup2(fd, 2);
-    std::vector<char*> argv;
-    for (auto& a : all) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    ::execv(argv[0], argv.data());
-    ::_exit(127);
-  }
-  return pid;
-}
 
 /// Runs `args` and sends `sig` as soon as the checkpoint of frame `at` exists; fails the test if
 /// the run ended before that. Returns the exit status.
 int run_and_interrupt(const std::vector<std::string>& args, const fs::path& dir, int at, int sig, const fs::path& log) {
-  const pid_t pid = spawn(args, log);
+  const pid_t pid = ccfr::test::spawn_ccfr(args, log);
   const fs::path ckpt = ccfr::io::checkpoint_path(dir, at);
   int status = 0;
   for (;;) {

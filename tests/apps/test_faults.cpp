@@ -41,28 +41,6 @@ std::string read(const fs::path& p) {
 
 Json run_json(const fs::path& dir) { return Json::parse(read(dir / "run.json")); }  // throws if invalid
 
-/// Starts `ccfr args...` with stdout + stderr into `log`; `fsize_limit` > 0 caps the size of any
-/// file it writes (RLIMIT_FSIZE: writes past it fail with EFBIG, a real kernel write error).
-pid_t spawn(const std::vector<std::string>& args, const fs::path& log, rlim_t fsize_limit = 0) {
-  std::vector<std::string> all{CCFR_EXE};
-  all.insert(all.end(), args.begin(), args.end());
-  const pid_t pid = fork();
-  if (pid == 0) {
-    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    ::dup2(fd, 1);
-    ::dup2(fd, 2);
-    if (fsize_limit > 0) {
-      const rlimit rl{fsize_limit, fsize_limit};
-      ::setrlimit(RLIMIT_FSIZE, &rl);
-    }
-    std::vector<char*> argv;
-    for (auto& a : all) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    ::execv(argv[0], argv.data());
-    ::_exit(127);
-  }
-  return pid;
-}
 
 struct Result {
   int code;  // exit code, or -signal
@@ -76,7 +54,7 @@ Result finish(pid_t pid, const fs::path& log) {
 }
 
 Result run(const std::vector<std::string>& args, const fs::path& log, rlim_t fsize_limit = 0) {
-  return finish(spawn(args, log, fsize_limit), log);
+  return finish(ccfr::test::spawn_ccfr(args, log, fsize_limit), log);
 }
 
 size_t count_frames(const fs::path& dir) { return ccfr::io::list_frames(dir).size(); }
@@ -145,7 +123,7 @@ TEST(Faults, SigtermStopsAfterAWholeFrameAndRecordsIt) {
   const fs::path sc = write_scene(d, scene());
   const fs::path out = d / "out";
   const pid_t pid =
-      spawn({"run", sc.string(), "--out", out.string(), "--frames", "100000", "--threads", "1"}, d / "log");
+      ccfr::test::spawn_ccfr({"run", sc.string(), "--out", out.string(), "--frames", "100000", "--threads", "1"}, d / "log");
   ASSERT_TRUE(wait_for_frames(out, 3));
   ::kill(pid, SIGTERM);
   const Result r = finish(pid, d / "log");
@@ -173,7 +151,7 @@ TEST(Faults, SigkillLeavesFramesWrittenMatchingTheFramesOnDisk) {
   const fs::path sc = write_scene(d, scene());
   const fs::path out = d / "out";
   const pid_t pid =
-      spawn({"run", sc.string(), "--out", out.string(), "--frames", "100000", "--threads", "1"}, d / "log");
+      ccfr::test::spawn_ccfr({"run", sc.string(), "--out", out.string(), "--frames", "100000", "--threads", "1"}, d / "log");
   ASSERT_TRUE(wait_for_frames(out, 5));
   ::kill(pid, SIGKILL);
   const Result r = finish(pid, d / "log");

@@ -3,6 +3,9 @@
 // several build trees (worktrees, the sanitizer build) may run their suites on one machine at
 // once, and a shared /tmp path let one suite delete another's frames mid-audit.
 #include <sys/wait.h>
+#include <unistd.h>
+#include <sys/resource.h>
+#include <fcntl.h>
 
 #include <array>
 #include <cstdio>
@@ -10,6 +13,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 namespace ccfr::test {
 
@@ -92,6 +96,29 @@ inline std::string read_text(const std::filesystem::path& p) {
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
+}
+
+/// Starts `ccfr args...` with stdout + stderr into `log`; `fsize_limit` > 0 caps the size of any
+/// file it writes (RLIMIT_FSIZE: writes past it fail with EFBIG, a real kernel write error).
+inline pid_t spawn_ccfr(const std::vector<std::string>& args, const std::filesystem::path& log, rlim_t fsize_limit = 0) {
+  std::vector<std::string> all{CCFR_EXE};
+  all.insert(all.end(), args.begin(), args.end());
+  const pid_t pid = fork();
+  if (pid == 0) {
+    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    ::dup2(fd, 1);
+    ::dup2(fd, 2);
+    if (fsize_limit > 0) {
+      const rlimit rl{fsize_limit, fsize_limit};
+      ::setrlimit(RLIMIT_FSIZE, &rl);
+    }
+    std::vector<char*> argv;
+    for (auto& a : all) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    ::execv(argv[0], argv.data());
+    ::_exit(127);
+  }
+  return pid;
 }
 
 }  // namespace ccfr::test
