@@ -1,6 +1,7 @@
 // `ccfr ablate CONFIG --solvers a,b,c --out DIR`: the same scene once per contact solver, each run
 // audited, compared in DIR/ablation.csv, DIR/ablation.md and DIR/ablation.png. The solvers-only
 // case of `ccfr sweep` (sweep.hpp): the cells are DIR/<solver>, DIR/sweep.json describes them.
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -16,8 +17,9 @@
 #include "ccfr/solvers/contact_solver.hpp"
 #include "commands.hpp"
 #include "frame_summary.hpp"
-#include "run_driver.hpp"
 #include "plot_script.hpp"
+#include "progress.hpp"
+#include "run_driver.hpp"
 #include "sweep.hpp"
 
 namespace ccfr::app {
@@ -64,15 +66,20 @@ int run_ablation(AblateOptions& o) {
   write_sweep(s);
   std::vector<size_t> all(s.cells.size());
   for (size_t i = 0; i < all.size(); ++i) all[i] = i;
-  run_local(s, all, 1, o.run.threads);
+  const auto t0 = std::chrono::steady_clock::now();
+  const int failed = run_local(s, all, 1, o.run.threads, "ablate");
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const auto rows = collect_rows(s);
 
-  std::string frames_csv = "solver,frame,violations_detected,violations_remaining,halted_vertices,contact_vertices,audit_penetrations\n";
+  std::string frames_csv =
+      "solver,frame,violations_detected,violations_remaining,halted_vertices,contact_vertices,audit_penetrations\n";
   std::string csv = "solver," + metrics_header() + "\n";
   std::string md = "# Ablation of `" + o.run.config.string() + "`\n\nEach solver ran the same scene";
   md += o.run.frames >= 0 ? " for " + std::to_string(o.run.frames) + " frames" : std::string();
   md += "; every run was audited with `ccfr audit` (stride " + std::to_string(o.audit_stride) + ").\n\n";
-  md += "| solver | frames | mean s/frame | max s/frame | XPBD | broad | narrow | resolution | violations detected | remaining (sum / max) | halted | audit | min dist / ξ |\n";
+  md +=
+      "| solver | frames | mean s/frame | max s/frame | XPBD | broad | narrow | resolution | violations detected | "
+      "remaining (sum / max) | halted | audit | min dist / ξ |\n";
   md += "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& r : rows) {
     csv += r.solver + "," + metrics_csv(r) + "\n";
@@ -85,8 +92,8 @@ int run_ablation(AblateOptions& o) {
           fmt_num(r.min_over_xi, "%.6f") + " |\n";
     for (const auto& f : r.per_frame)
       frames_csv += r.solver + "," + std::to_string(f[0]) + "," + std::to_string(f[1]) + "," + std::to_string(f[2]) +
-                    "," + std::to_string(f[3]) + "," + std::to_string(f[4]) + "," + (f[5] >= 0 ? std::to_string(f[5]) : "") +
-                    "\n";
+                    "," + std::to_string(f[3]) + "," + std::to_string(f[4]) + "," +
+                    (f[5] >= 0 ? std::to_string(f[5]) : "") + "\n";
   }
   md += "\nTimes are seconds per frame (means over frames); the stage columns are the paper's breakdown.\n";
   const fs::path root = s.dir;
@@ -100,7 +107,18 @@ int run_ablation(AblateOptions& o) {
       spdlog::warn("ablate: no ablation.png ({}); the tables are written", why);
   }
   bool all_ran = true;
-  for (const auto& r : rows) all_ran = all_ran && r.audit != "error";
+  size_t frames = 0, passed = 0;
+  for (const auto& r : rows) {
+    all_ran = all_ran && r.audit != "error";
+    frames += r.frames;
+    passed += r.audit == "pass";
+  }
+  std::printf(
+      "\nablate: %zu solvers, %zu frames in %s (%s/frame), %d failed to run, %zu of %zu passed the audit; "
+      "tables in %s\n",
+      rows.size(), frames, format_duration(secs).c_str(),
+      format_duration(frames ? secs / static_cast<double>(frames) : NAN).c_str(), failed, passed, rows.size(),
+      (root / "ablation.md").string().c_str());
   return all_ran ? 0 : 1;
 }
 }  // namespace
@@ -112,7 +130,8 @@ void register_ablate(CLI::App& app) {
   cmd->add_option("config", o->run.config, "Scene file (YAML)")->required();
   std::string all;
   for (const auto& n : registered_contact_solvers()) all += (all.empty() ? "" : ",") + n;
-  cmd->add_option("--solvers", o->solvers, "Comma-separated contact solvers (default: every registered one: " + all + ")");
+  cmd->add_option("--solvers", o->solvers,
+                  "Comma-separated contact solvers (default: every registered one: " + all + ")");
   cmd->add_option("--out", o->run.out, "Output directory (one sub-directory per solver)")->required();
   cmd->add_option("--audit-stride", o->audit_stride, "Audit every K-th frame")->check(CLI::PositiveNumber);
   cmd->add_flag("!--no-plot", o->plot, "Do not draw ablation.png");

@@ -45,9 +45,10 @@ int run_bench(const BenchOptions& o) {
   ro.progress_label = "bench frame";
   const RunSummary s = run_scene(ro);
   std::vector<FrameStats> frames(s.frames.begin() + std::min<size_t>(o.warmup, s.frames.size()), s.frames.end());
-  std::printf("bench %s: solver %s, %d vertices, %d substeps x %d iterations, %d threads, %zu frames (%d warm-up skipped)\n",
-              o.run.config.string().c_str(), s.solver.c_str(), s.vertices, s.substeps, s.iterations, thread_count(), frames.size(),
-              o.warmup);
+  std::printf(
+      "bench %s: solver %s, %d vertices, %d substeps x %d iterations, %d threads, %zu frames (%d warm-up skipped)\n",
+      o.run.config.string().c_str(), s.solver.c_str(), s.vertices, s.substeps, s.iterations, thread_count(),
+      frames.size(), o.warmup);
   std::printf("%-20s %12s %12s %12s\n", "stage (s/frame)", "median", "mean", "max");
   auto line = [&](const char* name, const std::function<double(const FrameStats&)>& get) {
     const Aggregate a = aggregate(frames, get);

@@ -41,7 +41,8 @@ int run_plot(const PlotOptions& o) {
 void register_plot(CLI::App& app) {
   auto o = std::make_shared<PlotOptions>();
   auto* cmd = app.add_subcommand(
-      "plot", "Draw a run's stats.csv as stats.png, or an ablation's ablation.csv as ablation.png (python3-matplotlib)");
+      "plot",
+      "Draw a run's stats.csv as stats.png, or an ablation's ablation.csv as ablation.png (python3-matplotlib)");
   cmd->add_option("dir", o->dir, "Run directory (stats.csv) or ablation directory (ablation.csv)")->required();
   cmd->add_option("--out", o->out, "PNG to write (default: DIR/stats.png or DIR/ablation.png)");
   cmd->add_option("--title", o->title, "Title (default: the scene name from run.json)");

@@ -85,11 +85,12 @@ int run_render(const RenderCliOptions& o) {
   const render::RunRenderSummary s = render::render_frames(info.frames, opt, on_frame);
   progress.finish();
 
-  std::printf("%zu images in %s, %.3f s per frame (camera eye %.4g,%.4g,%.4g target %.4g,%.4g,%.4g fov %.4g; "
-              "strand radius %.3g, point radius %.3g)\n",
-              s.images.size(), format_duration(progress.elapsed_s()).c_str(), s.seconds_per_frame, s.view.camera.eye.x(), s.view.camera.eye.y(),
-              s.view.camera.eye.z(), s.view.camera.target.x(), s.view.camera.target.y(), s.view.camera.target.z(),
-              s.view.camera.fov_deg, s.view.strand_radius, s.view.point_radius);
+  std::printf(
+      "%zu images in %s, %.3f s per frame (camera eye %.4g,%.4g,%.4g target %.4g,%.4g,%.4g fov %.4g; "
+      "strand radius %.3g, point radius %.3g)\n",
+      s.images.size(), format_duration(progress.elapsed_s()).c_str(), s.seconds_per_frame, s.view.camera.eye.x(),
+      s.view.camera.eye.y(), s.view.camera.eye.z(), s.view.camera.target.x(), s.view.camera.target.y(),
+      s.view.camera.target.z(), s.view.camera.fov_deg, s.view.strand_radius, s.view.point_radius);
   if (!o.camera.empty())
     std::printf("camera: as given by --camera\n");
   else if (!opt.frame_exclude.empty())
@@ -136,13 +137,16 @@ void register_render(CLI::App& app) {
   cmd->add_option("--ao", o->ao, "Ambient-occlusion rays per camera ray (0: off)")
       ->check(CLI::Range(0, 64))
       ->capture_default_str();
-  cmd->add_option("--strand-radius", o->strand_radius, "Tube radius of strands (default: xi/2 from run.json, else from the segment length)")
+  cmd->add_option("--strand-radius", o->strand_radius,
+                  "Tube radius of strands (default: xi/2 from run.json, else from the segment length)")
       ->check(CLI::NonNegativeNumber);
-  cmd->add_option("--point-radius", o->point_radius, "Sphere radius of particles (default: xi/2 from run.json, else from the spacing)")
+  cmd->add_option("--point-radius", o->point_radius,
+                  "Sphere radius of particles (default: xi/2 from run.json, else from the spacing)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--no-ground", o->no_ground, "Do not draw the checkered floor");
   cmd->add_flag("--no-shadows", o->no_shadows, "Do not cast shadows from the key light");
-  cmd->add_flag("--video", o->video, "Also write video.mp4 into the output folder (needs ffmpeg; plays at fps / every)");
+  cmd->add_flag("--video", o->video,
+                "Also write video.mp4 into the output folder (needs ffmpeg; plays at fps / every)");
   cmd->add_flag("--sheet", o->sheet, "Also write sheet.png into the output folder, a grid of evenly spaced frames");
   cmd->add_option("--sheet-frames", o->sheet_frames, "Frames on the contact sheet")
       ->check(CLI::Range(1, 400))
@@ -150,7 +154,8 @@ void register_render(CLI::App& app) {
   cmd->add_option("--sheet-columns", o->sheet_columns, "Columns of the contact sheet")
       ->check(CLI::Range(1, 100))
       ->capture_default_str();
-  cmd->add_option("--fps", o->fps, "Frame rate of the frames (default: fps from run.json, else 30); the video plays at fps/every")
+  cmd->add_option("--fps", o->fps,
+                  "Frame rate of the frames (default: fps from run.json, else 30); the video plays at fps/every")
       ->check(CLI::PositiveNumber);
   cmd->callback([o] {
     init_logging("warn");

@@ -39,9 +39,10 @@ void print_summary(const RunSummary& s) {
   const double per_frame = s.frames.empty() ? 0.0 : s.wall_s / static_cast<double>(s.frames.size());
   std::printf("  time: %s (%.3f s/frame); solver %s, %d vertices, %d substeps x %d iterations\n",
               format_duration(s.wall_s).c_str(), per_frame, s.solver.c_str(), s.vertices, s.substeps, s.iterations);
-  std::printf("  contact: %ld violations detected; %ld frames left violations after a substep (at most %ld); %ld "
-              "vertex halts",
-              detected, remaining_frames, remaining_max, halted);
+  std::printf(
+      "  contact: %ld violations detected; %ld frames left violations after a substep (at most %ld); %ld "
+      "vertex halts",
+      detected, remaining_frames, remaining_max, halted);
   if (audited) std::printf(", %ld penetrations found by debug.audit", penetrations);
   std::printf("\n  next: ccfr audit %s\n", dir.c_str());
   std::fflush(stdout);
@@ -67,8 +68,9 @@ void register_run(CLI::App& app) {
         // The checkpoint carries the configuration: anything that would change it is refused.
         if (!opts->config.empty() || !opts->out.empty() || opts->frames >= 0 || !opts->solver.empty() ||
             !opts->overrides.empty() || opts->force)
-          throw Error("--resume continues a run exactly as it was configured: give it alone (with --threads or "
-                      "--log-level), without a scene file, --out, --frames, --solver, --set or --force");
+          throw Error(
+              "--resume continues a run exactly as it was configured: give it alone (with --threads or "
+              "--log-level), without a scene file, --out, --frames, --solver, --set or --force");
       } else if (opts->config.empty()) {
         throw Error("a scene file is required (or --resume DIR)");
       }

@@ -7,7 +7,8 @@
 namespace ccfr::app {
 
 void register_schema(CLI::App& app) {
-  auto* cmd = app.add_subcommand("schema", "Print the reference of every scene-file key and every registered component (Markdown)");
+  auto* cmd = app.add_subcommand(
+      "schema", "Print the reference of every scene-file key and every registered component (Markdown)");
   cmd->callback([] {
     guarded([] {
       std::fputs(io::config_reference_markdown().c_str(), stdout);

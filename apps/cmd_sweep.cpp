@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -24,8 +25,10 @@
 #include "ccfr/io/output.hpp"
 #include "ccfr/io/run_audit.hpp"
 #include "ccfr/io/run_info.hpp"
+#include "ccfr/io/scene_loader.hpp"
 #include "commands.hpp"
 #include "frame_summary.hpp"
+#include "progress.hpp"
 #include "run_driver.hpp"
 #include "sweep.hpp"
 
@@ -192,12 +195,17 @@ int run_cell(const fs::path& dir, long index, int threads) {
   } catch (const Error& e) {
     spdlog::error("sweep cell {}: audit failed: {}", c.id, e.what());
   }
-  Json rec = {{"cell", c.id},       {"index", index},         {"exit_code", code},
-              {"status", status},   {"audit", verdict},       {"host", [] {
-                                                                   char h[256] = "";
-                                                                   ::gethostname(h, sizeof h - 1);
-                                                                   return std::string(h);
-                                                                 }()},
+  Json rec = {{"cell", c.id},
+              {"index", index},
+              {"exit_code", code},
+              {"status", status},
+              {"audit", verdict},
+              {"host",
+               [] {
+                 char h[256] = "";
+                 ::gethostname(h, sizeof h - 1);
+                 return std::string(h);
+               }()},
               {"end_time", io::utc_now()}};
   if (const char* job = std::getenv("SLURM_ARRAY_JOB_ID")) rec["slurm_job"] = job;
   if (const char* task = std::getenv("SLURM_ARRAY_TASK_ID")) rec["slurm_task"] = task;
@@ -208,16 +216,99 @@ int run_cell(const fs::path& dir, long index, int threads) {
 
 }  // namespace
 
-int run_local(const SweepLayout& s, const std::vector<size_t>& indices, int jobs, int threads) {
+long frames_in_stats(const fs::path& run_dir) {
+  std::ifstream in(run_dir / "stats.csv", std::ios::binary);
+  if (!in) return 0;
+  long lines = 0;
+  char buf[1 << 14];
+  while (in.read(buf, sizeof buf) || in.gcount() > 0) lines += std::count(buf, buf + in.gcount(), '\n');
+  return std::max(0L, lines - 1);  // the header
+}
+
+std::vector<long> cell_frame_totals(const SweepLayout& s, const std::vector<size_t>& indices) {
+  std::map<std::pair<std::string, std::vector<std::string>>, long> loaded;
+  std::vector<long> totals;
+  for (size_t i : indices) {
+    const io::SweepCell& c = s.cells[i];
+    long n = -1;
+    for (const auto& o : c.overrides)
+      if (o.rfind("time.frames=", 0) == 0) n = std::strtol(o.c_str() + 12, nullptr, 10);
+    if (n < 0) {
+      // No override: the scene's own time.frames (the resolved config holds the default too). The
+      // scene is loaded once per config (and time overrides), not once per cell.
+      std::vector<std::string> time_overrides;
+      for (const auto& o : c.overrides)
+        if (o.rfind("time", 0) == 0) time_overrides.push_back(o);
+      const auto key = std::make_pair(c.config.string(), time_overrides);
+      auto it = loaded.find(key);
+      if (it == loaded.end()) {
+        long f = 0;
+        try {
+          f = Json::parse(io::load_scene(c.config, time_overrides).resolved_json)["time"]["frames"].get<long>();
+        } catch (const std::exception&) {
+          // The cell will fail with this error itself; it adds no frames to the progress.
+        }
+        it = loaded.emplace(key, f).first;
+      }
+      n = it->second;
+    }
+    totals.push_back(std::max(0L, n));
+  }
+  return totals;
+}
+
+int run_local(const SweepLayout& s, const std::vector<size_t>& indices, int jobs, int threads,
+              const std::string& label) {
   jobs = std::max(1, std::min<int>(jobs, static_cast<int>(indices.size())));
   if (threads <= 0) threads = std::max(1, hardware_threads() / jobs);
   const std::string exe = self_exe().string();
-  std::map<pid_t, std::pair<size_t, std::chrono::steady_clock::time_point>> running;
+  // Progress counts the frames this call runs: a resumed cell's frames already in stats.csv are
+  // neither done nor to do, so that the ETA extrapolates from this session's speed only.
+  const std::vector<long> totals = cell_frame_totals(s, indices);
+  std::vector<long> before(indices.size()), done_frames(indices.size(), 0);
+  long to_run = 0;
+  for (size_t k = 0; k < indices.size(); ++k) {
+    before[k] = std::min(frames_in_stats(s.dir / s.cells[indices[k]].id), totals[k]);
+    to_run += totals[k] - before[k];
+  }
+  auto frames_now = [&](size_t k) {
+    return std::clamp(frames_in_stats(s.dir / s.cells[indices[k]].id) - before[k], 0L, totals[k] - before[k]);
+  };
+  // ablate reports every frame; a sweep's many cells at most one line per 10 s (on a terminal, a bar).
+  ProgressReporter progress(label + " frames", to_run, label == "ablate" ? 0.0 : 10.0);
+  struct Running {
+    size_t k;
+    std::chrono::steady_clock::time_point t0;
+  };
+  std::map<pid_t, Running> running;
   size_t next = 0, done = 0;
   int failed = 0;
-  // Ctrl-C reaches every cell (one process group): each writes its checkpoint and stops; we wait.
+  long reported = -1;
+  auto last_draw = std::chrono::steady_clock::now();
+  auto report = [&](bool force) {
+    long sum = 0;
+    std::string cells;
+    for (auto& [pid, r] : running) {
+      done_frames[r.k] = frames_now(r.k);
+      cells += (cells.empty() ? "" : ", ") + s.cells[indices[r.k]].id + " frame " +
+               std::to_string(before[r.k] + done_frames[r.k]) + "/" + std::to_string(totals[r.k]);
+    }
+    for (size_t k = 0; k < indices.size(); ++k) sum += done_frames[k];
+    // A terminal's bar is redrawn every second so that its clock moves; log lines only on news.
+    const auto now = std::chrono::steady_clock::now();
+    const bool tick = progress.on_terminal() && now - last_draw >= std::chrono::seconds(1);
+    if ((sum == reported || sum == 0) && !force && !tick) return;
+    reported = sum;
+    last_draw = now;
+    std::string detail = std::to_string(done) + "/" + std::to_string(indices.size()) + " cells done";
+    if (failed) detail += " (" + std::to_string(failed) + " failed)";
+    if (!cells.empty()) detail += "; " + cells;
+    progress.update(sum, detail);
+  };
+  // Ctrl-C reaches every cell (one process group): each writes its checkpoint and stops.
   auto start_one = [&] {
-    const size_t i = indices[next++];
+    const size_t k = next++;
+    const size_t i = indices[k];
     const io::SweepCell& c = s.cells[i];
     const fs::path log = s.dir / "logs" / (c.id + ".log");
     const pid_t pid = fork();
@@ -230,27 +321,44 @@ int run_local(const SweepLayout& s, const std::vector<size_t>& indices, int jobs
       ::_exit(127);
     }
     if (pid < 0) throw Error("cannot start a process for cell " + c.id);
-    running[pid] = {i, std::chrono::steady_clock::now()};
-    std::fprintf(stderr, "sweep: started %s (%zu of %zu, %d threads)\n", c.id.c_str(), next, indices.size(), threads);
+    running[pid] = {k, std::chrono::steady_clock::now()};
+    progress.clear();
+    spdlog::info("{}: started {} ({} of {}, {} threads)", label, c.id, next, indices.size(), threads);
   };
   while (next < indices.size() && static_cast<int>(running.size()) < jobs) start_one();
   while (!running.empty()) {
     int st = 0;
-    const pid_t pid = ::waitpid(-1, &st, 0);
+    const pid_t pid = ::waitpid(-1, &st, WNOHANG);
     if (pid < 0) break;
+    if (pid == 0) {
+      report(false);
+      std::this_thread::sleep_for(std::chrono::milliseconds(250));
+      continue;
+    }
     const auto it = running.find(pid);
     if (it == running.end()) continue;
-    const auto [i, t0] = it->second;
+    const auto [k, t0] = it->second;
     running.erase(it);
+    done_frames[k] = frames_now(k);
     ++done;
+    const size_t i = indices[k];
     const int code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
     const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    const std::string status = io::is_ccfr_run(s.dir / s.cells[i].id) ? io::read_run_info(s.dir / s.cells[i].id).status : "no run";
+    const std::string status =
+        io::is_ccfr_run(s.dir / s.cells[i].id) ? io::read_run_info(s.dir / s.cells[i].id).status : "no run";
     if (code != 0 && code != 3) ++failed;
-    std::fprintf(stderr, "sweep: [%zu/%zu] %s: %s (exit %d) in %.1f s\n", done, indices.size(), s.cells[i].id.c_str(),
-                 status.c_str(), code, secs);
+    progress.clear();
+    // A failed cell is worth a warning (shown under --quiet); its log says why.
+    if (code != 0 && code != 3)
+      spdlog::warn("{}: [{}/{}] {}: {} (exit {}) in {}; see {}", label, done, indices.size(), s.cells[i].id, status,
+                   code, format_duration(secs), (s.dir / "logs" / (s.cells[i].id + ".log")).string());
+    else
+      spdlog::info("{}: [{}/{}] {}: {} (exit {}) in {}", label, done, indices.size(), s.cells[i].id, status, code,
+                   format_duration(secs));
     if (next < indices.size()) start_one();
+    report(true);
   }
+  progress.finish();
   return failed;
 }
 
@@ -276,9 +384,9 @@ void apply_flags(io::SweepResources& r, const SlurmFlags& f) {
 std::string slurm_submit(const SweepLayout& s, const std::vector<size_t>& indices, const std::string& sbatch) {
   const fs::path dir = fs::absolute(s.dir).lexically_normal();
   const auto& r = s.resources;
-  std::string sh = "#!/bin/bash\n# Written by ccfr sweep: one array task per cell of " + dir.string() +
-                   "/sweep.json.\n#SBATCH --job-name=ccfr-sweep\n#SBATCH --cpus-per-task=" +
-                   std::to_string(r.cpus_per_task) + "\n";
+  std::string sh =
+      "#!/bin/bash\n# Written by ccfr sweep: one array task per cell of " + dir.string() +
+      "/sweep.json.\n#SBATCH --job-name=ccfr-sweep\n#SBATCH --cpus-per-task=" + std::to_string(r.cpus_per_task) + "\n";
   if (!r.time.empty()) sh += "#SBATCH --time=" + r.time + "\n";
   if (!r.memory.empty()) sh += "#SBATCH --mem=" + r.memory + "\n";
   if (!r.partition.empty()) sh += "#SBATCH --partition=" + r.partition + "\n";
@@ -299,15 +407,15 @@ std::string slurm_submit(const SweepLayout& s, const std::vector<size_t>& indice
   Json j = read_json(dir / "sweep.json");
   j["slurm_jobs"].push_back({{"job_id", job}, {"array", array}, {"submitted", io::utc_now()}});
   io::write_file_atomic(dir / "sweep.json", j.dump(2) + "\n");
-  std::fprintf(stderr, "sweep: submitted job %s (array %s, %zu cells) with %s\n", job.c_str(), array.c_str(),
-               indices.size(), script.string().c_str());
+  std::printf("sweep: submitted job %s (array %s, %zu cells) with %s; `ccfr sweep status %s` follows it\n", job.c_str(),
+              array.c_str(), indices.size(), script.string().c_str(), dir.string().c_str());
   return job;
 }
 
 // Slurm's view of the sweep's array tasks: cell index -> state (PENDING, RUNNING, COMPLETED,
 // CANCELLED, TIMEOUT, FAILED, ...) of its latest job; squeue for live tasks, sacct when accounting
 // is available (without it sacct fails and only run.json tells).
-std::map<size_t, std::string> slurm_states(const fs::path& dir) {
+std::map<size_t, std::string> slurm_states(const fs::path& dir, bool* queue_known = nullptr) {
   std::map<size_t, std::string> st;
   const Json j = read_json(dir / "sweep.json");
   if (!j.is_object() || !j.contains("slurm_jobs") || j["slurm_jobs"].empty()) return st;
@@ -328,7 +436,12 @@ std::map<size_t, std::string> slurm_states(const fs::path& dir) {
   const auto [sc, sacct] = capture("sacct -n -P -X -j " + ids + " -o JobID,State");
   if (sc == 0) parse(sacct, '|');
   const auto [qc, squeue] = capture("squeue -h -r -j " + ids + " -o '%i %T'");
-  if (qc == 0) parse(squeue, ' ');
+  if (queue_known) *queue_known = qc == 0;
+  if (qc == 0)
+    parse(squeue, ' ');
+  else  // e.g. SLURM_CONF not set as for sbatch: queued cells would look not started, running ones lost
+    spdlog::warn("sweep: squeue failed (exit {}): {}; queued and running cells are not known as such", qc,
+                 squeue.substr(0, squeue.find('\n')));
   return st;
 }
 
@@ -350,9 +463,7 @@ std::string cell_state(const SweepLayout& s, size_t i, const std::map<size_t, st
   return "lost";  // run.json says running but nothing runs it: the node or process died
 }
 
-bool resumable(const std::string& state) {
-  return state != "completed" && state != "queued" && state != "running";
-}
+bool resumable(const std::string& state) { return state != "completed" && state != "queued" && state != "running"; }
 
 // ---- collect ----------------------------------------------------------------------------------
 
@@ -438,7 +549,10 @@ std::vector<CellRow> collect_rows(const SweepLayout& s) {
         ao.stride = s.audit_stride;
         const auto a = io::audit_run(out, ao);
         const std::string verdict = !a.clean() ? "fail" : a.completed() ? "pass" : "incomplete";
-        const std::string text = io::audit_report_json(a, verdict, verdict == "fail" ? 1 : verdict == "pass" ? 0 : 4,
+        const std::string text = io::audit_report_json(a, verdict,
+                                                       verdict == "fail"   ? 1
+                                                       : verdict == "pass" ? 0
+                                                                           : 4,
                                                        verdict == "incomplete");
         io::write_file_atomic(out / "audit.json", text);
         audit = Json::parse(text);
@@ -449,7 +563,8 @@ std::vector<CellRow> collect_rows(const SweepLayout& s) {
     }
     r.audit = audit.value("verdict", std::string("error"));
     r.audit_violations = audit.value("violations", 0L);
-    const double md = audit.contains("min_distance") && audit["min_distance"].is_number() ? audit["min_distance"].get<double>() : NAN;
+    const double md =
+        audit.contains("min_distance") && audit["min_distance"].is_number() ? audit["min_distance"].get<double>() : NAN;
     const double off = audit.contains("offset") && audit["offset"].is_number() ? audit["offset"].get<double>() : NAN;
     r.min_over_xi = md / off;
     std::map<long, long> pen;
@@ -468,8 +583,10 @@ std::vector<CellRow> collect_rows(const SweepLayout& s) {
 }
 
 std::string metrics_header() {
-  return "frames,status,avg_frame_s,max_frame_s,median_frame_s,xpbd_s,broad_s,narrow_s,resolution_s,violations_detected,"
-         "violations_remaining,max_violations_remaining,halted_vertices,audit,audit_violations,min_distance_over_offset";
+  return "frames,status,avg_frame_s,max_frame_s,median_frame_s,xpbd_s,broad_s,narrow_s,resolution_s,violations_"
+         "detected,"
+         "violations_remaining,max_violations_remaining,halted_vertices,audit,audit_violations,min_distance_over_"
+         "offset";
 }
 
 std::string metrics_csv(const CellRow& r) {
@@ -494,8 +611,9 @@ int collect(const fs::path& dir, const std::string& metric, const std::string& a
                    " cells; every run audited with the exact audit (`ccfr audit`, stride " +
                    std::to_string(s.audit_stride) + "). Times are mean seconds per frame.\n\n| scene | solver |";
   for (const auto& k : s.parameter_keys) md += " `" + k + "` |";
-  md += " status | frames | mean s/frame | max s/frame | XPBD | broad | narrow | resolution | violations detected | "
-        "remaining (sum / max) | halted (%) | audit | min dist / ξ |\n|---|---|";
+  md +=
+      " status | frames | mean s/frame | max s/frame | XPBD | broad | narrow | resolution | violations detected | "
+      "remaining (sum / max) | halted (%) | audit | min dist / ξ |\n|---|---|";
   for (size_t k = 0; k < s.parameter_keys.size(); ++k) md += "---|";
   md += "---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& r : rows) {
@@ -524,12 +642,15 @@ int collect(const fs::path& dir, const std::string& metric, const std::string& a
     if (!x.empty() && fs::exists(script) && fs::exists("/usr/bin/python3")) {
       const std::string cmd = "/usr/bin/python3 " + quote(script.string()) + " " + quote((dir / "sweep.csv").string()) +
                               " --metric " + quote(metric) + " --against " + quote(x) + " > /dev/null 2>&1";
-      if (std::system(cmd.c_str()) != 0) spdlog::warn("sweep collect: plotting failed ({}); the tables are written", cmd);
+      if (std::system(cmd.c_str()) != 0)
+        spdlog::warn("sweep collect: plotting failed ({}); the tables are written", cmd);
     }
   }
   size_t bad = 0;
   for (const auto& r : rows) bad += r.audit != "pass";
-  if (bad) std::fprintf(stderr, "sweep collect: %zu of %zu cells did not pass the audit or did not complete\n", bad, rows.size());
+  if (bad)
+    std::fprintf(stderr, "sweep collect: %zu of %zu cells did not pass the audit or did not complete\n", bad,
+                 rows.size());
   return bad ? 1 : 0;
 }
 
@@ -544,6 +665,18 @@ struct SweepOptions {
   bool plot = true;
 };
 
+// Runs the cells here, then the closing summary on stdout: cells by outcome, frames, time.
+int run_and_summarize(const SweepLayout& s, const std::vector<size_t>& indices, int jobs, int threads) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const int failed = run_local(s, indices, jobs, threads);
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  long frames = 0;
+  for (size_t i : indices) frames += frames_in_stats(s.dir / s.cells[i].id);
+  std::printf("sweep: %zu cells run, %d failed, in %s (%ld frames in all); next: ccfr sweep collect %s\n",
+              indices.size(), failed, format_duration(secs).c_str(), frames, s.dir.string().c_str());
+  return failed ? 1 : 0;
+}
+
 int start_sweep(SweepOptions& o) {
   io::SweepSpec spec = io::load_sweep_spec(o.spec);
   SweepLayout s{o.out, spec.cells, spec.parameter_keys, spec.audit_stride, spec.resources, spec.file};
@@ -554,7 +687,8 @@ int start_sweep(SweepOptions& o) {
     for (const auto& c : old.cells) a.push_back(c.id);
     for (const auto& c : s.cells) b.push_back(c.id);
     if (a != b)
-      throw Error("'" + o.out.string() + "' holds another sweep (its cells differ); choose another --out, or use `ccfr "
+      throw Error("'" + o.out.string() +
+                  "' holds another sweep (its cells differ); choose another --out, or use `ccfr "
                   "sweep resume`");
   } else if (fs::exists(o.out) && !fs::is_empty(o.out)) {
     throw Error("output directory '" + o.out.string() + "' is not empty and is not a sweep; choose another --out");
@@ -562,37 +696,39 @@ int start_sweep(SweepOptions& o) {
   write_sweep(s);
   std::vector<size_t> all(s.cells.size());
   for (size_t i = 0; i < all.size(); ++i) all[i] = i;
-  std::fprintf(stderr, "sweep: %zu cells in %s\n", all.size(), o.out.string().c_str());
+  spdlog::info("sweep: {} cells in {}", all.size(), o.out.string());
   if (o.backend == "slurm") {
     slurm_submit(s, all, o.slurm.sbatch);
     return 0;
   }
-  const int failed = run_local(s, all, o.jobs, o.threads);
-  std::fprintf(stderr, "sweep: %zu cells done, %d failed; `ccfr sweep collect %s` tabulates them\n", all.size(), failed,
-               o.out.string().c_str());
-  return failed ? 1 : 0;
+  return run_and_summarize(s, all, o.jobs, o.threads);
 }
 
 int sweep_status(const fs::path& dir) {
   const SweepLayout s = read_sweep(dir);
   const auto slurm = slurm_states(dir);
+  std::vector<size_t> all(s.cells.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = i;
+  const std::vector<long> totals = cell_frame_totals(s, all);
   std::map<std::string, int> counts;
+  long done = 0, total = 0;
   std::printf("%-60s %-14s %s\n", "cell", "state", "frames (latest checkpoint)");
   for (size_t i = 0; i < s.cells.size(); ++i) {
     const std::string st = cell_state(s, i, slurm);
     ++counts[st.substr(0, st.find(' '))];
     const fs::path out = dir / s.cells[i].id;
-    std::string frames = "-";
-    if (io::is_ccfr_run(out)) {
-      const auto info = io::read_run_info(out);
-      frames = std::to_string(info.frames.empty() ? 0 : info.frames.size() - 1);
-      if (const auto ck = io::latest_checkpoint(out)) frames += " (" + ck->filename().string() + ")";
-    }
+    const long n = std::min(frames_in_stats(out), totals[i]);
+    done += n;
+    total += totals[i];
+    std::string frames = std::to_string(n) + "/" + std::to_string(totals[i]);
+    if (const auto ck = io::is_ccfr_run(out) ? io::latest_checkpoint(out) : std::nullopt)
+      frames += " (" + ck->filename().string() + ")";
     std::printf("%-60s %-14s %s\n", s.cells[i].id.c_str(), st.c_str(), frames.c_str());
   }
   std::string summary;
   for (const auto& [k, n] : counts) summary += (summary.empty() ? "" : ", ") + std::to_string(n) + " " + k;
   std::printf("%zu cells: %s\n", s.cells.size(), summary.c_str());
+  std::printf("frames: %ld of %ld (%.0f %%)\n", done, total, total > 0 ? 100.0 * done / total : 100.0);
   return 0;
 }
 
@@ -601,21 +737,25 @@ int resume(SweepOptions& o) {
   apply_flags(s.resources, o.slurm);
   const Json j = read_json(o.dir / "sweep.json");
   const bool slurm_sweep = o.backend == "slurm" || (o.backend.empty() && !j["slurm_jobs"].empty());
-  const auto states = slurm_states(o.dir);
+  bool queue_known = true;
+  const auto states = slurm_states(o.dir, &queue_known);
+  if (!queue_known)
+    throw Error("cannot tell which cells of '" + o.dir.string() +
+                "' are queued or running (squeue failed, above); resuming now could run them twice");
   std::vector<size_t> to_resume;
   for (size_t i = 0; i < s.cells.size(); ++i)
     if (resumable(cell_state(s, i, states))) to_resume.push_back(i);
   if (to_resume.empty()) {
-    std::fprintf(stderr, "sweep: nothing to resume: every cell completed, is queued or is running\n");
+    std::printf("sweep: nothing to resume: every cell completed, is queued or is running\n");
     return 0;
   }
-  for (size_t i : to_resume) std::fprintf(stderr, "sweep: resuming %s (%s)\n", s.cells[i].id.c_str(), cell_state(s, i, states).c_str());
+  for (size_t i : to_resume) spdlog::info("sweep: resuming {} ({})", s.cells[i].id, cell_state(s, i, states));
   if (slurm_sweep) {
     write_sweep(s);
     slurm_submit(s, to_resume, o.slurm.sbatch);
     return 0;
   }
-  return run_local(s, to_resume, o.jobs, o.threads) ? 1 : 0;
+  return run_and_summarize(s, to_resume, o.jobs, o.threads);
 }
 
 void add_slurm_flags(CLI::App* cmd, SweepOptions& o) {
@@ -650,13 +790,14 @@ void register_sweep(CLI::App& app) {
   st->add_option("dir", o->dir, "Sweep directory")->required();
   st->callback([o] { guarded([o] { return sweep_status(o->dir); }); });
 
-  auto* rs = cmd->add_subcommand("resume", "Run again every failed, cancelled, timed-out or lost cell from its checkpoint");
+  auto* rs =
+      cmd->add_subcommand("resume", "Run again every failed, cancelled, timed-out or lost cell from its checkpoint");
   rs->add_option("dir", o->dir, "Sweep directory")->required();
   rs->add_option("--backend", o->backend, "local or slurm (default: as the sweep was started)")
       ->check(CLI::IsMember({"local", "slurm"}));
   add_slurm_flags(rs, *o);
   rs->callback([o, rs] {
-    init_logging("warn");
+    init_logging("info");  // its progress, like the sweep's
     if (rs->count("--backend") == 0) o->backend.clear();
     guarded([o] { return resume(*o); });
   });
@@ -685,7 +826,8 @@ void register_sweep(CLI::App& app) {
     if (!cmd->get_subcommands().empty()) return;
     init_logging(*log_level);
     guarded([o] {
-      if (o->spec.empty() || o->out.empty()) throw Error("usage: ccfr sweep SPEC.yaml --out DIR (or status/resume/collect DIR)");
+      if (o->spec.empty() || o->out.empty())
+        throw Error("usage: ccfr sweep SPEC.yaml --out DIR (or status/resume/collect DIR)");
       return start_sweep(*o);
     });
   });

@@ -69,7 +69,8 @@ void ProgressReporter::update(long done, const std::string& detail) {
     if (done >= total_) finish();
     return;
   }
-  if (done != 1 && done < total_ && t - last_log_s_ < log_every_s_) return;
+  if (logged_ && done < total_ && t - last_log_s_ < log_every_s_) return;
+  logged_ = true;
   last_log_s_ = t;
   spdlog::info("{} {}/{}: {}{}{}", label_, done, total_, times, detail.empty() ? "" : "; ", detail);
 }

@@ -17,8 +17,8 @@ std::string format_duration(double seconds);
 class ProgressReporter {
  public:
   /// `label` starts each line ("run twisting_cloth", "ablate ccfr"); `total` steps (frames).
-  /// `log_every_s`: without a terminal, at most one line per this many seconds (0: every step;
-  /// the first and the last step are always reported).
+  /// `log_every_s`: without a terminal, at most one line per this many seconds (0: every call;
+  /// the first call and the last step are always reported).
   ProgressReporter(std::string label, long total, double log_every_s = 0.0);
   ~ProgressReporter();
   ProgressReporter(const ProgressReporter&) = delete;
@@ -40,7 +40,7 @@ class ProgressReporter {
   std::string label_;
   long total_;
   double log_every_s_;
-  bool tty_ = false, enabled_ = true, drawn_ = false;
+  bool tty_ = false, enabled_ = true, drawn_ = false, logged_ = false;
   std::chrono::steady_clock::time_point start_;
   double last_log_s_ = -1e300;
 };

@@ -11,8 +11,8 @@
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/geometry_exact/audit.hpp"
 #include "ccfr/io/checkpoint.hpp"
-#include "ccfr/io/run_recorder.hpp"
 #include "ccfr/io/run_info.hpp"
+#include "ccfr/io/run_recorder.hpp"
 #include "ccfr/io/scene_loader.hpp"
 #include "progress.hpp"
 #include "scene_advice.hpp"
@@ -102,7 +102,8 @@ struct Resume {
 };
 
 Resume load_resume(const std::filesystem::path& dir) {
-  if (!io::is_ccfr_run(dir)) throw Error("cannot resume '" + dir.string() + "': not a ccfr run directory (no run.json)");
+  if (!io::is_ccfr_run(dir))
+    throw Error("cannot resume '" + dir.string() + "': not a ccfr run directory (no run.json)");
   const auto latest = io::latest_checkpoint(dir);
   if (!latest)
     throw Error("cannot resume '" + dir.string() + "': no checkpoint in '" + (dir / "checkpoints").string() +
@@ -175,8 +176,10 @@ RunSummary run_scene(const RunOptions& opts) {
     const io::Checkpoint& c = resume->ckpt;
     try {
       sim.restore(c.sim);
-      if (audit) audit->restore_reduced_offsets(c.audit_offsets);
-      else if (!c.audit_offsets.empty()) throw Error("it holds audit state, but debug.audit is off");
+      if (audit)
+        audit->restore_reduced_offsets(c.audit_offsets);
+      else if (!c.audit_offsets.empty())
+        throw Error("it holds audit state, but debug.audit is off");
     } catch (const Error& e) {
       throw Error("checkpoint '" + resume->file.string() + "' does not fit its scene: " + e.what());
     }
@@ -218,8 +221,8 @@ RunSummary run_scene(const RunOptions& opts) {
     io::RunMeta meta = io::make_run_meta(sim, opts.command_line, opts.argv);
     writer = resume ? std::make_unique<io::RunRecorder>(opts.resume, sim, loaded.resolved_json, std::move(meta),
                                                         params.time.frames, io::RunWriter::ResumeAt{first_frame - 1})
-                    : std::make_unique<io::RunRecorder>(opts.out, sim, loaded.resolved_json, std::move(meta), params.time.frames,
-                                                        opts.force);
+                    : std::make_unique<io::RunRecorder>(opts.out, sim, loaded.resolved_json, std::move(meta),
+                                                        params.time.frames, opts.force);
     try {
       writer->start();
     } catch (const Error& e) {
@@ -273,15 +276,17 @@ RunSummary run_scene(const RunOptions& opts) {
       }
     }
     if (progress && progress->on_terminal())
-      progress->update(f - first_frame + 1, fmt::format("{:.3f} s/frame  viol {}/{}  halted {}", fs.wall_s, fs.violations_detected,
-                                      fs.violations_remaining, fs.halted_vertices));
+      progress->update(f - first_frame + 1,
+                       fmt::format("{:.3f} s/frame  viol {}/{}  halted {}", fs.wall_s, fs.violations_detected,
+                                   fs.violations_remaining, fs.halted_vertices));
     else if (progress)
       progress->update(
-          f - first_frame + 1, fmt::format("{:.3f} s (xpbd {:.3f}, broad {:.3f}, narrow {:.3f}, resolution {:.3f}); violations {}/{}; "
-                         "halted {}{}",
-                         fs.wall_s, fs.times.xpbd, fs.times.broad, fs.times.narrow, fs.times.resolution,
-                         fs.violations_detected, fs.violations_remaining, fs.halted_vertices,
-                         fs.penetrations >= 0 ? "; penetrations " + std::to_string(fs.penetrations) : std::string()));
+          f - first_frame + 1,
+          fmt::format("{:.3f} s (xpbd {:.3f}, broad {:.3f}, narrow {:.3f}, resolution {:.3f}); violations {}/{}; "
+                      "halted {}{}",
+                      fs.wall_s, fs.times.xpbd, fs.times.broad, fs.times.narrow, fs.times.resolution,
+                      fs.violations_detected, fs.violations_remaining, fs.halted_vertices,
+                      fs.penetrations >= 0 ? "; penetrations " + std::to_string(fs.penetrations) : std::string()));
   }
   if (progress) progress->finish();
   summary.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();

@@ -12,17 +12,17 @@ namespace ccfr::app {
 
 struct RunOptions {
   std::filesystem::path config;
-  std::filesystem::path out;           ///< empty: no output directory (bench)
-  int frames = -1;                     ///< -1: from the scene
-  std::string solver;                  ///< empty: from the scene
-  std::vector<std::string> overrides;  ///< --set key.path=value
-  int threads = 0;                     ///< 0: all hardware threads
-  bool progress = true;                ///< per-frame progress with ETA (progress.hpp) unless --quiet
+  std::filesystem::path out;             ///< empty: no output directory (bench)
+  int frames = -1;                       ///< -1: from the scene
+  std::string solver;                    ///< empty: from the scene
+  std::vector<std::string> overrides;    ///< --set key.path=value
+  int threads = 0;                       ///< 0: all hardware threads
+  bool progress = true;                  ///< per-frame progress with ETA (progress.hpp) unless --quiet
   std::string progress_label = "frame";  ///< starts each progress line
-  bool advise = false;                 ///< warn about r, ξ, speeds out of range (scene_advice.hpp)
-  std::string command_line;       ///< run.json `command_line`
-  std::vector<std::string> argv;  ///< run.json `argv` (every argument as typed); empty: omitted
-  bool force = false;             ///< --force: write into a non-empty directory that is not a ccfr run
+  bool advise = false;                   ///< warn about r, ξ, speeds out of range (scene_advice.hpp)
+  std::string command_line;              ///< run.json `command_line`
+  std::vector<std::string> argv;         ///< run.json `argv` (every argument as typed); empty: omitted
+  bool force = false;                    ///< --force: write into a non-empty directory that is not a ccfr run
   /// --resume DIR: continue the run in DIR from its latest checkpoint (config, overrides, frames
   /// and solver come from the checkpoint; `config` and `out` are ignored).
   std::filesystem::path resume;

@@ -25,8 +25,15 @@ void write_sweep(const SweepLayout& s);
 /// Reads DIR/sweep.json back; throws ccfr::Error if DIR is not a sweep.
 SweepLayout read_sweep(const std::filesystem::path& dir);
 /// Runs `indices` here, `jobs` at once with `threads` each, as `ccfr sweep run-cell` processes
-/// logging to DIR/logs/<id>.log; progress lines on stderr. Returns the number of cells that failed.
-int run_local(const SweepLayout& s, const std::vector<size_t>& indices, int jobs, int threads);
+/// logging to DIR/logs/<id>.log. One progress (progress.hpp) on stderr over all of them: frames
+/// done of the frames to run, elapsed time, ETA, and the running cells' frames; `label` ("sweep",
+/// "ablate") starts its lines. Returns the number of cells that failed.
+int run_local(const SweepLayout& s, const std::vector<size_t>& indices, int jobs, int threads,
+              const std::string& label = "sweep");
+/// Frames each cell of `indices` runs: its time.frames override, else its scene's time.frames.
+std::vector<long> cell_frame_totals(const SweepLayout& s, const std::vector<size_t>& indices);
+/// Frames recorded in RUN_DIR/stats.csv (0 when there is none).
+long frames_in_stats(const std::filesystem::path& run_dir);
 
 /// One row of the collected table.
 struct CellRow {

@@ -92,8 +92,13 @@ void BM_BvhRefitSelfPairs(benchmark::State& state) {
   set_thread_count(0);
 }
 // Args: threads, crumple amplitude in mm (0: a flat 1 m cloth).
-BENCHMARK(BM_BvhRefitSelfPairs)->Args({1, 0})->Args({2, 0})->Args({1, 100})->Args({2, 100})
-    ->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_BvhRefitSelfPairs)
+    ->Args({1, 0})
+    ->Args({2, 0})
+    ->Args({1, 100})
+    ->Args({2, 100})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 void BM_BvhBuild(benchmark::State& state) {
   const auto boxes = cloth_boxes(0.1, 0.01);

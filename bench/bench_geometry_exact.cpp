@@ -28,8 +28,8 @@ SceneData crumpled_cloth() {
   for (int i = 0; i <= n; ++i)
     for (int j = 0; j <= n; ++j) {
       const double x = double(i) / n, z = double(j) / n;
-      const double y = 0.05 * std::sin(9 * x) * std::cos(7 * z) + 0.02 * std::sin(23 * x + 17 * z) +
-                       0.01 * std::cos(41 * z - 3 * x);
+      const double y =
+          0.05 * std::sin(9 * x) * std::cos(7 * z) + 0.02 * std::sin(23 * x + 17 * z) + 0.01 * std::cos(41 * z - 3 * x);
       s.x.emplace_back(x, y, z);
     }
   auto id = [&](int i, int j) { return static_cast<Index>(i * (n + 1) + j); };
@@ -122,10 +122,12 @@ BENCHMARK(BM_TriangleTriangleExact);
 void BM_PointTriangleCompareExactPath(benchmark::State& state) {
   const auto p = random_points(4 * 256, 2);
   std::vector<double> d(256);
-  for (int k = 0; k < 256; ++k) d[k] = exact::exact_point_triangle_distance_sq(p[4 * k], p[4 * k + 1], p[4 * k + 2], p[4 * k + 3]);
+  for (int k = 0; k < 256; ++k)
+    d[k] = exact::exact_point_triangle_distance_sq(p[4 * k], p[4 * k + 1], p[4 * k + 2], p[4 * k + 3]);
   size_t k = 0;
   for (auto _ : state) {
-    benchmark::DoNotOptimize(exact::compare_point_triangle_distance_sq(p[4 * k], p[4 * k + 1], p[4 * k + 2], p[4 * k + 3], d[k]));
+    benchmark::DoNotOptimize(
+        exact::compare_point_triangle_distance_sq(p[4 * k], p[4 * k + 1], p[4 * k + 2], p[4 * k + 3], d[k]));
     k = (k + 1) & 255;
   }
 }
@@ -134,10 +136,12 @@ BENCHMARK(BM_PointTriangleCompareExactPath);
 void BM_EdgeEdgeCompareExactPath(benchmark::State& state) {
   const auto p = random_points(4 * 256, 3);
   std::vector<double> d(256);
-  for (int k = 0; k < 256; ++k) d[k] = exact::exact_edge_edge_distance_sq(p[4 * k], p[4 * k + 1], p[4 * k + 2], p[4 * k + 3]);
+  for (int k = 0; k < 256; ++k)
+    d[k] = exact::exact_edge_edge_distance_sq(p[4 * k], p[4 * k + 1], p[4 * k + 2], p[4 * k + 3]);
   size_t k = 0;
   for (auto _ : state) {
-    benchmark::DoNotOptimize(exact::compare_edge_edge_distance_sq(p[4 * k], p[4 * k + 1], p[4 * k + 2], p[4 * k + 3], d[k]));
+    benchmark::DoNotOptimize(
+        exact::compare_edge_edge_distance_sq(p[4 * k], p[4 * k + 1], p[4 * k + 2], p[4 * k + 3], d[k]));
     k = (k + 1) & 255;
   }
 }
@@ -148,7 +152,8 @@ void BM_PointTriangleCompareFiltered(benchmark::State& state) {
   const auto p = random_points(4 * 256, 2);
   size_t k = 0;
   for (auto _ : state) {
-    benchmark::DoNotOptimize(exact::compare_point_triangle_distance_sq(p[4 * k], p[4 * k + 1], p[4 * k + 2], p[4 * k + 3], 1e-6));
+    benchmark::DoNotOptimize(
+        exact::compare_point_triangle_distance_sq(p[4 * k], p[4 * k + 1], p[4 * k + 2], p[4 * k + 3], 1e-6));
     k = (k + 1) & 255;
   }
 }

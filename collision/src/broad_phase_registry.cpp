@@ -6,11 +6,16 @@ namespace ccfr {
 BroadPhaseRegistry& broad_phases() {
   static BroadPhaseRegistry registry = [] {
     BroadPhaseRegistry r("broad phase");
-    r.add({"bvh", "flat BVH over the primitive boxes, refitted each pass, parallel self-query (default, fastest measured)",
-           {}, [](const ParamValues&) { return std::make_unique<BvhBroadPhase>(); }});
-    r.add({"fcl", "FCL's dynamic AABB tree (single-threaded)", {},
-           [](const ParamValues&) { return std::make_unique<FclBroadPhase>(); }});
-    r.add({"brute_force", "tests every pair of boxes, O(P²): a reference for tests and tiny scenes", {},
+    r.add({"bvh",
+           "flat BVH over the primitive boxes, refitted each pass, parallel self-query (default, fastest measured)",
+           {},
+           [](const ParamValues&) { return std::make_unique<BvhBroadPhase>(); }});
+    r.add({"fcl", "FCL's dynamic AABB tree (single-threaded)", {}, [](const ParamValues&) {
+             return std::make_unique<FclBroadPhase>();
+           }});
+    r.add({"brute_force",
+           "tests every pair of boxes, O(P²): a reference for tests and tiny scenes",
+           {},
            [](const ParamValues&) { return std::make_unique<BruteForceBroadPhase>(); }});
     return r;
   }();

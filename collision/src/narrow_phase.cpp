@@ -635,9 +635,10 @@ void CollisionDetector::restore_reduced_offsets(std::span<const double> offsets)
   const double xi = params_.offset;
   for (size_t i = 0; i < offsets.size(); ++i)
     if (!std::isfinite(offsets[i]) || offsets[i] < reduced_offset_[i] || offsets[i] > xi)
-      throw Error(fmt::format("collision state: reduced offset {} is {:.17g}, outside [{:.17g}, {:.17g}] (its initial "
-                              "value and the offset)",
-                              i, offsets[i], reduced_offset_[i], xi));
+      throw Error(
+          fmt::format("collision state: reduced offset {} is {:.17g}, outside [{:.17g}, {:.17g}] (its initial "
+                      "value and the offset)",
+                      i, offsets[i], reduced_offset_[i], xi));
   reduced_offset_.assign(offsets.begin(), offsets.end());
   // Exactly the slots raise_reduced_offsets() would have kept: those still below ξ, ascending.
   active_.clear();
@@ -747,7 +748,7 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
 
 /// Concatenates the per-chunk contacts in chunk order (deterministic for any thread count) and
 /// applies Alg. NarrowPhase lines 10, 26 and 41 to every contact: each movable vertex of side A
-/// gets \f$ (\mathbf{n}, s_A\varphi, \varphi) \f$, each of side B \f$ (-\mathbf{n}, s_B\varphi, \varphi) \f$ (the
+/// gets \f$ (\mathbf{n}, s_A\varphi) \f$, each of side B \f$ (-\mathbf{n}, s_B\varphi) \f$ (the
 /// normal points from the other primitive toward the vertex's own, clarification 3); d stays negative for a pair
 /// already inside the offset (clarification 7).
 ///
@@ -839,7 +840,6 @@ void CollisionDetector::assemble(std::span<const double> inv_mass, std::span<con
           HalfSpace& h = regions.planes[static_cast<size_t>(cursor[v]++)];
           h.n = k < na ? c.n : Vec3(-c.n);
           h.d = (k < na ? s_a : s_b) * gap;
-          h.phi = phi;
         }
       }
     }

@@ -68,34 +68,37 @@ double box_inflation(double radius, double offset, double repulsion_range) {
 void compute_primitive_boxes(const CollisionPrimitives& prims, const Topology& topo, const Positions& x,
                              double inflation, std::vector<AABB>& boxes) {
   boxes.resize(static_cast<size_t>(prims.size()));
-  parallel_for(prims.size(), [&](Index begin, Index end) {
-    for (Index p = begin; p < end; ++p) {
-      AABB b;
-      bool finite = true;
-      switch (prims.kind(p)) {
-        case PrimitiveKind::triangle: {
-          const Vec3i& f = topo.faces[p];
-          b = AABB::of(x[f[0]], x[f[1]], x[f[2]]);
-          finite = x[f[0]].allFinite() && x[f[1]].allFinite() && x[f[2]].allFinite();
-          break;
+  parallel_for(
+      prims.size(),
+      [&](Index begin, Index end) {
+        for (Index p = begin; p < end; ++p) {
+          AABB b;
+          bool finite = true;
+          switch (prims.kind(p)) {
+            case PrimitiveKind::triangle: {
+              const Vec3i& f = topo.faces[p];
+              b = AABB::of(x[f[0]], x[f[1]], x[f[2]]);
+              finite = x[f[0]].allFinite() && x[f[1]].allFinite() && x[f[2]].allFinite();
+              break;
+            }
+            case PrimitiveKind::edge: {
+              const Vec2i& e = topo.edges[prims.element(p)];
+              b = AABB::of(x[e[0]], x[e[1]]);
+              finite = x[e[0]].allFinite() && x[e[1]].allFinite();
+              break;
+            }
+            case PrimitiveKind::point:
+              b = AABB::of(x[prims.element(p)]);
+              finite = x[prims.element(p)].allFinite();
+              break;
+          }
+          b.inflate(inflation);
+          // cwiseMin/cwiseMax may drop a NaN operand; mark the box so the broad phase rejects it.
+          if (!finite) b.lo.setConstant(std::numeric_limits<double>::quiet_NaN());
+          boxes[p] = b;
         }
-        case PrimitiveKind::edge: {
-          const Vec2i& e = topo.edges[prims.element(p)];
-          b = AABB::of(x[e[0]], x[e[1]]);
-          finite = x[e[0]].allFinite() && x[e[1]].allFinite();
-          break;
-        }
-        case PrimitiveKind::point:
-          b = AABB::of(x[prims.element(p)]);
-          finite = x[prims.element(p)].allFinite();
-          break;
-      }
-      b.inflate(inflation);
-      // cwiseMin/cwiseMax may drop a NaN operand; mark the box so the broad phase rejects it.
-      if (!finite) b.lo.setConstant(std::numeric_limits<double>::quiet_NaN());
-      boxes[p] = b;
-    }
-  }, 1024);
+      },
+      1024);
 }
 
 }  // namespace ccfr

@@ -25,8 +25,8 @@ ConfigError::ConfigError(std::string file, std::string key_path, int line, std::
       line_(line) {}
 
 NumericalError::NumericalError(int frame, Index vertex, std::string stage)
-    : Error("non-finite position at frame " + std::to_string(frame) + ", vertex " +
-            std::to_string(vertex) + ", after stage '" + stage + "'"),
+    : Error("non-finite position at frame " + std::to_string(frame) + ", vertex " + std::to_string(vertex) +
+            ", after stage '" + stage + "'"),
       frame_(frame),
       vertex_(vertex),
       stage_(std::move(stage)) {}

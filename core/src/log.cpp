@@ -19,7 +19,8 @@ void init_logging(std::string_view level) {
   // keeps the results apart. Sinks added by the caller (tests count warnings) are kept.
   auto logger = spdlog::default_logger();
   if (logger->name() != "ccfr") {
-    auto replacement = std::make_shared<spdlog::logger>("ccfr", std::make_shared<spdlog::sinks::stderr_color_sink_mt>());
+    auto replacement =
+        std::make_shared<spdlog::logger>("ccfr", std::make_shared<spdlog::sinks::stderr_color_sink_mt>());
     for (const auto& sink : logger->sinks())
       if (!std::dynamic_pointer_cast<spdlog::sinks::stdout_color_sink_mt>(sink)) replacement->sinks().push_back(sink);
     spdlog::set_default_logger(replacement);

@@ -80,7 +80,8 @@ ParamSpec ParamSpec::choice(std::string key, std::string def, std::vector<std::s
 std::string ParamSpec::describe_range() const {
   const bool lo = std::isfinite(min), hi = std::isfinite(max);
   if (lo && hi)
-    return std::string("in ") + (min_open ? "(" : "[") + fmt_number(min) + ", " + fmt_number(max) + (max_open ? ")" : "]");
+    return std::string("in ") + (min_open ? "(" : "[") + fmt_number(min) + ", " + fmt_number(max) +
+           (max_open ? ")" : "]");
   if (lo) return (min_open ? "> " : ">= ") + fmt_number(min);
   if (hi) return (max_open ? "< " : "<= ") + fmt_number(max);
   return {};

@@ -82,7 +82,8 @@ class Reader {
   }
   Positions positions(const char* what) {
     const std::vector<double> d = doubles(what);
-    if (d.size() % 3) fail(std::string(what) + " has " + std::to_string(d.size()) + " coordinates, not a multiple of 3");
+    if (d.size() % 3)
+      fail(std::string(what) + " has " + std::to_string(d.size()) + " coordinates, not a multiple of 3");
     Positions x(d.size() / 3);
     for (size_t i = 0; i < x.size(); ++i) x[i] = Vec3(d[3 * i], d[3 * i + 1], d[3 * i + 2]);
     return x;
@@ -125,8 +126,8 @@ std::uint64_t scene_fingerprint(const Topology& topo, const SimState& initial) {
   std::uint64_t h = 14695981039346656037ull;
   for (const auto& o : topo.objects) {
     h = fnv(h, o.name.data(), o.name.size());
-    const Index r[] = {static_cast<Index>(o.kind), o.vertex_begin, o.vertex_end, o.face_begin, o.face_end, o.tet_begin,
-                       o.tet_end};
+    const Index r[] = {
+        static_cast<Index>(o.kind), o.vertex_begin, o.vertex_end, o.face_begin, o.face_end, o.tet_begin, o.tet_end};
     h = fnv(h, r, sizeof r);
   }
   h = fnv_vec(h, topo.faces);
@@ -173,7 +174,8 @@ Checkpoint decode_checkpoint(std::string_view bytes, const fs::path& file) {
   const std::string name = "checkpoint '" + file.string() + "'";
   if (bytes.size() < sizeof kMagic || std::memcmp(bytes.data(), kMagic, sizeof kMagic) != 0)
     throw Error(name + " is not a ccfr checkpoint (no CCFRCKPT header)");
-  if (bytes.size() < kHeader) throw Error(name + " is truncated: " + std::to_string(bytes.size()) + " bytes, no header");
+  if (bytes.size() < kHeader)
+    throw Error(name + " is truncated: " + std::to_string(bytes.size()) + " bytes, no header");
   std::uint32_t format = 0;
   std::uint64_t length = 0;
   std::memcpy(&format, bytes.data() + 8, 4);

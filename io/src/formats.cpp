@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <zlib.h>
 #include <algorithm>
 #include <array>
 #include <cctype>
@@ -14,7 +15,6 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <set>
-#include <zlib.h>
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/io/frame_topology.hpp"
@@ -212,8 +212,9 @@ class VtuSink final : public FrameSink {
     std::vector<float> pts(3 * nv);
     for (size_t v = 0; v < nv; ++v)
       for (int k = 0; k < 3; ++k) pts[3 * v + k] = static_cast<float>(x[v][k]);
-    xml += "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
-           "header_type=\"UInt64\" compressor=\"vtkZLibDataCompressor\">\n  <UnstructuredGrid>\n";
+    xml +=
+        "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
+        "header_type=\"UInt64\" compressor=\"vtkZLibDataCompressor\">\n  <UnstructuredGrid>\n";
     xml += "    <Piece NumberOfPoints=\"" + std::to_string(nv) + "\" NumberOfCells=\"" +
            std::to_string(cells_.types.size()) + "\">\n";
     xml += "      <PointData>\n";
@@ -225,8 +226,7 @@ class VtuSink final : public FrameSink {
     }
     array("Int32", "object_id", 1, object_.data(), object_.size() * sizeof(std::int32_t));
     if (f.halted.size() == nv) array("UInt8", "halted", 1, f.halted.data(), nv);
-    if (f.half_spaces.size() == nv)
-      array("Int32", "half_spaces", 1, f.half_spaces.data(), nv * sizeof(std::int32_t));
+    if (f.half_spaces.size() == nv) array("Int32", "half_spaces", 1, f.half_spaces.data(), nv * sizeof(std::int32_t));
     if (f.distance.size() == nv) {
       std::vector<float> d(f.distance.begin(), f.distance.end());
       array("Float32", "distance", 1, d.data(), nv * sizeof(float));
@@ -378,8 +378,8 @@ class UsdaSink final : public FrameSink {
     auto points = [&](const std::vector<float>& p, const ObjectInfo& o) {
       s += "[";
       for (Index v = o.vertex_begin; v < o.vertex_end; ++v) {
-        const int n = std::snprintf(buf, sizeof buf, "%s(%.9g, %.9g, %.9g)", v == o.vertex_begin ? "" : ", ",
-                                    p[3 * v], p[3 * v + 1], p[3 * v + 2]);
+        const int n = std::snprintf(buf, sizeof buf, "%s(%.9g, %.9g, %.9g)", v == o.vertex_begin ? "" : ", ", p[3 * v],
+                                    p[3 * v + 1], p[3 * v + 2]);
         s.append(buf, static_cast<size_t>(n));
       }
       s += "]";
@@ -391,8 +391,11 @@ class UsdaSink final : public FrameSink {
     };
     for (const ObjectInfo& o : topo_.objects) {
       const bool curves = o.polyline_end > o.polyline_begin, particles = o.kind == ObjectKind::particles;
-      s += std::string("    def ") + (curves ? "BasisCurves" : particles ? "Points" : "Mesh") + " \"" +
-           prim_name(o.name, used) + "\"\n    {\n";
+      s += std::string("    def ") +
+           (curves      ? "BasisCurves"
+            : particles ? "Points"
+                        : "Mesh") +
+           " \"" + prim_name(o.name, used) + "\"\n    {\n";
       if (curves) {
         std::vector<Index> counts, idx;
         for (Index l = o.polyline_begin; l < o.polyline_end; ++l) {
@@ -509,8 +512,8 @@ int export_run(const fs::path& run_dir, const std::vector<OutputFormat>& formats
     if (!prev.empty() && frame > prev_frame)
       for (size_t v = 0; v < fr.v.size(); ++v) fields.velocity[v] = (fr.v[v] - prev[v]) * fps / (frame - prev_frame);
     for (OutputFormat f : formats)
-      if (f == OutputFormat::obj && !fs::equivalent(out, run_dir)) fs::copy_file(p, out / "frames" / p.filename(),
-                                                                                 fs::copy_options::overwrite_existing);
+      if (f == OutputFormat::obj && !fs::equivalent(out, run_dir))
+        fs::copy_file(p, out / "frames" / p.filename(), fs::copy_options::overwrite_existing);
     for (auto& s : sinks) s->write(out, frame, frame / fps, fr.v, fields);
     prev = fr.v;
     prev_frame = frame;

@@ -17,10 +17,14 @@
 
 namespace ccfr::io {
 
+namespace detail {
+extern const char* const kGitCommit;  // build/generated/git_commit.cpp (cmake/GitCommit.cmake)
+}
+
 namespace fs = std::filesystem;
 
 std::string version() { return CCFR_VERSION; }
-std::string git_commit() { return CCFR_GIT_COMMIT; }
+std::string git_commit() { return detail::kGitCommit; }
 
 std::string utc_now() {
   std::time_t t = std::time(nullptr);
@@ -35,7 +39,8 @@ const std::string& stats_header() {
   static const std::string h =
       "frame,sim_time,wall_s,xpbd_s,broad_s,narrow_s,resolution_s,candidates,constraints,violations_detected,"
       "violations_remaining,halted_vertices,min_distance,penetrations,audit_s,outer_iterations,clamped_vertices,"
-      "check_s,contact_vertices,substeps_run,projector_fallbacks";
+      "check_s,contact_vertices,substeps_run,projector_fallbacks,halted_vertices_distinct,contact_vertices_distinct,"
+      "projector_rescues";
   return h;
 }
 
@@ -46,11 +51,16 @@ std::string stats_row(const FrameStats& s) {
   if (std::isfinite(s.min_distance)) std::snprintf(md, sizeof md, "%.9g", s.min_distance);
   char pen[24] = "";
   if (s.penetrations >= 0) std::snprintf(pen, sizeof pen, "%d", s.penetrations);
-  std::snprintf(buf, sizeof buf, "%d,%.9g,%.6f,%.6f,%.6f,%.6f,%.6f,%d,%d,%d,%d,%d,%s,%s,%.6f,%d,%d,%.6f,%d,%d,%d", s.frame,
+  // The distinct counts are empty when the solver does not track them.
+  char hd[24] = "", cd[24] = "";
+  if (s.halted_vertices_distinct >= 0) std::snprintf(hd, sizeof hd, "%d", s.halted_vertices_distinct);
+  if (s.contact_vertices_distinct >= 0) std::snprintf(cd, sizeof cd, "%d", s.contact_vertices_distinct);
+  std::snprintf(buf, sizeof buf,
+                "%d,%.9g,%.6f,%.6f,%.6f,%.6f,%.6f,%d,%d,%d,%d,%d,%s,%s,%.6f,%d,%d,%.6f,%d,%d,%d,%s,%s,%d", s.frame,
                 s.sim_time, s.wall_s, s.times.xpbd, s.times.broad, s.times.narrow, s.times.resolution, s.candidates,
                 s.constraints, s.violations_detected, s.violations_remaining, s.halted_vertices, md, pen, s.times.audit,
                 s.outer_iterations, s.clamped_vertices, s.times.check, s.contact_vertices, s.substeps_run,
-                s.projector_fallbacks);
+                s.projector_fallbacks, hd, cd, s.projector_rescues);
   return buf;
 }
 
@@ -199,14 +209,15 @@ RunWriter::RunWriter(fs::path dir, const Topology& topo, std::string resolved_co
       const std::string name = output_format_names()[static_cast<size_t>(f)];
       throw Error("cannot resume '" + final_.string() + "': output.formats has '" + name +
                   "', whose files span the whole run; resume with output.formats [obj] (or [obj, ply]) and "
-                  "rebuild it afterwards with `ccfr export " + final_.string() + " --format " + name + "`");
+                  "rebuild it afterwards with `ccfr export " +
+                  final_.string() + " --format " + name + "`");
     }
   std::ifstream in(final_ / "run.json");
   const Json old = in ? Json::parse(in, nullptr, /*allow_exceptions=*/false) : Json();
   if (!is_ccfr_run(final_) || !old.is_object())
     throw Error("cannot resume '" + final_.string() + "': no run.json written by ccfr in it");
-  start_time_ = old.contains("start_time") && old["start_time"].is_string() ? old["start_time"].get<std::string>()
-                                                                             : utc_now();
+  start_time_ =
+      old.contains("start_time") && old["start_time"].is_string() ? old["start_time"].get<std::string>() : utc_now();
   Json resumed = old.contains("resumed") && old["resumed"].is_array() ? old["resumed"] : Json::array();
   resumed.push_back({{"after_frame", resume.frame}, {"time", utc_now()}});
   resumed_json_ = resumed.dump();

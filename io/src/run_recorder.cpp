@@ -3,25 +3,18 @@
 #include <algorithm>
 
 #include "ccfr/core/log.hpp"
-#include "ccfr/io/formats.hpp"
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/geometry_exact/audit.hpp"
+#include "ccfr/io/formats.hpp"
 
 namespace ccfr::io {
 
 RunMeta make_run_meta(const Simulation& sim, std::string command_line, std::vector<std::string> argv) {
   const SimulationParams& p = sim.scene().params;
-  RunMeta meta{p.scene_name,
-               p.contact.solver,
-               p.collision.broad_phase,
-               p.contact.radius,
-               p.contact.offset,
-               p.contact.repulsion_range,
-               p.time.fps,
-               thread_count(),
-               std::move(command_line),
-               std::move(argv),
-               std::nullopt};
+  RunMeta meta{p.scene_name,     p.contact.solver, p.collision.broad_phase,
+               p.contact.radius, p.contact.offset, p.contact.repulsion_range,
+               p.time.fps,       thread_count(),   std::move(command_line),
+               std::move(argv),  std::nullopt};
   if (const CollisionDetector* det = sim.contact_solver().collision_detector())
     meta.initial_proximity = det->initial_proximity();
   if (!p.output.formats.empty()) meta.formats = parse_output_formats(p.output.formats);
@@ -75,7 +68,8 @@ void RunRecorder::start() {
 
 void RunRecorder::record(const FrameStats& s) {
   const auto& out = sim_.scene().params.output;
-  if (out.frames && (s.frame % out.every == 0 || s.frame == last_frame_)) writer_.write_frame(s.frame, sim_.positions(), fields());
+  if (out.frames && (s.frame % out.every == 0 || s.frame == last_frame_))
+    writer_.write_frame(s.frame, sim_.positions(), fields());
   writer_.write_stats(s);
 }
 

@@ -23,9 +23,10 @@
 
 #include "ccfr/collision/broad_phase.hpp"
 #include "ccfr/core/error.hpp"
-#include "ccfr/feasibility/projector.hpp"
 #include "ccfr/core/log.hpp"
+#include "ccfr/feasibility/projector.hpp"
 #include "ccfr/geometry/generators.hpp"
+#include "ccfr/geometry/mass_properties.hpp"
 #include "ccfr/io/obj.hpp"
 #include "ccfr/io/tet_mesh.hpp"
 #include "ccfr/solvers/contact_solver.hpp"
@@ -554,12 +555,11 @@ class Builder {
       take(gen::plane(s["size"].as<double>(), s["resolution"].as<Index>()));
       g.shape.type = AnalyticShape::Type::plane;
     } else if (type == "mesh" && arrays_ && arrays_->count(s["path"].as<std::string>())) {
-      g = array_geometry(arrays_->at(s["path"].as<std::string>()), kind, path,
-                         [&](bool ok, const std::string& what) {
-                           if (!ok)
-                             ctx_.fail(path + ".kind", in_node(path + ".kind"),
-                                       "arrays cannot make a " + std::string(to_string(kind)) + " object: " + what);
-                         });
+      g = array_geometry(arrays_->at(s["path"].as<std::string>()), kind, path, [&](bool ok, const std::string& what) {
+        if (!ok)
+          ctx_.fail(path + ".kind", in_node(path + ".kind"),
+                    "arrays cannot make a " + std::string(to_string(kind)) + " object: " + what);
+      });
       if (kind != ObjectKind::obstacle) g.shape.type = AnalyticShape::Type::none;
       return g;
     } else if (type == "mesh") {
@@ -572,9 +572,9 @@ class Builder {
         std::string list;
         for (const auto& e : exts) list += (list.empty() ? "" : ", ") + e;
         ctx_.fail(ppath, in_node(ppath),
-                  ext.empty() ? "mesh file '" + file.string() + "' has no extension (supported: " + list + ")"
-                              : "unsupported mesh format '" + file.extension().string() + "' (supported: " + list +
-                                    ")");
+                  ext.empty()
+                      ? "mesh file '" + file.string() + "' has no extension (supported: " + list + ")"
+                      : "unsupported mesh format '" + file.extension().string() + "' (supported: " + list + ")");
       }
       if (file.is_relative()) file = base_ / file;
       if (!fs::exists(file) && ext != ".node" && ext != ".ele")
@@ -600,7 +600,7 @@ class Builder {
       if (kind == ObjectKind::tet_solid) {
         // A closed surface filled with tets by the tetgen program.
         if (m.f.empty()) ctx_.fail(ppath, in_node(ppath), "mesh '" + file.string() + "' has no faces");
-        check_faces(m.v, m.f, ObjectKind::rigid, "mesh '" + file.string() + "'", &m.face_lines, ppath,
+        check_faces(m.v, m.f, ObjectKind::tet_solid, "mesh '" + file.string() + "'", &m.face_lines, ppath,
                     {path + ".kind"});
         TetMesh t;
         try {
@@ -646,6 +646,8 @@ class Builder {
     };
     auto fail = [&](const std::string& msg) { ctx_.fail(path, in_node(path), what + ": " + msg, related); };
     const bool rigid = kind == ObjectKind::rigid;
+    // A rigid body's mass and a tet_solid's tets both come from the enclosed volume.
+    const bool solid = rigid || kind == ObjectKind::tet_solid;
     size_t zero_area = 0, first_zero = 0;
     for (size_t i = 0; i < faces.size(); ++i) {
       const Vec3i& f = faces[i];
@@ -696,13 +698,40 @@ class Builder {
       const std::string msg =
           "edge " + edge_str(nm_edge) + " of " + face(first_nm) + " is shared by more than two faces (non-manifold)" +
           (non_manifold > 1 ? "; " + std::to_string(non_manifold) + " such edges in all" : std::string());
-      if (rigid) fail(msg);
+      if (solid) fail(msg);
       spdlog::warn("{}: {}: {}: {}", ctx_.file, path, what, msg);
     }
-    if (rigid && open > 0)
-      fail("a rigid body needs a closed surface (its mass comes from the enclosed volume), but edge " +
-           edge_str(open_edge) + " of " + face(first_open) + " borders only one face (" + std::to_string(open) +
-           " open edges in all)");
+    const std::string needs = rigid ? "a rigid body needs a closed surface (its mass comes from the enclosed volume)"
+                                    : "a tet_solid from a surface needs a closed surface (tetgen fills the inside)";
+    if (solid && open > 0)
+      fail(needs + ", but edge " + edge_str(open_edge) + " of " + face(first_open) + " borders only one face (" +
+           std::to_string(open) + " open edges in all)");
+    if (!solid) return;
+    // Consistent winding: on a closed oriented surface every edge runs once each way.
+    for (size_t b = 0; b + 1 < edges.size(); b += 2) {
+      const Vec3i& f = faces[edges[b].second];
+      const Vec3i& g = faces[edges[b + 1].second];
+      auto runs_forward = [&](const Vec3i& t) {
+        for (int k = 0; k < 3; ++k)
+          if (t[k] == edges[b].first.first && t[(k + 1) % 3] == edges[b].first.second) return true;
+        return false;
+      };
+      if (runs_forward(f) == runs_forward(g))
+        fail(face(edges[b + 1].second) + " is wound against " + face(edges[b].second) + " (their common edge " +
+             edge_str(edges[b].first) + " runs the same way in both); orient all faces outward");
+    }
+    const SolidMassProperties props = solid_mass_properties(v, faces);
+    Vec3 lo = v[faces[0][0]], hi = lo;
+    for (const Vec3i& f : faces)
+      for (int k = 0; k < 3; ++k) lo = lo.cwiseMin(v[f[k]]), hi = hi.cwiseMax(v[f[k]]);
+    const double diagonal = (hi - lo).norm();
+    if (!(props.volume > 1e-9 * diagonal * diagonal * diagonal))
+      fail(
+          fmt::format("the closed surface encloses no volume ({:.3g} m³ inside a bounding box of diagonal {:.3g} m): "
+                      "a flat surface cannot be a solid",
+                      props.volume, diagonal));
+    if (props.inverted)
+      spdlog::info("{}: {}: {}: faces wound inward; taken as the solid they enclose", ctx_.file, path, what);
   }
 
   void place(RawGeometry& g, const YAML::Node& t) {
@@ -776,7 +805,8 @@ class Builder {
       const std::string p = kpath + "[" + std::to_string(k) + "]";
       const double t = key["time"].as<double>();
       if (k > 0 && !(t > anim->times.back()))
-        ctx_.fail(p + ".time", in_node(p + ".time"), "key times must increase", {kpath + "[" + std::to_string(k - 1) + "].time"});
+        ctx_.fail(p + ".time", in_node(p + ".time"), "key times must increase",
+                  {kpath + "[" + std::to_string(k - 1) + "].time"});
       const Vec3 axis = v3(key["rotate_axis"]), c = v3(key["center"]);
       const double ang = key["rotate_deg"].as<double>() * std::numbers::pi / 180.0;
       if (k > 0 && (c - anim->center).norm() > 0)
@@ -784,8 +814,9 @@ class Builder {
                   {kpath + "[0].center"});
       anim->center = c;
       anim->times.push_back(t);
-      anim->rotations.push_back(ang != 0.0 && axis.norm() > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(ang, axis.normalized()))
-                                                               : Eigen::Quaterniond::Identity());
+      anim->rotations.push_back(ang != 0.0 && axis.norm() > 0
+                                    ? Eigen::Quaterniond(Eigen::AngleAxisd(ang, axis.normalized()))
+                                    : Eigen::Quaterniond::Identity());
       anim->translations.push_back(v3(key["translate"]));
     }
     anim->rest.assign(st.x.begin() + info.vertex_begin, st.x.begin() + info.vertex_end);
@@ -860,13 +891,21 @@ class Builder {
           }
           break;
         case ObjectKind::rigid: {
-          // Closed surface: enclosed volume by the divergence theorem, spread evenly over vertices.
-          double vol = 0.0;
-          for (Index f = o.face_begin; f < o.face_end; ++f) {
-            const auto& t = topo.faces[f];
-            vol += st.x[t[0]].dot(st.x[t[1]].cross(st.x[t[2]])) / 6.0;
-          }
-          for (Index v = o.vertex_begin; v < o.vertex_end; ++v) st.mass[v] = rho * std::abs(vol) / o.num_vertices();
+          // The solid's mass, centre of mass and inertia (divergence theorem) carried by the vertex
+          // masses plus a core at the centre of mass, which RigidBodies adds as ρV - Σ m.
+          const std::span<const Vec3> xs(st.x.data() + o.vertex_begin, static_cast<size_t>(o.num_vertices()));
+          std::vector<Vec3i> local;
+          local.reserve(static_cast<size_t>(o.face_end - o.face_begin));
+          for (Index f = o.face_begin; f < o.face_end; ++f)
+            local.push_back(topo.faces[f] - Vec3i::Constant(o.vertex_begin));
+          const SolidMassProperties props = solid_mass_properties(xs, local);
+          const RigidVertexMasses m = rigid_vertex_masses(xs, local, rho, props);
+          for (Index v = o.vertex_begin; v < o.vertex_end; ++v) st.mass[v] = m.vertex[v - o.vertex_begin];
+          if (!m.exact)
+            spdlog::info(
+                "{}: objects[{}] ('{}'): its {} vertices cannot carry the solid's inertia tensor (off by {:.1f}%, "
+                "e.g. every vertex on a cylinder's rim); mass {:.6g} kg and centre of mass are exact",
+                ctx_.file, oi, o.name, o.num_vertices(), 100.0 * m.inertia_error, rho * props.volume);
           break;
         }
         case ObjectKind::particles:
@@ -894,8 +933,7 @@ class Builder {
     const std::string vpath = path + ".vertices";
     if (nv == 0) ctx_.fail(vpath, in_node(path), "no vertices");
     for (Index i = 0; i < nv; ++i)
-      if (!a.vertices[i].allFinite())
-        ctx_.fail(vpath, in_node(path), "vertex " + std::to_string(i) + " is not finite");
+      if (!a.vertices[i].allFinite()) ctx_.fail(vpath, in_node(path), "vertex " + std::to_string(i) + " is not finite");
     auto check_range = [&](const std::string& what, const auto& rows) {
       for (size_t r = 0; r < rows.size(); ++r)
         for (int k = 0; k < rows[r].size(); ++k)
@@ -919,8 +957,8 @@ class Builder {
       for (size_t r = 0; r < a.edges.size(); ++r) {
         const Vec2i& e = a.edges[r];
         if (e[0] == e[1])
-          ctx_.fail(path + ".edges", in_node(path), "edges row " + std::to_string(r) + " repeats vertex " +
-                                                        std::to_string(e[0]));
+          ctx_.fail(path + ".edges", in_node(path),
+                    "edges row " + std::to_string(r) + " repeats vertex " + std::to_string(e[0]));
         if (g.lines.empty() || g.lines.back().back() != e[0]) g.lines.push_back({e[0]});
         g.lines.back().push_back(e[1]);
       }
@@ -943,7 +981,8 @@ class Builder {
     } else {
       only(surface_kind && a.edges.empty() && a.tets.empty(),
            "a " + std::string(to_string(kind)) + " takes faces, not edges or tets");
-      if (a.faces.empty()) ctx_.fail(path + ".faces", in_node(path), "a " + std::string(to_string(kind)) + " needs faces");
+      if (a.faces.empty())
+        ctx_.fail(path + ".faces", in_node(path), "a " + std::string(to_string(kind)) + " needs faces");
       check_faces(g.v, a.faces, kind, "faces", nullptr, path + ".faces", {path + ".kind"});
       g.faces = a.faces;
     }
@@ -1060,9 +1099,9 @@ YAML::Node parse_yaml(const std::string& text, const std::string& label) {
                               " (no YAML node starts with it)");
       }
       if (n >= 2 && scan.docs[n - 1].content)
-        throw ConfigError(
-            label, "", scan.docs[n - 1].first.line + 1,
-            "a scene file holds one YAML document, but a second one starts here (after '---'); merge them or remove it");
+        throw ConfigError(label, "", scan.docs[n - 1].first.line + 1,
+                          "a scene file holds one YAML document, but a second one starts here (after '---'); merge "
+                          "them or remove it");
     }
   } catch (const YAML::ParserException& e) {
     throw ConfigError(label, "", e.mark.line + 1, "YAML syntax error: " + e.msg);
@@ -1141,7 +1180,8 @@ LoadedScene load_scene_text(const std::string& yaml, const std::string& file_lab
 }
 
 LoadedScene load_scene_arrays(const std::string& yaml, const std::string& file_label,
-                              const std::map<std::string, MeshArrays>& arrays, const std::vector<std::string>& overrides) {
+                              const std::map<std::string, MeshArrays>& arrays,
+                              const std::vector<std::string>& overrides) {
   const YAML::Node root = parse_yaml(yaml, file_label);
   return load(root, file_label, fs::current_path(), overrides, fs::path(file_label).stem().string(), &arrays);
 }

@@ -3,7 +3,7 @@
 #include "scene_schema.hpp"
 
 #include "ccfr/collision/broad_phase.hpp"
-#include "ccfr/core/scene.hpp"
+#include "ccfr/core/topology.hpp"
 #include "ccfr/io/formats.hpp"
 #include "ccfr/solvers/contact_solver.hpp"
 #include "ccfr/solvers/params.hpp"
@@ -110,8 +110,9 @@ NodePtr shape_schema() {
                                            "tet_solid from a surface .obj: tetgen's radius-edge ratio bound (-q); 0 "
                                            "turns quality refinement off",
                                            Range{0, 100, false, false})},
-                        {"max_volume", number(0.0, "tet_solid from a surface .obj: largest tet volume (m³, tetgen -a); "
-                                                   "0 means no bound",
+                        {"max_volume", number(0.0,
+                                              "tet_solid from a surface .obj: largest tet volume (m³, tetgen -a); "
+                                              "0 means no bound",
                                               Range::up_to(kMaxLength))}})},
       });
 }
@@ -128,7 +129,8 @@ NodePtr param_node(const ParamSpec& spec) {
       return number(std::get<double>(spec.default_value), spec.doc, r);
     case ParamType::choice: {
       auto choices = spec.choices;
-      return choice(std::get<std::string>(spec.default_value), [choices] { return choices; }, spec.doc);
+      return choice(
+          std::get<std::string>(spec.default_value), [choices] { return choices; }, spec.doc);
     }
   }
   return nullptr;
@@ -152,8 +154,10 @@ std::vector<Field> contact_fields() {
   const ContactParams d;  // defaults have one owner: the struct
   const Range pos = Range::positive();
   std::vector<Field> f = {
-      {"solver", choice(d.solver, registered_contact_solvers, "contact solver: one of the registered methods (table of contact solvers below)")},
-      {"radius", number(d.radius, "r: search radius and per-iteration step bound (m)", Range::positive_up_to(kMaxLength))},
+      {"solver", choice(d.solver, registered_contact_solvers,
+                        "contact solver: one of the registered methods (table of contact solvers below)")},
+      {"radius",
+       number(d.radius, "r: search radius and per-iteration step bound (m)", Range::positive_up_to(kMaxLength))},
       {"offset", number(d.offset, "ξ: minimum separation between primitives (m)", Range::up_to(kMaxLength))},
       {"repulsion_range",
        number(d.repulsion_range, "δ: repulsion acts while the gap beyond ξ is below δ (m)", Range::up_to(kMaxLength))},
@@ -173,7 +177,10 @@ std::vector<Field> contact_fields() {
                                      "obstacles with an analytic shape (sphere, plane, box, cylinder) also collide "
                                      "through their exact SDF")},
       {"on_violation", choice(
-                           "auto", [] { return std::vector<std::string>{"auto", "error", "warn"}; },
+                           "auto",
+                           [] {
+                             return std::vector<std::string>{"auto", "error", "warn"};
+                           },
                            "a substep that ends with pairs closer than their offset (or a deformed rigid body): "
                            "`error` stops the run before the frame is written (non-zero exit), `warn` logs at error "
                            "level and goes on, `auto` is error for the solvers that guarantee separation (ccfr, "
@@ -200,11 +207,15 @@ NodePtr build_scene_schema() {
       "a material",
       {
           {"density",
-           number(md.density, "kg/m² for cloth and shells, kg/m for strands, kg/m³ for solids and rigids, kg per particle",
+           number(md.density,
+                  "kg/m² for cloth and shells, kg/m for strands, kg/m³ for solids and rigids, kg per particle",
                   Range::positive_up_to(kMaxDensity))},
-          {"stretch_compliance", number(md.stretch_compliance, "XPBD compliance of edge lengths (m/N); 0 is inextensible", nonneg)},
-          {"bend_compliance", number(md.bend_compliance, "XPBD compliance of bending (1/(N m)); cloth, shells and strands", nonneg)},
-          {"volume_compliance", number(md.volume_compliance, "tet solids: compliance of volume preservation, 1/λ (1/Pa)", nonneg)},
+          {"stretch_compliance",
+           number(md.stretch_compliance, "XPBD compliance of edge lengths (m/N); 0 is inextensible", nonneg)},
+          {"bend_compliance",
+           number(md.bend_compliance, "XPBD compliance of bending (1/(N m)); cloth, shells and strands", nonneg)},
+          {"volume_compliance",
+           number(md.volume_compliance, "tet solids: compliance of volume preservation, 1/λ (1/Pa)", nonneg)},
           {"shear_compliance",
            number(md.shear_compliance, "tet solids: compliance of the deviatoric (shape) term, 1/μ (1/Pa)", nonneg)},
           {"friction", number(md.friction, "friction coefficient of this material; < 0 uses contact.friction")},
@@ -243,16 +254,16 @@ NodePtr build_scene_schema() {
           {"motion", motion_schema("obstacles: scripted rigid motion of the whole object")},
           // Obstacle animation (docs/interop.md).
           {"animation",
-           optional_map("obstacles: vertex positions from a sequence of OBJ files with the object's vertex count and "
-                        "order, interpolated linearly per substep (the automatic subdivision keeps each piece's step "
-                        "below r); the object starts at the first file; `transform` applies to every file",
-                        {{"path", string(std::nullopt,
-                                         "printf pattern of the files with one integer, relative to the scene file, "
-                                         "e.g. meshes/body_%03d.obj")},
-                         {"first", integer(0, "number of the first file", Range::non_negative())},
-                         {"count", integer(2, "number of files", Range{2, 100000, false, false})},
-                         {"fps", number(0.0, "files per second of simulated time; 0 means time.fps",
-                                        Range::up_to(kMaxFps))}})},
+           optional_map(
+               "obstacles: vertex positions from a sequence of OBJ files with the object's vertex count and "
+               "order, interpolated linearly per substep (the automatic subdivision keeps each piece's step "
+               "below r); the object starts at the first file; `transform` applies to every file",
+               {{"path", string(std::nullopt,
+                                "printf pattern of the files with one integer, relative to the scene file, "
+                                "e.g. meshes/body_%03d.obj")},
+                {"first", integer(0, "number of the first file", Range::non_negative())},
+                {"count", integer(2, "number of files", Range{2, 100000, false, false})},
+                {"fps", number(0.0, "files per second of simulated time; 0 means time.fps", Range::up_to(kMaxFps))}})},
           {"keyframes",
            list("obstacles: keyframed rigid transforms of the placed geometry, slerped and lerped between keys "
                 "(held before the first and after the last; the object starts at its pose at time 0)",
@@ -274,14 +285,16 @@ NodePtr build_scene_schema() {
                {{"fps", number(td.fps, "frames per second", Range::positive_up_to(kMaxFps))},
                 {"frames", integer(td.frames, "frames to simulate", nonneg)},
                 {"substeps", integer(td.substeps, "substeps per frame", one)},
-                {"iterations", integer(td.iterations, "outer solver iterations per substep, each with collision detection", one)},
+                {"iterations",
+                 integer(td.iterations, "outer solver iterations per substep, each with collision detection", one)},
                 {"max_iterations",
                  integer(td.max_iterations,
                          "outer iterations continue past `iterations` while a vertex has not reached its intended "
                          "advance (held back by the step bound r), up to this many; 0 means 4 x iterations",
                          Range{0, 4096, false, false})},
                 {"xpbd_sweeps", integer(td.xpbd_sweeps, "material constraint sweeps per outer iteration", one)},
-                {"gravity", vec3(std::array<double, 3>{td.gravity.x(), td.gravity.y(), td.gravity.z()}, "gravity (m/s²)", Range::within(kMaxAccel))},
+                {"gravity", vec3(std::array<double, 3>{td.gravity.x(), td.gravity.y(), td.gravity.z()},
+                                 "gravity (m/s²)", Range::within(kMaxAccel))},
                 {"damping", number(td.damping, "fraction of velocity removed per second", Range{0, 1e3, false, false})},
                 {"advance_tolerance",
                  number(td.advance_tolerance,
@@ -301,22 +314,23 @@ NodePtr build_scene_schema() {
                {{"audit", choice(
                               "off", [] { return std::vector<std::string>{"off", "every_frame", "every_substep"}; },
                               "exact penetration audit during the run; fills the `penetrations` column of stats.csv")},
-                {"audit_tolerance", number(dd.audit_tolerance, "the audit flags pairs closer than (1 - tol) ξ", Range::unit())}})},
-          {"output", map("what is written",
-                         {{"frames", boolean(od.frames, "write frames (in every format of `formats`)")},
-                          {"every", integer(od.every, "write every k-th frame (frame 0 always)", one)},
-                          {"checkpoint_every",
-                           integer(od.checkpoint_every,
-                                   "write a checkpoint every k-th frame, and when the run is "
-                                   "interrupted (0: never); `ccfr run --resume DIR` continues from it",
-                                   Range::at_least(0))},
-                          // interop (docs/interop.md): formats besides the OBJ frames
-                          {"formats", list("formats of the frames; absent: [obj]. obj: frames/frame_N.obj (exact, "
-                                           "what `ccfr audit` reads); ply: frames/frame_N.ply (binary, float); vtu: "
-                                           "vtk/frame_N.vtu + vtk/frames.pvd with per-vertex fields (ParaView); "
-                                           "pc2: blender/*.pc2 point caches + first_frame.obj (Blender Mesh Cache); "
-                                           "usda: usd/scene.usda, time-sampled points",
-                                           choice("obj", output_format_names, "an output format"))}})},
+                {"audit_tolerance",
+                 number(dd.audit_tolerance, "the audit flags pairs closer than (1 - tol) ξ", Range::unit())}})},
+          {"output",
+           map("what is written",
+               {{"frames", boolean(od.frames, "write frames (in every format of `formats`)")},
+                {"every", integer(od.every, "write every k-th frame (frame 0 always)", one)},
+                {"checkpoint_every", integer(od.checkpoint_every,
+                                             "write a checkpoint every k-th frame, and when the run is "
+                                             "interrupted (0: never); `ccfr run --resume DIR` continues from it",
+                                             Range::at_least(0))},
+                // interop (docs/interop.md): formats besides the OBJ frames
+                {"formats", list("formats of the frames; absent: [obj]. obj: frames/frame_N.obj (exact, "
+                                 "what `ccfr audit` reads); ply: frames/frame_N.ply (binary, float); vtu: "
+                                 "vtk/frame_N.vtu + vtk/frames.pvd with per-vertex fields (ParaView); "
+                                 "pc2: blender/*.pc2 point caches + first_frame.obj (Blender Mesh Cache); "
+                                 "usda: usd/scene.usda, time-sampled points",
+                                 choice("obj", output_format_names, "an output format"))}})},
           {"materials", dict("named materials; `default` exists unless redefined", material)},
           {"objects", list("the objects of the scene", object)},
       });

@@ -62,7 +62,8 @@ class SpecReader {
 // Characters kept in a cell id as they are; others become '_'.
 std::string id_part(const std::string& s) {
   std::string o;
-  for (char c : s) o += (std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == '=' || c == '+') ? c : '_';
+  for (char c : s)
+    o += (std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == '=' || c == '+') ? c : '_';
   return o;
 }
 
@@ -87,7 +88,8 @@ std::vector<SweepCell> expand_sweep(const std::vector<fs::path>& configs, const 
         c.overrides = set;
         if (frames >= 0) c.overrides.push_back("time.frames=" + std::to_string(frames));
         if (!solver.empty()) c.overrides.push_back("contact.solver=" + solver);
-        std::string id = solver_ids_only ? id_part(solver) : id_part(c.scene) + "__" + id_part(solver.empty() ? "scene" : solver);
+        std::string id =
+            solver_ids_only ? id_part(solver) : id_part(c.scene) + "__" + id_part(solver.empty() ? "scene" : solver);
         for (size_t k = 0; k < keys.size(); ++k) {
           c.params.emplace_back(keys[k], values[k]);
           c.overrides.push_back(keys[k] + "=" + values[k]);
@@ -114,7 +116,8 @@ SweepSpec load_sweep_spec(const fs::path& file) {
   } catch (const YAML::ParserException& e) {
     throw ConfigError(file.string(), "", e.mark.line + 1, "YAML syntax error: " + e.msg);
   }
-  r.only(root, "", {"configs", "solvers", "parameters", "combine", "cases", "set", "frames", "audit_stride", "resources"});
+  r.only(root, "",
+         {"configs", "solvers", "parameters", "combine", "cases", "set", "frames", "audit_stride", "resources"});
   if (!root["configs"]) r.fail(root, "configs", "is required: the scene files of the sweep");
   for (const auto& c : r.list(root["configs"], "configs")) {
     fs::path p = fs::path(c).is_absolute() ? fs::path(c) : s.file.parent_path() / c;
@@ -168,7 +171,8 @@ SweepSpec load_sweep_spec(const fs::path& file) {
       const std::string key = "cases[" + std::to_string(i) + "]";
       if (!cs[i].IsMap()) r.fail(cs[i], key, "expected a map key.path: value");
       std::vector<std::string> keys, vals;
-      for (const auto& kv : cs[i]) keys.push_back(kv.first.Scalar()), vals.push_back(r.scalar(kv.second, key + "." + kv.first.Scalar()));
+      for (const auto& kv : cs[i])
+        keys.push_back(kv.first.Scalar()), vals.push_back(r.scalar(kv.second, key + "." + kv.first.Scalar()));
       if (i == 0) s.parameter_keys = keys;
       if (keys != s.parameter_keys)
         r.fail(cs[i], key, "every case must set the same keys in the same order as cases[0]");
@@ -177,7 +181,8 @@ SweepSpec load_sweep_spec(const fs::path& file) {
   }
   if (const YAML::Node st = root["set"]) {
     if (!st.IsMap()) r.fail(st, "set", "expected a map key.path: value");
-    for (const auto& kv : st) s.set.push_back(kv.first.Scalar() + "=" + r.scalar(kv.second, "set." + kv.first.Scalar()));
+    for (const auto& kv : st)
+      s.set.push_back(kv.first.Scalar() + "=" + r.scalar(kv.second, "set." + kv.first.Scalar()));
   }
   if (root["frames"]) s.frames = r.integer(root["frames"], "frames", 0);
   if (root["audit_stride"]) s.audit_stride = r.integer(root["audit_stride"], "audit_stride", 1);

@@ -144,8 +144,9 @@ TetMesh read_tetgen(const fs::path& path) {
     for (int i = 0; i < 4; ++i) {
       const long id = get<long>(ls, ef, "4 node numbers");
       if (id < first || id >= first + n)
-        fail(ele, ef.line(), "node " + std::to_string(id) + " out of range (" + node.filename().string() + " has " +
-                                 std::to_string(first) + ".." + std::to_string(first + n - 1) + ")");
+        fail(ele, ef.line(),
+             "node " + std::to_string(id) + " out of range (" + node.filename().string() + " has " +
+                 std::to_string(first) + ".." + std::to_string(first + n - 1) + ")");
       t[i] = static_cast<Index>(id - first);
     }
     tets.push_back(t);
@@ -163,7 +164,9 @@ TetMesh read_gmsh(const fs::path& path) {
   ls = &f.need("the format line '<version> <file-type> <data-size>'");
   const double version = get<double>(*ls, f, "the format version");
   const int binary = get<int>(*ls, f, "the file type");
-  if (binary != 0) fail(path, f.line(), "binary .msh is not supported; save the mesh as ASCII (Gmsh: -format msh2 or msh4 with Binary=0)");
+  if (binary != 0)
+    fail(path, f.line(),
+         "binary .msh is not supported; save the mesh as ASCII (Gmsh: -format msh2 or msh4 with Binary=0)");
   if (!(version >= 2.0 && version < 3.0) && !(version >= 4.0 && version < 5.0))
     fail(path, f.line(), "Gmsh format " + std::to_string(version).substr(0, 3) + " is not supported (2.x or 4.x)");
   const bool v4 = version >= 4.0;
@@ -173,7 +176,8 @@ TetMesh read_gmsh(const fs::path& path) {
   std::vector<int> lines;
   auto node_index = [&](long tag) {
     const auto it = node_of.find(tag);
-    if (it == node_of.end()) fail(path, f.line(), "element uses node " + std::to_string(tag) + ", which $Nodes does not define");
+    if (it == node_of.end())
+      fail(path, f.line(), "element uses node " + std::to_string(tag) + ", which $Nodes does not define");
     return it->second;
   };
   auto add_node = [&](long tag, const Vec3& x) {
@@ -257,8 +261,9 @@ TetMesh tetrahedralize(const Positions& v, const std::vector<Vec3i>& f, double q
                        const std::string& what) {
   const auto tetgen = find_program("tetgen");
   if (!tetgen)
-    throw Error(what + ": a tet_solid from a surface needs the `tetgen` program (Debian package tetgen; "
-                       "scripts/install-deps installs it)");
+    throw Error(what +
+                ": a tet_solid from a surface needs the `tetgen` program (Debian package tetgen; "
+                "scripts/install-deps installs it)");
   char tmpl[] = "/tmp/ccfr-tetgen-XXXXXX";
   if (!::mkdtemp(tmpl)) throw Error(what + ": cannot create a temporary folder for tetgen");
   const fs::path dir = tmpl;
@@ -296,7 +301,8 @@ TetMesh tetrahedralize(const Positions& v, const std::vector<Vec3i>& f, double q
     for (std::string l; std::getline(ss, l);)
       if (l.find_first_not_of(" \t") != std::string::npos) last = l;
     throw Error(what + ": tetgen " + flags + " failed (exit " + std::to_string(rc) + ")" +
-                (last.empty() ? std::string() : ": " + last) + "; is the surface closed and free of self-intersections?");
+                (last.empty() ? std::string() : ": " + last) +
+                "; is the surface closed and free of self-intersections?");
   }
   return read_tetgen(dir / "surface.1.ele");
 }

@@ -40,7 +40,8 @@ PyObject* g_numerical_error = nullptr;
 PyObject* g_guarantee_error = nullptr;
 
 // Raises `cls(message)` with the C++ error's fields as attributes.
-void raise_with(PyObject* cls, const std::string& message, const std::vector<std::pair<const char*, py::object>>& attrs) {
+void raise_with(PyObject* cls, const std::string& message,
+                const std::vector<std::pair<const char*, py::object>>& attrs) {
   py::object inst = py::reinterpret_borrow<py::object>(cls)(message);
   for (const auto& [k, v] : attrs) inst.attr(k) = v;
   PyErr_SetObject(cls, inst.ptr());
@@ -63,7 +64,8 @@ std::vector<std::string> to_overrides(const py::object& o) {
     for (auto item : py::reinterpret_borrow<py::dict>(o)) {
       const std::string key = py::str(item.first);
       py::object value = py::reinterpret_borrow<py::object>(item.second);
-      const std::string text = py::isinstance<py::str>(value) ? value.cast<std::string>() : dumps(value).cast<std::string>();
+      const std::string text =
+          py::isinstance<py::str>(value) ? value.cast<std::string>() : dumps(value).cast<std::string>();
       out.push_back(key + "=" + text);
     }
     return out;
@@ -104,6 +106,9 @@ py::dict frame_stats_dict(const FrameStats& s) {
   d["contact_vertices"] = s.contact_vertices;
   d["substeps_run"] = s.substeps_run;
   d["projector_fallbacks"] = s.projector_fallbacks;
+  d["halted_vertices_distinct"] = s.halted_vertices_distinct;
+  d["contact_vertices_distinct"] = s.contact_vertices_distinct;
+  d["projector_rescues"] = s.projector_rescues;
   return d;
 }
 
@@ -129,7 +134,8 @@ std::vector<Eigen::Matrix<Index, N, 1>> to_rows(const py::handle& h, const char*
   if (!raw) throw py::value_error(std::string(what) + " must be an (n, " + std::to_string(N) + ") integer array");
   if (raw.size() == 0) return out;
   if (raw.dtype().kind() != 'i' && raw.dtype().kind() != 'u')
-    throw py::value_error(std::string(what) + " must hold integers (got dtype " + std::string(py::str(raw.dtype())) + ")");
+    throw py::value_error(std::string(what) + " must hold integers (got dtype " + std::string(py::str(raw.dtype())) +
+                          ")");
   py::array_t<long long, py::array::c_style | py::array::forcecast> a(raw);
   if (a.ndim() != 2 || a.shape(1) != N)
     throw py::value_error(std::string(what) + " must be an (n, " + std::to_string(N) + ") integer array");
@@ -213,7 +219,9 @@ PYBIND11_MODULE(_core, m) {
       if (p) std::rethrow_exception(p);
     } catch (const ConfigError& e) {
       raise_with(g_config_error, e.what(),
-                 {{"file", py::str(e.file())}, {"key_path", py::str(e.key_path())}, {"line", py::int_(e.line())},
+                 {{"file", py::str(e.file())},
+                  {"key_path", py::str(e.key_path())},
+                  {"line", py::int_(e.line())},
                   {"detail", py::str(e.detail())}});
     } catch (const NumericalError& e) {
       raise_with(g_numerical_error, e.what(),
@@ -225,8 +233,9 @@ PYBIND11_MODULE(_core, m) {
     }
   });
 
-  m.def("set_log_level", [](const std::string& level) { init_logging(level); }, py::arg("level"),
-        "Sets the level of ccfr's log on stderr: trace, debug, info, warn (the default in Python), error or off.");
+  m.def(
+      "set_log_level", [](const std::string& level) { init_logging(level); }, py::arg("level"),
+      "Sets the level of ccfr's log on stderr: trace, debug, info, warn (the default in Python), error or off.");
   m.def("version", &io::version, "The library version.");
 
   // ---- scenes
@@ -235,12 +244,15 @@ PYBIND11_MODULE(_core, m) {
                                                 "ccfr.load_scene or ccfr.Scene.from_arrays.")
       .def_property_readonly("name", [](const PyScene& s) { return s.loaded.scene.params.scene_name; })
       .def_property_readonly("num_vertices", [](const PyScene& s) { return s.loaded.scene.topo.num_vertices(); })
-      .def_property_readonly("source", [](const PyScene& s) { return s.loaded.source.string(); },
-                             "The scene file ('' when built from text or arrays).")
-      .def_property_readonly("overrides", [](const PyScene& s) { return s.overrides; },
-                             "The overrides applied, as key.path=value strings.")
-      .def_property_readonly("config_json", [](const PyScene& s) { return s.loaded.resolved_json; },
-                             "The configuration with every default filled in, as JSON (what run.json records).")
+      .def_property_readonly(
+          "source", [](const PyScene& s) { return s.loaded.source.string(); },
+          "The scene file ('' when built from text or arrays).")
+      .def_property_readonly(
+          "overrides", [](const PyScene& s) { return s.overrides; },
+          "The overrides applied, as key.path=value strings.")
+      .def_property_readonly(
+          "config_json", [](const PyScene& s) { return s.loaded.resolved_json; },
+          "The configuration with every default filled in, as JSON (what run.json records).")
       .def_property_readonly(
           "objects",
           [](const PyScene& s) {
@@ -257,7 +269,8 @@ PYBIND11_MODULE(_core, m) {
           },
           "One dict per object: name, kind and its global vertex range [vertex_begin, vertex_end).")
       .def_property_readonly(
-          "positions", [](const PyScene& s) { return py::array(view(s.loaded.scene.state.x, py::none())).attr("copy")(); },
+          "positions",
+          [](const PyScene& s) { return py::array(view(s.loaded.scene.state.x, py::none())).attr("copy")(); },
           "The initial positions, an (n, 3) copy.")
       .def_property_readonly(
           "faces",
@@ -270,57 +283,61 @@ PYBIND11_MODULE(_core, m) {
             return a;
           },
           "Surface triangles with global vertex indices, (#F, 3).")
-      .def("with_overrides",
-           [](const PyScene& s, const py::object& overrides) {
-             std::vector<std::string> o = s.overrides;
-             for (auto& x : to_overrides(overrides)) o.push_back(std::move(x));
-             return make_scene(s.load, std::move(o));
-           },
-           py::arg("overrides"), "The same scene loaded again with more overrides (validated like --set).")
+      .def(
+          "with_overrides",
+          [](const PyScene& s, const py::object& overrides) {
+            std::vector<std::string> o = s.overrides;
+            for (auto& x : to_overrides(overrides)) o.push_back(std::move(x));
+            return make_scene(s.load, std::move(o));
+          },
+          py::arg("overrides"), "The same scene loaded again with more overrides (validated like --set).")
       .def("__repr__", [](const PyScene& s) {
-        return "<ccfr.Scene '" + s.loaded.scene.params.scene_name + "': " +
-               std::to_string(s.loaded.scene.topo.objects.size()) + " objects, " +
+        return "<ccfr.Scene '" + s.loaded.scene.params.scene_name +
+               "': " + std::to_string(s.loaded.scene.topo.objects.size()) + " objects, " +
                std::to_string(s.loaded.scene.topo.num_vertices()) + " vertices>";
       });
 
-  m.def("load_scene",
-        [](const fs::path& path, const py::object& overrides) {
-          return make_scene([path](const std::vector<std::string>& o) { return io::load_scene(path, o); },
-                            to_overrides(overrides));
-        },
-        py::arg("path"), py::arg("overrides") = py::none(),
-        "Loads a YAML scene file. overrides: {\"contact.offset\": 0.02} or [\"contact.offset=0.02\"], applied "
-        "before validation like `ccfr run --set`. Raises ccfr.ConfigError naming file, key path and line.");
-  m.def("load_scene_text",
-        [](const std::string& yaml, const std::string& label, const fs::path& base_dir, const py::object& overrides) {
-          return make_scene(
-              [yaml, label, base_dir](const std::vector<std::string>& o) {
-                return io::load_scene_text(yaml, label, base_dir, o);
-              },
-              to_overrides(overrides));
-        },
-        py::arg("yaml"), py::arg("label") = "<text>", py::arg("base_dir") = fs::path("."),
-        py::arg("overrides") = py::none(), "Loads a scene from YAML text; `label` names it in errors.");
-  m.def("_load_scene_arrays",
-        [](const std::string& yaml, const std::string& label, const py::dict& arrays, const py::object& overrides) {
-          auto meshes = std::make_shared<std::map<std::string, io::MeshArrays>>();
-          for (auto item : arrays) {
-            const std::string key = py::str(item.first);
-            py::tuple t = py::reinterpret_borrow<py::tuple>(item.second);
-            io::MeshArrays a;
-            a.vertices = to_positions(t[0], (key + ": vertices").c_str());
-            a.faces = to_rows<3>(t[1], (key + ": faces").c_str());
-            a.edges = to_rows<2>(t[2], (key + ": edges").c_str());
-            a.tets = to_rows<4>(t[3], (key + ": tets").c_str());
-            (*meshes)[key] = std::move(a);
-          }
-          return make_scene(
-              [yaml, label, meshes](const std::vector<std::string>& o) {
-                return io::load_scene_arrays(yaml, label, *meshes, o);
-              },
-              to_overrides(overrides));
-        },
-        py::arg("yaml"), py::arg("label"), py::arg("arrays"), py::arg("overrides") = py::none());
+  m.def(
+      "load_scene",
+      [](const fs::path& path, const py::object& overrides) {
+        return make_scene([path](const std::vector<std::string>& o) { return io::load_scene(path, o); },
+                          to_overrides(overrides));
+      },
+      py::arg("path"), py::arg("overrides") = py::none(),
+      "Loads a YAML scene file. overrides: {\"contact.offset\": 0.02} or [\"contact.offset=0.02\"], applied "
+      "before validation like `ccfr run --set`. Raises ccfr.ConfigError naming file, key path and line.");
+  m.def(
+      "load_scene_text",
+      [](const std::string& yaml, const std::string& label, const fs::path& base_dir, const py::object& overrides) {
+        return make_scene(
+            [yaml, label, base_dir](const std::vector<std::string>& o) {
+              return io::load_scene_text(yaml, label, base_dir, o);
+            },
+            to_overrides(overrides));
+      },
+      py::arg("yaml"), py::arg("label") = "<text>", py::arg("base_dir") = fs::path("."),
+      py::arg("overrides") = py::none(), "Loads a scene from YAML text; `label` names it in errors.");
+  m.def(
+      "_load_scene_arrays",
+      [](const std::string& yaml, const std::string& label, const py::dict& arrays, const py::object& overrides) {
+        auto meshes = std::make_shared<std::map<std::string, io::MeshArrays>>();
+        for (auto item : arrays) {
+          const std::string key = py::str(item.first);
+          py::tuple t = py::reinterpret_borrow<py::tuple>(item.second);
+          io::MeshArrays a;
+          a.vertices = to_positions(t[0], (key + ": vertices").c_str());
+          a.faces = to_rows<3>(t[1], (key + ": faces").c_str());
+          a.edges = to_rows<2>(t[2], (key + ": edges").c_str());
+          a.tets = to_rows<4>(t[3], (key + ": tets").c_str());
+          (*meshes)[key] = std::move(a);
+        }
+        return make_scene(
+            [yaml, label, meshes](const std::vector<std::string>& o) {
+              return io::load_scene_arrays(yaml, label, *meshes, o);
+            },
+            to_overrides(overrides));
+      },
+      py::arg("yaml"), py::arg("label"), py::arg("arrays"), py::arg("overrides") = py::none());
 
   // ---- simulation
   py::class_<PySimulation>(m, "Simulation",
@@ -348,50 +365,59 @@ PYBIND11_MODULE(_core, m) {
              return s;
            }),
            py::arg("scene"), py::arg("solver") = py::none(), py::arg("threads") = py::none())
-      .def("step",
-           [](PySimulation& s, int frames) {
-             if (frames < 1) throw py::value_error("frames must be >= 1");
-             for (int f = 0; f < frames; ++f) step_once(s);
-             return frame_stats_dict(*s.last);
-           },
-           py::arg("frames") = 1,
-           "Advances `frames` frames (all substeps; the GIL is released meanwhile) and returns the last frame's "
-           "stats row as a dict. Raises ccfr.GuaranteeError or ccfr.NumericalError like `ccfr run` stops.")
-      .def_property_readonly("positions", [](py::object self) { return view(self.cast<PySimulation&>().sim->positions(), self); },
-                             "Current positions: a read-only (n, 3) float64 view of the simulation's buffer (no copy; "
-                             "it follows every step). Use set_positions to change them.")
-      .def_property_readonly("velocities",
-                             [](py::object self) { return view(self.cast<PySimulation&>().sim->velocities(), self); },
-                             "Current velocities: a read-only (n, 3) float64 view, like positions.")
-      .def("set_positions", [](PySimulation& s, const py::object& x) { s.sim->set_positions(to_positions(x, "positions")); },
-           py::arg("positions"), "Overwrites every position ((n, 3), finite) between frames.")
-      .def("set_velocities",
-           [](PySimulation& s, const py::object& v) { s.sim->set_velocities(to_positions(v, "velocities")); },
-           py::arg("velocities"), "Overwrites every velocity ((n, 3), finite) between frames.")
-      .def("set_kinematic_targets",
-           [](PySimulation& s, const py::object& indices, const py::object& targets) {
-             py::array raw = py::array::ensure(indices);
-             if (!raw || raw.ndim() != 1 || (raw.size() > 0 && raw.dtype().kind() != 'i' && raw.dtype().kind() != 'u'))
-               throw py::value_error("indices must be a 1-d integer array");
-             IndexArray idx(raw);
-             const Positions t = to_positions(targets, "targets");
-             s.sim->set_kinematic_targets(std::span<const Index>(idx.data(), static_cast<size_t>(idx.size())), t);
-           },
-           py::arg("indices"), py::arg("targets"),
-           "Drives pinned or obstacle vertices (global indices): over the next frame each moves linearly to its target "
-           "and then holds there.")
-      .def_property_readonly("stats",
-                             [](const PySimulation& s) -> py::object {
-                               return s.last ? py::object(frame_stats_dict(*s.last)) : py::object(py::none());
-                             },
-                             "The last frame's stats row (the columns of stats.csv) as a dict; None before a step.")
-      .def_property_readonly("frame", [](const PySimulation& s) { return s.sim->frames_done(); }, "Frames done.")
-      .def_property_readonly("time", [](const PySimulation& s) { return s.sim->scene().state.time; },
-                             "Simulated time in seconds.")
+      .def(
+          "step",
+          [](PySimulation& s, int frames) {
+            if (frames < 1) throw py::value_error("frames must be >= 1");
+            for (int f = 0; f < frames; ++f) step_once(s);
+            return frame_stats_dict(*s.last);
+          },
+          py::arg("frames") = 1,
+          "Advances `frames` frames (all substeps; the GIL is released meanwhile) and returns the last frame's "
+          "stats row as a dict. Raises ccfr.GuaranteeError or ccfr.NumericalError like `ccfr run` stops.")
+      .def_property_readonly(
+          "positions", [](py::object self) { return view(self.cast<PySimulation&>().sim->positions(), self); },
+          "Current positions: a read-only (n, 3) float64 view of the simulation's buffer (no copy; "
+          "it follows every step). Use set_positions to change them.")
+      .def_property_readonly(
+          "velocities", [](py::object self) { return view(self.cast<PySimulation&>().sim->velocities(), self); },
+          "Current velocities: a read-only (n, 3) float64 view, like positions.")
+      .def(
+          "set_positions",
+          [](PySimulation& s, const py::object& x) { s.sim->set_positions(to_positions(x, "positions")); },
+          py::arg("positions"), "Overwrites every position ((n, 3), finite) between frames.")
+      .def(
+          "set_velocities",
+          [](PySimulation& s, const py::object& v) { s.sim->set_velocities(to_positions(v, "velocities")); },
+          py::arg("velocities"), "Overwrites every velocity ((n, 3), finite) between frames.")
+      .def(
+          "set_kinematic_targets",
+          [](PySimulation& s, const py::object& indices, const py::object& targets) {
+            py::array raw = py::array::ensure(indices);
+            if (!raw || raw.ndim() != 1 || (raw.size() > 0 && raw.dtype().kind() != 'i' && raw.dtype().kind() != 'u'))
+              throw py::value_error("indices must be a 1-d integer array");
+            IndexArray idx(raw);
+            const Positions t = to_positions(targets, "targets");
+            s.sim->set_kinematic_targets(std::span<const Index>(idx.data(), static_cast<size_t>(idx.size())), t);
+          },
+          py::arg("indices"), py::arg("targets"),
+          "Drives pinned or obstacle vertices (global indices): over the next frame each moves linearly to its target "
+          "and then holds there.")
+      .def_property_readonly(
+          "stats",
+          [](const PySimulation& s) -> py::object {
+            return s.last ? py::object(frame_stats_dict(*s.last)) : py::object(py::none());
+          },
+          "The last frame's stats row (the columns of stats.csv) as a dict; None before a step.")
+      .def_property_readonly(
+          "frame", [](const PySimulation& s) { return s.sim->frames_done(); }, "Frames done.")
+      .def_property_readonly(
+          "time", [](const PySimulation& s) { return s.sim->scene().state.time; }, "Simulated time in seconds.")
       .def_property_readonly("num_vertices", [](const PySimulation& s) { return s.sim->topology().num_vertices(); })
       .def_property_readonly("solver", [](const PySimulation& s) { return s.sim->scene().params.contact.solver; })
-      .def_property_readonly("frames", [](const PySimulation& s) { return s.sim->scene().params.time.frames; },
-                             "time.frames of the scene.")
+      .def_property_readonly(
+          "frames", [](const PySimulation& s) { return s.sim->scene().params.time.frames; },
+          "time.frames of the scene.")
       .def_property_readonly(
           "kinematic_vertices",
           [](const PySimulation& s) {
@@ -433,14 +459,15 @@ PYBIND11_MODULE(_core, m) {
              r.recorder->start();
              return self;
            })
-      .def("step",
-           [](PyRun& r, int frames) {
-             if (!r.started || r.finished) throw py::value_error("Run.step() works inside `with ccfr.Run(...)`");
-             if (frames < 1) throw py::value_error("frames must be >= 1");
-             for (int f = 0; f < frames; ++f) r.recorder->record(step_once(*r.sim));
-             return frame_stats_dict(*r.sim->last);
-           },
-           py::arg("frames") = 1, "Steps the simulation and writes what belongs to each frame; returns the last stats.")
+      .def(
+          "step",
+          [](PyRun& r, int frames) {
+            if (!r.started || r.finished) throw py::value_error("Run.step() works inside `with ccfr.Run(...)`");
+            if (frames < 1) throw py::value_error("frames must be >= 1");
+            for (int f = 0; f < frames; ++f) r.recorder->record(step_once(*r.sim));
+            return frame_stats_dict(*r.sim->last);
+          },
+          py::arg("frames") = 1, "Steps the simulation and writes what belongs to each frame; returns the last stats.")
       .def("__exit__",
            [](PyRun& r, const py::object& type, const py::object& value, const py::object&) {
              if (r.finished) return false;
@@ -449,8 +476,9 @@ PYBIND11_MODULE(_core, m) {
                                                 : "failed: " + py::str(value).cast<std::string>());
              return false;
            })
-      .def_property_readonly("dir", [](const PyRun& r) { return r.recorder->writer().dir(); },
-                             "Where the run is written (DIR, or DIR.ccfr-new while it replaces an earlier run).")
+      .def_property_readonly(
+          "dir", [](const PyRun& r) { return r.recorder->writer().dir(); },
+          "Where the run is written (DIR, or DIR.ccfr-new while it replaces an earlier run).")
       .def_property_readonly("frames_written", [](const PyRun& r) { return r.recorder->writer().frames_written(); });
 
   // ---- audit
@@ -475,7 +503,8 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("clean", [](const PyAudit& a) { return a.r.clean(); })
       .def_property_readonly("offset", [](const PyAudit& a) { return a.r.offset; })
       .def_property_readonly("offset_source", [](const PyAudit& a) { return a.r.offset_source; })
-      .def_property_readonly("status", [](const PyAudit& a) { return a.r.status; }, "run.json's status.")
+      .def_property_readonly(
+          "status", [](const PyAudit& a) { return a.r.status; }, "run.json's status.")
       .def_property_readonly("frames_checked", [](const PyAudit& a) { return a.r.frames_checked; })
       .def_property_readonly("frames_total", [](const PyAudit& a) { return a.r.frames_total; })
       .def_property_readonly("bad_frames", [](const PyAudit& a) { return a.r.bad_frames; })
@@ -483,101 +512,109 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("first_bad_frame", [](const PyAudit& a) { return a.r.first_bad_frame; })
       .def_property_readonly("first_example", [](const PyAudit& a) { return a.r.first_example; })
       .def_property_readonly("min_distance", [](const PyAudit& a) { return a.r.min_distance; })
-      .def_property_readonly("rows", [](const PyAudit& a) { return a.r.rows; }, "One FrameAudit per audited frame.")
+      .def_property_readonly(
+          "rows", [](const PyAudit& a) { return a.r.rows; }, "One FrameAudit per audited frame.")
       .def("__bool__", [](const PyAudit& a) { return a.verdict == "pass"; })
       .def("__repr__", [](const PyAudit& a) {
         return "<AuditResult " + a.verdict + ": " + std::to_string(a.r.frames_checked) + " frames, " +
                std::to_string(a.r.violations) + " violations>";
       });
-  m.def("audit",
-        [](const fs::path& dir, std::optional<double> offset, double tolerance, int stride, bool partial,
-           bool write_report) {
-          io::RunAuditOptions o;
-          o.offset = offset;
-          o.tolerance = tolerance;
-          o.stride = stride;
-          PyAudit a;
-          {
-            py::gil_scoped_release release;
-            a.r = io::audit_run(dir, o);
-          }
-          a.verdict = io::audit_verdict(a.r, partial);
-          if (write_report) {
-            const int code = a.verdict == "fail" ? 1 : a.verdict == "incomplete" ? 4 : 0;
-            io::write_file_atomic(dir / "audit.json",
-                                  io::audit_report_json(a.r, a.verdict, code,
-                                                        partial && a.r.has_run_json && !a.r.completed()));
-          }
-          return a;
-        },
-        py::arg("run_dir"), py::arg("offset") = py::none(), py::arg("tolerance") = 1e-6, py::arg("stride") = 1,
-        py::arg("partial") = false, py::arg("write_report") = false,
-        "Audits a run directory frame by frame with the exact predicates (`ccfr audit`). offset: ξ (default: "
-        "run.json's). write_report: also write DIR/audit.json as `ccfr audit` does.");
+  m.def(
+      "audit",
+      [](const fs::path& dir, std::optional<double> offset, double tolerance, int stride, bool partial,
+         bool write_report) {
+        io::RunAuditOptions o;
+        o.offset = offset;
+        o.tolerance = tolerance;
+        o.stride = stride;
+        PyAudit a;
+        {
+          py::gil_scoped_release release;
+          a.r = io::audit_run(dir, o);
+        }
+        a.verdict = io::audit_verdict(a.r, partial);
+        if (write_report) {
+          const int code = a.verdict == "fail" ? 1 : a.verdict == "incomplete" ? 4 : 0;
+          io::write_file_atomic(
+              dir / "audit.json",
+              io::audit_report_json(a.r, a.verdict, code, partial && a.r.has_run_json && !a.r.completed()));
+        }
+        return a;
+      },
+      py::arg("run_dir"), py::arg("offset") = py::none(), py::arg("tolerance") = 1e-6, py::arg("stride") = 1,
+      py::arg("partial") = false, py::arg("write_report") = false,
+      "Audits a run directory frame by frame with the exact predicates (`ccfr audit`). offset: ξ (default: "
+      "run.json's). write_report: also write DIR/audit.json as `ccfr audit` does.");
 
   // ---- projectors and closest points
   py::class_<ProjectResult>(m, "Projection", "The result of ccfr.project.")
       .def_property_readonly("x", [](const ProjectResult& r) { return py::array_t<double>(3, r.x.data()); })
-      .def_property_readonly("status", [](const ProjectResult& r) { return std::string(to_string(r.status)); },
-                             "'feasible', 'projected', 'halted' or 'infeasible'.")
+      .def_property_readonly(
+          "status", [](const ProjectResult& r) { return std::string(to_string(r.status)); },
+          "'feasible', 'projected', 'halted' or 'infeasible'.")
       .def_readonly("iterations", &ProjectResult::iterations)
       .def_readonly("active", &ProjectResult::active, "Half-spaces violated by the candidate.")
       .def_readonly("fell_back", &ProjectResult::fell_back);
   m.def("projector_names", &projector_names, "The projector methods: plesnik, successive_projection, exact.");
-  m.def("project",
-        [](const py::object& anchor, const py::object& candidate, const py::object& planes, const std::string& method,
-           double epsilon, int max_iterations, int sweeps) {
-          const Positions a = to_positions(RowArray::ensure(anchor).reshape({1, 3}), "anchor");
-          const Positions c = to_positions(RowArray::ensure(candidate).reshape({1, 3}), "candidate");
-          RowArray p = RowArray::ensure(planes);
-          if (!p || (p.size() > 0 && (p.ndim() != 2 || p.shape(1) != 4)) || (p.size() == 0 && p.ndim() > 2))
-            throw py::value_error("planes must be a (k, 4) array of rows (nx, ny, nz, d)");
-          std::vector<HalfSpace> hs(static_cast<size_t>(p.size() / 4));
-          const double* d = p.data();
-          for (size_t k = 0; k < hs.size(); ++k) hs[k].n = Vec3(d[4 * k], d[4 * k + 1], d[4 * k + 2]), hs[k].d = d[4 * k + 3];
-          ProjectorParams pp;
-          pp.epsilon = epsilon;
-          pp.max_iterations = max_iterations;
-          pp.sweeps = sweeps;
-          return make_projector(method, pp)->project(a[0], c[0], hs);
-        },
-        py::arg("anchor"), py::arg("candidate"), py::arg("planes"), py::arg("method") = "plesnik",
-        py::arg("epsilon") = 1e-6, py::arg("max_iterations") = 4, py::arg("sweeps") = 10,
-        "Projects `candidate` into the region {x : (x - anchor).n_k + d_k >= 0} of the half-spaces `planes` (rows "
-        "nx, ny, nz, d; unit normals), by `method` (ccfr.projector_names()).");
+  m.def(
+      "project",
+      [](const py::object& anchor, const py::object& candidate, const py::object& planes, const std::string& method,
+         double epsilon, int max_iterations, int sweeps) {
+        const Positions a = to_positions(RowArray::ensure(anchor).reshape({1, 3}), "anchor");
+        const Positions c = to_positions(RowArray::ensure(candidate).reshape({1, 3}), "candidate");
+        RowArray p = RowArray::ensure(planes);
+        if (!p || (p.size() > 0 && (p.ndim() != 2 || p.shape(1) != 4)) || (p.size() == 0 && p.ndim() > 2))
+          throw py::value_error("planes must be a (k, 4) array of rows (nx, ny, nz, d)");
+        std::vector<HalfSpace> hs(static_cast<size_t>(p.size() / 4));
+        const double* d = p.data();
+        for (size_t k = 0; k < hs.size(); ++k)
+          hs[k].n = Vec3(d[4 * k], d[4 * k + 1], d[4 * k + 2]), hs[k].d = d[4 * k + 3];
+        ProjectorParams pp;
+        pp.epsilon = epsilon;
+        pp.max_iterations = max_iterations;
+        pp.sweeps = sweeps;
+        return make_projector(method, pp)->project(a[0], c[0], hs);
+      },
+      py::arg("anchor"), py::arg("candidate"), py::arg("planes"), py::arg("method") = "plesnik",
+      py::arg("epsilon") = 1e-6, py::arg("max_iterations") = 4, py::arg("sweeps") = 10,
+      "Projects `candidate` into the region {x : (x - anchor).n_k + d_k >= 0} of the half-spaces `planes` (rows "
+      "nx, ny, nz, d; unit normals), by `method` (ccfr.projector_names()).");
   auto vec = [](const py::object& o, const char* what) {
     return to_positions(RowArray::ensure(o).reshape({1, 3}), what)[0];
   };
   auto arr = [](const Vec3& v) { return py::array_t<double>(3, v.data()); };
-  m.def("point_edge",
-        [vec, arr](const py::object& p, const py::object& a, const py::object& b) {
-          const auto r = point_edge(vec(p, "p"), vec(a, "a"), vec(b, "b"));
-          py::dict d;
-          d["closest"] = arr(r.closest), d["t"] = r.t, d["distance"] = std::sqrt(r.distance_sq);
-          d["feature"] = r.feature == EdgeFeature::v0 ? "v0" : r.feature == EdgeFeature::v1 ? "v1" : "interior";
-          return d;
-        },
-        py::arg("p"), py::arg("a"), py::arg("b"),
-        "Closest point of segment ab to p: dict closest, t (closest = a + t (b - a)), distance, feature.");
-  m.def("point_triangle",
-        [vec, arr](const py::object& p, const py::object& a, const py::object& b, const py::object& c) {
-          const auto r = point_triangle(vec(p, "p"), vec(a, "a"), vec(b, "b"), vec(c, "c"));
-          static const char* names[] = {"v0", "v1", "v2", "e01", "e12", "e20", "interior"};
-          py::dict d;
-          d["closest"] = arr(r.closest), d["bary"] = arr(r.bary), d["distance"] = std::sqrt(r.distance_sq);
-          d["feature"] = names[static_cast<int>(r.feature)];
-          return d;
-        },
-        py::arg("p"), py::arg("a"), py::arg("b"), py::arg("c"),
-        "Closest point of triangle abc to p: dict closest, bary (barycentrics), distance, feature.");
-  m.def("edge_edge",
-        [vec, arr](const py::object& a0, const py::object& a1, const py::object& b0, const py::object& b1) {
-          const auto r = edge_edge(vec(a0, "a0"), vec(a1, "a1"), vec(b0, "b0"), vec(b1, "b1"));
-          py::dict d;
-          d["pa"] = arr(r.pa), d["pb"] = arr(r.pb), d["s"] = r.s, d["t"] = r.t;
-          d["distance"] = std::sqrt(r.distance_sq), d["parallel"] = r.parallel;
-          return d;
-        },
-        py::arg("a0"), py::arg("a1"), py::arg("b0"), py::arg("b1"),
-        "Closest points of segments a0a1 and b0b1: dict pa, pb, s, t, distance, parallel.");
+  m.def(
+      "point_edge",
+      [vec, arr](const py::object& p, const py::object& a, const py::object& b) {
+        const auto r = point_edge(vec(p, "p"), vec(a, "a"), vec(b, "b"));
+        py::dict d;
+        d["closest"] = arr(r.closest), d["t"] = r.t, d["distance"] = std::sqrt(r.distance_sq);
+        d["feature"] = r.feature == EdgeFeature::v0 ? "v0" : r.feature == EdgeFeature::v1 ? "v1" : "interior";
+        return d;
+      },
+      py::arg("p"), py::arg("a"), py::arg("b"),
+      "Closest point of segment ab to p: dict closest, t (closest = a + t (b - a)), distance, feature.");
+  m.def(
+      "point_triangle",
+      [vec, arr](const py::object& p, const py::object& a, const py::object& b, const py::object& c) {
+        const auto r = point_triangle(vec(p, "p"), vec(a, "a"), vec(b, "b"), vec(c, "c"));
+        static const char* names[] = {"v0", "v1", "v2", "e01", "e12", "e20", "interior"};
+        py::dict d;
+        d["closest"] = arr(r.closest), d["bary"] = arr(r.bary), d["distance"] = std::sqrt(r.distance_sq);
+        d["feature"] = names[static_cast<int>(r.feature)];
+        return d;
+      },
+      py::arg("p"), py::arg("a"), py::arg("b"), py::arg("c"),
+      "Closest point of triangle abc to p: dict closest, bary (barycentrics), distance, feature.");
+  m.def(
+      "edge_edge",
+      [vec, arr](const py::object& a0, const py::object& a1, const py::object& b0, const py::object& b1) {
+        const auto r = edge_edge(vec(a0, "a0"), vec(a1, "a1"), vec(b0, "b0"), vec(b1, "b1"));
+        py::dict d;
+        d["pa"] = arr(r.pa), d["pb"] = arr(r.pb), d["s"] = r.s, d["t"] = r.t;
+        d["distance"] = std::sqrt(r.distance_sq), d["parallel"] = r.parallel;
+        return d;
+      },
+      py::arg("a0"), py::arg("a1"), py::arg("b0"), py::arg("b1"),
+      "Closest points of segments a0a1 and b0b1: dict pa, pb, s, t, distance, parallel.");
 }

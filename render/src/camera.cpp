@@ -42,14 +42,16 @@ Camera parse_camera(std::string_view text, const Vec3& up) {
     double value = 0;
     const auto [ptr, ec] = std::from_chars(token.data(), token.data() + token.size(), value);
     if (token.empty() || ec != std::errc() || ptr != token.data() + token.size() || !std::isfinite(value))
-      throw Error("--camera: '" + token + "' is not a number (expected eye_x,eye_y,eye_z,target_x,target_y,target_z,fov_deg)");
+      throw Error("--camera: '" + token +
+                  "' is not a number (expected eye_x,eye_y,eye_z,target_x,target_y,target_z,fov_deg)");
     values.push_back(value);
     if (comma == std::string_view::npos) break;
     rest = rest.substr(comma + 1);
   }
   if (values.size() != 7)
-    throw Error("--camera: expected 7 comma-separated numbers eye_x,eye_y,eye_z,target_x,target_y,target_z,fov_deg, got " +
-                std::to_string(values.size()));
+    throw Error(
+        "--camera: expected 7 comma-separated numbers eye_x,eye_y,eye_z,target_x,target_y,target_z,fov_deg, got " +
+        std::to_string(values.size()));
   Camera cam;
   cam.eye = Vec3(values[0], values[1], values[2]);
   cam.target = Vec3(values[3], values[4], values[5]);

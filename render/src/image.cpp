@@ -42,8 +42,8 @@ void append_bytes(void* context, void* data, int size) {
 void write_png(const std::filesystem::path& path, const Image& image) {
   if (image.empty()) throw Error("cannot write an empty image to '" + path.string() + "'");
   std::string bytes;
-  if (stbi_write_png_to_func(append_bytes, &bytes, image.width, image.height, 3, image.rgb.data(),
-                             image.width * 3) == 0)
+  if (stbi_write_png_to_func(append_bytes, &bytes, image.width, image.height, 3, image.rgb.data(), image.width * 3) ==
+      0)
     throw Error("cannot encode PNG '" + path.string() + "'");
   io::write_file_atomic(path, bytes);
 }
@@ -115,8 +115,7 @@ void fill_rect(Image& img, int x0, int y0, int x1, int y1, const std::uint8_t rg
   for (int y = y0; y < y1; ++y)
     for (int x = x0; x < x1; ++x) {
       std::uint8_t* p = img.pixel(x, y);
-      for (int c = 0; c < 3; ++c)
-        p[c] = static_cast<std::uint8_t>(std::lround((1.0 - alpha) * p[c] + alpha * rgb[c]));
+      for (int c = 0; c < 3; ++c) p[c] = static_cast<std::uint8_t>(std::lround((1.0 - alpha) * p[c] + alpha * rgb[c]));
     }
 }
 }  // namespace
@@ -132,8 +131,8 @@ void draw_label(Image& image, int x, int y, const std::string& text, int scale) 
   fill_rect(image, x, y, x + tw + 2 * pad, y + th + 2 * pad, box, 0.6);
   // About 270 bytes per character according to stb_easy_font's documentation.
   std::vector<char> vbuf(buf_text.size() * 400 + 64);
-  const int quads = stb_easy_font_print(0.0f, 0.0f, buf_text.data(), nullptr, vbuf.data(),
-                                        static_cast<int>(vbuf.size()));
+  const int quads =
+      stb_easy_font_print(0.0f, 0.0f, buf_text.data(), nullptr, vbuf.data(), static_cast<int>(vbuf.size()));
   const std::uint8_t white[3] = {250, 250, 250};
   for (int q = 0; q < quads; ++q) {
     // Vertex layout: x, y, z as float, then 4 colour bytes; 4 vertices per quad.
@@ -147,12 +146,11 @@ void draw_label(Image& image, int x, int y, const std::string& text, int scale) 
   }
 }
 
-Image contact_sheet(const std::vector<Image>& tiles, const std::vector<std::string>& labels, int columns,
-                    int gap) {
+Image contact_sheet(const std::vector<Image>& tiles, const std::vector<std::string>& labels, int columns, int gap) {
   if (tiles.empty()) return {};
   if (!labels.empty() && labels.size() != tiles.size())
-    throw Error("contact sheet: " + std::to_string(labels.size()) + " labels for " +
-                std::to_string(tiles.size()) + " tiles");
+    throw Error("contact sheet: " + std::to_string(labels.size()) + " labels for " + std::to_string(tiles.size()) +
+                " tiles");
   const int tw = tiles.front().width, th = tiles.front().height;
   for (const Image& t : tiles)
     if (t.width != tw || t.height != th) throw Error("contact sheet: tiles differ in size");

@@ -8,8 +8,8 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
-#include <chrono>
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -181,8 +181,7 @@ RunRenderSummary render_frames(const std::vector<fs::path>& frames, const RunRen
       const Vec3 pad = Vec3::Constant(0.2 * std::max(subject.diagonal(), 1e-9));
       subject.extend(subject.lo - pad);
       subject.extend(subject.hi + pad);
-      const double aspect =
-          static_cast<double>(std::max(options.render.width, 1)) / std::max(options.render.height, 1);
+      const double aspect = static_cast<double>(std::max(options.render.width, 1)) / std::max(options.render.height, 1);
       camera = fit_camera(subject, aspect, options.render.up, options.render.fov_deg);
     }
   }
@@ -194,7 +193,8 @@ RunRenderSummary render_frames(const std::vector<fs::path>& frames, const RunRen
   if (options.sheet) {
     const size_t n = std::min<size_t>(picked.size(), static_cast<size_t>(std::max(options.sheet_frames, 1)));
     for (size_t k = 0; k < n; ++k)
-      sheet_slots.push_back(n == 1 ? 0 : static_cast<size_t>(std::lround(static_cast<double>(k) * (picked.size() - 1) / (n - 1))));
+      sheet_slots.push_back(
+          n == 1 ? 0 : static_cast<size_t>(std::lround(static_cast<double>(k) * (picked.size() - 1) / (n - 1))));
   }
   std::vector<Image> tiles;
   std::vector<std::string> labels;
@@ -228,8 +228,7 @@ RunRenderSummary render_frames(const std::vector<fs::path>& frames, const RunRen
   if (options.video) {
     const fs::path mp4 = options.out / "video.mp4";
     const double rate = options.fps / std::max(options.every, 1);
-    if (make_video(summary.images, rate, mp4, summary.video_note))
-      summary.video = mp4;
+    if (make_video(summary.images, rate, mp4, summary.video_note)) summary.video = mp4;
   }
   return summary;
 }

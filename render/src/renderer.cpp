@@ -113,8 +113,8 @@ View resolve_view(const Bounds& bounds, const io::Frame& sample, const RenderOpt
   view.camera = camera ? *camera : fit_camera(bounds, aspect, options.up, options.fov_deg);
   view.camera.up = options.up.normalized();
   const double diag = bounds.empty() ? 1.0 : std::max(bounds.diagonal(), 1e-9);
-  const double dist = bounds.empty() ? (view.camera.eye - view.camera.target).norm()
-                                     : (bounds.center() - view.camera.eye).norm();
+  const double dist =
+      bounds.empty() ? (view.camera.eye - view.camera.target).norm() : (bounds.center() - view.camera.eye).norm();
   const double pixel = pixel_size_at(view.camera, std::max(options.height, 1), dist);
 
   // Strands: the physical thickness ξ/2 when known, else a fraction of a segment; never thinner
@@ -168,7 +168,8 @@ struct Renderer::Impl {
 
   Impl() {
     device = rtcNewDevice("verbose=0");
-    if (device == nullptr) throw Error("cannot create an Embree device (error " + std::to_string(rtcGetDeviceError(nullptr)) + ")");
+    if (device == nullptr)
+      throw Error("cannot create an Embree device (error " + std::to_string(rtcGetDeviceError(nullptr)) + ")");
     rtcSetDeviceErrorFunction(device, embree_error, nullptr);
   }
   ~Impl() { rtcReleaseDevice(device); }
@@ -236,8 +237,8 @@ class FrameScene {
 
   void add_triangles(RTCDevice device, std::int32_t object, const io::FrameObject& obj) {
     RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, positions_.data(), 0,
-                               3 * sizeof(float), frame_.v.size());
+    rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, positions_.data(), 0, 3 * sizeof(float),
+                               frame_.v.size());
     const size_t nf = static_cast<size_t>(obj.face_end - obj.face_begin);
     auto* idx = static_cast<unsigned*>(
         rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), nf));
@@ -373,7 +374,8 @@ class Shader {
       ng = (frame_.v[static_cast<size_t>(t[1])] - a).cross(frame_.v[static_cast<size_t>(t[2])] - a);
       const double u = rh.hit.u, v = rh.hit.v;
       const auto& vn = scene_.normals();
-      n = (1.0 - u - v) * vn[static_cast<size_t>(t[0])] + u * vn[static_cast<size_t>(t[1])] + v * vn[static_cast<size_t>(t[2])];
+      n = (1.0 - u - v) * vn[static_cast<size_t>(t[0])] + u * vn[static_cast<size_t>(t[1])] +
+          v * vn[static_cast<size_t>(t[2])];
       base = colors_[static_cast<size_t>(gi.object)];
     } else if (gi.kind == PrimKind::ground) {
       const Vec3 q = p - view_.camera.target;
@@ -482,12 +484,14 @@ class Shader {
 
 RenderResult Renderer::render(const io::Frame& frame, const View& view, const RenderOptions& options) {
   if (options.width <= 0 || options.height <= 0)
-    throw Error("image size must be positive, got " + std::to_string(options.width) + "x" + std::to_string(options.height));
+    throw Error("image size must be positive, got " + std::to_string(options.width) + "x" +
+                std::to_string(options.height));
   for (size_t o = 0; o < frame.objects.size(); ++o) {
     const auto& obj = frame.objects[o];
     for (Index f = obj.face_begin; f < obj.face_end; ++f)
       for (int k = 0; k < 3; ++k)
-        if (frame.faces[static_cast<size_t>(f)][k] < 0 || static_cast<size_t>(frame.faces[static_cast<size_t>(f)][k]) >= frame.v.size())
+        if (frame.faces[static_cast<size_t>(f)][k] < 0 ||
+            static_cast<size_t>(frame.faces[static_cast<size_t>(f)][k]) >= frame.v.size())
           throw Error("face " + std::to_string(f) + " of object '" + obj.name + "' indexes a missing vertex");
   }
   const FrameScene scene(impl_->device, frame, view);
@@ -506,7 +510,8 @@ RenderResult Renderer::render(const io::Frame& frame, const View& view, const Re
         std::vector<std::int32_t> ids(static_cast<size_t>(spp));
         for (Index y = y0; y < y1; ++y)
           for (int x = 0; x < w; ++x) {
-            const std::uint32_t pixel_seed = hash32(static_cast<std::uint32_t>(y) * 0x9E3779B1u + static_cast<std::uint32_t>(x));
+            const std::uint32_t pixel_seed =
+                hash32(static_cast<std::uint32_t>(y) * 0x9E3779B1u + static_cast<std::uint32_t>(x));
             Vec3 acc = Vec3::Zero();
             for (int s = 0; s < spp; ++s) {
               const std::uint32_t seed = hash32(pixel_seed + static_cast<std::uint32_t>(s) * 0x632BE5ABu);

@@ -4,7 +4,7 @@
 #include "ccfr/solvers/contact_solver.hpp"
 
 namespace ccfr {
-void register_region_projection_solvers(ContactSolverRegistry& registry);  ///< contact_solvers.cpp
-void register_post_process_solver(ContactSolverRegistry& registry);        ///< contact_solvers.cpp
+void register_region_projection_solvers(ContactSolverRegistry& registry);  ///< detecting_solvers.cpp
+void register_post_process_solver(ContactSolverRegistry& registry);        ///< detecting_solvers.cpp
 void register_toi_clamp_solver(ContactSolverRegistry& registry);           ///< toi_clamp.cpp
 }  // namespace ccfr

@@ -23,7 +23,8 @@ ContactSolverRegistry& contact_solvers() {
     r.add({"none",
            "no deformable contact at all (analytic obstacles still push when contact.analytic_obstacles is on); "
            "the ablation's lower bound on cost",
-           {}, [](const ParamValues&) { return std::make_unique<NoContactSolver>(); }});
+           {},
+           [](const ParamValues&) { return std::make_unique<NoContactSolver>(); }});
     return r;
   }();
   return registry;

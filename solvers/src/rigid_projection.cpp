@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "ccfr/core/parallel.hpp"
+#include "ccfr/geometry/mass_properties.hpp"
 #include "ccfr/solvers/materials.hpp"
 
 namespace ccfr {
@@ -24,10 +25,14 @@ struct Pose {
   Vec3 c = Vec3::Zero();
 };
 
-/// Best rigid fit (weighted centre, polar rotation of A_pq; Müller et al. 2005).
-Pose fit(std::span<const Vec3> x, std::span<const Vec3> rest, std::span<const double> m) {
-  double total = 0.0;
-  Vec3 c = Vec3::Zero();
+/// Best rigid fit (weighted centre, polar rotation of A_pq; Müller et al. 2005). A core of mass
+/// `core` at `core_at` (the centre of the pose the corrections started from) joins the centre only:
+/// corrections Δᵢ then move the centre by Σ mᵢΔᵢ / (Σ mᵢ + core) and turn the body by
+/// I⁻¹ Σ qᵢ × mᵢΔᵢ to first order, I = tr(S) 1 - S, S = Σ mᵢ qᵢqᵢᵀ: a rigid body's impulse response.
+Pose fit(std::span<const Vec3> x, std::span<const Vec3> rest, std::span<const double> m, double core = 0.0,
+         const Vec3& core_at = Vec3::Zero()) {
+  double total = core;
+  Vec3 c = core * core_at;
   for (size_t i = 0; i < x.size(); ++i) {
     total += m[i];
     c += m[i] * x[i];
@@ -44,8 +49,10 @@ Pose fit(std::span<const Vec3> x, std::span<const Vec3> rest, std::span<const do
 
 }  // namespace
 
-RigidBodies::RigidBodies(const Topology& topo, const SimState& state) {
-  for (const auto& o : topo.objects) {
+RigidBodies::RigidBodies(const Topology& topo, const SimState& state, const SimulationParams* params) {
+  const bool with_cores = params && params->objects.size() == topo.objects.size();
+  for (size_t oi = 0; oi < topo.objects.size(); ++oi) {
+    const auto& o = topo.objects[oi];
     if (o.kind != ObjectKind::rigid || o.num_vertices() == 0) continue;
     Body b;
     b.begin = o.vertex_begin;
@@ -72,12 +79,38 @@ RigidBodies::RigidBodies(const Topology& topo, const SimState& state) {
       b.rest.push_back(state.rest[v] - centre);
       b.extent = std::max(b.extent, b.rest.back().norm());
     }
+    if (with_cores && !b.pinned) {
+      std::vector<Vec3i> faces;
+      for (Index f = o.face_begin; f < o.face_end; ++f) faces.push_back(topo.faces[f] - Vec3i::Constant(b.begin));
+      const double solid =
+          params->objects[oi].material.density *
+          solid_mass_properties(std::span<const Vec3>(state.rest.data() + b.begin, b.rest.size()), faces).volume;
+      if (solid > total * (1.0 + 1e-12)) b.core = solid - total;
+    }
     bodies_.push_back(std::move(b));
   }
 }
 
+std::vector<Vec3> RigidBodies::predicted_cores(const SimState& state, double dt, const Vec3& gravity) const {
+  std::vector<Vec3> out(bodies_.size(), Vec3::Zero());
+  for (size_t bi = 0; bi < bodies_.size(); ++bi) {
+    const Body& b = bodies_[bi];
+    double total = 0.0;
+    Vec3 c = Vec3::Zero(), v = Vec3::Zero();
+    for (size_t i = 0; i < b.rest.size(); ++i) {
+      total += b.weight[i];
+      c += b.weight[i] * state.x[b.begin + static_cast<Index>(i)];
+      v += b.weight[i] * state.v[b.begin + static_cast<Index>(i)];
+    }
+    // The weighted centre is the solid's centre of mass, and Σ mᵢvᵢ / Σ mᵢ its velocity.
+    out[bi] = (c + dt * v) / total + gravity * dt * dt;
+  }
+  return out;
+}
+
 RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, const RegionSet& regions,
-                                       const Projector& projector, double step_bound, double advance_tolerance) const {
+                                       const Projector& projector, double step_bound, double advance_tolerance,
+                                       std::span<const Vec3> cores) const {
   std::vector<RigidEnforceStats> per(bodies_.size());
   parallel_for(
       size(),
@@ -106,7 +139,8 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
             return region_ok && bound_ok;
           };
           const std::span<Vec3> xb(x.data() + b.begin, n);
-          Pose target = fit(xb, rest, b.weight);
+          const double core = cores.empty() ? 0.0 : b.core;
+          Pose target = fit(xb, rest, b.weight, core, cores.empty() ? Vec3::Zero() : cores[bi]);
           if (b.pinned) {  // pins decide the pose; only the dynamic vertices move
             place(target, y);
             for (size_t i = 0; i < n; ++i)
@@ -136,7 +170,7 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
               }
               if (!y[i].allFinite()) y[i] = anchor[v];
             }
-            target = fit(y, rest, b.weight);
+            target = fit(y, rest, b.weight, core, target.c);  // the core moves with the pose it refines
           }
           ++st.bodies_refitted;
           if (ok) {

@@ -12,7 +12,6 @@
 
 namespace ccfr {
 
-
 Simulation::Simulation(Scene scene) : scene_(std::move(scene)) {
   const auto& topo = scene_.topo;
   auto& st = scene_.state;
@@ -44,11 +43,12 @@ Simulation::Simulation(Scene scene) : scene_(std::move(scene)) {
   contact_->initialize(topo, st, params);
   check_finite(st.x, "initial state");
   const auto mc = materials_.counts();
-  spdlog::info("scene '{}': {} objects, {} vertices, {} faces, {} edges, {} tets; constraints: {} distance, {} bending, "
-               "{} strand bending, {} tet, {} rigid bodies ({} colours); {} kinematic vertices; contact solver '{}'",
-               params.scene_name, topo.objects.size(), topo.num_vertices(), topo.num_faces(), topo.num_edges(), topo.tets.size(),
-               mc.distance, mc.bending, mc.strand_bending, mc.tet_volume, mc.rigid_bodies, mc.colours, kinematic_.size(),
-               contact_->name());
+  spdlog::info(
+      "scene '{}': {} objects, {} vertices, {} faces, {} edges, {} tets; constraints: {} distance, {} bending, "
+      "{} strand bending, {} tet, {} rigid bodies ({} colours); {} kinematic vertices; contact solver '{}'",
+      params.scene_name, topo.objects.size(), topo.num_vertices(), topo.num_faces(), topo.num_edges(), topo.tets.size(),
+      mc.distance, mc.bending, mc.strand_bending, mc.tet_volume, mc.rigid_bodies, mc.colours, kinematic_.size(),
+      contact_->name());
 }
 
 Simulation::~Simulation() = default;
@@ -106,8 +106,8 @@ double Simulation::kinematic_targets(double t, Positions& target) {
     } else {
       if (!kin_motion_[k]) continue;
       const Motion& m = *kin_motion_[k];
-      target[v] = m.animation ? m.animation->at(v - scene_.topo.object_of_vertex(v).vertex_begin, t)
-                              : m.apply(st.rest[v], t);
+      target[v] =
+          m.animation ? m.animation->at(v - scene_.topo.object_of_vertex(v).vertex_begin, t) : m.apply(st.rest[v], t);
     }
     kinematic_step_[v] = target[v] - st.x[v];
     largest = std::max(largest, kinematic_step_[v].norm());
@@ -117,15 +117,18 @@ double Simulation::kinematic_targets(double t, Positions& target) {
 
 void Simulation::check_finite(const Positions& x, const char* stage) const {
   std::atomic<Index> first{std::numeric_limits<Index>::max()};
-  parallel_for(static_cast<Index>(x.size()), [&](Index b, Index e) {
-    for (Index i = b; i < e; ++i)
-      if (!x[i].allFinite()) {
-        Index cur = first.load();
-        while (i < cur && !first.compare_exchange_weak(cur, i)) {
-        }
-        return;
-      }
-  }, 4096);
+  parallel_for(
+      static_cast<Index>(x.size()),
+      [&](Index b, Index e) {
+        for (Index i = b; i < e; ++i)
+          if (!x[i].allFinite()) {
+            Index cur = first.load();
+            while (i < cur && !first.compare_exchange_weak(cur, i)) {
+            }
+            return;
+          }
+      },
+      4096);
   if (first.load() != std::numeric_limits<Index>::max()) throw NumericalError(frame_ + 1, first.load(), stage);
 }
 
@@ -133,17 +136,20 @@ void Simulation::collide_analytic(Positions& x, double t) const {
   if (analytic_obstacles_.empty() || !scene_.params.contact.analytic_obstacles) return;
   const auto& st = scene_.state;
   const double offset = scene_.params.contact.offset;
-  parallel_for(static_cast<Index>(x.size()), [&](Index b, Index e) {
-    for (Index i = b; i < e; ++i) {
-      if (st.inv_mass[i] == 0.0) continue;
-      for (Index oi : analytic_obstacles_) {
-        const auto& op = scene_.params.objects[oi];
-        Vec3 n;
-        const double d = analytic_sdf(op.shape, op.motion, t, x[i], n);
-        if (d < offset) x[i] += (offset - d) * n;
-      }
-    }
-  }, 1024);
+  parallel_for(
+      static_cast<Index>(x.size()),
+      [&](Index b, Index e) {
+        for (Index i = b; i < e; ++i) {
+          if (st.inv_mass[i] == 0.0) continue;
+          for (Index oi : analytic_obstacles_) {
+            const auto& op = scene_.params.objects[oi];
+            Vec3 n;
+            const double d = analytic_sdf(op.shape, op.motion, t, x[i], n);
+            if (d < offset) x[i] += (offset - d) * n;
+          }
+        }
+      },
+      1024);
 }
 
 int Simulation::subdivision(double dt) {
@@ -182,11 +188,11 @@ int Simulation::subdivision(double dt) {
     if (worst_kin >= 0 && kin / tp.max_subdivision > r) {
       const auto& o = scene_.topo.object_of_vertex(worst_kin);
       const int needed = static_cast<int>(std::ceil(tp.substeps * kin / (0.9 * r)));
-      throw GuaranteeError(frame_ + 1, "scripted vertices of object '" + o.name + "' move " + fmt::format("{:.4g}", kin) +
-                                           " per substep, more than time.max_subdivision = " +
-                                           std::to_string(tp.max_subdivision) + " pieces of r = " + fmt::format("{:.4g}", r) +
-                                           " can absorb; set time.substeps to at least " + std::to_string(needed) +
-                                           " or raise time.max_subdivision");
+      throw GuaranteeError(
+          frame_ + 1, "scripted vertices of object '" + o.name + "' move " + fmt::format("{:.4g}", kin) +
+                          " per substep, more than time.max_subdivision = " + std::to_string(tp.max_subdivision) +
+                          " pieces of r = " + fmt::format("{:.4g}", r) + " can absorb; set time.substeps to at least " +
+                          std::to_string(needed) + " or raise time.max_subdivision");
     }
     pieces = tp.max_subdivision;  // dynamic speed beyond the cap: report_capped_speed names it
   }
@@ -200,11 +206,12 @@ void Simulation::report_capped_speed(Index vertex, double advance, double dt) {
   warned_capped_[oi] = true;
   const auto& p = scene_.params;
   const int n = p.time.iteration_bound();
-  spdlog::warn("frame {}: object '{}' wants to move {:.4g} m in a substep piece ({:.3g} m/s) but the step bound allows "
-               "{} iterations x r = {:.4g} m: it is slowed to {:.3g} m/s (counted in clamped_vertices). Raise "
-               "time.max_iterations, time.substeps or time.max_subdivision, or contact.radius",
-               frame_ + 1, scene_.topo.objects[oi].name, advance, advance / dt, n, n * p.contact.radius,
-               n * p.contact.radius / dt);
+  spdlog::warn(
+      "frame {}: object '{}' wants to move {:.4g} m in a substep piece ({:.3g} m/s) but the step bound allows "
+      "{} iterations x r = {:.4g} m: it is slowed to {:.3g} m/s (counted in clamped_vertices). Raise "
+      "time.max_iterations, time.substeps or time.max_subdivision, or contact.radius",
+      frame_ + 1, scene_.topo.objects[oi].name, advance, advance / dt, n, n * p.contact.radius,
+      n * p.contact.radius / dt);
 }
 
 void Simulation::check_violations(Index remaining, int substep_index) {
@@ -213,17 +220,42 @@ void Simulation::check_violations(Index remaining, int substep_index) {
   const bool fatal = p.contact.on_violation == ViolationPolicy::error ||
                      (p.contact.on_violation == ViolationPolicy::automatic && contact_->guarantees_separation());
   const std::string example = contact_->last_violation();
-  const std::string what = std::to_string(remaining) + " violation(s) remain at the end of substep " +
-                           std::to_string(substep_index + 1) + " under contact solver '" + std::string(contact_->name()) +
-                           "' (pairs closer than their offset, or a deformed rigid body)" +
-                           (example.empty() ? std::string() : "; e.g. a " + example) +
-                           ". Likely causes: objects squeezed into less room than their offsets need, or scripted motion "
-                           "pushing into other objects faster than they can move away";
+  const std::string what =
+      std::to_string(remaining) + " violation(s) remain at the end of substep " + std::to_string(substep_index + 1) +
+      " under contact solver '" + std::string(contact_->name()) +
+      "' (pairs closer than their offset, or a deformed rigid body)" +
+      (example.empty() ? std::string() : "; e.g. a " + example) +
+      ". Likely causes: objects squeezed into less room than their offsets need, or scripted motion "
+      "pushing into other objects faster than they can move away";
   if (fatal)
-    throw GuaranteeError(frame_ + 1, what + "; stopping before the frame is written (contact.on_violation: warn "
-                                            "continues, e.g. for ablations)");
+    throw GuaranteeError(frame_ + 1, what +
+                                         "; stopping before the frame is written (contact.on_violation: warn "
+                                         "continues, e.g. for ablations)");
   if (!warned_violation_) spdlog::error("frame {}: {}; continuing (contact.on_violation: warn)", frame_ + 1, what);
   warned_violation_ = true;
+}
+
+Simulation::OuterIterationEnd Simulation::end_outer_iteration(const SolveResult& res, double t1, StepContext& ctx) {
+  const auto& st = scene_.state;
+  const auto& tp = scene_.params.time;
+  OuterIterationEnd end;
+  end.remaining = res.violations_remaining;
+  end.held_back = res.bounded_vertices;
+  // Analytic obstacles (planes, spheres) push vertices out; their motion is known at t1.
+  collide_analytic(solve_, t1);
+  check_finite(solve_, "contact resolution");
+  // Step bound: no vertex moves farther than r from its anchor in one outer iteration, so
+  // primitives not seen by this iteration's detection cannot be reached (paper Alg. line 16).
+  if (contact_->clamps_to_radius()) {
+    const StepBoundResult sb =
+        apply_step_bound(solve_, anchor_, st.inv_mass, scene_.params.contact.radius, tp.advance_tolerance, solve_);
+    end.held_back += sb.held_back;
+    end.worst = sb.worst;
+    end.worst_length = sb.worst_length;
+  }
+  // What the iteration really ends with, after the push and the bound moved vertices again.
+  if (const auto recount = contact_->count_outside(solve_, anchor_, st, ctx)) end.remaining = *recount;
+  return end;
 }
 
 void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
@@ -237,26 +269,28 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
   st.x_prev = st.x;
   predicted_.resize(static_cast<size_t>(nv));
   const Vec3 g_dt2 = tp.gravity * dt * dt;
-  parallel_for(nv, [&](Index b, Index e) {
-    for (Index i = b; i < e; ++i)
-      predicted_[i] = st.inv_mass[i] > 0.0 ? Vec3(st.x[i] + dt * st.v[i] + g_dt2) : st.x[i];
-  }, 4096);
+  parallel_for(
+      nv,
+      [&](Index b, Index e) {
+        for (Index i = b; i < e; ++i)
+          predicted_[i] = st.inv_mass[i] > 0.0 ? Vec3(st.x[i] + dt * st.v[i] + g_dt2) : st.x[i];
+      },
+      4096);
   // Kinematic vertices reach their scripted positions at t1 in the first outer iteration. Their
   // step is known, so the first detection (at the old positions) accounts for it exactly instead
   // of letting a handle or obstacle jump into its neighbours before any region exists.
   const double kin_step = kinematic_targets(t1, predicted_);
   const bool kin_moves = kin_step > 0.0;
   if (kin_step > params.contact.radius * (1.0 + 1e-9) && contact_->clamps_to_radius())
-    throw GuaranteeError(frame_ + 1, fmt::format("scripted vertices move {:.4g} in one substep piece, more than r = {:.4g}, "
-                                                 "after subdivision; raise time.substeps",
-                                                 kin_step, params.contact.radius));
+    throw GuaranteeError(frame_ + 1,
+                         fmt::format("scripted vertices move {:.4g} in one substep piece, more than r = {:.4g}, "
+                                     "after subdivision; raise time.substeps",
+                                     kin_step, params.contact.radius));
 
   anchor_ = st.x;
   StepContext ctx{scene_.topo, params, dt, frame_ + 1, substep_index, 0, fs.times};
   const double r = params.contact.radius;
-  Index remaining = 0;
-  Index clamped = 0, worst = -1;
-  double worst_len = 0.0;
+  OuterIterationEnd end;
   // time.iterations passes as in the paper; more only while a vertex is still held back by r.
   const int bound = tp.iteration_bound();
   for (int it = 0; it < bound; ++it) {
@@ -282,47 +316,40 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
       ScopedTimer t(fs.times.resolution);
       res = contact_->resolve(solve_, anchor_, st, ctx);
     }
-    ScopedTimer check_timer(fs.times.check);
-    collide_analytic(solve_, t1);
-    check_finite(solve_, "contact resolution");
     fs.violations_detected += res.violations_detected;
     fs.halted_vertices += res.halted_vertices;
     fs.contact_vertices += res.contact_vertices;
     fs.projector_fallbacks += res.projector_fallbacks;
-    remaining = res.violations_remaining;
+    fs.projector_rescues += res.projector_rescues;
+    // Running distinct counts of the frame: the largest is the frame's.
+    fs.halted_vertices_distinct = std::max(fs.halted_vertices_distinct, res.halted_vertices_distinct);
+    fs.contact_vertices_distinct = std::max(fs.contact_vertices_distinct, res.contact_vertices_distinct);
     ++fs.outer_iterations;
-
-    // Step bound: no vertex moves farther than r from its anchor in one outer iteration, so
-    // primitives not seen by this iteration's detection cannot be reached (paper Alg. line 16).
-    clamped = res.bounded_vertices;
-    worst = -1;
-    worst_len = 0.0;
-    if (contact_->clamps_to_radius()) {
-      const StepBoundResult sb = apply_step_bound(solve_, anchor_, st.inv_mass, r, tp.advance_tolerance, solve_);
-      clamped += sb.held_back;
-      worst = sb.worst;
-      worst_len = sb.worst_length;
+    {
+      ScopedTimer check_timer(fs.times.check);
+      end = end_outer_iteration(res, t1, ctx);
     }
-    // What the substep really ends with, after the clamp and the analytic push.
-    if (const auto recount = contact_->count_outside(solve_, anchor_, st, ctx)) remaining = *recount;
     anchor_.swap(solve_);
-    if (clamped == 0) break;  // every vertex reached its intended advance
+    if (end.held_back == 0) break;  // every vertex reached its intended advance
   }
-  fs.clamped_vertices += clamped;
-  if (worst >= 0) report_capped_speed(worst, worst_len + (bound - 1) * r, dt);
-  fs.violations_remaining = std::max(fs.violations_remaining, remaining);
-  check_violations(remaining, substep_index);
+  fs.clamped_vertices += end.held_back;
+  if (end.worst) report_capped_speed(*end.worst, end.worst_length + (bound - 1) * r, dt);
+  fs.violations_remaining = std::max(fs.violations_remaining, end.remaining);
+  check_violations(end.remaining, substep_index);
 
   // v_{n+1} = (x - x_n) / dt, then damping.
   const double keep = std::max(0.0, 1.0 - tp.damping * dt);
   // Copied rather than swapped: positions() keeps one buffer for the simulation's lifetime.
   std::copy(anchor_.begin(), anchor_.end(), st.x.begin());
-  parallel_for(nv, [&](Index b, Index e) {
-    for (Index i = b; i < e; ++i) {
-      st.v[i] = (st.x[i] - st.x_prev[i]) / dt;
-      if (st.inv_mass[i] > 0.0) st.v[i] *= keep;
-    }
-  }, 4096);
+  parallel_for(
+      nv,
+      [&](Index b, Index e) {
+        for (Index i = b; i < e; ++i) {
+          st.v[i] = (st.x[i] - st.x_prev[i]) / dt;
+          if (st.inv_mass[i] > 0.0) st.v[i] *= keep;
+        }
+      },
+      4096);
   st.time = t1;
   if (audit_ && params.debug.audit == AuditMode::every_substep) {
     ScopedTimer t(fs.times.audit);
@@ -383,8 +410,9 @@ void Simulation::set_kinematic_targets(std::span<const Index> vertices, std::spa
     const Index oi = topo.vertex_object[v];
     const auto& o = topo.objects[oi];
     if (kin_slot_[v] < 0)
-      throw Error("set_kinematic_targets: vertex " + std::to_string(v) + " (local " + std::to_string(v - o.vertex_begin) +
-                  " of object '" + o.name + "') is neither pinned nor part of an obstacle; pin it in the scene first");
+      throw Error("set_kinematic_targets: vertex " + std::to_string(v) + " (local " +
+                  std::to_string(v - o.vertex_begin) + " of object '" + o.name +
+                  "') is neither pinned nor part of an obstacle; pin it in the scene first");
     if (scene_.params.contact.analytic_obstacles &&
         std::find(analytic_obstacles_.begin(), analytic_obstacles_.end(), oi) != analytic_obstacles_.end())
       throw Error("set_kinematic_targets: vertex " + std::to_string(v) + " belongs to obstacle '" + o.name +

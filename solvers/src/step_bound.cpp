@@ -31,7 +31,7 @@ StepBoundResult apply_step_bound(const Positions& x, const Positions& anchor, st
   StepBoundResult res;
   for (size_t c = 0; c < count.size(); ++c) {
     res.held_back += count[c];
-    if (len_max[c] > res.worst_length) res.worst_length = len_max[c], res.worst = worst[c];
+    if (count[c] > 0 && len_max[c] > res.worst_length) res.worst_length = len_max[c], res.worst = worst[c];
   }
   return res;
 }

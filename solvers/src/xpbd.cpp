@@ -6,7 +6,8 @@
 
 namespace ccfr {
 
-Colouring colour_constraints(Index num_vertices, std::span<const Index> vertices, int arity, std::span<const double> inv_mass) {
+Colouring colour_constraints(Index num_vertices, std::span<const Index> vertices, int arity,
+                             std::span<const double> inv_mass) {
   const Index n = static_cast<Index>(vertices.size()) / arity;
   std::vector<Index> colour(static_cast<size_t>(n), 0);
   // Per vertex, a bitmask of colours already used by its constraints (spill to a vector beyond 64).
@@ -51,7 +52,8 @@ void DistanceBatch::add(Index i, Index j, double rest_length, double alpha) {
 }
 
 void DistanceBatch::finalize(Index num_vertices, std::span<const double> inv_mass) {
-  colouring = colour_constraints(num_vertices, {ids.empty() ? nullptr : ids.front().data(), ids.size() * 2}, 2, inv_mass);
+  colouring =
+      colour_constraints(num_vertices, {ids.empty() ? nullptr : ids.front().data(), ids.size() * 2}, 2, inv_mass);
 }
 
 void DistanceBatch::reset_multipliers() { std::fill(lambda.begin(), lambda.end(), 0.0); }
@@ -60,13 +62,16 @@ void DistanceBatch::solve(Positions& x, std::span<const double> w, double dt) {
   const double inv_dt2 = 1.0 / (dt * dt);
   for (Index k = 0; k < colouring.colours(); ++k) {
     const Index b = colouring.offsets[k], e = colouring.offsets[k + 1];
-    parallel_for(e - b, [&](Index lo, Index hi) {
-      for (Index t = lo; t < hi; ++t) {
-        const Index c = colouring.order[b + t];
-        const Index i = ids[c][0], j = ids[c][1];
-        xpbd::solve_distance(x[i], x[j], w[i], w[j], rest[c], compliance[c] * inv_dt2, lambda[c]);
-      }
-    }, 512);
+    parallel_for(
+        e - b,
+        [&](Index lo, Index hi) {
+          for (Index t = lo; t < hi; ++t) {
+            const Index c = colouring.order[b + t];
+            const Index i = ids[c][0], j = ids[c][1];
+            xpbd::solve_distance(x[i], x[j], w[i], w[j], rest[c], compliance[c] * inv_dt2, lambda[c]);
+          }
+        },
+        512);
   }
 }
 

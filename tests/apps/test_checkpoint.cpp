@@ -44,7 +44,8 @@ std::string config(const std::string& name) { return std::string(CCFR_SOURCE_DIR
 std::string stats_without_timing(const fs::path& csv) {
   std::istringstream in(read(csv));
   std::string out, line;
-  const std::vector<std::string> timing{"wall_s", "xpbd_s", "broad_s", "narrow_s", "resolution_s", "audit_s", "check_s"};
+  const std::vector<std::string> timing{"wall_s",       "xpbd_s",  "broad_s", "narrow_s",
+                                        "resolution_s", "audit_s", "check_s"};
   std::vector<bool> keep;
   while (std::getline(in, line)) {
     std::vector<std::string> cells;
@@ -60,7 +61,6 @@ std::string stats_without_timing(const fs::path& csv) {
   }
   return out;
 }
-
 
 /// Runs `args` and sends `sig` as soon as the checkpoint of frame `at` exists; fails the test if
 /// the run ended before that. Returns the exit status.
@@ -103,8 +103,9 @@ struct Case {
 
 void check_resume_is_identical(const Case& c) {
   const fs::path root = ccfr::test::scratch_dir("checkpoint_" + std::string(c.name));
-  std::vector<std::string> args{"run", config(c.scene), "--frames", std::to_string(c.frames), "--log-level", "warn",
-                                "--set", "output.checkpoint_every=" + std::to_string(c.checkpoint_every)};
+  std::vector<std::string> args{
+      "run",         config(c.scene), "--frames", std::to_string(c.frames),
+      "--log-level", "warn",          "--set",    "output.checkpoint_every=" + std::to_string(c.checkpoint_every)};
   for (const auto& s : c.sets) args.insert(args.end(), {"--set", s});
   auto with_out = [&](const fs::path& out) {
     auto a = args;

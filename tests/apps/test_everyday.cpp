@@ -30,24 +30,6 @@ fs::path write_scene(const std::string& name, const std::string& yaml = kScene) 
   return d;
 }
 
-std::vector<std::string> csv_column(const fs::path& csv, const std::string& name) {
-  std::ifstream in(csv);
-  std::string line;
-  std::getline(in, line);
-  std::stringstream header(line);
-  int index = -1, k = 0;
-  for (std::string h; std::getline(header, h, ','); ++k)
-    if (h == name) index = k;
-  std::vector<std::string> out;
-  while (std::getline(in, line)) {
-    std::stringstream row(line);
-    std::string cell;
-    for (int i = 0; i <= index && std::getline(row, cell, ','); ++i) {
-    }
-    out.push_back(cell);
-  }
-  return out;
-}
 }  // namespace
 
 TEST(Everyday, RunPrintsResultsOnStdoutAndLogsAndProgressOnStderr) {
@@ -102,8 +84,9 @@ TEST(Everyday, BenchRefusesAWarmupThatLeavesNothingAndPrintsCountsAsIntegers) {
   const std::string scene = (d / "scene.yaml").string();
   const auto equal = run_ccfr_split("bench " + scene + " --frames 2 --warmup 2", d);
   EXPECT_EQ(equal.code, 2) << equal.out << equal.err;
-  EXPECT_TRUE(has(equal.err, "--warmup 2 leaves no frame to measure: it must be smaller than the 2 frames simulated "
-                             "(--frames)"))
+  EXPECT_TRUE(has(equal.err,
+                  "--warmup 2 leaves no frame to measure: it must be smaller than the 2 frames simulated "
+                  "(--frames)"))
       << equal.err;
   EXPECT_TRUE(equal.out.empty()) << equal.out;
   // From the scene's time.frames (3), before any simulation.
@@ -117,7 +100,7 @@ TEST(Everyday, BenchRefusesAWarmupThatLeavesNothingAndPrintsCountsAsIntegers) {
   ASSERT_EQ(bench.code, 0) << bench.out << bench.err;
   const auto run = run_ccfr_split("run " + scene + " --out " + (d / "out").string() + " --threads 1", d);
   ASSERT_EQ(run.code, 0) << run.err;
-  const auto candidates = csv_column(d / "out" / "stats.csv", "candidates");
+  const auto candidates = ccfr::test::csv_column(d / "out" / "stats.csv", "candidates");
   ASSERT_EQ(candidates.size(), 3u);
   const long expected_max = std::max(std::stol(candidates[1]), std::stol(candidates[2]));
   std::stringstream lines(bench.out);
@@ -156,8 +139,9 @@ TEST(Everyday, RunWarnsWhenTheOffsetIsLargeAgainstTheEdgesOrMotionOutrunsR) {
   const fs::path m = write_scene("advice_speed", moving);
   const auto s = run_ccfr_split("run " + (m / "scene.yaml").string() + " --frames 0 --out " + (m / "o").string(), m);
   ASSERT_EQ(s.code, 0) << s.err;
-  EXPECT_TRUE(has(s.err, "object 'floor': scripted motion up to 3 m/s covers 0.025 per substep, more than r = 0.01; "
-                         "every substep is split into 3 pieces"))
+  EXPECT_TRUE(has(s.err,
+                  "object 'floor': scripted motion up to 3 m/s covers 0.025 per substep, more than r = 0.01; "
+                  "every substep is split into 3 pieces"))
       << s.err;
   EXPECT_TRUE(has(s.err, "Set time.substeps to at least 5 or contact.radius to at least 0.025")) << s.err;
   EXPECT_TRUE(has(s.err, "object 'sheet': initial velocity 1.5 m/s covers 0.0125 per substep")) << s.err;
@@ -182,8 +166,9 @@ TEST(Everyday, PlotDrawsARunAndSaysWhatIsMissing) {
   // /bin/false stands for a python3 without matplotlib: `import matplotlib` exits non-zero.
   const auto no_mpl = run_ccfr_split("plot " + (d / "out").string(), d, "CCFR_PYTHON=/bin/false");
   EXPECT_EQ(no_mpl.code, 2);
-  EXPECT_TRUE(has(no_mpl.err, "matplotlib is not installed for python3 (tried /bin/false; apt-get install "
-                              "python3-matplotlib)"))
+  EXPECT_TRUE(has(no_mpl.err,
+                  "matplotlib is not installed for python3 (tried /bin/false; apt-get install "
+                  "python3-matplotlib)"))
       << no_mpl.err;
   const auto not_a_run = run_ccfr_split("plot " + d.string(), d);
   EXPECT_EQ(not_a_run.code, 2);

@@ -41,7 +41,6 @@ std::string read(const fs::path& p) {
 
 Json run_json(const fs::path& dir) { return Json::parse(read(dir / "run.json")); }  // throws if invalid
 
-
 struct Result {
   int code;  // exit code, or -signal
   std::string out;
@@ -122,8 +121,8 @@ TEST(Faults, SigtermStopsAfterAWholeFrameAndRecordsIt) {
   const fs::path d = scratch("sigterm");
   const fs::path sc = write_scene(d, scene());
   const fs::path out = d / "out";
-  const pid_t pid =
-      ccfr::test::spawn_ccfr({"run", sc.string(), "--out", out.string(), "--frames", "100000", "--threads", "1"}, d / "log");
+  const pid_t pid = ccfr::test::spawn_ccfr(
+      {"run", sc.string(), "--out", out.string(), "--frames", "100000", "--threads", "1"}, d / "log");
   ASSERT_TRUE(wait_for_frames(out, 3));
   ::kill(pid, SIGTERM);
   const Result r = finish(pid, d / "log");
@@ -150,8 +149,8 @@ TEST(Faults, SigkillLeavesFramesWrittenMatchingTheFramesOnDisk) {
   const fs::path d = scratch("sigkill");
   const fs::path sc = write_scene(d, scene());
   const fs::path out = d / "out";
-  const pid_t pid =
-      ccfr::test::spawn_ccfr({"run", sc.string(), "--out", out.string(), "--frames", "100000", "--threads", "1"}, d / "log");
+  const pid_t pid = ccfr::test::spawn_ccfr(
+      {"run", sc.string(), "--out", out.string(), "--frames", "100000", "--threads", "1"}, d / "log");
   ASSERT_TRUE(wait_for_frames(out, 5));
   ::kill(pid, SIGKILL);
   const Result r = finish(pid, d / "log");

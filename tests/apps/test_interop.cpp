@@ -20,8 +20,8 @@
 #include "cli_support.hpp"
 
 namespace fs = std::filesystem;
-using nlohmann::json;
 using ccfr::Vec3;
+using nlohmann::json;
 
 namespace {
 
@@ -130,8 +130,9 @@ TEST_F(Interop, Pc2CachesHoldEveryFrameOfTheirObject) {
   }
 }
 
-// The USDA file is read back with a parser written here (no USD library in Debian, and Debian's
-// Blender 3.4.1 is built without USD: bpy.app.build_options.usd is False).
+// The USDA file's structure, read back with a parser written here (Debian packages no USD library,
+// and its Blender 3.4.1 is built without USD: bpy.app.build_options.usd is False); the values are
+// also read by TinyUSDZ below.
 TEST_F(Interop, UsdaHoldsTopologyOnceAndPointsPerTimeCode) {
   const std::string s = ccfr::test::read_text(run_dir() / "usd" / "scene.usda");
   ASSERT_EQ(s.rfind("#usda 1.0", 0), 0u);
@@ -142,7 +143,8 @@ TEST_F(Interop, UsdaHoldsTopologyOnceAndPointsPerTimeCode) {
   EXPECT_NE(s.find("def Mesh \"block\""), std::string::npos);
   EXPECT_NE(s.find("def Mesh \"ball\""), std::string::npos);
   size_t topo = 0;
-  for (size_t at = s.find("faceVertexIndices"); at != std::string::npos; at = s.find("faceVertexIndices", at + 1)) ++topo;
+  for (size_t at = s.find("faceVertexIndices"); at != std::string::npos; at = s.find("faceVertexIndices", at + 1))
+    ++topo;
   EXPECT_EQ(topo, 3u) << "topology written once per prim";
   // The cloth's samples: "N: [(x, y, z), ...]" for N = 0..6, against the OBJ frames.
   const size_t cloth = s.find("def Mesh \"cloth_sheet\""), samples = s.find("points.timeSamples", cloth);
@@ -161,13 +163,50 @@ TEST_F(Interop, UsdaHoldsTopologyOnceAndPointsPerTimeCode) {
   }
 }
 
+// The same layer read by a USD reader that is not ccfr's: TinyUSDZ (npm `tinyusdz`, WebAssembly,
+// tests/interop/node_modules from scripts/install-deps) through node (docs/interop.md, USD).
+TEST_F(Interop, TinyUsdzReadsEveryTimeSampleAsWritten) {
+  const fs::path modules = fs::path(CCFR_SOURCE_DIR) / "tests" / "interop" / "node_modules";
+  if (!has_program("node") || !fs::exists(modules / "tinyusdz" / "tinyusdz.wasm"))
+    GTEST_SKIP() << "node or tests/interop/node_modules/tinyusdz missing (scripts/install-deps installs them)";
+  const std::string check = "node " + std::string(CCFR_SOURCE_DIR) + "/tests/interop/check_usda.mjs ";
+  int code = -1;
+  std::string out = shell(check + run_dir().string() + " " + modules.string(), &code);
+  ASSERT_EQ(code, 0) << out;
+  json r = result_of(out);
+  ASSERT_TRUE(r.is_object()) << out;
+  EXPECT_EQ(r["prims"], 3);
+  EXPECT_EQ(r["meshes"], 3);
+  EXPECT_EQ(r["time_codes"], kFrames + 1);
+  EXPECT_EQ(r["samples"], 3 * (kFrames + 1));
+  EXPECT_LT(r["max_error"].get<double>(), 1e-6);  // float32 of the OBJ's doubles
+  EXPECT_LT(r["render_scene_error"].get<double>(), 1e-6);
+
+  // The reader must see a wrong sample: a copy with one coordinate of time code 3 moved by 1e-4 m.
+  const fs::path bad = ccfr::test::scratch_dir(scratch_name() + "-usd");
+  fs::create_directories(bad / "usd");
+  fs::create_directory_symlink(run_dir() / "frames", bad / "frames");
+  std::string s = ccfr::test::read_text(run_dir() / "usd" / "scene.usda");
+  const std::string key = "\n            3: [(";
+  const auto at = s.find(key);
+  ASSERT_NE(at, std::string::npos);
+  const auto b = at + key.size(), e = s.find(',', b);
+  s.replace(b, e - b, std::to_string(std::stod(s.substr(b, e - b)) + 1e-4));
+  std::ofstream(bad / "usd" / "scene.usda") << s;
+  out = shell(check + bad.string() + " " + modules.string(), &code);
+  EXPECT_NE(code, 0) << out;
+  EXPECT_NE(out.find("FAIL points differ from the OBJ frames"), std::string::npos) << out;
+  r = result_of(out);
+  ASSERT_TRUE(r.is_object()) << out;
+  EXPECT_NEAR(r["max_error"].get<double>(), 1e-4, 1e-6);
+}
+
 TEST_F(Interop, VtkReaderReadsEveryFieldAsWritten) {
   if (!fs::exists("/usr/bin/python3") || shell("/usr/bin/python3 -c 'import vtk'").find("Error") != std::string::npos)
     GTEST_SKIP() << "python3-vtk9 is not installed (scripts/install-deps)";
   int code = -1;
-  const std::string out = shell("/usr/bin/python3 " + std::string(CCFR_SOURCE_DIR) + "/tests/interop/check_vtk.py " +
-                                    run_dir().string(),
-                                &code);
+  const std::string out = shell(
+      "/usr/bin/python3 " + std::string(CCFR_SOURCE_DIR) + "/tests/interop/check_vtk.py " + run_dir().string(), &code);
   ASSERT_EQ(code, 0) << out;
   const json r = result_of(out);
   ASSERT_TRUE(r.is_object()) << out;
@@ -230,7 +269,8 @@ TEST_F(Interop, BlenderPlaysThePointCachesAsWritten) {
 TEST_F(Interop, ExportFromDiskMatchesTheLiveWriters) {
   const fs::path out = ccfr::test::scratch_path(scratch_name()) / "exported";
   fs::remove_all(out);
-  const auto r = ccfr::test::run_ccfr("export " + run_dir().string() + " --format ply,pc2,usda,vtu --out " + out.string());
+  const auto r =
+      ccfr::test::run_ccfr("export " + run_dir().string() + " --format ply,pc2,usda,vtu --out " + out.string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("exported 7 frames"), std::string::npos) << r.out;
   const auto bytes = [](const fs::path& p) { return ccfr::test::read_text(p); };
@@ -293,14 +333,10 @@ objects:
     for (size_t v = 0; v < fr.v.size(); ++v) EXPECT_LT((fr.v[v] - (rest.v[v] + off)).norm(), 1e-12) << f << " " << v;
   }
   // 0.3 m per 0.1 s is 0.075 m per substep of 1/40 s: 17 pieces of at most 0.9 r = 4.5 mm each.
-  const std::string stats = ccfr::test::read_text(d / "run" / "stats.csv");
-  EXPECT_NE(stats.find("\n1,"), std::string::npos);
-  std::istringstream rows(stats);
-  std::string row;
-  std::getline(rows, row);
-  std::getline(rows, row);  // frame 1
-  EXPECT_EQ(row.substr(row.rfind(',', row.rfind(',') - 1) + 1, row.rfind(',') - row.rfind(',', row.rfind(',') - 1) - 1), "34")
-      << row;
+  const auto substeps_run = ccfr::test::csv_column(d / "run" / "stats.csv", "substeps_run");
+  ASSERT_GE(substeps_run.size(), 2u);
+  EXPECT_EQ(ccfr::test::csv_column(d / "run" / "stats.csv", "frame")[0], "1");
+  EXPECT_EQ(substeps_run[0], "34");  // frame 1: 2 substeps of 17 pieces
 
   // Bad sequences: a file with another vertex count, a pattern without a number.
   std::ofstream(d / "key_9.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";

@@ -34,7 +34,8 @@ void expect_refused(const fs::path& spec, const std::string& text, std::initiali
     ccfr::io::load_sweep_spec(spec);
     ADD_FAILURE() << "accepted:\n" << text;
   } catch (const ccfr::Error& e) {
-    for (const auto& p : parts) EXPECT_NE(std::string(e.what()).find(p), std::string::npos) << e.what() << "\nwanted: " << p;
+    for (const auto& p : parts)
+      EXPECT_NE(std::string(e.what()).find(p), std::string::npos) << e.what() << "\nwanted: " << p;
   }
 }
 
@@ -51,9 +52,8 @@ TEST(SweepSpec, ProductZipAndCasesExpandToStableCells) {
   EXPECT_EQ(s.cells[0].id, "drape__ccfr__contact.offset=0.008__time.substeps=2");
   EXPECT_EQ(s.cells[1].id, "drape__ccfr__contact.offset=0.008__time.substeps=4");
   EXPECT_EQ(s.cells.back().id, "two_sheets__post_process__contact.offset=0.01__time.substeps=4");
-  EXPECT_EQ(s.cells[0].overrides,
-            (std::vector<std::string>{"output.every=2", "time.frames=3", "contact.solver=ccfr", "contact.offset=0.008",
-                                      "time.substeps=2"}));
+  EXPECT_EQ(s.cells[0].overrides, (std::vector<std::string>{"output.every=2", "time.frames=3", "contact.solver=ccfr",
+                                                            "contact.offset=0.008", "time.substeps=2"}));
   // The same spec gives the same ids.
   const auto again = ccfr::io::load_sweep_spec(spec);
   for (size_t i = 0; i < s.cells.size(); ++i) EXPECT_EQ(s.cells[i].id, again.cells[i].id);
@@ -80,6 +80,18 @@ TEST(SweepSpec, ThePaperSweepCoversEveryConfigAndSolver) {
   EXPECT_EQ(s.configs.size(), scenes);
   EXPECT_EQ(s.solvers, ccfr::registered_contact_solvers());  // every registered solver
   EXPECT_EQ(s.cells.size(), scenes * s.solvers.size());
+}
+
+TEST(SweepSpec, ThePaperSmokeSweepIsThePaperSweepInThreeAuditedFrames) {
+  const auto full = ccfr::io::load_sweep_spec(cfg("sweeps/paper.yaml"));
+  const auto smoke = ccfr::io::load_sweep_spec(cfg("sweeps/paper_smoke.yaml"));
+  EXPECT_EQ(smoke.configs, full.configs);
+  EXPECT_EQ(smoke.solvers, full.solvers);
+  ASSERT_EQ(smoke.cells.size(), full.cells.size());
+  for (size_t i = 0; i < smoke.cells.size(); ++i) EXPECT_EQ(smoke.cells[i].id, full.cells[i].id);
+  EXPECT_EQ(smoke.frames, 3);
+  EXPECT_EQ(smoke.audit_stride, 1);
+  EXPECT_EQ(smoke.resources.cpus_per_task, 1);
 }
 
 TEST(SweepSpec, BadSpecsNameFileKeyAndLine) {
@@ -109,8 +121,10 @@ TEST(Sweep, LocalCellsEqualHandRunsAndResumeRunsWhatIsMissing) {
 
   // One cell against the same run by hand: identical frames.
   const std::string id = "cloth_near_floor__post_process__contact.offset=0.01";
-  r = run_ccfr("run '" + cfg("stress/cloth_near_floor.yaml") + "' --frames 3 --solver post_process --set contact.offset=0.01 "
-               "--set contact.on_violation=warn --out '" + (d / "by_hand").string() + "' --log-level warn");
+  r = run_ccfr("run '" + cfg("stress/cloth_near_floor.yaml") +
+               "' --frames 3 --solver post_process --set contact.offset=0.01 "
+               "--set contact.on_violation=warn --out '" +
+               (d / "by_hand").string() + "' --log-level warn");
   ASSERT_EQ(r.code, 0) << r.out;
   for (int f = 0; f <= 3; ++f) {
     const std::string n = "frames/frame_0000" + std::to_string(f) + ".obj";
@@ -122,7 +136,8 @@ TEST(Sweep, LocalCellsEqualHandRunsAndResumeRunsWhatIsMissing) {
   std::istringstream csv(read_text(out / "sweep.csv"));
   std::string header, line;
   std::getline(csv, header);
-  EXPECT_EQ(header.rfind("cell,scene,solver,contact.offset,halting_percent,frames,status,avg_frame_s", 0), 0u) << header;
+  EXPECT_EQ(header.rfind("cell,scene,solver,contact.offset,halting_percent,frames,status,avg_frame_s", 0), 0u)
+      << header;
   int rows = 0;
   while (std::getline(csv, line)) {
     ++rows;
@@ -130,7 +145,8 @@ TEST(Sweep, LocalCellsEqualHandRunsAndResumeRunsWhatIsMissing) {
     EXPECT_NE(line.find(",pass,"), std::string::npos) << line;
   }
   EXPECT_EQ(rows, 4);
-  EXPECT_NE(read_text(out / "sweep.md").find("| cloth_near_floor | `post_process` | 0.01 | completed | 3 |"), std::string::npos);
+  EXPECT_NE(read_text(out / "sweep.md").find("| cloth_near_floor | `post_process` | 0.01 | completed | 3 |"),
+            std::string::npos);
 
   // A lost cell: status says so, resume runs it (and only it) again.
   fs::remove_all(out / id);

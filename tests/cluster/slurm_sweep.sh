@@ -10,82 +10,13 @@ set -uo pipefail
 exe=$1 src=$2 scratch=$3
 fail() { echo "slurm_sweep: FAIL: $*" >&2; exit 1; }
 
-[ "$(id -u)" -eq 0 ] || fail "must run as root to start munged, slurmctld and slurmd (uid $(id -u))"
-for b in munged slurmctld slurmd sbatch squeue scancel sinfo; do
-  command -v "$b" >/dev/null || fail "'$b' not found: install slurm-wlm and munge (scripts/install-deps)"
-done
-[ -r /etc/munge/munge.key ] || fail "/etc/munge/munge.key is missing (the munge package creates it)"
-
-# Daemons live in a short /tmp path (a unix socket path is limited to 108 bytes); runs in scratch.
-tmp=$(mktemp -d /tmp/ccfr-slurm.XXXXXX) || fail "mktemp failed"
+# The daemons live in a short /tmp path (slurm_env.sh); the runs in scratch.
 rm -rf "$scratch"
-mkdir -p "$scratch" "$tmp/state" "$tmp/spool" "$tmp/munge"
-chmod 700 "$tmp/munge"
-cp /etc/munge/munge.key "$tmp/munge/key" && chmod 600 "$tmp/munge/key"
-
-pids=()
-cleanup() {
-  [ -n "${SLURM_CONF:-}" ] && scancel --user=root >/dev/null 2>&1
-  for f in "$tmp/slurmd.pid" "$tmp/slurmctld.pid" "$tmp/munge/pid"; do
-    [ -s "$f" ] && kill "$(cat "$f")" 2>/dev/null
-  done
-  sleep 1
-  for f in "$tmp/slurmd.pid" "$tmp/slurmctld.pid" "$tmp/munge/pid"; do
-    [ -s "$f" ] && kill -9 "$(cat "$f")" 2>/dev/null
-  done
-  rm -rf "$tmp"
-}
-trap cleanup EXIT
-logs() { for f in "$tmp"/munge/log "$tmp"/slurmctld.log "$tmp"/slurmd.log; do [ -f "$f" ] && { echo "--- $f"; tail -20 "$f"; }; done >&2; }
-
-free_port() { python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])'; }
-host=$(hostname -s)
-cpus=$(nproc)
-mem=$(free -m | awk '/^Mem:/ {print int($7 * 0.8)}')
-cat > "$tmp/slurm.conf" <<EOF
-ClusterName=ccfrtest
-SlurmctldHost=$host
-SlurmUser=root
-SlurmdUser=root
-SlurmctldPort=$(free_port)
-SlurmdPort=$(free_port)
-AuthType=auth/munge
-AuthInfo=socket=$tmp/munge/sock
-CredType=cred/munge
-StateSaveLocation=$tmp/state
-SlurmdSpoolDir=$tmp/spool
-SlurmctldPidFile=$tmp/slurmctld.pid
-SlurmdPidFile=$tmp/slurmd.pid
-SlurmctldLogFile=$tmp/slurmctld.log
-SlurmdLogFile=$tmp/slurmd.log
-ProctrackType=proctrack/linuxproc
-TaskPlugin=task/none
-SchedulerType=sched/backfill
-SelectType=select/cons_tres
-SelectTypeParameters=CR_Core
-ReturnToService=2
-MpiDefault=none
-JobAcctGatherType=jobacct_gather/none
-AccountingStorageType=accounting_storage/none
-JobCompType=jobcomp/none
-KillWait=10
-MinJobAge=600
-NodeName=$host CPUs=$cpus RealMemory=$mem State=UNKNOWN
-PartitionName=test Nodes=ALL Default=YES MaxTime=INFINITE State=UP
-EOF
-export SLURM_CONF=$tmp/slurm.conf
-
-munged --force --socket="$tmp/munge/sock" --key-file="$tmp/munge/key" --pid-file="$tmp/munge/pid" \
-  --log-file="$tmp/munge/log" --seed-file="$tmp/munge/seed" || { logs; fail "munged did not start"; }
-slurmctld -f "$tmp/slurm.conf" || { logs; fail "slurmctld did not start"; }
-slurmd -f "$tmp/slurm.conf" || { logs; fail "slurmd did not start"; }
-for i in $(seq 60); do
-  state=$(sinfo -h -o %T 2>/dev/null | head -1)
-  [ "$state" = idle ] && break
-  sleep 0.5
-done
-[ "$state" = idle ] || { logs; fail "the node did not become idle within 30 s (sinfo says '$state')"; }
-echo "slurm_sweep: cluster up: node $host, $cpus CPUs, $mem MB, daemons $(cat "$tmp/munge/pid") $(cat "$tmp/slurmctld.pid") $(cat "$tmp/slurmd.pid")"
+mkdir -p "$scratch"
+slurm_prefix=slurm_sweep
+source "$(dirname "${BASH_SOURCE[0]}")/slurm_env.sh"
+trap slurm_stop EXIT
+slurm_start || fail "the test cluster did not start (above)"
 
 cat > "$scratch/spec.yaml" <<EOF
 configs: [$src/configs/two_sheets.yaml, $src/configs/stress/cloth_near_floor.yaml]
@@ -105,7 +36,7 @@ EOF
 # same spec gives the same cells), read before submitting so that nothing slow runs in between.
 victim_index=5
 victim=$(python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['cells'][int(sys.argv[2])]['id'])" "$scratch/local/sweep.json" $victim_index)
-submit=$("$exe" sweep "$scratch/spec.yaml" --out "$scratch/slurm" --backend slurm 2>&1) || { echo "$submit"; logs; fail "ccfr sweep --backend slurm failed"; }
+submit=$("$exe" sweep "$scratch/spec.yaml" --out "$scratch/slurm" --backend slurm 2>&1) || { echo "$submit"; slurm_logs; fail "ccfr sweep --backend slurm failed"; }
 echo "$submit"
 [[ $submit =~ submitted\ job\ ([0-9]+) ]] || fail "no job id in the output of ccfr sweep --backend slurm"
 job=${BASH_REMATCH[1]}
@@ -123,13 +54,7 @@ done
 [ -n "$seen" ] || fail "the cell $victim wrote no checkpoint of frame 2 or later"
 scancel "${job}_${victim_index}" || fail "scancel ${job}_${victim_index} failed"
 echo "slurm_sweep: $(date +%T.%N) saw $(basename "$seen"); cancelled ${job}_${victim_index} ($victim)"
-wait_queue() {
-  for i in $(seq 600); do
-    [ -z "$(squeue -h -j "$1" 2>/dev/null)" ] && return 0
-    sleep 0.5
-  done
-  logs; fail "job $1 still queued after 300 s"
-}
+wait_queue() { slurm_wait_queue "$1" 300 || fail "job $1 did not finish"; }
 wait_queue "$job"
 "$exe" sweep status "$scratch/slurm" | tee "$scratch/status1.txt"
 grep -E "^$victim +(terminated|cancelled)" "$scratch/status1.txt" >/dev/null ||

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "ccfr/core/scene.hpp"
+#include "ccfr/core/topology.hpp"
 #include "ccfr/geometry/generators.hpp"
 
 namespace ccfr::test {

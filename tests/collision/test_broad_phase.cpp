@@ -100,10 +100,13 @@ TEST_P(EveryBroadPhase, RandomSoupsMatchBruteForce) {
 TEST_P(EveryBroadPhase, ScenesMatchBruteForceAfterRefits) {
   const std::vector<std::pair<std::string, test::TestScene>> scenes = [] {
     std::vector<std::pair<std::string, test::TestScene>> v;
-    v.emplace_back("flat cloth", test::SceneBuilder().mesh("c", ObjectKind::cloth, gen::grid(0.5, 0.5, 40, 40)).finish());
-    v.emplace_back("folded cloth",
-                   test::SceneBuilder().mesh("c", ObjectKind::cloth, test::accordion_cloth(0.5, 40, 3, 0.012, 0.004)).finish());
-    v.emplace_back("strand bundle", test::SceneBuilder().strands("s", gen::curly_strands(36, 30, 0.3, 0.06, 0.01, 3.0)).finish());
+    v.emplace_back("flat cloth",
+                   test::SceneBuilder().mesh("c", ObjectKind::cloth, gen::grid(0.5, 0.5, 40, 40)).finish());
+    v.emplace_back(
+        "folded cloth",
+        test::SceneBuilder().mesh("c", ObjectKind::cloth, test::accordion_cloth(0.5, 40, 3, 0.012, 0.004)).finish());
+    v.emplace_back("strand bundle",
+                   test::SceneBuilder().strands("s", gen::curly_strands(36, 30, 0.3, 0.06, 0.01, 3.0)).finish());
     v.emplace_back("mixed", mixed_scene());
     return v;
   }();

@@ -59,8 +59,10 @@ TEST(KinematicStep, RotatingTriangleKeepsParticlesAndSegmentsBeyondXi) {
     TopologyBuilder tb;
     tb.add_object("plate", ObjectKind::obstacle, 3, {{0, 2, 1}});
     const bool segment = trial % 2 == 1;
-    if (segment) tb.add_object("wire", ObjectKind::strand, 2, {}, {}, {{0, 1}});
-    else tb.add_object("grain", ObjectKind::particles, 1);
+    if (segment)
+      tb.add_object("wire", ObjectKind::strand, 2, {}, {}, {{0, 1}});
+    else
+      tb.add_object("grain", ObjectKind::particles, 1);
     const Topology topo = tb.finish();
     Positions x(tri.begin(), tri.end());
     const Vec3 above(0.06 * u(g), kXi + 2 * kR * u(g), 0.06 * u(g));
@@ -91,10 +93,13 @@ TEST(KinematicStep, RotatingTriangleKeepsParticlesAndSegmentsBeyondXi) {
       y[v] += m;
     }
     if (!moved) continue;
-    const double d = segment ? std::sqrt(std::min({edge_edge(y[3], y[4], y[0], y[1]).distance_sq, edge_edge(y[3], y[4], y[1], y[2]).distance_sq,
-                                                   edge_edge(y[3], y[4], y[2], y[0]).distance_sq, point_triangle(y[3], y[0], y[1], y[2]).distance_sq,
-                                                   point_triangle(y[4], y[0], y[1], y[2]).distance_sq}))
-                             : std::sqrt(point_triangle(y[3], y[0], y[1], y[2]).distance_sq);
+    const double d =
+        segment
+            ? std::sqrt(std::min(
+                  {edge_edge(y[3], y[4], y[0], y[1]).distance_sq, edge_edge(y[3], y[4], y[1], y[2]).distance_sq,
+                   edge_edge(y[3], y[4], y[2], y[0]).distance_sq, point_triangle(y[3], y[0], y[1], y[2]).distance_sq,
+                   point_triangle(y[4], y[0], y[1], y[2]).distance_sq}))
+            : std::sqrt(point_triangle(y[3], y[0], y[1], y[2]).distance_sq);
     EXPECT_GE(d, kXi - 1e-9) << "trial " << trial << (segment ? " (segment)" : " (particle)");
     ++checked;
   }

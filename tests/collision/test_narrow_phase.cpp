@@ -232,18 +232,41 @@ TEST_P(NarrowPhaseScenes, HalfSpacesAreConsistentWithContacts) {
   }
   EXPECT_EQ(d.stats.constraints, expected_planes);
   EXPECT_EQ(static_cast<Index>(d.regions.total()), expected_planes);
-  for (Index v = 0; v < s.topo.num_vertices(); ++v) {
+  for (Index v = 0; v < s.topo.num_vertices(); ++v)
     if (s.inv_mass[v] == 0) EXPECT_EQ(d.regions.count(v), 0) << "kinematic vertex " << v << " got half-spaces";
-    for (const HalfSpace& h : d.regions.of(v)) {
-      EXPECT_NEAR(h.n.norm(), 1.0, 1e-12);
-      EXPECT_LT(h.phi, 2 * kR);
-      // The anchor itself is admissible whenever the pair is not already inside the offset.
-      if (h.phi >= 0) EXPECT_GE(h.value(x[v], x[v]), 0.0);
-      // d = s φ with a share s in [0, 1].
-      EXPECT_LE(std::abs(h.d), std::abs(h.phi) + 1e-15);
-      EXPECT_GE(h.d * h.phi, 0.0);
+  // A vertex's planes appear in contact order: walk the contacts with a cursor per vertex and
+  // check each plane against the contact it came from (Alg. NarrowPhase lines 10/26/41).
+  std::vector<Index> cursor(d.regions.offsets.begin(), d.regions.offsets.end() - 1);
+  for (const auto& c : d.contacts) {
+    const double phi = c.distance - c.offset;
+    EXPECT_LT(phi, 2 * kR);
+    double share_sum = 0.0;
+    int sides_movable = 0;
+    for (int side = 0; side < 2; ++side) {
+      double side_share = -1.0;
+      for (int k = side == 0 ? 0 : c.side_a(); k < (side == 0 ? c.side_a() : c.size()); ++k) {
+        const Index v = c.v[k];
+        if (!(s.inv_mass[v] > 0)) continue;
+        ASSERT_LT(cursor[v], d.regions.offsets[v + 1]) << "vertex " << v << " has fewer planes than contacts";
+        const HalfSpace& h = d.regions.planes[static_cast<size_t>(cursor[v]++)];
+        // The normal points from the other primitive toward the vertex (clarification 3).
+        EXPECT_EQ(h.n, side == 0 ? c.n : Vec3(-c.n));
+        // d = s φ with a share s in [0, 1], the same for every vertex of a side.
+        const double share = phi != 0.0 ? h.d / phi : 0.5;
+        EXPECT_GE(share, -1e-12);
+        EXPECT_LE(share, 1.0 + 1e-12);
+        if (side_share < 0.0) side_share = share;
+        EXPECT_NEAR(share, side_share, 1e-12);
+        // The anchor itself is admissible whenever the pair is not already inside the offset.
+        if (phi >= 0) EXPECT_GE(h.value(x[v], x[v]), 0.0);
+      }
+      if (side_share >= 0.0) share_sum += side_share, ++sides_movable;
     }
+    // Both sides movable: their shares split the whole gap.
+    if (sides_movable == 2 && phi != 0.0) EXPECT_NEAR(share_sum, 1.0, 1e-12);
   }
+  for (Index v = 0; v < s.topo.num_vertices(); ++v)
+    EXPECT_EQ(cursor[v], d.regions.offsets[v + 1]) << "vertex " << v << " has planes no contact explains";
 }
 
 TEST_P(NarrowPhaseScenes, DeterministicForAnyThreadCountAndBroadPhase) {
@@ -261,9 +284,9 @@ TEST_P(NarrowPhaseScenes, DeterministicForAnyThreadCountAndBroadPhase) {
   // Planes of a vertex as a sorted list, for comparisons across broad phases (which may report
   // the candidates, hence the contacts and each vertex's planes, in another order).
   auto plane_sets = [&](const Detection& d) {
-    std::vector<std::vector<std::array<double, 5>>> sets(static_cast<size_t>(s.topo.num_vertices()));
+    std::vector<std::vector<std::array<double, 4>>> sets(static_cast<size_t>(s.topo.num_vertices()));
     for (Index v = 0; v < s.topo.num_vertices(); ++v) {
-      for (const HalfSpace& h : d.regions.of(v)) sets[v].push_back({h.n.x(), h.n.y(), h.n.z(), h.d, h.phi});
+      for (const HalfSpace& h : d.regions.of(v)) sets[v].push_back({h.n.x(), h.n.y(), h.n.z(), h.d});
       std::sort(sets[v].begin(), sets[v].end());
     }
     return sets;
@@ -286,7 +309,6 @@ TEST_P(NarrowPhaseScenes, DeterministicForAnyThreadCountAndBroadPhase) {
       for (size_t k = 0; k < d.regions.planes.size(); ++k) {
         EXPECT_EQ(d.regions.planes[k].n, one.regions.planes[k].n);
         EXPECT_EQ(d.regions.planes[k].d, one.regions.planes[k].d);
-        EXPECT_EQ(d.regions.planes[k].phi, one.regions.planes[k].phi);
       }
       EXPECT_EQ(names_of(d), names_of(one)) << "contact order depends on the thread count";
     }

@@ -55,8 +55,10 @@ TEST(CollisionPrimitives, LayoutAndRepresentatives) {
 }
 
 TEST(CollisionPrimitives, BoxesAreInflatedHulls) {
-  const test::TestScene s =
-      test::SceneBuilder().mesh("cloth", ObjectKind::cloth, gen::grid(0.2, 0.2, 2, 2)).particles("p", {Vec3(1, 2, 3)}).finish();
+  const test::TestScene s = test::SceneBuilder()
+                                .mesh("cloth", ObjectKind::cloth, gen::grid(0.2, 0.2, 2, 2))
+                                .particles("p", {Vec3(1, 2, 3)})
+                                .finish();
   const CollisionPrimitives p = build_collision_primitives(s.topo);
   EXPECT_DOUBLE_EQ(box_inflation(0.005, 0.01, 0.0005), 0.005 + 0.005 + 0.00025);
   std::vector<AABB> boxes;

@@ -50,7 +50,6 @@ inline RandomProblem random_problem(std::mt19937_64& g, int count, double r = 0.
     HalfSpace h;
     h.n = clustered ? random_in_cone(g, axis, M_PI / 3) : random_unit(g);
     h.d = r * u(g);
-    h.phi = h.d;
     p.planes.push_back(h);
   }
   p.candidate = p.anchor + 1.5 * r * std::cbrt(u(g)) * random_unit(g);

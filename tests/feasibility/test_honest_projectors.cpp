@@ -87,7 +87,6 @@ test::RandomProblem mixed_scale_problem(std::mt19937_64& g, int count) {
     HalfSpace h;
     h.n = clustered ? test::random_in_cone(g, axis, M_PI / 3) : test::random_unit(g);
     h.d = std::pow(10.0, -9.0 * u(g)) * (u(g) < 1.0 / 3.0 ? -1.0 : 1.0);
-    h.phi = h.d;
     p.planes.push_back(h);
   }
   p.candidate = p.anchor + std::pow(10.0, -6.0 * u(g)) * test::random_unit(g);
@@ -143,9 +142,9 @@ TEST(ExactEmptyRegion, AgreesWithTheReferenceAndRejectsInMicroseconds) {
 TEST(ExactEmptyRegion, StructuredEmptyRegionsAreRejected) {
   const Vec3 x = Vec3::UnitX(), y = Vec3::UnitY(), z = Vec3::UnitZ();
   const std::vector<std::vector<HalfSpace>> empty = {
-      {{x, -1e-9, 0}, {-x, 0.0, 0}},                                         // x >= 1e-9 and x <= 0
-      {{x, -0.5, 0}, {y, -0.5, 0}, {Vec3(-1, -1, 0).normalized(), 0.1, 0}},  // a wedge cut off
-      {{x, 0.0, 0}, {y, 0.0, 0}, {z, 0.0, 0}, {Vec3(-1, -1, -1).normalized(), -1e-6, 0}},
+      {{x, -1e-9}, {-x, 0.0}},                                      // x >= 1e-9 and x <= 0
+      {{x, -0.5}, {y, -0.5}, {Vec3(-1, -1, 0).normalized(), 0.1}},  // a wedge cut off
+      {{x, 0.0}, {y, 0.0}, {z, 0.0}, {Vec3(-1, -1, -1).normalized(), -1e-6}},
   };
   for (const auto& planes : empty) {
     std::vector<HalfSpace> many = planes;
@@ -158,7 +157,7 @@ TEST(ExactEmptyRegion, StructuredEmptyRegionsAreRejected) {
     }
   }
   // The region {0} itself (three pairs of opposing planes through the anchor) is not empty.
-  const std::vector<HalfSpace> point = {{x, 0, 0}, {-x, 0, 0}, {y, 0, 0}, {-y, 0, 0}, {z, 0, 0}, {-z, 0, 0}};
+  const std::vector<HalfSpace> point = {{x, 0}, {-x, 0}, {y, 0}, {-y, 0}, {z, 0}, {-z, 0}};
   const ExactProjection e = exact_region_projection(Vec3(0.3, -0.2, 0.1), point, 0.0, 1e-13);
   ASSERT_TRUE(e.found);
   EXPECT_LT(e.p.norm(), 1e-15);

@@ -55,7 +55,8 @@ TEST(PlesnikRecursion, MatchesClosedFormForOneToThreeIndependentPlanes) {
     worst = std::max(worst, (rec.x - ref).norm());
     ASSERT_LT((rec.x - ref).norm(), 1e-10) << "trial " << trial << " m=" << m;
     // Every intermediate system too: the projection onto the first k planes.
-    for (int i = 0; i < m; ++i) EXPECT_NEAR(normals[static_cast<size_t>(i)].dot(rec.x), b[static_cast<size_t>(i)], 1e-10);
+    for (int i = 0; i < m; ++i)
+      EXPECT_NEAR(normals[static_cast<size_t>(i)].dot(rec.x), b[static_cast<size_t>(i)], 1e-10);
   }
   std::printf("[plesnik affine] worst |x - closed form| = %.3e\n", worst);
 }
@@ -69,7 +70,8 @@ TEST(PlesnikRecursion, DenominatorThatVanishesForAnIndependentPlaneIsHandledBySi
   PlesnikRecursion rec;
   rec.reset(x0);
   for (int i = 0; i < 3; ++i)
-    EXPECT_EQ(rec.add(normals[static_cast<size_t>(i)], b[static_cast<size_t>(i)], 1e-12), PlesnikRecursion::Step::added);
+    EXPECT_EQ(rec.add(normals[static_cast<size_t>(i)], b[static_cast<size_t>(i)], 1e-12),
+              PlesnikRecursion::Step::added);
   EXPECT_LT((rec.x - closed_form(x0, normals, b)).norm(), 1e-12);
 }
 
@@ -90,7 +92,7 @@ TEST(PlesnikRecursion, DependentEquationsAreSkipped) {
 TEST(PlesnikProjector, SinglePlaneIsProjectionRetractedByEpsilonTowardTheAnchor) {
   const PlesnikProjector proj;
   const Vec3 anchor(0.1, 0.2, 0.3);
-  const HalfSpace floor{Vec3::UnitZ(), 0.01, 0.01};  // z' >= z - 0.01
+  const HalfSpace floor{Vec3::UnitZ(), 0.01};  // z' >= z - 0.01
   const Vec3 cand = anchor + Vec3(0.05, 0.0, -0.03);
   const auto r = proj.project(anchor, cand, std::span(&floor, 1));
   ASSERT_EQ(r.status, ProjectStatus::projected);
@@ -106,7 +108,7 @@ TEST(PlesnikProjector, EpsilonIsConfigurableAndZeroGivesTheExactProjection) {
   ProjectorParams p;
   p.epsilon = 0.0;
   const PlesnikProjector proj(p);
-  const HalfSpace floor{Vec3::UnitZ(), 0.0, 0.0};
+  const HalfSpace floor{Vec3::UnitZ(), 0.0};
   const auto r = proj.project(Vec3::Zero(), Vec3(0.3, -0.2, -0.5), std::span(&floor, 1));
   ASSERT_EQ(r.status, ProjectStatus::projected);
   EXPECT_LT((r.x - Vec3(0.3, -0.2, 0.0)).norm(), 1e-16);
@@ -114,7 +116,7 @@ TEST(PlesnikProjector, EpsilonIsConfigurableAndZeroGivesTheExactProjection) {
 
 TEST(PlesnikProjector, CandidateInsideIsReturnedUnchanged) {
   const PlesnikProjector proj;
-  const std::vector<HalfSpace> planes = {{Vec3::UnitZ(), 0.01, 0.0}, {Vec3::UnitX(), 0.02, 0.0}};
+  const std::vector<HalfSpace> planes = {{Vec3::UnitZ(), 0.01}, {Vec3::UnitX(), 0.02}};
   const Vec3 cand(0.003, -0.004, 0.005);
   const auto r = proj.project(Vec3::Zero(), cand, planes);
   EXPECT_EQ(r.status, ProjectStatus::feasible);
@@ -128,7 +130,7 @@ TEST(PlesnikProjector, WedgeNeedsTheSecondEquationAndLandsOnTheEdge) {
   ProjectorParams p;
   p.epsilon = 0.0;
   const PlesnikProjector proj(p);
-  const std::vector<HalfSpace> planes = {{Vec3::UnitX(), 0.0, 0.0}, {Vec3::UnitY(), 0.0, 0.0}};
+  const std::vector<HalfSpace> planes = {{Vec3::UnitX(), 0.0}, {Vec3::UnitY(), 0.0}};
   const auto r = proj.project(Vec3::Zero(), Vec3(-1.0, -2.0, 0.5), planes);
   ASSERT_EQ(r.status, ProjectStatus::projected);
   EXPECT_LT((r.x - Vec3(0.0, 0.0, 0.5)).norm(), 1e-14);
@@ -142,8 +144,7 @@ TEST(PlesnikProjector, DeepestPlaneFirstMakesStackedCardsOneProjection) {
   p.epsilon = 0.0;
   p.max_iterations = 1;
   const PlesnikProjector proj(p);
-  const std::vector<HalfSpace> planes = {{Vec3::UnitZ(), 0.05, 0.0}, {Vec3::UnitZ(), 0.01, 0.0},
-                                         {Vec3::UnitZ(), 0.03, 0.0}};
+  const std::vector<HalfSpace> planes = {{Vec3::UnitZ(), 0.05}, {Vec3::UnitZ(), 0.01}, {Vec3::UnitZ(), 0.03}};
   const auto r = proj.project(Vec3::Zero(), Vec3(0.2, 0.0, -0.1), planes);
   ASSERT_EQ(r.status, ProjectStatus::projected);
   EXPECT_EQ(r.active, 3);
@@ -157,9 +158,11 @@ TEST(PlesnikProjector, BudgetExhaustedFallsBackToTheAnchorAsHalted) {
   auto g = test::rng(99);
   ProjectorParams one;
   one.max_iterations = 1;
+  one.exact_fallback = false;  // the paper's plain halting
   const PlesnikProjector short_budget(one);
   ProjectorParams many;
   many.max_iterations = 50;
+  many.exact_fallback = false;
   const PlesnikProjector long_budget(many);
   int halted = 0, recovered = 0;
   for (int trial = 0; trial < 4000; ++trial) {
@@ -177,11 +180,46 @@ TEST(PlesnikProjector, BudgetExhaustedFallsBackToTheAnchorAsHalted) {
   EXPECT_GT(recovered, 0) << "more passes should recover some of them";
 }
 
+TEST(PlesnikProjector, UnconvergedPassesTakeTheExactProjectionInsteadOfHalting) {
+  // The anchor is feasible, so a region is never empty: where the passes halt, the exact
+  // projection (exact_fallback, the default) must be taken instead, and it must be the true
+  // Euclidean projection: compared with the brute-force reference of random_regions.hpp.
+  auto g = test::rng(99);
+  ProjectorParams halt;
+  halt.max_iterations = 1;
+  halt.exact_fallback = false;
+  halt.epsilon = 0.0;  // no retraction, so the answer is comparable with the reference
+  ProjectorParams rescue = halt;
+  rescue.exact_fallback = true;
+  ProjectorParams rescue_eps = rescue;
+  rescue_eps.epsilon = 1e-6;
+  int rescued = 0;
+  for (int trial = 0; trial < 4000; ++trial) {
+    const auto prob = test::random_problem(g, 8);
+    if (PlesnikProjector(halt).project(prob.anchor, prob.candidate, prob.planes).status != ProjectStatus::halted)
+      continue;
+    const auto r = PlesnikProjector(rescue).project(prob.anchor, prob.candidate, prob.planes);
+    ASSERT_EQ(r.status, ProjectStatus::projected) << "trial " << trial;
+    EXPECT_TRUE(r.rescued);
+    Vec3 ref;
+    ASSERT_TRUE(test::reference_projection(prob.candidate - prob.anchor, prob.planes, 1e-12, ref));
+    EXPECT_LT((r.x - (prob.anchor + ref)).norm(), 1e-10) << "trial " << trial;
+    // With the ε retraction the point is strictly inside and not farther from the candidate
+    // than the anchor is (a halt's answer).
+    const auto re = PlesnikProjector(rescue_eps).project(prob.anchor, prob.candidate, prob.planes);
+    ASSERT_EQ(re.status, ProjectStatus::projected);
+    EXPECT_GE(min_value(prob.anchor, re.x, prob.planes), 0.0) << "trial " << trial;
+    EXPECT_LE((re.x - prob.candidate).norm(), (prob.anchor - prob.candidate).norm()) << "trial " << trial;
+    ++rescued;
+  }
+  EXPECT_GT(rescued, 10) << "the seeded set should contain single-pass halting cases";
+}
+
 TEST(PlesnikProjector, NegativeDIsProjectedExactlyNotFallenBackToTheInfeasibleAnchor) {
   // The anchor is 0.01 inside the offset of the floor: d = -0.01. The closest admissible point of a
   // candidate that stays put is 0.01 (+ ε margin) up.
   const PlesnikProjector proj;
-  const HalfSpace floor{Vec3::UnitZ(), -0.01, -0.01};
+  const HalfSpace floor{Vec3::UnitZ(), -0.01};
   const Vec3 anchor(0, 0, 0);
   const auto r = proj.project(anchor, Vec3(0.02, 0.0, 0.0), std::span(&floor, 1));
   ASSERT_EQ(r.status, ProjectStatus::projected);
@@ -193,7 +231,7 @@ TEST(PlesnikProjector, NegativeDIsProjectedExactlyNotFallenBackToTheInfeasibleAn
 TEST(PlesnikProjector, NegativeDWithEmptyRegionIsInfeasibleAndKeepsTheAnchor) {
   // Squeezed: z' >= 0.01 and z' <= 0 at once.
   const PlesnikProjector proj;
-  const std::vector<HalfSpace> planes = {{Vec3::UnitZ(), -0.01, 0.0}, {-Vec3::UnitZ(), 0.0, 0.0}};
+  const std::vector<HalfSpace> planes = {{Vec3::UnitZ(), -0.01}, {-Vec3::UnitZ(), 0.0}};
   const Vec3 anchor(1, 2, 3);
   const auto r = proj.project(anchor, anchor + Vec3(0, 0, -0.5), planes);
   EXPECT_EQ(r.status, ProjectStatus::infeasible);

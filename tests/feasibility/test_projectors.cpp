@@ -116,11 +116,12 @@ TEST(PlesnikProjector, GapToExactProjectionIsReported) {
     // The exact projection is never farther from the candidate than Plesník's point (both retract by ε).
     EXPECT_LE((re.x - prob.candidate).norm(), (rp.x - prob.candidate).norm() + 2e-6);
   }
-  std::printf("[plesnik gap] violated %d halted %d (%.2f%%); |x_plesnik - x_exact| p50 %.2e p90 %.2e p99 %.2e max %.2e;"
-              " relative to the exact displacement p50 %.2e p90 %.2e p99 %.2e max %.2e\n",
-              violated, halted, 100.0 * halted / std::max(violated, 1), percentile(gaps, 0.5), percentile(gaps, 0.9),
-              percentile(gaps, 0.99), percentile(gaps, 1.0), percentile(rel, 0.5), percentile(rel, 0.9),
-              percentile(rel, 0.99), percentile(rel, 1.0));
+  std::printf(
+      "[plesnik gap] violated %d halted %d (%.2f%%); |x_plesnik - x_exact| p50 %.2e p90 %.2e p99 %.2e max %.2e;"
+      " relative to the exact displacement p50 %.2e p90 %.2e p99 %.2e max %.2e\n",
+      violated, halted, 100.0 * halted / std::max(violated, 1), percentile(gaps, 0.5), percentile(gaps, 0.9),
+      percentile(gaps, 0.99), percentile(gaps, 1.0), percentile(rel, 0.5), percentile(rel, 0.9), percentile(rel, 0.99),
+      percentile(rel, 1.0));
 }
 
 // ---- degenerate regions: each checked for all three projectors against a hand-derived answer ----
@@ -136,20 +137,28 @@ std::vector<Case> degenerate_cases() {
   const Vec3 z = Vec3::UnitZ(), x = Vec3::UnitX();
   const Vec3 tilt = Vec3(1e-9, 0.0, 1.0).normalized();
   std::vector<Case> c;
-  c.push_back({"duplicated planes", Vec3(1, 1, 1), Vec3(1.2, 1, 0.9), {{z, 0.05, 0}, {z, 0.05, 0}, {z, 0.05, 0}},
-               Vec3(1.2, 1, 0.95)});
-  c.push_back({"duplicated wedge", Vec3::Zero(), Vec3(-0.1, 0.3, -0.2),
-               {{z, 0, 0}, {x, 0, 0}, {z, 0, 0}, {x, 0, 0}}, Vec3(0, 0.3, 0)});
-  c.push_back({"nearly parallel stacked cards", Vec3::Zero(), Vec3(0.01, 0.02, -0.1),
-               {{z, 0.03, 0}, {tilt, 0.02, 0}, {z, 0.01, 0}, {tilt, 0.025, 0}}, Vec3(0.01, 0.02, -0.01)});
-  c.push_back({"opposing planes, thin slab", Vec3::Zero(), Vec3(0.0, 0.1, 0.3),
-               {{z, 1e-4, 0}, {-z, 1e-4, 0}}, Vec3(0.0, 0.1, 1e-4)});
-  c.push_back({"zero-width slab", Vec3::Zero(), Vec3(0.2, 0.1, -0.3), {{z, 0.0, 0}, {-z, 0.0, 0}},
-               Vec3(0.2, 0.1, 0.0)});
-  c.push_back({"zero-width slab and a wall", Vec3::Zero(), Vec3(-0.2, 0.1, -0.3),
-               {{z, 0.0, 0}, {-z, 0.0, 0}, {x, 0.0, 0}}, Vec3(0.0, 0.1, 0.0)});
-  c.push_back({"corner of three planes", Vec3::Zero(), Vec3(-0.1, -0.2, -0.3),
-               {{x, 0.0, 0}, {Vec3::UnitY(), 0.0, 0}, {z, 0.0, 0}}, Vec3(0, 0, 0)});
+  c.push_back(
+      {"duplicated planes", Vec3(1, 1, 1), Vec3(1.2, 1, 0.9), {{z, 0.05}, {z, 0.05}, {z, 0.05}}, Vec3(1.2, 1, 0.95)});
+  c.push_back(
+      {"duplicated wedge", Vec3::Zero(), Vec3(-0.1, 0.3, -0.2), {{z, 0}, {x, 0}, {z, 0}, {x, 0}}, Vec3(0, 0.3, 0)});
+  c.push_back({"nearly parallel stacked cards",
+               Vec3::Zero(),
+               Vec3(0.01, 0.02, -0.1),
+               {{z, 0.03}, {tilt, 0.02}, {z, 0.01}, {tilt, 0.025}},
+               Vec3(0.01, 0.02, -0.01)});
+  c.push_back(
+      {"opposing planes, thin slab", Vec3::Zero(), Vec3(0.0, 0.1, 0.3), {{z, 1e-4}, {-z, 1e-4}}, Vec3(0.0, 0.1, 1e-4)});
+  c.push_back({"zero-width slab", Vec3::Zero(), Vec3(0.2, 0.1, -0.3), {{z, 0.0}, {-z, 0.0}}, Vec3(0.2, 0.1, 0.0)});
+  c.push_back({"zero-width slab and a wall",
+               Vec3::Zero(),
+               Vec3(-0.2, 0.1, -0.3),
+               {{z, 0.0}, {-z, 0.0}, {x, 0.0}},
+               Vec3(0.0, 0.1, 0.0)});
+  c.push_back({"corner of three planes",
+               Vec3::Zero(),
+               Vec3(-0.1, -0.2, -0.3),
+               {{x, 0.0}, {Vec3::UnitY(), 0.0}, {z, 0.0}},
+               Vec3(0, 0, 0)});
   return c;
 }
 
@@ -181,7 +190,7 @@ TEST(Degenerate, NoPlanesMeansFeasible) {
 
 TEST(Degenerate, NanCandidateIsInfeasibleAndKeepsTheAnchor) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  const std::vector<HalfSpace> planes = {{Vec3::UnitZ(), 0.01, 0.0}};
+  const std::vector<HalfSpace> planes = {{Vec3::UnitZ(), 0.01}};
   for (const auto& name : projector_names()) {
     const auto proj = make_projector(name);
     for (const auto& planes_used : {planes, std::vector<HalfSpace>{}}) {
@@ -195,7 +204,7 @@ TEST(Degenerate, NanCandidateIsInfeasibleAndKeepsTheAnchor) {
 TEST(Degenerate, NegativeDOnlyTheExactProjectionAnswers) {
   // Anchor inside the offset of two walls (d < 0): Plesník delegates to the exact projection;
   // successive projection just projects. Both end feasible; the exact answer keeps an ε margin.
-  const std::vector<HalfSpace> planes = {{Vec3::UnitZ(), -0.01, 0.0}, {Vec3::UnitX(), -0.02, 0.0}};
+  const std::vector<HalfSpace> planes = {{Vec3::UnitZ(), -0.01}, {Vec3::UnitX(), -0.02}};
   const Vec3 anchor(0.5, 0.5, 0.5);
   const Vec3 cand = anchor + Vec3(0.0, 0.1, 0.0);
   const auto exact = make_projector("exact")->project(anchor, cand, planes);
@@ -212,15 +221,15 @@ TEST(Degenerate, NegativeDOnlyTheExactProjectionAnswers) {
 
 TEST(Degenerate, NegativeDThinnerThanEpsilonStillProjects) {
   // A zero-width slab away from the anchor: the ε-shrunk region is empty, the region itself is not.
-  const std::vector<HalfSpace> planes = {{Vec3::UnitZ(), -0.01, 0.0}, {-Vec3::UnitZ(), 0.01, 0.0}};
+  const std::vector<HalfSpace> planes = {{Vec3::UnitZ(), -0.01}, {-Vec3::UnitZ(), 0.01}};
   const auto r = make_projector("exact")->project(Vec3::Zero(), Vec3(0.3, 0.0, 0.0), planes);
   ASSERT_EQ(r.status, ProjectStatus::projected);
   EXPECT_LT((r.x - Vec3(0.3, 0.0, 0.01)).norm(), 1e-15);
 }
 
 TEST(Degenerate, EmptyRegionIsInfeasible) {
-  const std::vector<HalfSpace> planes = {{Vec3::UnitX(), 0.0, 0.0}, {Vec3::UnitY(), 0.0, 0.0},
-                                         {Vec3(-1, -1, 0).normalized(), -0.01, 0.0}};
+  const std::vector<HalfSpace> planes = {
+      {Vec3::UnitX(), 0.0}, {Vec3::UnitY(), 0.0}, {Vec3(-1, -1, 0).normalized(), -0.01}};
   for (const auto& name : {"plesnik", "exact"}) {
     const auto r = make_projector(name)->project(Vec3::Zero(), Vec3(0.1, -0.1, 0.0), planes);
     EXPECT_EQ(r.status, ProjectStatus::infeasible) << name;
@@ -235,8 +244,8 @@ TEST(SuccessiveProjection, NarrowWedgeNeedsManySweeps) {
   // A wedge of opening 2 degrees around +z, apex line along y. From below the apex, alternating
   // projections zig-zag toward it and shrink the error by about cos(2 degrees) per projection.
   const double a = M_PI / 180.0;
-  const std::vector<HalfSpace> planes = {{Vec3(-std::cos(a), 0, std::sin(a)), 0.0, 0.0},
-                                         {Vec3(std::cos(a), 0, std::sin(a)), 0.0, 0.0}};
+  const std::vector<HalfSpace> planes = {{Vec3(-std::cos(a), 0, std::sin(a)), 0.0},
+                                         {Vec3(std::cos(a), 0, std::sin(a)), 0.0}};
   const Vec3 cand(0.3, 0.2, -1.0);
   ProjectorParams few;
   few.sweeps = 3;

@@ -20,7 +20,10 @@ namespace {
 const fs::path& input_file() {
   static const fs::path p = [] {
     const fs::path f = fs::temp_directory_path() / ("ccfr_fuzz_obj_" + std::to_string(::getpid()) + ".obj");
-    std::atexit([] { std::error_code ec; fs::remove(input_file(), ec); });
+    std::atexit([] {
+      std::error_code ec;
+      fs::remove(input_file(), ec);
+    });
     return f;
   }();
   return p;

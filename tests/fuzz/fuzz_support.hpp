@@ -24,8 +24,8 @@ inline std::string demangle(const char* name) {
 }
 
 [[noreturn]] inline void finding(const char* what_ran, const std::string& kind, const std::string& message) {
-  std::fprintf(stderr, "\n==ccfr-fuzz== FINDING in %s: %s escaped instead of ccfr::Error: %s\n", what_ran,
-               kind.c_str(), message.c_str());
+  std::fprintf(stderr, "\n==ccfr-fuzz== FINDING in %s: %s escaped instead of ccfr::Error: %s\n", what_ran, kind.c_str(),
+               message.c_str());
   std::abort();
 }
 

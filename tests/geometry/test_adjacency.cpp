@@ -2,7 +2,7 @@
 
 #include <limits>
 
-#include "ccfr/core/scene.hpp"
+#include "ccfr/core/topology.hpp"
 #include "ccfr/geometry/adjacency.hpp"
 #include "ccfr/geometry/generators.hpp"
 

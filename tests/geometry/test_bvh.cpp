@@ -104,7 +104,7 @@ TEST(Bvh, DegenerateBoxes) {
   for (int i = 0; i < 20; ++i) boxes.push_back(AABB::of(Vec3(0, 0, 0), Vec3(1, 1, 1)));
   for (int i = 0; i < 10; ++i) boxes.push_back(AABB::of(Vec3(2, 0, 0)));
   boxes.push_back(AABB::of(Vec3(1, 1, 1), Vec3(2, 2, 2)));  // touches the unit boxes at a corner
-  boxes.push_back(AABB{});                                   // empty
+  boxes.push_back(AABB{});                                  // empty
   boxes.push_back(AABB{});
   Bvh bvh;
   bvh.build(boxes, 4);

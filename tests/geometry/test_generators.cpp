@@ -7,7 +7,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "ccfr/core/scene.hpp"
+#include "ccfr/core/topology.hpp"
 #include "ccfr/geometry/generators.hpp"
 
 using namespace ccfr;

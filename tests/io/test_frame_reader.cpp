@@ -40,8 +40,8 @@ TEST(FrameReader, StatementsCarryingGeometryItCannotReadAreRefused) {
   const fs::path empty_p = write_obj("emptyp", "o a\nv 0 0 0\np\n");
   EXPECT_NE(error_of([&] { io::read_frame_obj(empty_p); }).find("ccfr_reader_emptyp.obj:3:"), std::string::npos);
   // Display and texture statements are ignored, polygons fan-triangulated, negative indices relative.
-  const auto fr = io::read_frame_obj(
-      write_obj("display", "mtllib m.mtl\no a\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\n  # note\ng side\n"));
+  const auto fr = io::read_frame_obj(write_obj(
+      "display", "mtllib m.mtl\no a\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\n  # note\ng side\n"));
   EXPECT_EQ(fr.v.size(), 4u);
   const auto quad = io::read_frame_obj(
       write_obj("quad", "o a\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nusemtl x\ns 1\nf -4 -3/1 -2//1 -1\n"));

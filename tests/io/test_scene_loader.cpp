@@ -68,14 +68,14 @@ TEST(SceneLoader, WrongTypesAndRangesAreRejectedWithTheirLine) {
     int line;
   };
   const std::vector<Case> cases = {
-      {"  fps: 60", "  fps: 0", "time.fps", 3},                           // dt <= 0
+      {"  fps: 60", "  fps: 0", "time.fps", 3},  // dt <= 0
       {"  fps: 60", "  fps: -30", "time.fps", 3},
-      {"  fps: 60", "  fps: sixty", "time.fps", 3},                       // wrong type
-      {"  frames: 2", "  frames: 2.5", "time.frames", 4},                 // integer expected
-      {"  radius: 0.01", "  radius: 0", "contact.radius", 6},             // r <= 0
+      {"  fps: 60", "  fps: sixty", "time.fps", 3},            // wrong type
+      {"  frames: 2", "  frames: 2.5", "time.frames", 4},      // integer expected
+      {"  radius: 0.01", "  radius: 0", "contact.radius", 6},  // r <= 0
       {"  radius: 0.01", "  radius: [1, 2]", "contact.radius", 6},
-      {"  radius: 0.01", "  radius: .nan", "contact.radius", 6},          // NaN
-      {"kind: cloth", "kind: clothe", "objects[0].kind", 9},              // unknown choice
+      {"  radius: 0.01", "  radius: .nan", "contact.radius", 6},  // NaN
+      {"kind: cloth", "kind: clothe", "objects[0].kind", 9},      // unknown choice
       {"size: [1, 1]", "size: [1]", "objects[0].shape.size", 10},
       {"resolution: [4, 4]", "resolution: [0, 4]", "objects[0].shape.resolution[0]", 10},
   };
@@ -149,8 +149,9 @@ TEST(SceneLoader, ShapeKindMismatchAndDuplicateNames) {
 }
 
 TEST(SceneLoader, SetOverridesAnyKeyAndIsValidated) {
-  auto s = io::load_scene_text(kBase, "scene.yaml", ".",
-                               {"contact.offset=0.002", "objects.sheet.shape.resolution=[2, 3]", "objects[0].velocity=[0, 1, 0]"});
+  auto s = io::load_scene_text(
+      kBase, "scene.yaml", ".",
+      {"contact.offset=0.002", "objects.sheet.shape.resolution=[2, 3]", "objects[0].velocity=[0, 1, 0]"});
   EXPECT_DOUBLE_EQ(s.scene.params.contact.offset, 0.002);
   EXPECT_EQ(s.scene.topo.num_vertices(), 12);
   EXPECT_DOUBLE_EQ(s.scene.state.v[0].y(), 1.0);
@@ -164,7 +165,8 @@ TEST(SceneLoader, SetOverridesAnyKeyAndIsValidated) {
 }
 
 TEST(SceneLoader, PinsByBoxAndIndicesBecomeKinematic) {
-  std::string y = std::string(kBase) + "    pins:\n      - indices: [0, 4]\n      - box_min: [-1, -1, 0.49]\n        box_max: [1, 1, 1]\n";
+  std::string y = std::string(kBase) +
+                  "    pins:\n      - indices: [0, 4]\n      - box_min: [-1, -1, 0.49]\n        box_max: [1, 1, 1]\n";
   const auto s = io::load_scene_text(y, "scene.yaml", ".");
   Index pinned = 0;
   for (double w : s.scene.state.inv_mass) pinned += w == 0.0;

@@ -4,8 +4,8 @@
 
 #include <cmath>
 #include <filesystem>
-#include <functional>
 #include <fstream>
+#include <functional>
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/process.hpp"
@@ -164,15 +164,17 @@ TEST(TetMesh, MalformedFilesNameTheLine) {
             std::string::npos);
   write(d, "far.node", kNode);
   write(d, "far.ele", "1 4 0\n1 1 2 4 9\n");
-  EXPECT_NE(error_of([&] { io::read_tetgen(d / "far.ele"); }).find("far.ele:2: node 9 out of range (far.node has 1..8)"),
-            std::string::npos);
+  EXPECT_NE(
+      error_of([&] { io::read_tetgen(d / "far.ele"); }).find("far.ele:2: node 9 out of range (far.node has 1..8)"),
+      std::string::npos);
   write(d, "lonely.node", kNode);
   EXPECT_NE(error_of([&] { io::read_tetgen(d / "lonely.node"); }).find("lonely.ele' does not exist"),
             std::string::npos);
   write(d, "bin.msh", "$MeshFormat\n4.1 1 8\n");
   EXPECT_NE(error_of([&] { io::read_gmsh(d / "bin.msh"); }).find("bin.msh:2: binary .msh is not supported"),
             std::string::npos);
-  write(d, "undef.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n1\n1 0 0 0\n$EndNodes\n$Elements\n1\n1 4 0 1 2 3 4\n");
+  write(d, "undef.msh",
+        "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n1\n1 0 0 0\n$EndNodes\n$Elements\n1\n1 4 0 1 2 3 4\n");
   EXPECT_NE(error_of([&] { io::read_gmsh(d / "undef.msh"); }).find("undef.msh:10: element uses node 2"),
             std::string::npos);
   write(d, "none.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n1\n1 0 0 0\n$EndNodes\n");
@@ -194,8 +196,10 @@ TEST(TetMesh, ScenesLoadTetFilesAndRefuseOtherFormats) {
   write(d, "box.node", kNode);
   write(d, "box.ele", kEle);
   write(d, "box.msh", kMsh4);
-  EXPECT_NEAR(scene_volume(io::load_scene_text(scene("tet_solid", "{type: mesh, path: box.ele}"), "s.yaml", d)), 24, 1e-12);
-  EXPECT_NEAR(scene_volume(io::load_scene_text(scene("tet_solid", "{type: mesh, path: box.msh}"), "s.yaml", d)), 24, 1e-12);
+  EXPECT_NEAR(scene_volume(io::load_scene_text(scene("tet_solid", "{type: mesh, path: box.ele}"), "s.yaml", d)), 24,
+              1e-12);
+  EXPECT_NEAR(scene_volume(io::load_scene_text(scene("tet_solid", "{type: mesh, path: box.msh}"), "s.yaml", d)), 24,
+              1e-12);
   auto err = [&](const std::string& yaml) {
     try {
       io::load_scene_text(yaml, "s.yaml", d);
@@ -231,7 +235,8 @@ TEST(TetMesh, TetgenFillsClosedObjSurfacesWithTheirVolume) {
     for (const auto& f : b.f) ball_volume += b.v[f[0]].dot(b.v[f[1]].cross(b.v[f[2]])) / 6.0;
     ball_volume = std::abs(ball_volume);
   }
-  const auto box = io::load_scene_text(scene("tet_solid", "{type: mesh, path: box.obj, max_volume: 0.05}"), "s.yaml", d);
+  const auto box =
+      io::load_scene_text(scene("tet_solid", "{type: mesh, path: box.obj, max_volume: 0.05}"), "s.yaml", d);
   EXPECT_NEAR(scene_volume(box), 6.0, 1e-9);
   EXPECT_GE(box.scene.topo.tets.size(), 120u);
   for (const auto& t : box.scene.topo.tets) {

@@ -24,8 +24,8 @@ bool have_matplotlib() {
 
 /// Runs a script with arguments; returns its exit code.
 int run_script(const std::string& script, const std::string& args) {
-  const std::string cmd = std::string(kPython) + " '" + CCFR_SOURCE_DIR + "/scripts/" + script + "' " + args +
-                          " >/dev/null 2>&1";
+  const std::string cmd =
+      std::string(kPython) + " '" + CCFR_SOURCE_DIR + "/scripts/" + script + "' " + args + " >/dev/null 2>&1";
   const int status = std::system(cmd.c_str());
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
@@ -84,8 +84,8 @@ TEST_F(PlotTest, StatsRunsCutShort) {
   expect_png(dir_ / "empty/stats.png");
   // One row, and a last row truncated mid-line by a crash.
   write("one/stats.csv", kStatsHeader + "0,0,0.01,0,0,0,0,0,0,0,0,0,,,0,0,0\n");
-  EXPECT_EQ(run_script("plot_stats.py", "'" + (dir_ / "one/stats.csv").string() + "' --out '" +
-                                            (dir_ / "one.png").string() + "'"),
+  EXPECT_EQ(run_script("plot_stats.py",
+                       "'" + (dir_ / "one/stats.csv").string() + "' --out '" + (dir_ / "one.png").string() + "'"),
             0);
   expect_png(dir_ / "one.png");
   write("cut/stats.csv", kStatsHeader + "0,0,0.01,0.005,0.001,0.001,0.001,5,5,1,0,0,0.002,0,0,1,0\n1,0.03,0.0");

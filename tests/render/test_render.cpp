@@ -14,7 +14,7 @@
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/parallel.hpp"
-#include "ccfr/core/scene.hpp"
+#include "ccfr/core/topology.hpp"
 #include "ccfr/io/obj.hpp"
 #include "ccfr/render/camera.hpp"
 #include "ccfr/render/image.hpp"
@@ -33,8 +33,7 @@ class ScratchDir {
  public:
   ScratchDir() {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = fs::temp_directory_path() /
-            ("ccfr_render_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
+    path_ = fs::temp_directory_path() / ("ccfr_render_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
     fs::remove_all(path_);
     fs::create_directories(path_);
   }
@@ -284,8 +283,8 @@ TEST(Render, WrittenFrameRendersEveryObjectAndIsDeterministic) {
   tb.add_object("rope", ObjectKind::strand, 4, {}, {}, {{0, 1, 2, 3}});
   tb.add_object("sand", ObjectKind::particles, 2);
   const Topology topo = tb.finish();
-  const Positions x = {Vec3(-0.5, 0, -0.5), Vec3(0.5, 0, -0.5), Vec3(0.5, 0, 0.5), Vec3(-0.5, 0, 0.5),
-                       Vec3(-0.4, 0.2, 0), Vec3(-0.1, 0.25, 0), Vec3(0.2, 0.3, 0), Vec3(0.4, 0.35, 0),
+  const Positions x = {Vec3(-0.5, 0, -0.5), Vec3(0.5, 0, -0.5),  Vec3(0.5, 0, 0.5), Vec3(-0.5, 0, 0.5),
+                       Vec3(-0.4, 0.2, 0),  Vec3(-0.1, 0.25, 0), Vec3(0.2, 0.3, 0), Vec3(0.4, 0.35, 0),
                        Vec3(0.1, 0.1, 0.3), Vec3(-0.2, 0.1, 0.3)};
   io::write_frame_obj(dir.path() / "frame_00000.obj", topo, x);
   const io::Frame frame = io::read_frame_obj(dir.path() / "frame_00000.obj");
@@ -424,8 +423,12 @@ TEST(RenderRun, VideoCallsFfmpegWithConsecutiveFrames) {
     std::ofstream script(bin / "ffmpeg");
     script << "#!/bin/sh\n"
               "case \"$*\" in *libx264*) exit 1;; esac\n"
-              "echo \"$@\" > '" << (dir.path() / "args.txt").string() << "'\n"
-              "ls \"$(dirname \"$7\")\" > '" << (dir.path() / "inputs.txt").string() << "'\n"
+              "echo \"$@\" > '"
+           << (dir.path() / "args.txt").string()
+           << "'\n"
+              "ls \"$(dirname \"$7\")\" > '"
+           << (dir.path() / "inputs.txt").string()
+           << "'\n"
               "for last; do :; done\n"
               "echo video > \"$last\"\n";
   }

@@ -44,7 +44,7 @@ Scene cloth_on_floor(const std::string& solver) {
 }
 
 struct Outcome {
-  Index worst_penetrations = 0;  ///< most audit penetrations over the frames
+  Index worst_penetrations = 0;                             ///< most audit penetrations over the frames
   double lowest = std::numeric_limits<double>::infinity();  ///< lowest y of the dynamic vertices
   bool guarantees = false;
 };
@@ -127,9 +127,8 @@ TEST(ContactSolverRegistry, ListsEveryBuiltInAndChecksParameters) {
   EXPECT_THROW(make_contact_solver("toi_clamp", ParamValues{{"scale", 1.5}}), Error);
   EXPECT_THROW(make_contact_solver("toi_clamp", ParamValues{{"max_iterations", 2.5}}), Error);
   EXPECT_NO_THROW(make_contact_solver("toi_clamp", ParamValues{{"scale", 1LL}}));  // an integer is a number
-  EXPECT_THROW(contact_solvers().add({"ccfr", "again", {}, [](const ParamValues&) {
-                                        return std::make_unique<NoContactSolver>();
-                                      }}),
+  EXPECT_THROW(contact_solvers().add(
+                   {"ccfr", "again", {}, [](const ParamValues&) { return std::make_unique<NoContactSolver>(); }}),
                Error);
 }
 

@@ -8,7 +8,7 @@
 #include "ccfr/feasibility/projector.hpp"
 #include "ccfr/geometry/generators.hpp"
 #include "ccfr/solvers/contact_response.hpp"
-#include "ccfr/solvers/contact_solvers.hpp"
+#include "ccfr/solvers/detecting_solvers.hpp"
 #include "ccfr/solvers/simulation.hpp"
 #include "scenes.hpp"
 #include "test_support.hpp"
@@ -73,47 +73,56 @@ TEST(Halting, TightRegionsReportHaltingInsteadOfHanging) {
   // A particle caged at the centre of a small icosphere whose radius barely exceeds xi: all 80
   // faces are within range and their half-spaces bound a tiny polytope. Gravity and a sideways
   // kick push the candidate through many of them at once; with one projection pass allowed the
-  // sequential recursion (at most three independent planes in 3-D) cannot always finish, so some
-  // projections fall back to the anchor. These halting events must be counted, nothing may stay
-  // outside its region, and nothing may become non-finite.
+  // sequential recursion (at most three independent planes in 3-D) cannot always finish. Without
+  // the exact fallback (the paper) those projections fall back to the anchor and must be counted;
+  // with it (the default) the same projections take the exact projection and nothing halts.
+  // Either way nothing may stay outside its region, and nothing may become non-finite.
   const auto cage = gen::sphere(0.0112, 1);  // inradius 0.0105 > xi: every pair starts outside the offset
-  TopologyBuilder tb;
-  tb.add_object("cage", ObjectKind::obstacle, static_cast<Index>(cage.v.size()), cage.f);
-  tb.add_object("grain", ObjectKind::particles, 1);
-  Scene s;
-  s.topo = tb.finish();
-  s.state.resize(s.topo.num_vertices());
-  for (size_t i = 0; i < cage.v.size(); ++i) s.state.x[i] = cage.v[i];
-  const Index p = s.topo.num_vertices() - 1;
-  s.state.x[p] = Vec3(0.0001, 0.0002, -0.0001);
-  s.state.v[p] = Vec3(0.3, -0.5, 0.2);
-  s.state.mass[p] = 1e-3;
-  s.state.inv_mass[p] = 1e3;
-  s.state.rest = s.state.x_prev = s.state.x;
-  s.params.objects.resize(2);
-  s.params.contact.offset = 0.01;
-  s.params.contact.radius = 0.005;
-  s.params.contact.repulsion_range = 0.0;
-  s.params.contact.solver_params.set("max_iterations", 1LL);
-  s.params.time.substeps = 4;
-  s.params.time.iterations = 2;
-  Simulation sim(std::move(s));
-  Index halted = 0;
-  for (int f = 0; f < 30; ++f) {
-    const FrameStats fs = sim.step_frame();
-    halted += fs.halted_vertices;
-    EXPECT_EQ(fs.violations_remaining, 0) << "frame " << f;
-    if (std::getenv("CCFR_TEST_VERBOSE"))
-      std::printf("frame %d: x = %s, violations %d, halted %d\n", f,
-                  ::testing::PrintToString(sim.positions()[p].transpose()).c_str(), fs.violations_detected,
-                  fs.halted_vertices);
-  }
-  EXPECT_GT(halted, 0) << "the scene was meant to make single-pass projections halt";
-  const Vec3 x = sim.positions()[p];
-  ASSERT_TRUE(x.allFinite());
-  for (const auto& f : cage.f) {  // still inside, at least xi from every face's plane
-    const Vec3 n = (cage.v[f[1]] - cage.v[f[0]]).cross(cage.v[f[2]] - cage.v[f[0]]).normalized();
-    EXPECT_GE(n.dot(cage.v[f[0]] - x), 0.01 - 1e-9);
+  for (const bool fallback : {false, true}) {
+    Scene s = test::obstacle_and_particle(cage, "cage", "grain");
+    const Index p = s.topo.num_vertices() - 1;
+    s.state.x[p] = Vec3(0.0001, 0.0002, -0.0001);
+    s.state.v[p] = Vec3(0.3, -0.5, 0.2);
+    s.state.mass[p] = 1e-3;
+    s.state.inv_mass[p] = 1e3;
+    s.state.rest = s.state.x_prev = s.state.x;
+    s.params.contact.offset = 0.01;
+    s.params.contact.radius = 0.005;
+    s.params.contact.repulsion_range = 0.0;
+    s.params.contact.solver_params.set("max_iterations", 1LL);
+    s.params.contact.solver_params.set("exact_fallback", fallback);
+    s.params.time.substeps = 4;
+    s.params.time.iterations = 2;
+    Simulation sim(std::move(s));
+    Index halted = 0, rescues = 0, halted_distinct = 0;
+    for (int f = 0; f < 30; ++f) {
+      const FrameStats fs = sim.step_frame();
+      halted += fs.halted_vertices;
+      rescues += fs.projector_rescues;
+      halted_distinct += fs.halted_vertices_distinct;
+      EXPECT_EQ(fs.violations_remaining, 0) << "frame " << f;
+      // One particle: it halts in a frame or not, however many passes it halts in.
+      EXPECT_EQ(fs.halted_vertices_distinct, fs.halted_vertices > 0 ? 1 : 0) << "frame " << f;
+      EXPECT_EQ(fs.contact_vertices_distinct, fs.contact_vertices > 0 ? 1 : 0) << "frame " << f;
+      if (std::getenv("CCFR_TEST_VERBOSE"))
+        std::printf("frame %d: x = %s, violations %d, halted %d, rescued %d\n", f,
+                    ::testing::PrintToString(sim.positions()[p].transpose()).c_str(), fs.violations_detected,
+                    fs.halted_vertices, fs.projector_rescues);
+    }
+    if (fallback) {
+      EXPECT_EQ(halted, 0) << "the exact projection exists whenever the anchor is feasible";
+      EXPECT_GT(rescues, 0) << "the scene was meant to make single-pass projections fail";
+    } else {
+      EXPECT_GT(halted, 0) << "the scene was meant to make single-pass projections halt";
+      EXPECT_GT(halted_distinct, 0);
+      EXPECT_EQ(rescues, 0);
+    }
+    const Vec3 x = sim.positions()[p];
+    ASSERT_TRUE(x.allFinite());
+    for (const auto& f : cage.f) {  // still inside, at least xi from every face's plane
+      const Vec3 n = (cage.v[f[1]] - cage.v[f[0]]).cross(cage.v[f[2]] - cage.v[f[0]]).normalized();
+      EXPECT_GE(n.dot(cage.v[f[0]] - x), 0.01 - 1e-9) << "fallback " << fallback;
+    }
   }
 }
 

@@ -9,7 +9,7 @@
 #include "ccfr/collision/narrow_phase.hpp"
 #include "ccfr/geometry/distance.hpp"
 #include "ccfr/geometry/generators.hpp"
-#include "ccfr/solvers/contact_solvers.hpp"
+#include "ccfr/solvers/detecting_solvers.hpp"
 #include "ccfr/solvers/simulation.hpp"
 #include "test_support.hpp"
 

@@ -12,8 +12,8 @@
 #include <set>
 
 #include "ccfr/core/parallel.hpp"
-#include "ccfr/core/scene.hpp"
 #include "ccfr/core/state.hpp"
+#include "ccfr/core/topology.hpp"
 #include "ccfr/solvers/materials.hpp"
 #include "test_support.hpp"
 
@@ -485,9 +485,9 @@ TEST(PolarRotation, NewtonMatchesSvd) {
   auto g = test::rng(7);
   for (int trial = 0; trial < 400; ++trial) {
     Mat3 a = random_rotation(g) * (Mat3::Identity() + (trial % 4 == 0 ? 0.9 : 0.3) * Mat3::Random());
-    if (trial % 7 == 0) a.col(2) = a.col(0) * 0.5 + a.col(1) * 0.25;  // rank 2 (flat tet)
-    if (trial % 5 == 0) a.col(1) = -a.col(1);                           // inverted
-    if (trial % 11 == 0) a = Mat3::Zero();                              // fully degenerate
+    if (trial % 7 == 0) a.col(2) = a.col(0) * 0.5 + a.col(1) * 0.25;                              // rank 2 (flat tet)
+    if (trial % 5 == 0) a.col(1) = -a.col(1);                                                     // inverted
+    if (trial % 11 == 0) a = Mat3::Zero();                                                        // fully degenerate
     if (trial % 13 == 0) a = random_rotation(g) * Eigen::Vector3d(1.0, 1e-3, 1e-3).asDiagonal();  // squashed
     const Mat3 svd = xpbd::polar_rotation(a);
     const Mat3 r = xpbd::polar_rotation_newton(a);

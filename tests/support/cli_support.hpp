@@ -2,10 +2,10 @@
 // Running the real `ccfr` binary from tests, and scratch directories private to one build tree:
 // several build trees (worktrees, the sanitizer build) may run their suites on one machine at
 // once, and a shared /tmp path let one suite delete another's frames mid-audit.
+#include <fcntl.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
-#include <sys/resource.h>
-#include <fcntl.h>
 
 #include <array>
 #include <cstdio>
@@ -62,8 +62,8 @@ struct CliStreams {
 inline CliStreams run_ccfr_split(const std::string& args, const std::filesystem::path& scratch,
                                  const std::string& env = "") {
   const std::filesystem::path err = scratch / "stderr.txt";
-  const std::string cmd = env + (env.empty() ? "" : " ") + std::string(CCFR_EXE) + " " + args + " 2> '" +
-                          err.string() + "'";
+  const std::string cmd =
+      env + (env.empty() ? "" : " ") + std::string(CCFR_EXE) + " " + args + " 2> '" + err.string() + "'";
   CliStreams r;
   FILE* p = popen(cmd.c_str(), "r");
   if (!p) return r;
@@ -100,7 +100,29 @@ inline std::string read_text(const std::filesystem::path& p) {
 
 /// Starts `ccfr args...` with stdout + stderr into `log`; `fsize_limit` > 0 caps the size of any
 /// file it writes (RLIMIT_FSIZE: writes past it fail with EFBIG, a real kernel write error).
-inline pid_t spawn_ccfr(const std::vector<std::string>& args, const std::filesystem::path& log, rlim_t fsize_limit = 0) {
+/// The cells of column `name` of a CSV file with a header row (stats.csv), one per data row;
+/// empty strings when the column does not exist.
+inline std::vector<std::string> csv_column(const std::filesystem::path& csv, const std::string& name) {
+  std::ifstream in(csv);
+  std::string line;
+  std::getline(in, line);
+  std::stringstream header(line);
+  int index = -1, k = 0;
+  for (std::string h; std::getline(header, h, ','); ++k)
+    if (h == name) index = k;
+  std::vector<std::string> out;
+  while (std::getline(in, line)) {
+    std::stringstream row(line);
+    std::string cell;
+    for (int i = 0; i <= index && std::getline(row, cell, ','); ++i) {
+    }
+    out.push_back(index < 0 ? std::string() : cell);
+  }
+  return out;
+}
+
+inline pid_t spawn_ccfr(const std::vector<std::string>& args, const std::filesystem::path& log,
+                        rlim_t fsize_limit = 0) {
   std::vector<std::string> all{CCFR_EXE};
   all.insert(all.end(), args.begin(), args.end());
   const pid_t pid = fork();

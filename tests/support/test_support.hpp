@@ -38,7 +38,10 @@ inline std::shared_ptr<CountingSink>& counting_sink() {
 class ExpectWarnings {
  public:
   ExpectWarnings() { depth()++; }
-  ~ExpectWarnings() { counting_sink()->warnings = 0; depth()--; }
+  ~ExpectWarnings() {
+    counting_sink()->warnings = 0;
+    depth()--;
+  }
   static int& depth() {
     static int d = 0;
     return d;

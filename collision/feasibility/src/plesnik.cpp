@@ -146,7 +146,20 @@ ProjectResult PlesnikProjector::project(const Vec3& x_anchor, const Vec3& x_cand
       return res;
     }
   }
-  // Line 24: no convergence within the budget; the anchor is feasible here (all d_k >= -tol).
+  // Line 24: no convergence within the budget; the anchor is feasible here (all d_k >= -tol), so
+  // the region is not empty and its exact projection exists. The passes mostly fail by cycling:
+  // each keeps only the planes violated at its start as equalities, and two opposing or nearly
+  // parallel planes then push the point back and forth (measured on the paper's scenes,
+  // docs/results.md "Halting"). The exact projection ends the cycle; halt only if it fails too.
+  if (params_.exact_fallback) {
+    const ProjectResult e = ExactProjector(params_).project(x_anchor, x_candidate, planes);
+    if (e.status == ProjectStatus::projected) {
+      res.x = e.x;
+      res.status = ProjectStatus::projected;
+      res.rescued = true;
+      return res;
+    }
+  }
   res.x = x_anchor;
   res.status = ProjectStatus::halted;
   return res;

@@ -51,21 +51,30 @@ ProjectorRegistry& projectors() {
     const ProjectorParams d;  // the specs' defaults are the struct's: one owner
     ProjectorRegistry r("projector");
     r.add({"plesnik",
-           "Plesník's finite projection onto the violated half-spaces, re-check, halting fallback (the paper)",
-           {ParamSpec::integer("max_iterations", d.max_iterations,
-                               "projection passes (project, re-check every plane) before the vertex halts at its anchor",
-                               1),
+           "Plesník's finite projection onto the violated half-spaces, re-check, the exact projection where the passes "
+           "do not converge, halting fallback (the paper halts at once)",
+           {ParamSpec::integer(
+                "max_iterations", d.max_iterations,
+                "projection passes (project, re-check every plane) before the exact projection (exact_fallback) or a "
+                "halt at the anchor",
+                1),
             ParamSpec::number("redundancy_tolerance", d.redundancy_tolerance,
-                              "a new plane whose equation is dependent on the stored ones within this is skipped", 0.0)},
+                              "a new plane whose equation is dependent on the stored ones within this is skipped", 0.0),
+            ParamSpec::boolean("exact_fallback", d.exact_fallback,
+                               "when the passes do not converge, take the exact projection before halting (false: "
+                               "halt at once, as the paper)")},
            [](const ParamValues&, const ProjectorParams& p) -> std::unique_ptr<Projector> {
              return std::make_unique<PlesnikProjector>(p);
            }});
-    r.add({"successive_projection", "cyclic projection onto one half-space at a time (related work), no fallback",
+    r.add({"successive_projection",
+           "cyclic projection onto one half-space at a time (related work), no fallback",
            {ParamSpec::integer("sweeps", d.sweeps, "cyclic sweeps over the half-spaces", 1)},
            [](const ParamValues&, const ProjectorParams& p) -> std::unique_ptr<Projector> {
              return std::make_unique<SuccessiveProjectionProjector>(p);
            }});
-    r.add({"exact", "the exact Euclidean projection (active set with a dual certificate)", {},
+    r.add({"exact",
+           "the exact Euclidean projection (active set with a dual certificate)",
+           {},
            [](const ParamValues&, const ProjectorParams& p) -> std::unique_ptr<Projector> {
              return std::make_unique<ExactProjector>(p);
            }});
@@ -80,6 +89,8 @@ ProjectorParams apply_projector_params(ProjectorParams base, const ParamValues& 
       base.max_iterations = static_cast<int>(values.integer(key));
     else if (key == "redundancy_tolerance")
       base.redundancy_tolerance = values.number(key);
+    else if (key == "exact_fallback")
+      base.exact_fallback = values.boolean(key);
     else if (key == "sweeps")
       base.sweeps = static_cast<int>(values.integer(key));
     else
@@ -103,6 +114,7 @@ BatchStats& BatchStats::operator+=(const BatchStats& o) {
   halted += o.halted;
   infeasible += o.infeasible;
   fallbacks += o.fallbacks;
+  rescued += o.rescued;
   iterations += o.iterations;
   return *this;
 }
@@ -153,6 +165,7 @@ BatchStats project_all(const Projector& projector, const RegionSet& regions, con
       }
       if (r.status == ProjectStatus::infeasible) ++s.infeasible;
       if (r.fell_back) ++s.fallbacks;
+      if (r.rescued) ++s.rescued;
       x[v] = r.x;
       // Independent re-check of the output, with a slack above every projector's rounding tolerance.
       const double out = min_value(anchor[v], x[v], planes);

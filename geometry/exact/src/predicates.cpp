@@ -77,8 +77,8 @@ bool intersect(const Simplex& x, const Simplex& y) {
 // degenerate-triangle fallback does not catch; this margin is ~10^7 times larger, so the double
 // answer is trusted only when the distance is clearly away from the threshold.
 bool decided_by_double(double d2, double threshold_sq, double extent, double magnitude, int& sign) {
-  const double margin = 1e-9 * (extent * extent + threshold_sq) +
-                        1e-12 * magnitude * (extent + std::sqrt(std::max(threshold_sq, 0.0)));
+  const double margin =
+      1e-9 * (extent * extent + threshold_sq) + 1e-12 * magnitude * (extent + std::sqrt(std::max(threshold_sq, 0.0)));
   if (d2 < threshold_sq - margin) {
     sign = -1;
     return true;
@@ -134,8 +134,8 @@ int compare_point_edge_distance_sq(const Vec3& p, const Vec3& a, const Vec3& b, 
   extent_of(e, m, p, a, b);
   int s;
   if (decided_by_double(point_edge(p, a, b).distance_sq, threshold_sq, e, m, s)) return s;
-  return sign_of(CGAL::compare(CGAL::squared_distance(pt<EK>(p), EK::Segment_3(pt<EK>(a), pt<EK>(b))),
-                               EK::FT(threshold_sq)));
+  return sign_of(
+      CGAL::compare(CGAL::squared_distance(pt<EK>(p), EK::Segment_3(pt<EK>(a), pt<EK>(b))), EK::FT(threshold_sq)));
 }
 
 int compare_point_triangle_distance_sq(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c,
@@ -148,8 +148,7 @@ int compare_point_triangle_distance_sq(const Vec3& p, const Vec3& a, const Vec3&
                                EK::FT(threshold_sq)));
 }
 
-int compare_edge_edge_distance_sq(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1,
-                                  double threshold_sq) {
+int compare_edge_edge_distance_sq(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1, double threshold_sq) {
   double e, m;
   extent_of(e, m, a0, a1, b0, b1);
   int s;
@@ -164,14 +163,12 @@ double exact_point_edge_distance_sq(const Vec3& p, const Vec3& a, const Vec3& b)
 }
 
 double exact_point_triangle_distance_sq(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
-  return CGAL::to_double(
-      CGAL::squared_distance(pt<EK>(p), EK::Triangle_3(pt<EK>(a), pt<EK>(b), pt<EK>(c))).exact());
+  return CGAL::to_double(CGAL::squared_distance(pt<EK>(p), EK::Triangle_3(pt<EK>(a), pt<EK>(b), pt<EK>(c))).exact());
 }
 
 double exact_edge_edge_distance_sq(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1) {
   return CGAL::to_double(
-      CGAL::squared_distance(EK::Segment_3(pt<EK>(a0), pt<EK>(a1)), EK::Segment_3(pt<EK>(b0), pt<EK>(b1)))
-          .exact());
+      CGAL::squared_distance(EK::Segment_3(pt<EK>(a0), pt<EK>(a1)), EK::Segment_3(pt<EK>(b0), pt<EK>(b1))).exact());
 }
 
 std::uint64_t exact_fallback_count() { return g_fallbacks.load(std::memory_order_relaxed); }

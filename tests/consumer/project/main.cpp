@@ -4,7 +4,7 @@
 // there) from scene.yaml: the cloth rests at level + ξ; the solver's keys appear in the generated
 // reference, and its section is refused under another solver.
 #include <ccfr/core/error.hpp>
-#include <ccfr/core/scene.hpp>
+#include <ccfr/core/topology.hpp>
 #include <ccfr/geometry/generators.hpp>
 #include <ccfr/io/scene_loader.hpp>
 #include <ccfr/solvers/simulation.hpp>
@@ -22,7 +22,8 @@ static int run_own_solver() {
   using namespace ccfr;
   io::LoadedScene loaded = io::load_scene(CONSUMER_SCENE);
   if (loaded.scene.params.contact.solver != "ground_plane") return fail("solver not selected");
-  if (loaded.resolved_json.find("\"friction\": 1") == std::string::npos) return fail("run.json lacks the solver's keys");
+  if (loaded.resolved_json.find("\"friction\": 1") == std::string::npos)
+    return fail("run.json lacks the solver's keys");
   const Index n = loaded.scene.topo.num_vertices();
   Simulation sim(std::move(loaded.scene));
   for (int f = 0; f < 30; ++f) sim.step_frame();
@@ -71,7 +72,8 @@ int main() {
   Index k = 0;
   for (const auto& p : cloth.v) scene.state.x[k++] = p + Vec3(0, 0.05, 0);
   for (const auto& p : floor.v) scene.state.x[k++] = p;
-  for (Index v = 0; v < static_cast<Index>(cloth.v.size()); ++v) scene.state.mass[v] = 1e-3, scene.state.inv_mass[v] = 1e3;
+  for (Index v = 0; v < static_cast<Index>(cloth.v.size()); ++v)
+    scene.state.mass[v] = 1e-3, scene.state.inv_mass[v] = 1e3;
   scene.state.rest = scene.state.x_prev = scene.state.x;
   scene.params.objects.resize(2);
   scene.params.time.substeps = 4;

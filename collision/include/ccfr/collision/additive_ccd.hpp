@@ -42,14 +42,12 @@ double sub_pair_distance(ContactKind kind, const std::array<Vec3, 4>& x);
 /// The common translation \f$\bar{\mathbf{p}}\f$ (mean of the stencil's displacements) does not
 /// change the distance and is removed first; then the closest points of the two sides approach
 /// each other at most at the rate
-/// \f[ l_p = \max_{k \in A} \|\mathbf{p}_k - \bar{\mathbf{p}}\| + \max_{k \in B} \|\mathbf{p}_k - \bar{\mathbf{p}}\| ,\f]
-/// so \f$ d(t + \tau) \ge d(t) - \tau\, l_p \f$. With the gap
-/// \f$ g(t) = d(t) - \xi = (d^2 - \xi^2) / (d + \xi) \f$ (the second form keeps the squared
-/// distance of the closest-point routines and loses no digits when d is near ξ), each step
-/// \f[ t \leftarrow t + \tau,\qquad \tau = s\, \frac{g(t)}{l_p} \f]
-/// keeps \f$ g \ge (1 - s)\, g(t) > 0 \f$ on the whole step. The search stops at the last time
-/// whose gap is still at least \f$ (1 - s)\, g(0) \f$ (the first step is always taken), after
-/// `max_iterations` steps, or with toi = 1 once a step reaches past t = 1.
+/// \f[ l_p = \max_{k \in A} \|\mathbf{p}_k - \bar{\mathbf{p}}\| + \max_{k \in B} \|\mathbf{p}_k - \bar{\mathbf{p}}\|
+/// ,\f] so \f$ d(t + \tau) \ge d(t) - \tau\, l_p \f$. With the gap \f$ g(t) = d(t) - \xi = (d^2 - \xi^2) / (d + \xi)
+/// \f$ (the second form keeps the squared distance of the closest-point routines and loses no digits when d is near ξ),
+/// each step \f[ t \leftarrow t + \tau,\qquad \tau = s\, \frac{g(t)}{l_p} \f] keeps \f$ g \ge (1 - s)\, g(t) > 0 \f$ on
+/// the whole step. The search stops at the last time whose gap is still at least \f$ (1 - s)\, g(0) \f$ (the first step
+/// is always taken), after `max_iterations` steps, or with toi = 1 once a step reaches past t = 1.
 ///
 /// Never later than the true time of impact: d > ξ on [0, toi] whenever g(0) > 0. For a point
 /// approaching a plane head-on at normal speed \f$v_n\f$ the answer is

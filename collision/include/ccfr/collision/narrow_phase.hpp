@@ -17,7 +17,7 @@
 #include "ccfr/collision/broad_phase.hpp"
 #include "ccfr/collision/primitives.hpp"
 #include "ccfr/core/contact_model.hpp"
-#include "ccfr/core/scene.hpp"
+#include "ccfr/core/topology.hpp"
 #include "ccfr/feasibility/region.hpp"
 #include "ccfr/geometry/adjacency.hpp"
 

@@ -12,7 +12,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "ccfr/core/scene.hpp"
+#include "ccfr/core/topology.hpp"
 #include "ccfr/geometry/aabb.hpp"
 
 namespace ccfr {
@@ -20,9 +20,9 @@ namespace ccfr {
 enum class PrimitiveKind : std::uint8_t { triangle = 0, edge = 1, point = 2 };
 
 struct CollisionPrimitives {
-  Index num_triangles = 0;  ///< primitives [0, num_triangles) are faces, primitive id = face id
-  Index num_edges = 0;      ///< primitives [num_triangles, +num_edges) are strand segments
-  Index num_points = 0;     ///< the remaining primitives are points
+  Index num_triangles = 0;       ///< primitives [0, num_triangles) are faces, primitive id = face id
+  Index num_edges = 0;           ///< primitives [num_triangles, +num_edges) are strand segments
+  Index num_points = 0;          ///< the remaining primitives are points
   std::vector<Index> edge_ids;   ///< #num_edges: global edge id of each strand-segment primitive
   std::vector<Index> point_ids;  ///< #num_points: vertex id of each point primitive
 

@@ -141,7 +141,8 @@ struct Registration {
 };
 
 namespace detail {
-[[noreturn]] void registry_unknown(const std::string& kind, std::string_view name, const std::vector<std::string>& names);
+[[noreturn]] void registry_unknown(const std::string& kind, std::string_view name,
+                                   const std::vector<std::string>& names);
 void registry_check_entry(const std::string& kind, const std::string& name, bool has_factory,
                           std::span<const ParamSpec> params, bool taken);
 }  // namespace detail

@@ -35,7 +35,12 @@ struct StageTimes {
   /// analytic-obstacle push, finite checks, the step bound and the recount of violations).
   double xpbd = 0, broad = 0, narrow = 0, resolution = 0, check = 0, audit = 0;
   StageTimes& operator+=(const StageTimes& o) {
-    xpbd += o.xpbd; broad += o.broad; narrow += o.narrow; resolution += o.resolution; check += o.check; audit += o.audit;
+    xpbd += o.xpbd;
+    broad += o.broad;
+    narrow += o.narrow;
+    resolution += o.resolution;
+    check += o.check;
+    audit += o.audit;
     return *this;
   }
 };

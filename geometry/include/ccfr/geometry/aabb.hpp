@@ -25,8 +25,8 @@ struct AABB {
     hi.array() += r;
   }
   bool overlaps(const AABB& b) const {
-    return lo.x() <= b.hi.x() && b.lo.x() <= hi.x() && lo.y() <= b.hi.y() && b.lo.y() <= hi.y() &&
-           lo.z() <= b.hi.z() && b.lo.z() <= hi.z();
+    return lo.x() <= b.hi.x() && b.lo.x() <= hi.x() && lo.y() <= b.hi.y() && b.lo.y() <= hi.y() && lo.z() <= b.hi.z() &&
+           b.lo.z() <= hi.z();
   }
   bool valid() const { return lo.allFinite() && hi.allFinite() && (lo.array() <= hi.array()).all(); }
   Vec3 center() const { return 0.5 * (lo + hi); }

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "ccfr/core/csr.hpp"
-#include "ccfr/core/scene.hpp"
+#include "ccfr/core/topology.hpp"
 #include "ccfr/core/types.hpp"
 
 namespace ccfr {

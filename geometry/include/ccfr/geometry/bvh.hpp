@@ -39,8 +39,8 @@ class Bvh {
   /// order_, which lets self_pairs skip subtrees that lie entirely before the querying leaf.
   struct Node {
     AABB box;
-    Index right = -1;             ///< right child, -1 for a leaf
-    Index first = 0, count = 0;   ///< range in order_
+    Index right = -1;            ///< right child, -1 for a leaf
+    Index first = 0, count = 0;  ///< range in order_
   };
   void build_node(Index id, Index first, Index count, int leaf_size, const std::vector<Vec3>& centres);
   void gather(std::span<const AABB> boxes);

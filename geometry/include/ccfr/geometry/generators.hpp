@@ -9,12 +9,12 @@
 namespace ccfr::gen {
 
 struct TriMesh {
-  Positions v;             ///< #V by 3
-  std::vector<Vec3i> f;    ///< #F by 3, counter-clockwise seen from outside / from +normal
+  Positions v;           ///< #V by 3
+  std::vector<Vec3i> f;  ///< #F by 3, counter-clockwise seen from outside / from +normal
 };
 struct TetMesh {
   Positions v;
-  std::vector<Vec4i> t;    ///< #T by 4, positive orientation
+  std::vector<Vec4i> t;  ///< #T by 4, positive orientation
 };
 struct PolylineSet {
   Positions v;

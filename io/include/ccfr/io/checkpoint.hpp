@@ -19,14 +19,14 @@ inline constexpr std::uint32_t kCheckpointFormat = 1;
 
 struct Checkpoint {
   SimulationCheckpoint sim;
-  std::string ccfr_version, git_commit;   ///< of the build that wrote it
-  std::string resolved_config;            ///< run.json `config`: every default filled in, as JSON
-  std::filesystem::path scene_file;       ///< absolute path of the scene file
-  std::vector<std::string> overrides;     ///< --set, --frames and --solver as key.path=value
-  std::uint64_t scene_fingerprint = 0;    ///< scene_fingerprint() of the initial scene
-  std::vector<double> audit_offsets;      ///< in-simulation audit state (debug.audit), empty if off
-  std::int64_t violated_frames = 0;       ///< frames so far that ended with violations (exit code 3)
-  std::int32_t frames_written = 0;        ///< frame files on disk at the checkpoint
+  std::string ccfr_version, git_commit;  ///< of the build that wrote it
+  std::string resolved_config;           ///< run.json `config`: every default filled in, as JSON
+  std::filesystem::path scene_file;      ///< absolute path of the scene file
+  std::vector<std::string> overrides;    ///< --set, --frames and --solver as key.path=value
+  std::uint64_t scene_fingerprint = 0;   ///< scene_fingerprint() of the initial scene
+  std::vector<double> audit_offsets;     ///< in-simulation audit state (debug.audit), empty if off
+  std::int64_t violated_frames = 0;      ///< frames so far that ended with violations (exit code 3)
+  std::int32_t frames_written = 0;       ///< frame files on disk at the checkpoint
 };
 
 /// CRC-32 (IEEE 802.3, the polynomial of zlib and PNG) of `data`.

@@ -11,7 +11,7 @@
 #include <string_view>
 #include <vector>
 
-#include "ccfr/core/scene.hpp"
+#include "ccfr/core/topology.hpp"
 #include "ccfr/core/types.hpp"
 
 namespace ccfr::io {
@@ -27,8 +27,8 @@ std::vector<OutputFormat> parse_output_formats(const std::vector<std::string>& n
 /// Per-vertex data written next to the positions (VTU point data). An empty vector means the
 /// field is not known (e.g. `ccfr export` from frames on disk knows only velocity).
 struct VertexFields {
-  Positions velocity;                ///< m/s
-  std::vector<std::uint8_t> halted;  ///< 1 if the vertex halted (fell back to its anchor) in this frame
+  Positions velocity;                     ///< m/s
+  std::vector<std::uint8_t> halted;       ///< 1 if the vertex halted (fell back to its anchor) in this frame
   std::vector<std::int32_t> half_spaces;  ///< half-spaces of its region at the last detection
   /// Distance to the nearest primitive among the detected contacts (m); NaN if none was in range.
   std::vector<double> distance;

@@ -4,7 +4,7 @@
 /// directory (the penetration audit).
 #include <filesystem>
 
-#include "ccfr/core/scene.hpp"
+#include "ccfr/core/topology.hpp"
 #include "ccfr/io/obj.hpp"
 
 namespace ccfr::io {

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "ccfr/core/scene.hpp"
+#include "ccfr/core/topology.hpp"
 #include "ccfr/core/types.hpp"
 
 namespace ccfr::io {

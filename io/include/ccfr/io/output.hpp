@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "ccfr/collision/narrow_phase.hpp"
-#include "ccfr/core/scene.hpp"
+#include "ccfr/core/topology.hpp"
 #include "ccfr/io/formats.hpp"
 #include "ccfr/solvers/simulation.hpp"
 

@@ -13,8 +13,8 @@ namespace ccfr::io {
 
 struct LoadedScene {
   Scene scene;
-  std::string resolved_json;          ///< the configuration with every default filled in, as JSON
-  std::filesystem::path source;       ///< the scene file
+  std::string resolved_json;     ///< the configuration with every default filled in, as JSON
+  std::filesystem::path source;  ///< the scene file
 };
 
 /// Loads `file`, applying `overrides` ("key.path=value", value parsed as YAML) before validation.

@@ -19,22 +19,22 @@ struct SweepResources {
 };
 
 struct SweepCell {
-  std::string id;                      ///< stable: scene, solver and parameter values, e.g. drape__ccfr__contact.offset=0.01
-  std::filesystem::path config;        ///< absolute scene file
-  std::string scene;                   ///< the scene file's stem
-  std::string solver;                  ///< empty: the scene's contact.solver
+  std::string id;                ///< stable: scene, solver and parameter values, e.g. drape__ccfr__contact.offset=0.01
+  std::filesystem::path config;  ///< absolute scene file
+  std::string scene;             ///< the scene file's stem
+  std::string solver;            ///< empty: the scene's contact.solver
   std::vector<std::pair<std::string, std::string>> params;  ///< swept key path and value, in spec order
   std::vector<std::string> overrides;  ///< every --set of the cell (spec `set`, frames, solver, params)
 };
 
 struct SweepSpec {
   std::filesystem::path file;
-  std::vector<std::filesystem::path> configs;  ///< absolute
-  std::vector<std::string> solvers;            ///< empty: each scene's own solver
-  std::vector<std::string> parameter_keys;     ///< swept key paths, in spec order
-  std::vector<std::vector<std::string>> cases; ///< per case, one value per parameter key
-  std::vector<std::string> set;                ///< key.path=value applied to every cell
-  int frames = -1;                             ///< -1: each scene's time.frames
+  std::vector<std::filesystem::path> configs;   ///< absolute
+  std::vector<std::string> solvers;             ///< empty: each scene's own solver
+  std::vector<std::string> parameter_keys;      ///< swept key paths, in spec order
+  std::vector<std::vector<std::string>> cases;  ///< per case, one value per parameter key
+  std::vector<std::string> set;                 ///< key.path=value applied to every cell
+  int frames = -1;                              ///< -1: each scene's time.frames
   int audit_stride = 1;
   SweepResources resources;
   std::vector<SweepCell> cells;  ///< configs × solvers × cases, in that nesting order

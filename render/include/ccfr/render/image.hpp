@@ -20,9 +20,7 @@ struct Image {
 
   bool empty() const { return width <= 0 || height <= 0; }
   std::uint8_t* pixel(int x, int y) { return rgb.data() + (static_cast<size_t>(y) * width + x) * 3; }
-  const std::uint8_t* pixel(int x, int y) const {
-    return rgb.data() + (static_cast<size_t>(y) * width + x) * 3;
-  }
+  const std::uint8_t* pixel(int x, int y) const { return rgb.data() + (static_cast<size_t>(y) * width + x) * 3; }
 };
 
 /// Writes `image` as a PNG atomically (temporary file, then rename). Throws ccfr::Error on failure.
@@ -43,8 +41,7 @@ void draw_label(Image& image, int x, int y, const std::string& text, int scale =
 /// Lays `tiles` (all the same size) out in a grid of `columns` columns separated by `gap`
 /// pixels of background, each with its label drawn in the top-left corner.
 /// Throws ccfr::Error if the tiles differ in size or `labels` is neither empty nor tiles.size().
-Image contact_sheet(const std::vector<Image>& tiles, const std::vector<std::string>& labels, int columns,
-                    int gap = 4);
+Image contact_sheet(const std::vector<Image>& tiles, const std::vector<std::string>& labels, int columns, int gap = 4);
 
 /// Mean and maximum absolute per-channel difference (0..255) of two same-sized images.
 /// Throws ccfr::Error if the sizes differ.

@@ -16,18 +16,18 @@ namespace ccfr::render {
 
 struct RunRenderOptions {
   RenderOptions render;
-  std::optional<Camera> camera;   ///< fixed camera; otherwise fitted to the bounds of every drawn frame
+  std::optional<Camera> camera;  ///< fixed camera; otherwise fitted to the bounds of every drawn frame
   /// Objects (by `o` name) the fitted camera leaves out of its bounds, so that a small subject on
   /// a large floor fills the picture; they are still drawn. Ignored when nothing else is left.
   std::vector<std::string> frame_exclude;
-  std::filesystem::path out;      ///< output folder (created)
-  int every = 1;                  ///< draw every k-th frame (the last frame is always drawn)
-  bool sheet = false;             ///< write out/sheet.png
-  int sheet_frames = 12;          ///< at most this many frames, evenly spaced, on the sheet
+  std::filesystem::path out;  ///< output folder (created)
+  int every = 1;              ///< draw every k-th frame (the last frame is always drawn)
+  bool sheet = false;         ///< write out/sheet.png
+  int sheet_frames = 12;      ///< at most this many frames, evenly spaced, on the sheet
   int sheet_columns = 4;
-  int sheet_tile_width = 400;     ///< pixels per tile (the height follows the aspect ratio)
-  bool video = false;             ///< write out/video.mp4 with ffmpeg
-  double fps = 30.0;              ///< frame rate of the source frames; the video plays at fps / every
+  int sheet_tile_width = 400;  ///< pixels per tile (the height follows the aspect ratio)
+  bool video = false;          ///< write out/video.mp4 with ffmpeg
+  double fps = 30.0;           ///< frame rate of the source frames; the video plays at fps / every
 };
 
 struct RunRenderSummary {

@@ -17,10 +17,10 @@ namespace ccfr::render {
 struct RenderOptions {
   int width = 800;
   int height = 600;
-  int samples = 4;      ///< camera rays per pixel, on a stratified grid (rounded down to a square, >= 1)
-  int ao_samples = 4;   ///< ambient-occlusion rays per camera ray (0 disables occlusion)
-  bool shadows = true;  ///< hard shadows from the key light
-  bool ground = true;   ///< a checkered floor just below the scene, catching shadows
+  int samples = 4;             ///< camera rays per pixel, on a stratified grid (rounded down to a square, >= 1)
+  int ao_samples = 4;          ///< ambient-occlusion rays per camera ray (0 disables occlusion)
+  bool shadows = true;         ///< hard shadows from the key light
+  bool ground = true;          ///< a checkered floor just below the scene, catching shadows
   double strand_radius = 0.0;  ///< tube radius of strands; 0 = automatic
   double point_radius = 0.0;   ///< sphere radius of particles; 0 = automatic
   /// Contact offset ξ of the run (run.json), if known: strands and particles then get radius
@@ -37,11 +37,11 @@ struct View {
   double strand_radius = 0.0;
   double point_radius = 0.0;
   bool ground = true;
-  double ground_height = 0.0;  ///< floor position along `camera.up`
-  double ground_cell = 0.1;    ///< checker size
-  double ground_fade = 1.0;    ///< distance from the target over which the floor fades out
-  double ao_distance = 0.1;    ///< how far occluders darken a point
-  double epsilon = 1e-6;       ///< ray offset off surfaces
+  double ground_height = 0.0;      ///< floor position along `camera.up`
+  double ground_cell = 0.1;        ///< checker size
+  double ground_fade = 1.0;        ///< distance from the target over which the floor fades out
+  double ao_distance = 0.1;        ///< how far occluders darken a point
+  double epsilon = 1e-6;           ///< ray offset off surfaces
   Vec3 light_dir = Vec3::UnitY();  ///< towards the key light, unit
 };
 

@@ -14,9 +14,9 @@
 #include <vector>
 
 #include "ccfr/core/registry.hpp"
-#include "ccfr/core/scene.hpp"
 #include "ccfr/core/state.hpp"
 #include "ccfr/core/timer.hpp"
+#include "ccfr/core/topology.hpp"
 #include "ccfr/solvers/params.hpp"
 
 namespace ccfr {
@@ -55,6 +55,15 @@ struct SolveResult {
   Index contact_vertices = 0;  ///< movable vertices with at least one contact in this pass
   /// Plesník results farther from the candidate than the anchor, replaced by the exact projection.
   Index projector_fallbacks = 0;
+  /// Plesník projections that did not converge within max_iterations and took the exact
+  /// projection instead of halting (ProjectorParams::exact_fallback).
+  Index projector_rescues = 0;
+  /// Distinct vertices halted so far in the current frame (StepContext::frame), counting this pass:
+  /// non-decreasing within a frame, so the frame's value is the last pass's. -1: not tracked.
+  Index halted_vertices_distinct = -1;
+  /// Distinct movable vertices with a contact so far in the current frame, counting this pass
+  /// (the paper's collision points of the frame). -1: not tracked.
+  Index contact_vertices_distinct = -1;
 };
 
 class ContactSolver {

@@ -1,9 +1,9 @@
 #pragma once
 /// @file kinematics.hpp
 /// Scripted rigid motion of kinematic vertices (obstacles, pinned handles).
+#include <Eigen/Geometry>
 #include <limits>
 #include <memory>
-#include <Eigen/Geometry>
 #include <vector>
 
 #include "ccfr/core/types.hpp"
@@ -13,8 +13,8 @@ namespace ccfr {
 /// Positions of an object's vertices at increasing times (an OBJ sequence), interpolated linearly
 /// between keys and held before the first and after the last.
 struct VertexAnimation {
-  std::vector<double> times;        ///< strictly increasing
-  std::vector<Positions> keys;      ///< per time: the object's vertices, in its local order
+  std::vector<double> times;    ///< strictly increasing
+  std::vector<Positions> keys;  ///< per time: the object's vertices, in its local order
   /// Keyframed rigid transforms instead of `keys` (non-empty rotations): at times[k] a vertex at
   /// rest position p0 is at center + rotations[k] (p0 - center) + translations[k]; between keys
   /// the rotation is slerped and the translation lerped.

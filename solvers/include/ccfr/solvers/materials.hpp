@@ -19,8 +19,8 @@
 
 #include <Eigen/Core>
 
-#include "ccfr/core/scene.hpp"
 #include "ccfr/core/state.hpp"
+#include "ccfr/core/topology.hpp"
 #include "ccfr/core/types.hpp"
 #include "ccfr/solvers/params.hpp"
 #include "ccfr/solvers/xpbd.hpp"
@@ -124,8 +124,8 @@ void solve_tet_volume(const std::array<Vec3*, 4>& x, const std::array<double, 4>
 /// Deviatoric (co-rotational shape) constraint \f$C_D = \|\mathbf{F} - \mathbf{R}\|_F\f$ with
 /// \f$\mathbf{F} = \mathbf{D}_s \mathbf{D}_m^{-1}\f$, \f$\mathbf{D}_s = [\mathbf{x}_1 - \mathbf{x}_0,\ \mathbf{x}_2 -
 /// \mathbf{x}_0,\ \mathbf{x}_3 - \mathbf{x}_0]\f$ (3 by 3), `rest_inverse` = \f$\mathbf{D}_m^{-1}\f$ of the rest shape
-/// and R = `polar_rotation_newton`(F) (det R = +1). Its energy \f$\tfrac12 C_D^2/\alpha\f$ is the as-rigid-as-possible /
-/// co-rotational energy; since R minimises \f$\|\mathbf{F} - \mathbf{R}\|\f$ over rotations, \f$\partial
+/// and R = `polar_rotation_newton`(F) (det R = +1). Its energy \f$\tfrac12 C_D^2/\alpha\f$ is the as-rigid-as-possible
+/// / co-rotational energy; since R minimises \f$\|\mathbf{F} - \mathbf{R}\|\f$ over rotations, \f$\partial
 /// C_D/\partial\mathbf{F} = (\mathbf{F} - \mathbf{R})/C_D\f$, and the gradient is given by the columns of \f$\mathbf{H}
 /// = (\mathbf{F} - \mathbf{R})\mathbf{D}_m^{-T} / C_D\f$ for x_1..x_3, \f$\nabla_0 C_D = -\sum_k \mathbf{H}_{:,k}\f$.
 /// Unlike \f$\|\mathbf{F}\|_F - \sqrt{3}\f$ (the stable Neo-Hookean term shifted to vanish at rest), it resists
@@ -149,11 +149,11 @@ void solve_tet_deviatoric(const std::array<Vec3*, 4>& x, const std::array<double
 Eigen::Matrix3d polar_rotation(const Eigen::Matrix3d& a);
 
 /// The same rotation by Higham's scaled Newton iteration (Higham 1986, "Computing the polar
-/// decomposition with applications"): \f$\mathbf{X}_0 = \mathbf{A}\f$, \f$\mathbf{X}_{k+1} = \tfrac12(\zeta_k\mathbf{X}_k +
-/// \zeta_k^{-1}\mathbf{X}_k^{-T})\f$ with \f$\zeta_k = (\|\mathbf{X}_k^{-1}\|_F / \|\mathbf{X}_k\|_F)^{1/2}\f$, until the step is
-/// below 1e-12 (quadratic convergence: 4-5 steps for a tet's F, about 3x cheaper than the SVD and
-/// equal to it within a few ulps). The iteration yields the orthogonal factor with det = sign det A,
-/// so an inverted, flat or nearly flat A (det A ≤ 1e-6 ‖A‖³) goes to polar_rotation() instead.
+/// decomposition with applications"): \f$\mathbf{X}_0 = \mathbf{A}\f$, \f$\mathbf{X}_{k+1} =
+/// \tfrac12(\zeta_k\mathbf{X}_k + \zeta_k^{-1}\mathbf{X}_k^{-T})\f$ with \f$\zeta_k = (\|\mathbf{X}_k^{-1}\|_F /
+/// \|\mathbf{X}_k\|_F)^{1/2}\f$, until the step is below 1e-12 (quadratic convergence: 4-5 steps for a tet's F, about
+/// 3x cheaper than the SVD and equal to it within a few ulps). The iteration yields the orthogonal factor with det =
+/// sign det A, so an inverted, flat or nearly flat A (det A ≤ 1e-6 ‖A‖³) goes to polar_rotation() instead.
 Eigen::Matrix3d polar_rotation_newton(const Eigen::Matrix3d& a);
 
 /// Shape matching (Müller et al. 2005) with stiffness 1 of one body of n vertices. With weights

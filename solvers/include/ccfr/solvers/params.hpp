@@ -15,16 +15,16 @@
 namespace ccfr {
 
 struct TimeParams {
-  double fps = 60.0;            ///< frames per second; frame time Δt_frame = 1/fps
-  int frames = 120;             ///< frames to simulate
-  int substeps = 10;            ///< substeps per frame; Δt = Δt_frame / substeps
-  int iterations = 4;           ///< outer solver iterations per substep (paper Alg. "simulation loop", line 3)
+  double fps = 60.0;   ///< frames per second; frame time Δt_frame = 1/fps
+  int frames = 120;    ///< frames to simulate
+  int substeps = 10;   ///< substeps per frame; Δt = Δt_frame / substeps
+  int iterations = 4;  ///< outer solver iterations per substep (paper Alg. "simulation loop", line 3)
   /// Outer iterations continue past `iterations` while some vertex has not reached its intended
   /// advance (the paper's convergence check), up to this many; 0 means 4 · iterations.
   int max_iterations = 0;
-  int xpbd_sweeps = 1;          ///< material constraint sweeps per outer iteration
+  int xpbd_sweeps = 1;  ///< material constraint sweeps per outer iteration
   Vec3 gravity = Vec3(0, -9.81, 0);
-  double damping = 0.0;         ///< fraction of velocity removed per second (0: none)
+  double damping = 0.0;             ///< fraction of velocity removed per second (0: none)
   double advance_tolerance = 0.01;  ///< outer iterations stop once no vertex is held back by r by more than tol · r
   /// Most pieces a substep may be split into when a scripted step exceeds r or the intended
   /// advance exceeds what the outer iterations can cover ((max_iterations - 1) · r); see Simulation.
@@ -45,14 +45,14 @@ enum class ViolationPolicy {
 /// The contact section: the contact model (r, ξ, δ, friction; one owner, shared with collision
 /// detection and the audit) plus the choice of solver and the settings every solver shares.
 struct ContactParams : ContactModel {
-  std::string solver = "ccfr";        ///< contact solver (a name in contact_solvers())
+  std::string solver = "ccfr";  ///< contact solver (a name in contact_solvers())
   /// The solver's own parameters (`contact.<solver>.*`, the keys of its registry entry); keys not
   /// set take the registered defaults, keys the solver does not declare are an error.
   ParamValues solver_params;
-  double stiffness = 1e4;             ///< k: repulsion stiffness, XPBD compliance 1/k
-  double visibility_width = 0.0;      ///< δ_v: occlusion smoothstep width (0: δ)
-  double epsilon = 1e-4;              ///< ε relative to ξ: projectors retract by ε ξ (absolute 1e-6 at ξ = 0.01)
-  bool analytic_obstacles = false;    ///< obstacles with an analytic shape also collide through their SDF
+  double stiffness = 1e4;           ///< k: repulsion stiffness, XPBD compliance 1/k
+  double visibility_width = 0.0;    ///< δ_v: occlusion smoothstep width (0: δ)
+  double epsilon = 1e-4;            ///< ε relative to ξ: projectors retract by ε ξ (absolute 1e-6 at ξ = 0.01)
+  bool analytic_obstacles = false;  ///< obstacles with an analytic shape also collide through their SDF
   ViolationPolicy on_violation = ViolationPolicy::automatic;  ///< see ViolationPolicy
 };
 
@@ -68,29 +68,29 @@ struct DebugParams {
 };
 
 struct OutputParams {
-  bool frames = true;  ///< write frames/frame_*.obj
-  int every = 1;       ///< write every k-th frame (frame 0 always)
+  bool frames = true;         ///< write frames/frame_*.obj
+  int every = 1;              ///< write every k-th frame (frame 0 always)
   int checkpoint_every = 10;  ///< checkpoint every k-th frame and on SIGINT/SIGTERM (0: never)
   /// output.formats: obj, ply, vtu, pc2, usda (docs/interop.md); empty means obj only.
   std::vector<std::string> formats;
 };
 
 struct MaterialParams {
-  double density = 0.1;              ///< kg/m² (cloth, shell), kg/m (strand), kg/m³ (solids, rigid), kg per particle
-  double stretch_compliance = 0.0;   ///< m/N, XPBD compliance of edge length constraints
-  double bend_compliance = 0.1;      ///< bending compliance (1/(N·m)) for dihedral / strand bending
-  double volume_compliance = 0.0;    ///< tet volume compliance
-  double shear_compliance = 1e-6;    ///< tet deviatoric (shape) compliance
-  double friction = -1.0;            ///< per-object friction override (<0: use contact.friction)
+  double density = 0.1;             ///< kg/m² (cloth, shell), kg/m (strand), kg/m³ (solids, rigid), kg per particle
+  double stretch_compliance = 0.0;  ///< m/N, XPBD compliance of edge length constraints
+  double bend_compliance = 0.1;     ///< bending compliance (1/(N·m)) for dihedral / strand bending
+  double volume_compliance = 0.0;   ///< tet volume compliance
+  double shear_compliance = 1e-6;   ///< tet deviatoric (shape) compliance
+  double friction = -1.0;           ///< per-object friction override (<0: use contact.friction)
 };
 
 /// Analytic shape of an obstacle, used for SDF collision when contact.analytic_obstacles is on.
 struct AnalyticShape {
   enum class Type { none, sphere, plane, box, cylinder } type = Type::none;
-  Vec3 center = Vec3::Zero();   ///< rest position of the shape's centre
-  Vec3 half_extent = Vec3::Zero();  ///< box half sizes
-  double radius = 0.0;          ///< sphere / cylinder radius
-  double half_height = 0.0;     ///< cylinder half height (axis y in the shape's rest frame)
+  Vec3 center = Vec3::Zero();                              ///< rest position of the shape's centre
+  Vec3 half_extent = Vec3::Zero();                         ///< box half sizes
+  double radius = 0.0;                                     ///< sphere / cylinder radius
+  double half_height = 0.0;                                ///< cylinder half height (axis y in the shape's rest frame)
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  ///< rest orientation
 };
 
@@ -103,7 +103,7 @@ struct PinGroup {
 struct ObjectParams {
   MaterialParams material;
   std::vector<PinGroup> pins;
-  Motion motion;                      ///< obstacles: whole-object scripted motion
+  Motion motion;  ///< obstacles: whole-object scripted motion
   Vec3 initial_velocity = Vec3::Zero();
   AnalyticShape shape;
 };

@@ -12,11 +12,12 @@
 #include <span>
 #include <vector>
 
-#include "ccfr/core/scene.hpp"
 #include "ccfr/core/state.hpp"
+#include "ccfr/core/topology.hpp"
 #include "ccfr/core/types.hpp"
 #include "ccfr/feasibility/projector.hpp"
 #include "ccfr/feasibility/region.hpp"
+#include "ccfr/solvers/params.hpp"
 
 namespace ccfr {
 
@@ -35,7 +36,10 @@ class RigidBodies {
   RigidBodies() = default;
   /// Every object of kind `rigid` with at least one vertex. Bodies with kinematic (pinned)
   /// vertices follow their pins through shape matching and are refitted without a line search.
-  RigidBodies(const Topology& topo, const SimState& state);
+  /// With `params` (parallel to topo.objects), a body whose vertex masses sum to less than its
+  /// solid's ρV (the loader's moment-matched masses, see rigid_vertex_masses) gets the rest as a core
+  /// at its centre of mass: its fits then respond to corrections with the solid's mass and inertia.
+  RigidBodies(const Topology& topo, const SimState& state, const SimulationParams* params = nullptr);
 
   bool empty() const { return bodies_.empty(); }
   Index size() const { return static_cast<Index>(bodies_.size()); }
@@ -46,8 +50,13 @@ class RigidBodies {
   /// `projector` re-projects the fitted positions in the refit iterations. A body whose step the
   /// bound shortened by more than `advance_tolerance` (relative) counts in bodies_bounded, so the
   /// substep keeps iterating until it arrives.
+  /// `cores` (#bodies, from predicted_cores) places the cores; empty: no core.
   RigidEnforceStats enforce(Positions& x, const Positions& anchor, const RegionSet& regions, const Projector& projector,
-                            double step_bound, double advance_tolerance = 0.01) const;
+                            double step_bound, double advance_tolerance = 0.01, std::span<const Vec3> cores = {}) const;
+
+  /// Where each body's core is before any contact acts in the substep: its centre of mass moved
+  /// ballistically from `state` (x, v at the substep start) by dt under `gravity`, as the vertices are.
+  std::vector<Vec3> predicted_cores(const SimState& state, double dt, const Vec3& gravity) const;
 
   /// Vertices of rigid bodies farther than `tolerance` from the best rigid fit of their body:
   /// a deformed rigid body, which detection cannot see (its pairs with itself are not tested).
@@ -61,6 +70,7 @@ class RigidBodies {
     std::vector<double> weight;           ///< fitting weights (masses; kinematic vertices dominate)
     std::vector<std::uint8_t> kinematic;  ///< 1 for pinned vertices, which keep their scripted positions
     double extent = 0.0;                  ///< largest |rest offset|, the lever arm of a rotation
+    double core = 0.0;                    ///< mass at the centre of mass carried by no vertex (kg)
   };
   std::vector<Body> bodies_;
 };

@@ -1,8 +1,8 @@
 #pragma once
 /// @file scene.hpp
 /// A ready-to-simulate scene: connectivity, state and typed parameters.
-#include "ccfr/core/scene.hpp"
 #include "ccfr/core/state.hpp"
+#include "ccfr/core/topology.hpp"
 #include "ccfr/solvers/params.hpp"
 
 namespace ccfr {

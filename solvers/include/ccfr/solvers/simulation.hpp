@@ -6,11 +6,12 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <span>
 
 #include "ccfr/solvers/contact_solver.hpp"
-#include "ccfr/solvers/scene.hpp"
 #include "ccfr/solvers/materials.hpp"
+#include "ccfr/solvers/scene.hpp"
 #include "ccfr/solvers/xpbd.hpp"
 
 namespace ccfr {
@@ -30,24 +31,32 @@ struct FrameStats {
   /// passes: the paper's "collision points"; halting in percent is 100 halted / contact_vertices.
   Index contact_vertices = 0;
   double min_distance = std::numeric_limits<double>::infinity();  ///< closest pair seen by detection
-  Index penetrations = -1;         ///< audit count (-1: audit off)
-  Index clamped_vertices = 0;      ///< vertices held back by the step bound r (summed)
-  int outer_iterations = 0;        ///< outer iterations run in the frame (summed over substeps)
-  int substeps_run = 0;            ///< substeps actually run, after automatic subdivision
+  Index penetrations = -1;                                        ///< audit count (-1: audit off)
+  Index clamped_vertices = 0;                                     ///< vertices held back by the step bound r (summed)
+  int outer_iterations = 0;  ///< outer iterations run in the frame (summed over substeps)
+  int substeps_run = 0;      ///< substeps actually run, after automatic subdivision
   /// Plesník projections replaced by the exact projection because they landed farther from the
   /// candidate than the anchor (summed over the resolution passes; 0 for other projectors).
   Index projector_fallbacks = 0;
+  /// Vertices whose unconverged Plesník passes took the exact projection instead of halting
+  /// (summed over the resolution passes; 0 for other projectors or with exact_fallback off).
+  Index projector_rescues = 0;
+  /// Distinct vertices that halted at least once in the frame (-1: the solver does not track it).
+  Index halted_vertices_distinct = -1;
+  /// Distinct movable vertices with a contact in at least one of the frame's passes (-1: not
+  /// tracked). The per-frame halting ratio is halted_vertices_distinct / contact_vertices_distinct.
+  Index contact_vertices_distinct = -1;
 };
 
 /// Everything a Simulation carries from frame to frame beyond its scene (Simulation::checkpoint):
 /// with it, a Simulation built from the same scene continues exactly as the one that saved it.
 /// Kinematic vertices are part of `x`; their scripted motion is a function of `time`.
 struct SimulationCheckpoint {
-  int frame = 0;                      ///< frames done
-  double time = 0.0;                  ///< simulated time
-  Positions x, v, x_prev;             ///< #V positions, velocities, positions at the last substep's start
-  std::vector<double> solver_state;   ///< ContactSolver::save_state()
-  bool warned_violation = false;      ///< the once-per-run warnings already given
+  int frame = 0;                            ///< frames done
+  double time = 0.0;                        ///< simulated time
+  Positions x, v, x_prev;                   ///< #V positions, velocities, positions at the last substep's start
+  std::vector<double> solver_state;         ///< ContactSolver::save_state()
+  bool warned_violation = false;            ///< the once-per-run warnings already given
   std::vector<std::uint8_t> warned_capped;  ///< per object (empty: none given yet)
 };
 
@@ -104,6 +113,17 @@ class Simulation {
  private:
   /// One substep of length dt (a piece of a subdivided substep, or a whole one).
   void substep(FrameStats& fs, int substep_index, double dt);
+  /// How an outer iteration ended, after every solver family's common tail.
+  struct OuterIterationEnd {
+    Index remaining = 0;         ///< violations left at the iteration's final positions
+    Index held_back = 0;         ///< vertices whose advance the solver or the step bound cut
+    std::optional<Index> worst;  ///< the step bound's longest held-back step, if any
+    double worst_length = 0.0;   ///< its length before the bound
+  };
+  /// The end of one outer iteration, the same for every contact solver: the analytic obstacles'
+  /// push, the step bound (solvers that clamp to r; paper Alg. 1 line 16) and the recount of
+  /// violations at the positions the iteration really ends with. Works on solve_ against anchor_.
+  OuterIterationEnd end_outer_iteration(const SolveResult& res, double t1, StepContext& ctx);
   /// Pieces the next substep of length dt must be split into so that scripted vertices move at
   /// most r per piece and the intended advance fits in the outer iterations' step bounds.
   int subdivision(double dt);
@@ -122,7 +142,7 @@ class Simulation {
   Scene scene_;
   std::unique_ptr<ContactSolver> contact_;
   MaterialSystem materials_;
-  std::vector<Index> kinematic_;          ///< kinematic vertex ids
+  std::vector<Index> kinematic_;           ///< kinematic vertex ids
   std::vector<const Motion*> kin_motion_;  ///< motion of each kinematic vertex (nullptr: static)
   std::vector<Index> analytic_obstacles_;  ///< objects with an analytic shape
   Positions predicted_, anchor_, solve_, kinematic_step_;

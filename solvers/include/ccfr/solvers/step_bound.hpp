@@ -4,6 +4,7 @@
 /// ends farther than r from its anchor, so primitives that this iteration's detection did not see
 /// cannot be reached. One implementation, used by the substep loop and by solvers that need the
 /// bounded positions before the loop applies them (toi_clamp's path ends).
+#include <optional>
 #include <span>
 
 #include "ccfr/core/types.hpp"
@@ -12,9 +13,9 @@ namespace ccfr {
 
 /// What the step bound did.
 struct StepBoundResult {
-  Index held_back = 0;        ///< movable vertices whose step exceeded r (1 + tolerance): their advance was cut
-  Index worst = -1;           ///< the vertex with the longest such step (-1: none)
-  double worst_length = 0.0;  ///< its step length before the bound
+  Index held_back = 0;         ///< movable vertices whose step exceeded r (1 + tolerance): their advance was cut
+  std::optional<Index> worst;  ///< the vertex with the longest such step, if any was held back
+  double worst_length = 0.0;   ///< its step length before the bound
 };
 
 /// out_i = a_i + min(1, r / |x_i - a_i|) (x_i - a_i) for movable vertices (inv_mass > 0); scripted

@@ -40,7 +40,8 @@ struct Colouring {
   std::vector<Index> offsets;  ///< #colours + 1
   Index colours() const { return static_cast<Index>(offsets.size()) - 1; }
 };
-Colouring colour_constraints(Index num_vertices, std::span<const Index> vertices, int arity, std::span<const double> inv_mass);
+Colouring colour_constraints(Index num_vertices, std::span<const Index> vertices, int arity,
+                             std::span<const double> inv_mass);
 
 /// Edge length constraints.
 struct DistanceBatch {
@@ -54,7 +55,7 @@ struct DistanceBatch {
   /// Colours the batch (call after the last add()).
   void finalize(Index num_vertices, std::span<const double> inv_mass);
   void reset_multipliers();
-  void solve(Positions& x, std::span<const double> inv_mass, double dt) ;
+  void solve(Positions& x, std::span<const double> inv_mass, double dt);
   Index size() const { return static_cast<Index>(ids.size()); }
 };
 

@@ -37,6 +37,9 @@ struct ProjectResult {
   /// violated plane as an equality, and nearly parallel planes meet far away), so `x` is the exact
   /// projector's answer instead (or the anchor if that failed). Always false for the other projectors.
   bool fell_back = false;
+  /// Plesník only: the passes did not converge within max_iterations and `x` is the exact
+  /// projector's answer (ProjectorParams::exact_fallback) instead of a halt at the anchor.
+  bool rescued = false;
 };
 
 /// Parameters shared by all projectors; each projector reads the fields it needs.
@@ -52,6 +55,11 @@ struct ProjectorParams {
   /// 1 pass halts 5.3 % of them, 2 passes 3.5 %, 3 passes 0.9 %, 4 passes 0.68 %, and larger budgets
   /// only approach a floor of 0.46 % (cases that cycle) while the mean stays at 1.1 passes.
   int max_iterations = 4;
+  /// Plesník only: when the passes do not converge, take the exact projection (ExactProjector)
+  /// before halting. The anchor is feasible there, so the region is never empty and the exact
+  /// answer exists; the vertex halts only if that fails too. false: halt at once (the paper).
+  /// The causes of Plesník's halts in the paper's scenes are measured in docs/results.md ("Halting").
+  bool exact_fallback = true;
   /// Denominators and ERO direction lengths below this are treated as zero: the new equation is
   /// linearly dependent on the stored ones and is skipped (Alg. orthogonalProjection, lines 4, 14, 21, 27).
   double redundancy_tolerance = 1e-12;
@@ -107,7 +115,8 @@ struct BatchStats {
   Index halted = 0;      ///< vertices that fell back to their anchor (halting events)
   Index infeasible = 0;  ///< vertices reported infeasible
   Index fallbacks =
-      0;  ///< vertices whose Plesník point was replaced by the exact projection (ProjectResult::fell_back)
+      0;              ///< vertices whose Plesník point was replaced by the exact projection (ProjectResult::fell_back)
+  Index rescued = 0;  ///< vertices whose unconverged Plesník passes were replaced by the exact projection
   std::int64_t iterations = 0;  ///< sum of ProjectResult::iterations over the violated vertices
 
   BatchStats& operator+=(const BatchStats& o);

@@ -13,11 +13,11 @@ namespace ccfr {
 /// the vertex may move to `x'` iff \f$ (\mathbf{x}' - \mathbf{x})\cdot\mathbf{n} + d \ge 0 \f$.
 /// `d` is the vertex's mass-weighted share of the gap (paper Alg. NarrowPhase, lines 10/26/41);
 /// it is negative when the pair is already closer than the offset ξ (design clarification 7).
-/// `phi` is the pair's separation beyond the offset, \f$\|\mathbf{x}_A-\mathbf{x}_B\| - \xi\f$.
+/// The generating pair's separation φ stays with its contact (ContactPair::distance - offset):
+/// 32 bytes per plane, because dense scenes write millions of them per pass.
 struct HalfSpace {
   Vec3 n = Vec3::UnitZ();  ///< unit normal pointing from the other primitive toward this vertex
   double d = 0.0;          ///< allowed advance along -n before the plane is reached
-  double phi = 0.0;        ///< separation measure of the generating pair
 
   /// Constraint value at `x_new` for anchor `x_anchor`: >= 0 means satisfied.
   double value(const Vec3& x_anchor, const Vec3& x_new) const { return (x_new - x_anchor).dot(n) + d; }
@@ -30,9 +30,7 @@ struct RegionSet {
 
   Index num_vertices() const { return static_cast<Index>(offsets.size()) - 1; }
   Index count(Index v) const { return offsets[v + 1] - offsets[v]; }
-  std::span<const HalfSpace> of(Index v) const {
-    return {planes.data() + offsets[v], static_cast<size_t>(count(v))};
-  }
+  std::span<const HalfSpace> of(Index v) const { return {planes.data() + offsets[v], static_cast<size_t>(count(v))}; }
   size_t total() const { return planes.size(); }
   void clear(Index num_vertices);  ///< empty regions for `num_vertices` vertices
 };

@@ -22,11 +22,11 @@
 ///   (1 - kInitialOffsetMargin) d0, raised by raise_offsets() toward xi as the pair separates.
 #include <cstdint>
 #include <limits>
-#include <string>
 #include <span>
+#include <string>
 #include <vector>
 
-#include "ccfr/core/scene.hpp"
+#include "ccfr/core/topology.hpp"
 #include "ccfr/core/types.hpp"
 
 namespace ccfr::exact {

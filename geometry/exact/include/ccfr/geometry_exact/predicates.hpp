@@ -31,10 +31,8 @@ bool segments_intersect(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Ve
 /// the double value given.
 int compare_point_point_distance_sq(const Vec3& p, const Vec3& q, double threshold_sq);
 int compare_point_edge_distance_sq(const Vec3& p, const Vec3& a, const Vec3& b, double threshold_sq);
-int compare_point_triangle_distance_sq(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c,
-                                       double threshold_sq);
-int compare_edge_edge_distance_sq(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1,
-                                  double threshold_sq);
+int compare_point_triangle_distance_sq(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c, double threshold_sq);
+int compare_edge_edge_distance_sq(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1, double threshold_sq);
 
 /// The exact squared distances, rounded to the nearest double (tests and diagnostics; each call
 /// constructs exact numbers and costs microseconds).

@@ -1,5 +1,5 @@
 #pragma once
-/// @file contact_solvers.hpp
+/// @file detecting_solvers.hpp
 /// The contact solvers of the ablation, all on the same detection (CollisionDetector):
 /// - `ccfr`: per-vertex convex regions, Plesník projection, halting fallback (the paper);
 /// - `exact_projection`: the same regions, the exact Euclidean projection;
@@ -43,6 +43,10 @@ class DetectingSolver : public ContactSolver {
  protected:
   /// Distinct movable vertices of the detected contacts (the paper's collision points).
   Index contact_vertex_count(std::span<const double> inv_mass) const;
+  /// Marks this pass's contact vertices (movable, with at least one half-space) for frame `frame`
+  /// (the marks restart when the frame changes). Returns {vertices in contact in this pass,
+  /// distinct vertices in contact in the frame so far}.
+  std::pair<Index, Index> mark_contact_vertices(int frame, std::span<const double> inv_mass);
 
   std::unique_ptr<CollisionDetector> detector_;
   RegionSet regions_;
@@ -50,7 +54,10 @@ class DetectingSolver : public ContactSolver {
   ContactResponse response_;
   std::vector<double> friction_override_;  ///< #V: material friction of the vertex's object (< 0: global)
   mutable std::string last_violation_;
-  Index num_vertices_ = 0;  ///< #V of the scene (the regions are empty before the first detection)
+  Index num_vertices_ = 0;                   ///< #V of the scene (the regions are empty before the first detection)
+  std::vector<std::uint8_t> contact_marks_;  ///< #V: in contact during frame `contact_marks_frame_`
+  int contact_marks_frame_ = -1;
+  Index contact_marks_count_ = 0;  ///< ones in contact_marks_
 };
 
 /// Projects every vertex that left its region back onto it with a Projector.
@@ -74,7 +81,7 @@ class RegionProjectionSolver final : public DetectingSolver {
   std::string name_, projector_name_;
   ParamValues projector_params_;
   std::unique_ptr<Projector> projector_;
-  RigidBodies rigid_;  ///< rigid bodies, whose correction is taken as a rigid motion
+  RigidBodies rigid_;                 ///< rigid bodies, whose correction is taken as a rigid motion
   std::vector<std::uint8_t> halted_;  ///< #V: halted during frame `halted_frame_`
   int halted_frame_ = -1;
 };

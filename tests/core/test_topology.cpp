@@ -6,7 +6,7 @@
 #include "ccfr/core/csr.hpp"
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/parallel.hpp"
-#include "ccfr/core/scene.hpp"
+#include "ccfr/core/topology.hpp"
 #include "test_support.hpp"
 
 using namespace ccfr;
@@ -112,9 +112,12 @@ TEST(Parallel, ChunksCoverTheRangeOnceForAnyThreadCount) {
       // Fixed boundaries: chunk c starts where c-1 ends.
       for (Index c = 1; c < chunks && n > 0; ++c) EXPECT_EQ(bounds[c].first, bounds[c - 1].second);
       std::vector<int> hits2(static_cast<size_t>(n), 0);
-      parallel_for(n, [&](Index b, Index e) {
-        for (Index i = b; i < e; ++i) ++hits2[i];
-      }, 64);
+      parallel_for(
+          n,
+          [&](Index b, Index e) {
+            for (Index i = b; i < e; ++i) ++hits2[i];
+          },
+          64);
       EXPECT_TRUE(std::all_of(hits2.begin(), hits2.end(), [](int h) { return h == 1; }));
     }
   }

@@ -1,4 +1,4 @@
-#include "ccfr/solvers/contact_solvers.hpp"
+#include "ccfr/solvers/detecting_solvers.hpp"
 
 #include "ccfr/core/error.hpp"
 
@@ -8,16 +8,19 @@
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/geometry/distance.hpp"
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <tuple>
 
 namespace ccfr {
 
 void DetectingSolver::initialize(const Topology& topo, const SimState& state, const SimulationParams& params) {
   detector_ = std::make_unique<CollisionDetector>(
-      topo, state.x, params.contact, make_broad_phase(params.collision.broad_phase, params.collision.broad_phase_params));
+      topo, state.x, params.contact,
+      make_broad_phase(params.collision.broad_phase, params.collision.broad_phase_params));
   regions_.clear(topo.num_vertices());
   num_vertices_ = topo.num_vertices();
   friction_override_.assign(static_cast<size_t>(topo.num_vertices()), -1.0);
@@ -71,19 +74,24 @@ double pair_distance(const ContactPair& c, const Positions& x) {
   }
   return 0.0;
 }
-Index count_contact_vertices(const RegionSet& regions, std::span<const double> inv_mass) {
-  std::atomic<Index> n{0};
-  parallel_for(
-      regions.num_vertices(),
-      [&](Index b, Index e) {
-        Index local = 0;
-        for (Index v = b; v < e; ++v) local += inv_mass[v] > 0.0 && regions.count(v) > 0;
-        n += local;
-      },
-      4096);
-  return n.load();
-}
 }  // namespace
+
+std::pair<Index, Index> DetectingSolver::mark_contact_vertices(int frame, std::span<const double> inv_mass) {
+  const Index nv = regions_.num_vertices();
+  if (frame != contact_marks_frame_ || static_cast<Index>(contact_marks_.size()) != nv) {
+    contact_marks_.assign(static_cast<size_t>(nv), 0);
+    contact_marks_frame_ = frame;
+    contact_marks_count_ = 0;
+  }
+  // One sequential sweep over the offsets: a few microseconds per 10k vertices, far below detection.
+  Index pass = 0;
+  for (Index v = 0; v < nv; ++v) {
+    if (!(inv_mass[v] > 0.0) || regions_.count(v) == 0) continue;
+    ++pass;
+    if (!contact_marks_[v]) contact_marks_[v] = 1, ++contact_marks_count_;
+  }
+  return {pass, contact_marks_count_};
+}
 
 Index DetectingSolver::contact_vertex_count(std::span<const double> inv_mass) const {
   std::vector<std::uint8_t> seen(inv_mass.size(), 0);
@@ -95,7 +103,7 @@ Index DetectingSolver::contact_vertex_count(std::span<const double> inv_mass) co
 }
 
 std::optional<Index> DetectingSolver::count_outside(const Positions& x, const Positions&, const SimState&,
-                                                   StepContext& ctx) const {
+                                                    StepContext& ctx) const {
   const double keep = 1.0 - ctx.params.debug.audit_tolerance;
   std::atomic<Index> close{0};
   std::atomic<Index> first{std::numeric_limits<Index>::max()};
@@ -142,7 +150,7 @@ void RegionProjectionSolver::initialize(const Topology& topo, const SimState& st
   // projection then snapped back to the anchor (a card stack that could not move).
   pp.epsilon = params.contact.epsilon * params.contact.offset;
   projector_ = make_projector(projector_name_, pp);
-  rigid_ = RigidBodies(topo, state);
+  rigid_ = RigidBodies(topo, state, &params);
 }
 
 SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& anchor, const SimState& state,
@@ -157,18 +165,38 @@ SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& ancho
   r.violations_remaining = b.remaining;
   r.halted_vertices = b.halted;
   r.projector_fallbacks = b.fallbacks;
-  r.contact_vertices = count_contact_vertices(regions_, state.inv_mass);
+  r.projector_rescues = b.rescued;
+  std::tie(r.contact_vertices, r.contact_vertices_distinct) = mark_contact_vertices(ctx.frame, state.inv_mass);
   if (!rigid_.empty()) {
+    // A halted body is put back at its anchor pose as a whole: its vertices that wanted to move
+    // and sit exactly at their anchors afterwards are the halted ones.
+    std::vector<std::uint8_t> wanted(x.size(), 0);
+    for (const auto& o : ctx.topo.objects)
+      if (o.kind == ObjectKind::rigid)
+        for (Index v = o.vertex_begin; v < o.vertex_end; ++v) wanted[v] = x[v] != anchor[v];
     const RigidEnforceStats rs =
-        rigid_.enforce(x, anchor, regions_, *projector_, ctx.params.contact.radius, ctx.params.time.advance_tolerance);
+        rigid_.enforce(x, anchor, regions_, *projector_, ctx.params.contact.radius, ctx.params.time.advance_tolerance,
+                       rigid_.predicted_cores(state, ctx.dt, ctx.params.time.gravity));
     r.halted_vertices += rs.vertices_halted;
     r.bounded_vertices += rs.bodies_bounded;
+    if (rs.bodies_halted > 0)
+      for (const auto& o : ctx.topo.objects) {
+        if (o.kind != ObjectKind::rigid) continue;
+        bool at_anchor = true, moved = false;
+        for (Index v = o.vertex_begin; v < o.vertex_end; ++v) {
+          at_anchor = at_anchor && x[v] == anchor[v];
+          moved = moved || wanted[v];
+        }
+        if (at_anchor && moved)
+          for (Index v = o.vertex_begin; v < o.vertex_end; ++v) halted_[v] = 1;
+      }
   }
+  r.halted_vertices_distinct = static_cast<Index>(std::count(halted_.begin(), halted_.end(), std::uint8_t{1}));
   return r;
 }
 
 std::optional<Index> RegionProjectionSolver::count_outside(const Positions& x, const Positions& anchor,
-                                                          const SimState& state, StepContext& ctx) const {
+                                                           const SimState& state, StepContext& ctx) const {
   // A rigid body is exact to round-off; 1e-9 of its extent is far above that and far below ξ.
   return *DetectingSolver::count_outside(x, anchor, state, ctx) + (rigid_.empty() ? 0 : rigid_.count_deformed(x, 1e-9));
 }
@@ -177,7 +205,8 @@ void DetectingSolver::vertex_diagnostics(std::vector<std::int32_t>& half_spaces,
                                          std::vector<std::uint8_t>&) const {
   const Index n = num_vertices_;
   half_spaces.assign(static_cast<size_t>(n), 0);
-  for (Index v = 0; v < std::min(n, regions_.num_vertices()); ++v) half_spaces[v] = static_cast<std::int32_t>(regions_.of(v).size());
+  for (Index v = 0; v < std::min(n, regions_.num_vertices()); ++v)
+    half_spaces[v] = static_cast<std::int32_t>(regions_.of(v).size());
   distance.assign(static_cast<size_t>(n), std::numeric_limits<double>::quiet_NaN());
   for (const ContactPair& c : contacts_)
     for (int k = 0; k < c.size(); ++k) {
@@ -196,7 +225,8 @@ void RegionProjectionSolver::vertex_diagnostics(std::vector<std::int32_t>& half_
 SolveResult PostProcessSolver::resolve(Positions& x, const Positions&, const SimState& state, StepContext& ctx) {
   const auto& w = state.inv_mass;
   SolveResult r;
-  r.contact_vertices = contact_vertex_count(w);
+  std::tie(r.contact_vertices, r.contact_vertices_distinct) = mark_contact_vertices(ctx.frame, w);
+  r.halted_vertices_distinct = 0;  // nothing here falls back to an anchor
   for (const auto& c : contacts_)
     if (contact_gap(c, x) < 0.0) ++r.violations_detected;
   // Sequential Gauss-Seidel: this is the conventional pass the paper compares against, whose
@@ -229,8 +259,8 @@ void register_region_projection_solvers(ContactSolverRegistry& registry) {
                   }});
   };
   add("ccfr", "plesnik",
-      "per-vertex convex collision-free regions, Plesník projection, halting fallback (the paper; guarantees "
-      "separation)");
+      "per-vertex convex collision-free regions, Plesník projection, the exact projection where it does not "
+      "converge, halting fallback (the paper; guarantees separation)");
   add("exact_projection", "exact", "the same regions, the exact Euclidean projection (guarantees separation)");
   add("successive_projection", "successive_projection",
       "the same regions, naive cyclic projection onto one half-space at a time (related work)");
@@ -242,7 +272,9 @@ void register_post_process_solver(ContactSolverRegistry& registry) {
                 "(the paper's baseline)",
                 {ParamSpec::integer("sweeps", PostProcessSolver::kDefaultSweeps,
                                     "Gauss-Seidel sweeps over the thickness constraints per outer iteration", 1)},
-                [](const ParamValues& v) { return std::make_unique<PostProcessSolver>(static_cast<int>(v.integer("sweeps"))); }});
+                [](const ParamValues& v) {
+                  return std::make_unique<PostProcessSolver>(static_cast<int>(v.integer("sweeps")));
+                }});
 }
 
 }  // namespace ccfr

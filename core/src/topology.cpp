@@ -1,4 +1,4 @@
-#include "ccfr/core/scene.hpp"
+#include "ccfr/core/topology.hpp"
 
 #include <algorithm>
 #include <array>

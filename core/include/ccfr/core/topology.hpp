@@ -1,5 +1,5 @@
 #pragma once
-/// @file scene.hpp
+/// @file topology.hpp
 /// The scene model: one flat vertex array for every object, per-object ranges and kinds, global
 /// edge / face / tet index arrays, and per-vertex incidence in CSR form.
 #include <cstdint>
@@ -69,9 +69,8 @@ class TopologyBuilder {
  public:
   /// Adds an object; its local indices are shifted by the vertices added so far.
   /// Returns the object index. For tet solids pass the tets; the boundary faces are derived.
-  Index add_object(std::string name, ObjectKind kind, Index num_vertices,
-                   const std::vector<Vec3i>& faces = {}, const std::vector<Vec4i>& tets = {},
-                   const std::vector<std::vector<Index>>& polylines = {});
+  Index add_object(std::string name, ObjectKind kind, Index num_vertices, const std::vector<Vec3i>& faces = {},
+                   const std::vector<Vec4i>& tets = {}, const std::vector<std::vector<Index>>& polylines = {});
   /// Builds unique edges, face-edge incidence and CSR adjacency.
   Topology finish();
 
