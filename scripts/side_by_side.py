@@ -46,7 +46,7 @@ def caption(run_dir, frame):
         bad = [f"{n:,} {what}" for n, what in found if n]
         here = f"frame {frame}: " + (", ".join(bad) if bad else "clean")
         if row.get("min_distance") is not None and audit.get("offset"):
-            here += f" (closest pair {row['min_distance'] / audit['offset']:.5f} ξ)"
+            here += f"\nclosest pair {row['min_distance'] / audit['offset']:.5f} ξ"
     return f"{solver}\n{whole}\n{here}", ("#2e7d32" if verdict == "PASS" else "#c62828")
 
 
@@ -63,7 +63,9 @@ def main(argv=None):
         print(f"error: {e}", file=sys.stderr)
         return 2
     h, w = panels[0][0].shape[:2]
-    fig, axes = plt.subplots(1, len(panels), figsize=(len(panels) * w / 100, h / 100 + 1.0), dpi=100,
+    lines = max(text.count("\n") + 1 for _, text, _ in panels) + (1 if a.title else 0)
+    # Room above the images for every title line (about 0.2 inch each at 10 pt).
+    fig, axes = plt.subplots(1, len(panels), figsize=(len(panels) * w / 100, h / 100 + 0.25 * lines + 0.2), dpi=100,
                              constrained_layout=True)
     for ax, (img, text, colour) in zip(axes, panels):
         ax.imshow(img)
