@@ -297,6 +297,7 @@ struct DetectSink {
     if (!boxes_within(a0.cwiseMin(a1), a0.cwiseMax(a1), b0.cwiseMin(b1), b0.cwiseMax(b1), reach)) return;
     const double off = offset_of(ContactKind::ee, e0, e1);
     if (off < 0.0) return;
+    if (segments_certainly_apart(a0, a1, b0, b1, reach_sq)) return;  // beyond reach: accept() would refuse it
     const EdgeEdgeResult r = edge_edge(a0, a1, b0, b1);
     const double dist = accept(r.distance_sq, w[ea[0]] > 0.0 || w[ea[1]] > 0.0 || w[eb[0]] > 0.0 || w[eb[1]] > 0.0);
     if (dist < 0.0) return;

@@ -281,6 +281,41 @@ TEST(Distance, EdgeEdgeDegenerate) {
   EXPECT_EQ(z.distance_sq, 0.0);
 }
 
+// The narrow phase's filter may only settle pairs that are truly beyond reach: whenever it says
+// "apart", the long-double reference distance is at least reach. Random pairs around reach, skew
+// pairs just beyond and just within it, and the degenerate kinds (parallel, collinear, zero length,
+// shared endpoint, NaN), which it must leave undecided.
+TEST(Distance, SegmentsCertainlyApartNeverRejectsAPairWithinReach) {
+  auto g = test::rng(61);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const double reach = 0.02, reach_sq = reach * reach;
+  int decided = 0;
+  for (int i = 0; i < 200000; ++i) {
+    const Vec3 a0 = 0.02 * rand_vec(g), a1 = a0 + 0.03 * rand_vec(g);
+    const Vec3 b0 = 0.02 * rand_vec(g), b1 = b0 + 0.03 * rand_vec(g);
+    if (!segments_certainly_apart(a0, a1, b0, b1, reach_sq)) continue;
+    ++decided;
+    ASSERT_GE(ref_ee(L(a0), L(a1), L(b0), L(b1)), static_cast<LD>(reach_sq)) << "pair " << i;
+    ASSERT_GE(edge_edge(a0, a1, b0, b1).distance_sq, reach_sq) << "pair " << i;
+  }
+  EXPECT_GT(decided, 1000);  // the filter does settle pairs: the test is not vacuous
+  // Skew edges along x and y, z apart by reach (1 ± 1e-9): within reach never settled, beyond it
+  // only outside the 1e-6 margin.
+  const Vec3 a0(-1, 0, 0), a1(1, 0, 0);
+  for (double f : {1.0 - 1e-9, 1.0, 1.0 + 1e-9, 1.0 + 1e-7})
+    EXPECT_FALSE(segments_certainly_apart(a0, a1, Vec3(0, -1, f * reach), Vec3(0, 1, f * reach), reach_sq)) << f;
+  EXPECT_TRUE(segments_certainly_apart(a0, a1, Vec3(0, -1, 1.001 * reach), Vec3(0, 1, 1.001 * reach), reach_sq));
+  // Lines far apart, segments farther still (the bound is loose but safe).
+  EXPECT_TRUE(segments_certainly_apart(a0, a1, Vec3(5, -1, 0.5), Vec3(5, 1, 0.5), reach_sq));
+  const Vec3 d = a1 - a0, off(0, 0.5, 0.5), nan(std::nan(""), 0, 0);
+  EXPECT_FALSE(segments_certainly_apart(a0, a1, a0 + off, a1 + off, reach_sq));                     // parallel
+  EXPECT_FALSE(segments_certainly_apart(a0, a1, a0 + 2 * d, a0 + 3 * d, reach_sq));                 // collinear
+  EXPECT_FALSE(segments_certainly_apart(a0, a0, Vec3(0, 0, 1), Vec3(0, 1, 1), reach_sq));           // zero length
+  EXPECT_FALSE(segments_certainly_apart(a0, a1, a1, Vec3(0, 1, 1), reach_sq));                      // shared endpoint
+  EXPECT_FALSE(segments_certainly_apart(a0, a1, nan, Vec3(0, 1, 1), reach_sq));                     // NaN
+  EXPECT_FALSE(segments_certainly_apart(a0, a1, a0 + off, a1 + off + Vec3(0, 0, 1e-9), reach_sq));  // nearly parallel
+}
+
 TEST(Distance, NeverNaNOnExtremeInput) {
   const double big = 1e150, tiny = 1e-300;
   const Vec3 o = Vec3::Zero();
