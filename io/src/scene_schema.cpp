@@ -286,7 +286,11 @@ NodePtr build_scene_schema() {
                 {"frames", integer(td.frames, "frames to simulate", nonneg)},
                 {"substeps", integer(td.substeps, "substeps per frame", one)},
                 {"iterations",
-                 integer(td.iterations, "outer solver iterations per substep, each with collision detection", one)},
+                 integer(td.iterations,
+                         "nominal outer iterations per substep, each with collision detection: a substep ends after "
+                         "the first one in which no vertex was held back by the step bound r (fewer may run; stats.csv "
+                         "outer_iterations counts them), and goes on past it while one is (time.max_iterations)",
+                         one)},
                 {"max_iterations",
                  integer(td.max_iterations,
                          "outer iterations continue past `iterations` while a vertex has not reached its intended "

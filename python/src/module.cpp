@@ -109,6 +109,7 @@ py::dict frame_stats_dict(const FrameStats& s) {
   d["halted_vertices_distinct"] = s.halted_vertices_distinct;
   d["contact_vertices_distinct"] = s.contact_vertices_distinct;
   d["projector_rescues"] = s.projector_rescues;
+  d["candidates_total"] = s.candidates_total;
   return d;
 }
 

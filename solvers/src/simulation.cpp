@@ -291,13 +291,15 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
   StepContext ctx{scene_.topo, params, dt, frame_ + 1, substep_index, 0, fs.times};
   const double r = params.contact.radius;
   OuterIterationEnd end;
-  // time.iterations passes as in the paper; more only while a vertex is still held back by r.
+  // Until no vertex is held back by r (often after one pass, so fewer than time.iterations may
+  // run), at most iteration_bound() passes.
   const int bound = tp.iteration_bound();
   for (int it = 0; it < bound; ++it) {
     ctx.iteration = it;
     ctx.kinematic_step = (it == 0 && kin_moves) ? std::span<const Vec3>(kinematic_step_) : std::span<const Vec3>();
     const DetectResult det = contact_->detect(anchor_, st, ctx);
     fs.candidates = std::max(fs.candidates, det.candidates);
+    fs.candidates_total += det.candidates;
     fs.constraints = std::max(fs.constraints, det.constraints);
     fs.min_distance = std::min(fs.min_distance, det.min_distance);
 

@@ -133,3 +133,32 @@ TEST(ContactSolverRegistry, ListsEveryBuiltInAndChecksParameters) {
 }
 
 }  // namespace
+
+namespace {
+
+// stats.csv's candidates_total sums the broad-phase pairs of every detection pass of a frame.
+// Closed form where every pass sees the same pairs (nothing moves: no gravity, at rest), then the
+// bounds of a falling cloth: at least the largest pass, at most the largest pass times the passes.
+TEST(FrameStatsCandidates, TotalSumsEveryDetectionPass) {
+  Scene still = cloth_on_floor("ccfr");
+  still.params.time.gravity = Vec3::Zero();
+  const int substeps = still.params.time.substeps;
+  Simulation at_rest(std::move(still));
+  for (int f = 0; f < 3; ++f) {
+    const FrameStats fs = at_rest.step_frame();
+    ASSERT_GT(fs.candidates, 0) << "the cloth's own neighbouring triangles are candidates";
+    EXPECT_GE(fs.outer_iterations, substeps);
+    EXPECT_EQ(fs.candidates_total, static_cast<std::int64_t>(fs.candidates) * fs.outer_iterations) << "frame " << f + 1;
+  }
+  Simulation falling(cloth_on_floor("ccfr"));
+  bool varied = false;
+  for (int f = 0; f < 15; ++f) {
+    const FrameStats fs = falling.step_frame();
+    EXPECT_GE(fs.candidates_total, fs.candidates);
+    EXPECT_LE(fs.candidates_total, static_cast<std::int64_t>(fs.candidates) * fs.outer_iterations);
+    varied |= fs.candidates_total < static_cast<std::int64_t>(fs.candidates) * fs.outer_iterations;
+  }
+  EXPECT_TRUE(varied) << "the floor comes into reach during the fall: passes differ";
+}
+
+}  // namespace

@@ -15,10 +15,12 @@
 namespace ccfr {
 
 struct TimeParams {
-  double fps = 60.0;   ///< frames per second; frame time Δt_frame = 1/fps
-  int frames = 120;    ///< frames to simulate
-  int substeps = 10;   ///< substeps per frame; Δt = Δt_frame / substeps
-  int iterations = 4;  ///< outer solver iterations per substep (paper Alg. "simulation loop", line 3)
+  double fps = 60.0;  ///< frames per second; frame time Δt_frame = 1/fps
+  int frames = 120;   ///< frames to simulate
+  int substeps = 10;  ///< substeps per frame; Δt = Δt_frame / substeps
+  /// Nominal outer iterations per substep (paper Alg. "simulation loop", line 3); a substep stops
+  /// after the first pass in which no vertex is held back by r, and iteration_bound() caps it.
+  int iterations = 4;
   /// Outer iterations continue past `iterations` while some vertex has not reached its intended
   /// advance (the paper's convergence check), up to this many; 0 means 4 · iterations.
   int max_iterations = 0;

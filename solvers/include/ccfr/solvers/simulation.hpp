@@ -46,6 +46,9 @@ struct FrameStats {
   /// Distinct movable vertices with a contact in at least one of the frame's passes (-1: not
   /// tracked). The per-frame halting ratio is halted_vertices_distinct / contact_vertices_distinct.
   Index contact_vertices_distinct = -1;
+  /// Broad-phase pairs summed over the frame's detection passes (one per outer iteration of every
+  /// substep): the work of a frame, where `candidates` is its largest single pass.
+  std::int64_t candidates_total = 0;
 };
 
 /// Everything a Simulation carries from frame to frame beyond its scene (Simulation::checkpoint):
