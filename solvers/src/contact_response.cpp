@@ -36,23 +36,33 @@ std::vector<double> visibility_weights(std::span<const ContactPair> contacts, do
       max_v + 1,
       [&](Index vb, Index ve) {
         std::vector<Index> window;
+        std::vector<double> window_gap;
         for (Index v = vb; v < ve; ++v) {
           const Index b = start[v], e = start[v + 1];
           if (e - b < 2) continue;
           double nearest = gap(order[b]);
           for (Index i = b + 1; i < e; ++i) nearest = std::min(nearest, gap(order[i]));
           window.clear();
+          window_gap.clear();
           for (Index i = b; i < e; ++i) {
-            if (gap(order[i]) - nearest >= width)
+            const double g = gap(order[i]);
+            if (g - nearest >= width) {
               vis[order[i]] = 0.0;
-            else
+            } else {
               window.push_back(order[i]);
+              window_gap.push_back(g);
+            }
           }
-          for (Index c : window) {
+          // Factors of contacts no nearer than c are exactly 1 (S = 0) and a product that reached
+          // 0 stays 0 (every factor is in [0, 1]): skipping both leaves every weight bit-identical.
+          const size_t k = window.size();
+          for (size_t i = 0; i < k; ++i) {
             double w = 1.0;
-            for (Index j : window)
-              if (j != c) w *= 1.0 - smoothstep((gap(c) - gap(j)) / width);
-            vis[c] = w;
+            for (size_t j = 0; j < k && w != 0.0; ++j) {
+              const double t = (window_gap[i] - window_gap[j]) / width;
+              if (j != i && t > 0.0) w *= 1.0 - smoothstep(t);
+            }
+            vis[window[i]] = w;
           }
         }
       },
