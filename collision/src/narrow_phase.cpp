@@ -57,6 +57,13 @@ void InitialPairTable::assign(std::vector<std::pair<std::uint64_t, Index>> entri
   }
 }
 
+ListedSubPair ListedSubPair::make(ContactKind kind, Index a, Index b, Index slot, double dist_sq) {
+  const double d = std::sqrt(dist_sq);
+  float f = static_cast<float>(d);
+  if (static_cast<double>(f) > d) f = std::nextafter(f, 0.0f);  // a lower bound, never above d
+  return {a, b, slot, kind, f};
+}
+
 }  // namespace detail
 
 namespace {
@@ -239,24 +246,38 @@ struct DetectSink {
   double xi;
   double reach, reach_sq;
   std::vector<ContactPair>& contacts;
+  /// When building the reusable list (CollisionDetector::set_reuse_skin): every sub-pair within
+  /// `list_reach` that has a movable vertex goes there, and the pre-filters use `list_reach`.
+  std::vector<detail::ListedSubPair>* list = nullptr;
+  double list_reach = 0.0, list_reach_sq = 0.0;
   Index within = 0, degenerate = 0, excluded = 0, reduced_contacts = 0;
 
-  /// The sub-pair's offset: ξ, its reduced offset, or a negative value when it is excluded.
-  double offset_of(ContactKind kind, Index a, Index b) {
-    const Index slot = table.find(kind, a, b);
-    if (slot == detail::InitialPairTable::kAbsent) return xi;
-    if (slot == detail::InitialPairTable::kExcluded) {
-      ++excluded;
-      return -1.0;
-    }
-    return reduced[static_cast<size_t>(slot)];
+  /// Adds this sink's counters to a pass's statistics.
+  void add_to(DetectionStats& stats) const {
+    stats.pairs_within_range += within;
+    stats.excluded_initial += excluded;
+    stats.degenerate += degenerate;
+    stats.reduced_offset += reduced_contacts;
   }
+
+  /// Reach of the conservative pre-filters: the list's when building it, else the contacts'.
+  double filter_reach() const { return list ? list_reach : reach; }
+  double filter_reach_sq() const { return list ? list_reach_sq : reach_sq; }
+  /// The sub-pair's reduced-offset slot, kAbsent for ξ, or kExcluded (counted) when it is excluded.
+  Index slot_of(ContactKind kind, Index a, Index b) {
+    const Index slot = table.find(kind, a, b);
+    if (slot == detail::InitialPairTable::kExcluded) ++excluded;
+    return slot;
+  }
+  double offset_at(Index slot) const { return slot >= 0 ? reduced[static_cast<size_t>(slot)] : xi; }
   /// Alg. NarrowPhase lines 7/22/38: φ = ‖x_A − x_B‖ − ξ < 2r  ⇔  ‖x_A − x_B‖ < 2r + ξ; then
   /// the movable check and the degenerate-distance check. Returns the distance, or a negative
   /// value when the sub-pair yields no contact. A reduced offset only shrinks the range, so the
-  /// reach of ξ is conservative for it.
-  double accept(double dist_sq, bool movable) {
-    if (dist_sq >= reach_sq || !movable) return -1.0;  // nothing here can move: nothing to constrain
+  /// reach of ξ is conservative for it. Lists the sub-pair first when a list is being built.
+  double accept(ContactKind kind, Index a, Index b, Index slot, double dist_sq, bool movable) {
+    if (!movable) return -1.0;  // nothing here can move: nothing to constrain
+    if (list && dist_sq < list_reach_sq) list->push_back(detail::ListedSubPair::make(kind, a, b, slot, dist_sq));
+    if (dist_sq >= reach_sq) return -1.0;
     ++within;
     const double dist = std::sqrt(dist_sq);
     if (dist < kMinNormalDistance) {
@@ -277,55 +298,85 @@ struct DetectSink {
     reduced_contacts += offset < xi;
   }
 
+  // Pre-filters (box test, exclusions), then the *_eval kernels, which a reused pass calls directly.
   void vf(Index v, Index f) {
     const Vec3& p = x[v];
     const Vec3i& t = topo.faces[f];
     const Vec3 &a = x[t[0]], &b = x[t[1]], &d = x[t[2]];
     const Vec3 lo = a.cwiseMin(b).cwiseMin(d), hi = a.cwiseMax(b).cwiseMax(d);
-    if (!boxes_within(p, p, lo, hi, reach)) return;
-    const double off = offset_of(ContactKind::vf, v, f);
-    if (off < 0.0) return;
-    const PointTriangleResult r = point_triangle(p, a, b, d);
-    const double dist = accept(r.distance_sq, w[v] > 0.0 || w[t[0]] > 0.0 || w[t[1]] > 0.0 || w[t[2]] > 0.0);
+    if (!boxes_within(p, p, lo, hi, filter_reach())) return;
+    const Index slot = slot_of(ContactKind::vf, v, f);
+    if (slot != detail::InitialPairTable::kExcluded) vf_eval(v, f, slot);
+  }
+  void vf_eval(Index v, Index f, Index slot) {
+    const Vec3& p = x[v];
+    const Vec3i& t = topo.faces[f];
+    const PointTriangleResult r = point_triangle(p, x[t[0]], x[t[1]], x[t[2]]);
+    const double dist = accept(ContactKind::vf, v, f, slot, r.distance_sq,
+                               w[v] > 0.0 || w[t[0]] > 0.0 || w[t[1]] > 0.0 || w[t[2]] > 0.0);
     if (dist < 0.0) return;
-    emit(ContactKind::vf, {v, t[0], t[1], t[2]}, {1.0, -r.bary[0], -r.bary[1], -r.bary[2]}, p, r.closest, dist, off);
+    emit(ContactKind::vf, {v, t[0], t[1], t[2]}, {1.0, -r.bary[0], -r.bary[1], -r.bary[2]}, p, r.closest, dist,
+         offset_at(slot));
   }
   void ee(Index e0, Index e1) {
     if (e0 > e1) std::swap(e0, e1);
     const Vec2i &ea = topo.edges[e0], &eb = topo.edges[e1];
     const Vec3 &a0 = x[ea[0]], &a1 = x[ea[1]], &b0 = x[eb[0]], &b1 = x[eb[1]];
-    if (!boxes_within(a0.cwiseMin(a1), a0.cwiseMax(a1), b0.cwiseMin(b1), b0.cwiseMax(b1), reach)) return;
-    const double off = offset_of(ContactKind::ee, e0, e1);
-    if (off < 0.0) return;
-    if (segments_certainly_apart(a0, a1, b0, b1, reach_sq)) return;  // beyond reach: accept() would refuse it
+    if (!boxes_within(a0.cwiseMin(a1), a0.cwiseMax(a1), b0.cwiseMin(b1), b0.cwiseMax(b1), filter_reach())) return;
+    const Index slot = slot_of(ContactKind::ee, e0, e1);
+    if (slot != detail::InitialPairTable::kExcluded) ee_eval(e0, e1, slot);
+  }
+  void ee_eval(Index e0, Index e1, Index slot) {
+    const Vec2i &ea = topo.edges[e0], &eb = topo.edges[e1];
+    const Vec3 &a0 = x[ea[0]], &a1 = x[ea[1]], &b0 = x[eb[0]], &b1 = x[eb[1]];
+    if (segments_certainly_apart(a0, a1, b0, b1, filter_reach_sq())) return;  // accept() would refuse it
     const EdgeEdgeResult r = edge_edge(a0, a1, b0, b1);
-    const double dist = accept(r.distance_sq, w[ea[0]] > 0.0 || w[ea[1]] > 0.0 || w[eb[0]] > 0.0 || w[eb[1]] > 0.0);
+    const double dist = accept(ContactKind::ee, e0, e1, slot, r.distance_sq,
+                               w[ea[0]] > 0.0 || w[ea[1]] > 0.0 || w[eb[0]] > 0.0 || w[eb[1]] > 0.0);
     if (dist < 0.0) return;
-    emit(ContactKind::ee, {ea[0], ea[1], eb[0], eb[1]}, {1.0 - r.s, r.s, -(1.0 - r.t), -r.t}, r.pa, r.pb, dist, off);
+    emit(ContactKind::ee, {ea[0], ea[1], eb[0], eb[1]}, {1.0 - r.s, r.s, -(1.0 - r.t), -r.t}, r.pa, r.pb, dist,
+         offset_at(slot));
   }
   void ve(Index v, Index e) {
     const Vec3& p = x[v];
     const Vec2i& s = topo.edges[e];
     const Vec3 &a = x[s[0]], &b = x[s[1]];
-    if (!boxes_within(p, p, a.cwiseMin(b), a.cwiseMax(b), reach)) return;
-    const double off = offset_of(ContactKind::ve, v, e);
-    if (off < 0.0) return;
-    const PointEdgeResult r = point_edge(p, a, b);
-    const double dist = accept(r.distance_sq, w[v] > 0.0 || w[s[0]] > 0.0 || w[s[1]] > 0.0);
+    if (!boxes_within(p, p, a.cwiseMin(b), a.cwiseMax(b), filter_reach())) return;
+    const Index slot = slot_of(ContactKind::ve, v, e);
+    if (slot != detail::InitialPairTable::kExcluded) ve_eval(v, e, slot);
+  }
+  void ve_eval(Index v, Index e, Index slot) {
+    const Vec3& p = x[v];
+    const Vec2i& s = topo.edges[e];
+    const PointEdgeResult r = point_edge(p, x[s[0]], x[s[1]]);
+    const double dist =
+        accept(ContactKind::ve, v, e, slot, r.distance_sq, w[v] > 0.0 || w[s[0]] > 0.0 || w[s[1]] > 0.0);
     if (dist < 0.0) return;
-    emit(ContactKind::ve, {v, s[0], s[1], -1}, {1.0, -(1.0 - r.t), -r.t, 0.0}, p, r.closest, dist, off);
+    emit(ContactKind::ve, {v, s[0], s[1], -1}, {1.0, -(1.0 - r.t), -r.t, 0.0}, p, r.closest, dist, offset_at(slot));
   }
   void vv(Index v0, Index v1) {
     if (v0 > v1) std::swap(v0, v1);
     const Vec3 &p = x[v0], &q = x[v1];
-    if (!boxes_within(p, p, q, q, reach)) return;
-    const double off = offset_of(ContactKind::vv, v0, v1);
-    if (off < 0.0) return;
-    const double dist = accept(point_point_distance_sq(p, q), w[v0] > 0.0 || w[v1] > 0.0);
+    if (!boxes_within(p, p, q, q, filter_reach())) return;
+    const Index slot = slot_of(ContactKind::vv, v0, v1);
+    if (slot != detail::InitialPairTable::kExcluded) vv_eval(v0, v1, slot);
+  }
+  void vv_eval(Index v0, Index v1, Index slot) {
+    const Vec3 &p = x[v0], &q = x[v1];
+    const double dist =
+        accept(ContactKind::vv, v0, v1, slot, point_point_distance_sq(p, q), w[v0] > 0.0 || w[v1] > 0.0);
     if (dist < 0.0) return;
-    emit(ContactKind::vv, {v0, v1, -1, -1}, {1.0, -1.0, 0.0, 0.0}, p, q, dist, off);
+    emit(ContactKind::vv, {v0, v1, -1, -1}, {1.0, -1.0, 0.0, 0.0}, p, q, dist, offset_at(slot));
   }
 };
+
+/// Sums the sub-pair counters of one chunk's pass into the pass's statistics.
+void add_counts(DetectionStats& total, const DetectionStats& part) {
+  total.pairs_within_range += part.pairs_within_range;
+  total.excluded_initial += part.excluded_initial;
+  total.degenerate += part.degenerate;
+  total.reduced_offset += part.reduced_offset;
+}
 
 /// Share of side A of a contact's gap (design clarification 4): \f$ s_A = w_A / (w_A + w_B) \f$
 /// with \f$ w_{side} = \sum_i \beta_i w_i \f$ (Alg. NarrowPhase lines 8, 23-24), so s_A + s_B = 1.
@@ -668,6 +719,105 @@ void CollisionDetector::raise_reduced_offsets(const Positions& x) {
       active_.end());
 }
 
+void CollisionDetector::set_reuse_skin(double skin) {
+  if (!(skin >= 0.0) || !std::isfinite(skin))
+    throw Error("CollisionDetector::set_reuse_skin: the skin must be finite and >= 0, got " + std::to_string(skin));
+  skin_ = skin;
+  list_valid_ = false;
+  if (skin_ == 0.0) {
+    list_.clear();
+    list_.shrink_to_fit();
+  }
+}
+
+namespace {
+/// Largest |x_v - ref_v| over the vertices (infinity if any is NaN), each also written to
+/// `per_vertex` when given. Chunked: the result does not depend on the thread count.
+double largest_displacement(const Positions& x, const Positions& ref, double* per_vertex) {
+  const Index n = static_cast<Index>(x.size());
+  const Index chunks = default_chunk_count(n);
+  std::vector<double> largest(static_cast<size_t>(chunks), 0.0);
+  parallel_chunks(n, chunks, [&](Index c, Index b, Index e) {
+    double m = 0.0;
+    for (Index v = b; v < e; ++v) {
+      const double d = (x[v] - ref[v]).norm();
+      if (per_vertex) per_vertex[v] = d;
+      m = std::isnan(d) ? std::numeric_limits<double>::infinity() : std::max(m, d);
+    }
+    largest[c] = m;
+  });
+  return n > 0 ? *std::max_element(largest.begin(), largest.end()) : 0.0;
+}
+}  // namespace
+
+bool CollisionDetector::list_covers(const Positions& x, std::span<const double> inv_mass) {
+  const Index nv = topo_.num_vertices();
+  if (static_cast<Index>(list_x_.size()) != nv || static_cast<Index>(list_movable_.size()) != nv) return false;
+  for (Index v = 0; v < nv; ++v)
+    if (list_movable_[v] != static_cast<std::uint8_t>(inv_mass[v] > 0.0)) return false;
+  disp_.resize(static_cast<size_t>(nv));
+  // A NaN gives infinity and fails the check: the pass then runs the broad phase, which reports it.
+  const double d_max = largest_displacement(x, list_x_, disp_.data());
+  // Two sides each moved at most d_max: a sub-pair beyond 2r + ξ + s at listing is still beyond
+  // 2r + ξ while 2 d_max <= s. The relative margin covers the rounding of the listed distances.
+  return 2.0 * d_max <= skin_ * (1.0 - 1e-9) - 1e-9 * (2.0 * params_.radius + params_.offset);
+}
+
+double CollisionDetector::step_since_last_pass(const Positions& x) {
+  const double step =
+      last_x_.size() == x.size() ? largest_displacement(x, last_x_, nullptr) : std::numeric_limits<double>::infinity();
+  last_x_ = x;
+  return step;
+}
+
+void CollisionDetector::detect_from_list(const Positions& x, std::span<const double> inv_mass, DetectionStats& stats) {
+  const Index chunks = static_cast<Index>(list_.size());
+  contact_buffers_.resize(static_cast<size_t>(chunks));
+  for (auto& b : contact_buffers_) b.clear();
+  std::vector<DetectionStats> counts(static_cast<size_t>(chunks));
+  const double reach = 2.0 * params_.radius + params_.offset;
+  // A listed sub-pair is evaluated unless its lower bound (listed distance less the largest
+  // displacement of each side) already clears the range, with a margin for rounding.
+  const double clear = reach * (1.0 + 1e-9) + 1e-12;
+  parallel_chunks(chunks, chunks, [&](Index chunk, Index, Index) {
+    DetectSink sink{
+        topo_, x, inv_mass, initial_, reduced_offset_, params_.offset, reach, reach * reach, contact_buffers_[chunk]};
+    const auto& d = disp_;
+    for (const detail::ListedSubPair& p : list_[chunk]) {
+      const double listed = p.distance;
+      switch (p.kind) {
+        case ContactKind::vf: {
+          const Vec3i& t = topo_.faces[p.b];
+          if (listed - d[p.a] - std::max({d[t[0]], d[t[1]], d[t[2]]}) >= clear) continue;
+          sink.vf_eval(p.a, p.b, p.slot);
+          break;
+        }
+        case ContactKind::ee: {
+          const Vec2i &ea = topo_.edges[p.a], &eb = topo_.edges[p.b];
+          if (listed - std::max(d[ea[0]], d[ea[1]]) - std::max(d[eb[0]], d[eb[1]]) >= clear) continue;
+          sink.ee_eval(p.a, p.b, p.slot);
+          break;
+        }
+        case ContactKind::ve: {
+          const Vec2i& e = topo_.edges[p.b];
+          if (listed - d[p.a] - std::max(d[e[0]], d[e[1]]) >= clear) continue;
+          sink.ve_eval(p.a, p.b, p.slot);
+          break;
+        }
+        case ContactKind::vv:
+          if (listed - d[p.a] - d[p.b] >= clear) continue;
+          sink.vv_eval(p.a, p.b, p.slot);
+          break;
+      }
+    }
+    sink.add_to(counts[chunk]);
+  });
+  for (Index c = 0; c < chunks; ++c) {
+    add_counts(stats, counts[c]);
+    stats.listed += static_cast<Index>(list_[c].size());
+  }
+}
+
 void CollisionDetector::detect(const Positions& x, std::span<const double> inv_mass, RegionSet& regions,
                                std::vector<ContactPair>& contacts, DetectionStats& stats,
                                std::span<const Vec3> kinematic_step) {
@@ -680,6 +830,21 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
                 std::to_string(x.size()) + " and " + std::to_string(inv_mass.size()));
   stats = DetectionStats{};
   Stopwatch watch;
+  const double step = skin_ > 0.0 ? step_since_last_pass(x) : 0.0;
+  if (skin_ > 0.0 && list_valid_ && list_covers(x, inv_mass)) {
+    stats.reused = true;
+    stats.broad_s = watch.seconds();
+    watch.restart();
+    if (!active_.empty()) raise_reduced_offsets(x);
+    detect_from_list(x, inv_mass, stats);
+    assemble(inv_mass, kinematic_step, contacts, regions);
+    stats.constraints = static_cast<Index>(regions.total());
+    stats.narrow_s = watch.seconds();
+    return;
+  }
+  list_valid_ = false;
+  // List only if the last pass's motion, repeated, would leave the list valid for one pass.
+  const bool listing = skin_ > 0.0 && 2.0 * step < skin_;
   // A primitive with no movable vertex can only meet another immovable one in vain: such pairs
   // are never enumerated (a static obstacle against itself would dominate the broad phase).
   movable_.resize(static_cast<size_t>(prims_.size()));
@@ -705,8 +870,10 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
         }
       },
       4096);
-  compute_primitive_boxes(prims_, topo_, x, box_inflation(params_.radius, params_.offset, params_.repulsion_range),
-                          boxes_);
+  // Building the list: boxes grown by s/2 more, so pairs within 2r + ξ + s come up.
+  compute_primitive_boxes(
+      prims_, topo_, x,
+      box_inflation(params_.radius, params_.offset, params_.repulsion_range) + (listing ? 0.5 * skin_ : 0.0), boxes_);
   broad_->update(boxes_);
   broad_->set_fixed(fixed_);
   broad_->query_pairs(candidates_);
@@ -720,27 +887,36 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
   const Index chunks = default_chunk_count(n);
   contact_buffers_.resize(static_cast<size_t>(chunks));
   for (auto& b : contact_buffers_) b.clear();
-  std::vector<Index> within(static_cast<size_t>(chunks), 0), excluded(static_cast<size_t>(chunks), 0),
-      degenerate(static_cast<size_t>(chunks), 0), reduced(static_cast<size_t>(chunks), 0);
+  std::vector<DetectionStats> counts(static_cast<size_t>(chunks));
+  if (listing)
+    list_.resize(static_cast<size_t>(chunks));
+  else
+    list_.clear();
   parallel_chunks(n, chunks, [&](Index chunk, Index begin, Index end) {
     const double reach = 2.0 * params_.radius + params_.offset;
     DetectSink sink{
         topo_, x, inv_mass, initial_, reduced_offset_, params_.offset, reach, reach * reach, contact_buffers_[chunk]};
+    if (listing) {
+      list_[chunk].clear();
+      sink.list = &list_[chunk];
+      sink.list_reach = reach + skin_;
+      sink.list_reach_sq = sink.list_reach * sink.list_reach;
+    }
     for (Index i = begin; i < end; ++i) {
       const auto [p, q] = candidates_[i];
       if (movable_[p] || movable_[q]) visit_sub_pairs(topo_, prims_, p, q, sink);
     }
-    within[chunk] = sink.within;
-    excluded[chunk] = sink.excluded;
-    degenerate[chunk] = sink.degenerate;
-    reduced[chunk] = sink.reduced_contacts;
+    sink.add_to(counts[chunk]);
   });
-
   for (Index c = 0; c < chunks; ++c) {
-    stats.pairs_within_range += within[c];
-    stats.excluded_initial += excluded[c];
-    stats.degenerate += degenerate[c];
-    stats.reduced_offset += reduced[c];
+    add_counts(stats, counts[c]);
+    if (listing) stats.listed += static_cast<Index>(list_[c].size());
+  }
+  if (listing) {
+    list_x_ = x;
+    list_movable_.resize(static_cast<size_t>(nv));
+    for (Index v = 0; v < nv; ++v) list_movable_[v] = inv_mass[v] > 0.0;
+    list_valid_ = true;
   }
   assemble(inv_mass, kinematic_step, contacts, regions);
   stats.constraints = static_cast<Index>(regions.total());

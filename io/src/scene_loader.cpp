@@ -397,6 +397,7 @@ class Builder {
     p.contact.solver_params = component_params(contact_solvers(), "contact", "solver");
     p.collision.broad_phase = cfg_["collision"]["broad_phase"].as<std::string>();
     p.collision.broad_phase_params = component_params(broad_phases(), "collision", "broad_phase");
+    p.collision.reuse_skin = cfg_["collision"]["reuse_skin"].as<double>();
     const auto d = cfg_["debug"];
     const std::string audit = d["audit"].as<std::string>();
     p.debug.audit = audit == "every_frame"     ? AuditMode::every_frame

@@ -109,7 +109,7 @@ NodePtr shape_schema() {
                         {"quality", number(2.0,
                                            "tet_solid from a surface .obj: tetgen's radius-edge ratio bound (-q); 0 "
                                            "turns quality refinement off",
-                                           Range{0, 100, false, false})},
+                                           Range::up_to(100))},
                         {"max_volume", number(0.0,
                                               "tet_solid from a surface .obj: largest tet volume (m³, tetgen -a); "
                                               "0 means no bound",
@@ -192,7 +192,16 @@ std::vector<Field> contact_fields() {
 
 std::vector<Field> collision_fields() {
   const DetectionParams d;
-  std::vector<Field> f = {{"broad_phase", choice(d.broad_phase, broad_phase_names, "broad phase")}};
+  std::vector<Field> f = {
+      {"broad_phase", choice(d.broad_phase, broad_phase_names, "broad phase")},
+      {"reuse_skin",
+       number(d.reuse_skin,
+              "skin s of the sub-pair list kept between detection passes, in units of r: a pass that runs the "
+              "broad phase lists every sub-pair within 2r + ξ + s r, and later passes evaluate only those while "
+              "every vertex has moved less than s r / 2 since (same contacts, same order); 0 runs the broad phase "
+              "in every pass",
+              Range{0, 100, false, false})},
+  };
   add_component_sections(f, broad_phases(), "collision.broad_phase");
   return f;
 }

@@ -110,6 +110,7 @@ py::dict frame_stats_dict(const FrameStats& s) {
   d["contact_vertices_distinct"] = s.contact_vertices_distinct;
   d["projector_rescues"] = s.projector_rescues;
   d["candidates_total"] = s.candidates_total;
+  d["detections_reused"] = s.detections_reused;
   return d;
 }
 

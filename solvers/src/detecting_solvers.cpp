@@ -21,6 +21,7 @@ void DetectingSolver::initialize(const Topology& topo, const SimState& state, co
   detector_ = std::make_unique<CollisionDetector>(
       topo, state.x, params.contact,
       make_broad_phase(params.collision.broad_phase, params.collision.broad_phase_params));
+  detector_->set_reuse_skin(params.collision.reuse_skin * params.contact.radius);
   regions_.clear(topo.num_vertices());
   num_vertices_ = topo.num_vertices();
   friction_override_.assign(static_cast<size_t>(topo.num_vertices()), -1.0);
@@ -55,6 +56,7 @@ DetectResult DetectingSolver::detect(const Positions& anchor, const SimState& st
   DetectResult s;
   s.candidates = ds.candidates;
   s.constraints = ds.constraints;
+  s.reused = ds.reused;
   for (const auto& c : contacts_) s.min_distance = std::min(s.min_distance, c.distance);
   return s;
 }

@@ -300,6 +300,7 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
     const DetectResult det = contact_->detect(anchor_, st, ctx);
     fs.candidates = std::max(fs.candidates, det.candidates);
     fs.candidates_total += det.candidates;
+    fs.detections_reused += det.reused;
     fs.constraints = std::max(fs.constraints, det.constraints);
     fs.min_distance = std::min(fs.min_distance, det.min_distance);
 

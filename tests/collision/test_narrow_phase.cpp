@@ -5,8 +5,10 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <set>
+#include <string>
 
 #include "ccfr/collision/narrow_phase.hpp"
 #include "ccfr/core/error.hpp"
@@ -319,6 +321,93 @@ TEST_P(NarrowPhaseScenes, DeterministicForAnyThreadCountAndBroadPhase) {
     std::sort(names.begin(), names.end());
     EXPECT_EQ(names, ref_names) << "run " << i;
   }
+}
+
+// The kept sub-pair list (set_reuse_skin): every pass equals a fresh pass bit for bit, contacts
+// in the same order, on passes that reuse the list and passes that rebuild it, with every broad
+// phase; and the contacts equal the all-pairs loop. Small moves reuse, a large one rebuilds.
+TEST_P(NarrowPhaseScenes, ReusedListGivesTheFreshPassExactly) {
+  const test::TestScene s = scene();
+  const double skin = 2 * kR;
+  for (const auto& name : broad_phase_names()) {
+    CollisionDetector fresh(s.topo, s.x, kParams, make_broad_phase(name));
+    CollisionDetector kept(s.topo, s.x, kParams, make_broad_phase(name));
+    kept.set_reuse_skin(skin);
+    EXPECT_EQ(kept.reuse_skin(), skin);
+    Positions x = s.x;
+    perturb(x, 70, 0.003);
+    // Per pass: the move (radius of a random ball per vertex), whether the list is reused, and
+    // whether the pass has a list. The first pass has no previous motion, so it does not list;
+    // the second (no motion) lists; displacements since listing stay within skin / 2 = 0.005 for
+    // two small moves (0.002 + 0.002); the large move (many vertices by more than 0.005) needs
+    // the broad phase, and predicts no reuse, so it does not list; standing still lists again.
+    struct Move {
+      double radius;
+      bool reused, listed;
+    };
+    const std::vector<Move> moves = {{0.0, false, false},  {0.0, false, true}, {0.002, true, true}, {0.002, true, true},
+                                     {0.03, false, false}, {0.0, false, true}, {0.001, true, true}};
+    for (size_t pass = 0; pass < moves.size(); ++pass) {
+      if (moves[pass].radius > 0) perturb(x, 80 + pass, moves[pass].radius);
+      const Detection a = run(fresh, x, s.inv_mass), b = run(kept, x, s.inv_mass);
+      const std::string where = name + ", pass " + std::to_string(pass);
+      EXPECT_FALSE(a.stats.reused) << where;
+      EXPECT_EQ(a.stats.listed, 0) << where;
+      EXPECT_EQ(b.stats.reused, moves[pass].reused) << where;
+      EXPECT_EQ(b.stats.listed > 0, moves[pass].listed) << where;
+      ASSERT_EQ(a.contacts.size(), b.contacts.size()) << where;
+      for (size_t k = 0; k < a.contacts.size(); ++k) {
+        const ContactPair &ca = a.contacts[k], &cb = b.contacts[k];
+        ASSERT_TRUE(ca.kind == cb.kind && ca.v == cb.v && ca.w == cb.w && ca.n == cb.n && ca.distance == cb.distance &&
+                    ca.offset == cb.offset)
+            << where << ": contact " << k << " differs";
+      }
+      EXPECT_EQ(a.regions.offsets, b.regions.offsets) << where;
+      ASSERT_EQ(a.regions.planes.size(), b.regions.planes.size()) << where;
+      for (size_t k = 0; k < a.regions.planes.size(); ++k)
+        ASSERT_TRUE(a.regions.planes[k].n == b.regions.planes[k].n && a.regions.planes[k].d == b.regions.planes[k].d)
+            << where << ": plane " << k;
+      EXPECT_EQ(a.stats.pairs_within_range, b.stats.pairs_within_range) << where;
+      EXPECT_EQ(a.stats.degenerate, b.stats.degenerate) << where;
+      std::multiset<SubPairName> found;
+      for (const auto& c : b.contacts) found.insert(name_of(c));
+      EXPECT_EQ(found, brute_force_contacts(s, x, kept)) << where;
+    }
+  }
+}
+
+// A changed inverse mass (a vertex pinned between passes) invalidates the list: the pass rebuilds
+// and still equals a fresh one. Bad skins are refused; a skin of 0 turns reuse off.
+TEST(NarrowPhaseReuse, MassChangesRebuildAndBadSkinsAreRefused) {
+  test::ExpectWarnings expect_warnings;  // the folded cloth's exclusions
+  const test::TestScene s = folded_cloth_scene();
+  CollisionDetector fresh(s.topo, s.x, kParams, make_broad_phase("bvh"));
+  CollisionDetector kept(s.topo, s.x, kParams, make_broad_phase("bvh"));
+  kept.set_reuse_skin(2 * kR);
+  std::vector<double> w = s.inv_mass;
+  Positions x = s.x;
+  perturb(x, 5, 0.003);
+  EXPECT_FALSE(run(kept, x, w).stats.reused);  // no previous pass: no list
+  EXPECT_FALSE(run(kept, x, w).stats.reused);  // lists
+  EXPECT_TRUE(run(kept, x, w).stats.reused);
+  for (Index v = 0; v < static_cast<Index>(w.size()); v += 3) w[v] = 0.0;
+  const Detection a = run(fresh, x, w), b = run(kept, x, w);
+  EXPECT_FALSE(b.stats.reused);
+  std::vector<SubPairName> na, nb;
+  for (const auto& c : a.contacts) na.push_back(name_of(c));
+  for (const auto& c : b.contacts) nb.push_back(name_of(c));
+  EXPECT_EQ(na, nb);
+  EXPECT_EQ(a.regions.offsets, b.regions.offsets);
+  kept.invalidate_reuse();
+  EXPECT_FALSE(run(kept, x, w).stats.reused);
+  EXPECT_THROW(kept.set_reuse_skin(-1e-3), Error);
+  EXPECT_THROW(kept.set_reuse_skin(std::nan("")), Error);
+  EXPECT_THROW(kept.set_reuse_skin(std::numeric_limits<double>::infinity()), Error);
+  kept.set_reuse_skin(0.0);
+  run(kept, x, w);
+  const Detection off = run(kept, x, w);
+  EXPECT_FALSE(off.stats.reused);
+  EXPECT_EQ(off.stats.listed, 0);
 }
 
 std::string scene_name(const ::testing::TestParamInfo<int>& info) {

@@ -139,9 +139,11 @@ namespace {
 // stats.csv's candidates_total sums the broad-phase pairs of every detection pass of a frame.
 // Closed form where every pass sees the same pairs (nothing moves: no gravity, at rest), then the
 // bounds of a falling cloth: at least the largest pass, at most the largest pass times the passes.
+// Without the kept sub-pair list (collision.reuse_skin = 0), every pass runs the broad phase.
 TEST(FrameStatsCandidates, TotalSumsEveryDetectionPass) {
   Scene still = cloth_on_floor("ccfr");
   still.params.time.gravity = Vec3::Zero();
+  still.params.collision.reuse_skin = 0.0;
   const int substeps = still.params.time.substeps;
   Simulation at_rest(std::move(still));
   for (int f = 0; f < 3; ++f) {
@@ -149,8 +151,11 @@ TEST(FrameStatsCandidates, TotalSumsEveryDetectionPass) {
     ASSERT_GT(fs.candidates, 0) << "the cloth's own neighbouring triangles are candidates";
     EXPECT_GE(fs.outer_iterations, substeps);
     EXPECT_EQ(fs.candidates_total, static_cast<std::int64_t>(fs.candidates) * fs.outer_iterations) << "frame " << f + 1;
+    EXPECT_EQ(fs.detections_reused, 0);
   }
-  Simulation falling(cloth_on_floor("ccfr"));
+  Scene falling_scene = cloth_on_floor("ccfr");
+  falling_scene.params.collision.reuse_skin = 0.0;
+  Simulation falling(std::move(falling_scene));
   bool varied = false;
   for (int f = 0; f < 15; ++f) {
     const FrameStats fs = falling.step_frame();
@@ -159,6 +164,37 @@ TEST(FrameStatsCandidates, TotalSumsEveryDetectionPass) {
     varied |= fs.candidates_total < static_cast<std::int64_t>(fs.candidates) * fs.outer_iterations;
   }
   EXPECT_TRUE(varied) << "the floor comes into reach during the fall: passes differ";
+}
+
+// With the kept list (the default skin), a cloth at rest runs the broad phase twice: the first
+// pass has no previous motion to judge by, the second lists; every later pass reuses the list
+// and adds no candidates. The frames equal those without the list bit for bit.
+TEST(FrameStatsCandidates, ReusedPassesAddNoCandidatesAndChangeNothing) {
+  Scene still = cloth_on_floor("ccfr");
+  still.params.time.gravity = Vec3::Zero();
+  ASSERT_GT(still.params.collision.reuse_skin, 0.0);
+  Scene plain = cloth_on_floor("ccfr");
+  plain.params.time.gravity = Vec3::Zero();
+  plain.params.collision.reuse_skin = 0.0;
+  Simulation kept(std::move(still)), fresh(std::move(plain));
+  for (int f = 0; f < 3; ++f) {
+    const FrameStats fs = kept.step_frame(), ref = fresh.step_frame();
+    EXPECT_EQ(fs.outer_iterations, ref.outer_iterations);
+    EXPECT_EQ(fs.detections_reused, fs.outer_iterations - (f == 0 ? 2 : 0)) << "frame " << f + 1;
+    if (f > 0) EXPECT_EQ(fs.candidates_total, 0) << "frame " << f + 1;
+    EXPECT_EQ(fs.constraints, ref.constraints);
+    EXPECT_EQ(kept.positions(), fresh.positions()) << "frame " << f + 1;
+  }
+  // A falling cloth (the floor comes into reach) matches too, reusing where the motion allows.
+  Simulation kept_falling(cloth_on_floor("ccfr"));
+  Scene plain_falling = cloth_on_floor("ccfr");
+  plain_falling.params.collision.reuse_skin = 0.0;
+  Simulation fresh_falling(std::move(plain_falling));
+  for (int f = 0; f < 15; ++f) {
+    const FrameStats fs = kept_falling.step_frame(), ref = fresh_falling.step_frame();
+    EXPECT_EQ(fs.violations_detected, ref.violations_detected) << "frame " << f + 1;
+    ASSERT_EQ(kept_falling.positions(), fresh_falling.positions()) << "frame " << f + 1;
+  }
 }
 
 }  // namespace

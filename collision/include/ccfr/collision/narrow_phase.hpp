@@ -62,7 +62,9 @@ struct DetectionStats {
   Index excluded_initial = 0;    ///< sub-pairs skipped by the initial-configuration exclusions (box within range)
   Index reduced_offset = 0;      ///< contacts whose offset is still below ξ (initial proximity)
   Index degenerate = 0;          ///< sub-pairs at (numerically) zero distance: no normal, no half-space
-  double broad_s = 0.0;          ///< boxes + refit + pair query
+  bool reused = false;           ///< the pass evaluated the kept sub-pair list instead of the broad phase
+  Index listed = 0;              ///< sub-pairs in the kept list after the pass (0: reuse off)
+  double broad_s = 0.0;          ///< boxes + refit + pair query (a reused pass: the displacement check)
   double narrow_s = 0.0;         ///< closest points + half-spaces + RegionSet assembly
 };
 
@@ -117,6 +119,18 @@ class InitialPairTable {
 };
 }  // namespace detail
 
+namespace detail {
+/// One sub-pair of the reusable list (CollisionDetector::set_reuse_skin): what a later pass needs
+/// to evaluate it without the broad phase, the enumeration or the exclusion look-up.
+struct ListedSubPair {
+  Index a = 0, b = 0;  ///< canonical ids (see sub_pair_key)
+  Index slot = -2;     ///< reduced-offset slot, negative (InitialPairTable::kAbsent) for ξ
+  ContactKind kind = ContactKind::vf;
+  float distance = 0.0f;  ///< distance when listed, rounded down: a lower bound
+  static ListedSubPair make(ContactKind kind, Index a, Index b, Index slot, double dist_sq);
+};
+}  // namespace detail
+
 /// What the initial configuration did to contact (counts of sub-pairs), for the log and run.json.
 struct InitialProximity {
   Index adjacent_excluded = 0;      ///< closer than ξ and topologically adjacent: excluded for the run
@@ -166,6 +180,24 @@ class CollisionDetector {
   void detect(const Positions& x, std::span<const double> inv_mass, RegionSet& regions,
               std::vector<ContactPair>& contacts, DetectionStats& stats, std::span<const Vec3> kinematic_step = {});
 
+  /// Keeps the sub-pair list between passes (a Verlet list at the level of sub-pairs). A pass that
+  /// runs the broad phase also lists every sub-pair within \f$2r + \xi + s\f$ (s = `skin`, m) that
+  /// is not excluded and has a movable vertex. Later passes evaluate only the listed sub-pairs
+  /// while every vertex has moved at most s/2 since: the distance of two primitives changes by
+  /// at most the largest displacement of each side's vertices, so a sub-pair left out (farther
+  /// than 2r + ξ + s) is still beyond the search range 2r + ξ. Listed sub-pairs whose distance
+  /// bound (listed distance less both sides' displacements) clears the range skip the kernel.
+  /// The contacts, and so the regions, equal a fresh pass's exactly, in the same order (every
+  /// broad phase reports its pairs in an order fixed by the tree or the ids, so a subsequence
+  /// keeps it). A pass lists only when the previous pass moved every vertex by less than s/2, so
+  /// that the list can be expected to serve at least once: in fast scenes (each outer iteration
+  /// moves vertices by up to r) the larger boxes would cost without a reuse to pay for them.
+  /// `skin` = 0 (the default) detects from scratch in every pass.
+  void set_reuse_skin(double skin);
+  double reuse_skin() const { return skin_; }
+  /// Drops the kept list: the next pass runs the broad phase.
+  void invalidate_reuse() { list_valid_ = false; }
+
   const ContactModel& params() const { return params_; }
   const CollisionPrimitives& primitives() const { return prims_; }
   const BroadPhase& broad_phase() const { return *broad_; }
@@ -195,6 +227,13 @@ class CollisionDetector {
   void compute_exclusions(const Positions& initial);
   /// Raises the reduced offsets at the (feasible) positions x; drops pairs that reached ξ.
   void raise_reduced_offsets(const Positions& x);
+  /// Whether the kept list still covers every sub-pair within range at `x` (displacements from
+  /// the listing positions in disp_, movable flags unchanged).
+  bool list_covers(const Positions& x, std::span<const double> inv_mass);
+  /// Largest |x - last_x_| (infinity without a previous pass or on NaN); then last_x_ = x.
+  double step_since_last_pass(const Positions& x);
+  /// A pass over the kept list instead of the broad phase and the enumeration.
+  void detect_from_list(const Positions& x, std::span<const double> inv_mass, DetectionStats& stats);
   void assemble(std::span<const double> inv_mass, std::span<const Vec3> kinematic_step,
                 std::vector<ContactPair>& contacts, RegionSet& regions);
 
@@ -215,6 +254,14 @@ class CollisionDetector {
   std::vector<std::uint8_t> fixed_;  ///< !movable_, handed to the broad phase
   std::vector<std::vector<ContactPair>> contact_buffers_;
   std::vector<Index> block_cursor_;  ///< #blocks by #V plane counts, then write cursors
+  // The kept sub-pair list (set_reuse_skin), its listing positions and movable flags.
+  double skin_ = 0.0;
+  bool list_valid_ = false;
+  std::vector<std::vector<detail::ListedSubPair>> list_;  ///< per chunk, in enumeration order
+  Positions list_x_;
+  Positions last_x_;                        ///< positions of the previous pass (skin > 0 only)
+  std::vector<std::uint8_t> list_movable_;  ///< per vertex
+  std::vector<double> disp_;                ///< per vertex: |x - list_x_| of the current pass
 };
 
 }  // namespace ccfr

@@ -39,8 +39,9 @@ struct StepContext {
 
 /// Counts of one detection pass, as a contact solver reports them (collision's own counters are DetectionStats).
 struct DetectResult {
-  Index candidates = 0;                                           ///< broad-phase pairs
-  Index constraints = 0;                                          ///< half-spaces (or contact constraints) produced
+  Index candidates = 0;   ///< broad-phase pairs (0 when reused)
+  bool reused = false;    ///< the pass evaluated the kept sub-pair list (collision.reuse_skin), no broad phase
+  Index constraints = 0;  ///< half-spaces (or contact constraints) produced
   double min_distance = std::numeric_limits<double>::infinity();  ///< closest pair seen, |x_A - x_B|
 };
 

@@ -62,6 +62,9 @@ struct ContactParams : ContactModel {
 struct DetectionParams {
   std::string broad_phase = "bvh";  ///< broad phase (a name in broad_phases())
   ParamValues broad_phase_params;   ///< keys of its registry entry; defaults for the rest
+  /// Skin of the sub-pair list kept between detection passes, in units of r
+  /// (CollisionDetector::set_reuse_skin); 0 runs the broad phase in every pass.
+  double reuse_skin = 1.0;
 };
 
 struct DebugParams {

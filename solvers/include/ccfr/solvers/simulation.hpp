@@ -49,6 +49,9 @@ struct FrameStats {
   /// Broad-phase pairs summed over the frame's detection passes (one per outer iteration of every
   /// substep): the work of a frame, where `candidates` is its largest single pass.
   std::int64_t candidates_total = 0;
+  /// Detection passes of the frame that evaluated the kept sub-pair list instead of running the
+  /// broad phase (collision.reuse_skin); they add nothing to candidates_total.
+  int detections_reused = 0;
 };
 
 /// Everything a Simulation carries from frame to frame beyond its scene (Simulation::checkpoint):
