@@ -764,10 +764,20 @@ bool CollisionDetector::list_covers(const Positions& x, std::span<const double> 
 }
 
 double CollisionDetector::step_since_last_pass(const Positions& x) {
-  const double step =
-      last_x_.size() == x.size() ? largest_displacement(x, last_x_, nullptr) : std::numeric_limits<double>::infinity();
+  double step = std::numeric_limits<double>::infinity();
+  if (restart_step_ >= 0.0)
+    step = restart_step_;
+  else if (last_x_.size() == x.size())
+    step = largest_displacement(x, last_x_, nullptr);
+  restart_step_ = -1.0;
   last_x_ = x;
   return step;
+}
+
+void CollisionDetector::restart_reuse(double recent_step) {
+  list_valid_ = false;
+  last_x_.clear();
+  restart_step_ = std::isfinite(recent_step) && recent_step >= 0.0 ? recent_step : -1.0;
 }
 
 void CollisionDetector::detect_from_list(const Positions& x, std::span<const double> inv_mass, DetectionStats& stats) {

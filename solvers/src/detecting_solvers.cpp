@@ -45,6 +45,14 @@ void DetectingSolver::restore_state(std::span<const double> state) {
 }
 
 DetectResult DetectingSolver::detect(const Positions& anchor, const SimState& state, StepContext& ctx) {
+  if (ctx.frame != reuse_frame_) {
+    // Frame start: the kept list restarts from what a checkpoint holds (the velocities), so a
+    // resumed run lists and reuses exactly where the uninterrupted one did (same stats.csv).
+    reuse_frame_ = ctx.frame;
+    double speed = 0.0;
+    for (const Vec3& v : state.v) speed = std::max(speed, v.norm());
+    detector_->restart_reuse(speed * ctx.dt);
+  }
   DetectionStats ds;
   detector_->detect(anchor, state.inv_mass, regions_, contacts_, ds, ctx.kinematic_step);
   ctx.times.broad += ds.broad_s;

@@ -400,6 +400,17 @@ TEST(NarrowPhaseReuse, MassChangesRebuildAndBadSkinsAreRefused) {
   EXPECT_EQ(a.regions.offsets, b.regions.offsets);
   kept.invalidate_reuse();
   EXPECT_FALSE(run(kept, x, w).stats.reused);
+  // restart_reuse: the given step decides whether the next pass lists, not the previous pass.
+  kept.restart_reuse(0.0);
+  Detection d = run(kept, x, w);
+  EXPECT_FALSE(d.stats.reused);
+  EXPECT_GT(d.stats.listed, 0);
+  EXPECT_TRUE(run(kept, x, w).stats.reused);
+  kept.restart_reuse(kR);  // a last step of r > skin / 2: no list
+  d = run(kept, x, w);
+  EXPECT_FALSE(d.stats.reused);
+  EXPECT_EQ(d.stats.listed, 0);
+  EXPECT_GT(run(kept, x, w).stats.listed, 0);  // then judged by the previous pass again
   EXPECT_THROW(kept.set_reuse_skin(-1e-3), Error);
   EXPECT_THROW(kept.set_reuse_skin(std::nan("")), Error);
   EXPECT_THROW(kept.set_reuse_skin(std::numeric_limits<double>::infinity()), Error);

@@ -197,6 +197,11 @@ class CollisionDetector {
   double reuse_skin() const { return skin_; }
   /// Drops the kept list: the next pass runs the broad phase.
   void invalidate_reuse() { list_valid_ = false; }
+  /// Drops the kept list and the previous pass's positions, and takes `recent_step` (the largest
+  /// displacement of the last substep, e.g. dt · max |v|) as the motion that decides whether the
+  /// next pass lists. Called at every frame start, it makes the reuse decisions depend only on
+  /// state a checkpoint holds, so a resumed run reuses exactly where the uninterrupted one did.
+  void restart_reuse(double recent_step);
 
   const ContactModel& params() const { return params_; }
   const CollisionPrimitives& primitives() const { return prims_; }
@@ -260,6 +265,7 @@ class CollisionDetector {
   std::vector<std::vector<detail::ListedSubPair>> list_;  ///< per chunk, in enumeration order
   Positions list_x_;
   Positions last_x_;                        ///< positions of the previous pass (skin > 0 only)
+  double restart_step_ = -1.0;              ///< restart_reuse()'s step for the next pass (< 0: none)
   std::vector<std::uint8_t> list_movable_;  ///< per vertex
   std::vector<double> disp_;                ///< per vertex: |x - list_x_| of the current pass
 };
