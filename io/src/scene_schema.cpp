@@ -314,6 +314,13 @@ NodePtr build_scene_schema() {
                         "outer iterations stop when no vertex is held back by the step bound by more than tol · r (a "
                         "vertex may thus arrive up to tol · r short per substep)",
                         Range::unit())},
+                {"advance_shortfall",
+                 number(td.advance_shortfall,
+                        "outer iterations also stop when the step bound cut at most this fraction of the pass's total "
+                        "intended advance (summed over movable vertices), even if a few vertices are held back: they "
+                        "keep their step of r (counted in clamped_vertices). 0 iterates while any vertex is held "
+                        "back",
+                        Range::unit())},
                 {"max_subdivision",
                  integer(td.max_subdivision,
                          "most pieces a substep is split into automatically when scripted vertices move more than r or "

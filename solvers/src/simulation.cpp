@@ -252,6 +252,8 @@ Simulation::OuterIterationEnd Simulation::end_outer_iteration(const SolveResult&
     end.held_back += sb.held_back;
     end.worst = sb.worst;
     end.worst_length = sb.worst_length;
+    end.short_enough =
+        tp.advance_shortfall > 0.0 && res.bounded_vertices == 0 && sb.cut <= tp.advance_shortfall * sb.intended;
   }
   // What the iteration really ends with, after the push and the bound moved vertices again.
   if (const auto recount = contact_->count_outside(solve_, anchor_, st, ctx)) end.remaining = *recount;
@@ -334,9 +336,11 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
     }
     anchor_.swap(solve_);
     if (end.held_back == 0) break;  // every vertex reached its intended advance
+    if (end.short_enough) break;    // the few held back keep their clamped step (advance_shortfall)
   }
   fs.clamped_vertices += end.held_back;
-  if (end.worst) report_capped_speed(*end.worst, end.worst_length + (bound - 1) * r, dt);
+  // Speed capped because the iterations ran out (not by the shortfall rule's choice): say so once.
+  if (end.worst && !end.short_enough) report_capped_speed(*end.worst, end.worst_length + (bound - 1) * r, dt);
   fs.violations_remaining = std::max(fs.violations_remaining, end.remaining);
   check_violations(end.remaining, substep_index);
 

@@ -12,15 +12,17 @@ StepBoundResult apply_step_bound(const Positions& x, const Positions& anchor, st
   if (&out != &x) out.resize(x.size());
   const Index chunks = default_chunk_count(nv);
   std::vector<Index> count(static_cast<size_t>(chunks), 0), worst(count.size(), -1);
-  std::vector<double> len_max(count.size(), 0.0);
+  std::vector<double> len_max(count.size(), 0.0), intended(count.size(), 0.0), cut(count.size(), 0.0);
   parallel_chunks(nv, chunks, [&](Index c, Index b, Index e) {
     for (Index i = b; i < e; ++i) {
       const Vec3 d = x[i] - anchor[i];
       const double len = d.norm();
+      if (inv_mass[i] != 0.0) intended[c] += len;
       if (inv_mass[i] == 0.0 || !(len > r)) {
         if (&out != &x) out[i] = x[i];
         continue;
       }
+      cut[c] += len - r;
       out[i] = anchor[i] + (r / len) * d;
       if (len > r * (1.0 + tolerance)) {
         ++count[c];
@@ -31,6 +33,8 @@ StepBoundResult apply_step_bound(const Positions& x, const Positions& anchor, st
   StepBoundResult res;
   for (size_t c = 0; c < count.size(); ++c) {
     res.held_back += count[c];
+    res.intended += intended[c];
+    res.cut += cut[c];
     if (count[c] > 0 && len_max[c] > res.worst_length) res.worst_length = len_max[c], res.worst = worst[c];
   }
   return res;

@@ -13,6 +13,7 @@
 #include "ccfr/geometry/generators.hpp"
 #include "ccfr/solvers/rigid_projection.hpp"
 #include "ccfr/solvers/simulation.hpp"
+#include "ccfr/solvers/step_bound.hpp"
 #include "scenes.hpp"
 #include "test_support.hpp"
 
@@ -155,6 +156,75 @@ TEST(Guarantee, FreeFlightIsNotCappedByTheStepBound) {
   EXPECT_GT(fs.outer_iterations, 4 * n);  // the advance needed more than time.iterations passes
   EXPECT_NEAR(sim.positions()[p].y(), y0 - 30.0 * t - 9.81 * t * t * (n + 1) / (2.0 * n), 1e-9);
   EXPECT_EQ(fs.clamped_vertices, 0);
+}
+
+// The step bound's sums, in closed form: the intended advance counts movable vertices only, the
+// cut is what lies beyond r; kinematic vertices keep their step whatever its length.
+TEST(Guarantee, StepBoundSumsTheIntendedAdvanceAndTheCut) {
+  const Positions anchor = {Vec3::Zero(), Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
+  const Positions x = {Vec3(0.003, 0, 0), Vec3(0, 0.025, 0), Vec3(0, 0, -0.0101), Vec3(0.5, 0, 0)};
+  const std::vector<double> w = {1.0, 1.0, 2.0, 0.0};  // the last one is scripted
+  Positions out;
+  const StepBoundResult sb = apply_step_bound(x, anchor, w, 0.01, 0.05, out);
+  EXPECT_NEAR(sb.intended, 0.003 + 0.025 + 0.0101, 1e-15);
+  EXPECT_NEAR(sb.cut, 0.015 + 0.0001, 1e-15);
+  EXPECT_EQ(sb.held_back, 1);  // 0.0101 is within r (1 + 5 %)
+  ASSERT_TRUE(sb.worst.has_value());
+  EXPECT_EQ(*sb.worst, 1);
+  EXPECT_NEAR(out[1].y(), 0.01, 1e-15);
+  EXPECT_NEAR(out[2].z(), -0.01, 1e-15);
+  EXPECT_EQ(out[3], x[3]);
+}
+
+// time.advance_shortfall: a hundred particles drift 1.25 mm per substep and one flies at 6 m/s
+// (25 mm per substep, 5 r). The fast one's first pass cuts 20 mm of 148.75 mm intended (13.4 %).
+// At 0.2 the substep ends there: one pass per substep, the fast particle keeps its step of r and
+// flies on at r / dt. At 0.1 (and 0) the passes go on until it arrives: free flight, uncapped.
+TEST(Guarantee, ShortfallRuleEndsThePassForFewOutliersOnly) {
+  auto make = [](double shortfall) {
+    TopologyBuilder tb;
+    tb.add_object("dust", ObjectKind::particles, 100);
+    Scene s;
+    s.topo = tb.finish();
+    s.state.resize(100);
+    for (Index i = 0; i < 100; ++i) {
+      s.state.x[i] = Vec3(0.1 * (i % 10), 1.0, 0.1 * (i / 10));  // 0.1 m apart: beyond 2r + xi
+      s.state.v[i] = Vec3(0.3, 0, 0);
+      s.state.mass[i] = 0.01;
+      s.state.inv_mass[i] = 100.0;
+    }
+    s.state.v[55] = Vec3(0, 6.0, 0);  // upward: away from the layer
+    s.state.rest = s.state.x_prev = s.state.x;
+    s.params.objects.resize(1);
+    s.params.contact.radius = 0.005;
+    s.params.contact.offset = 0.01;
+    s.params.time.gravity = Vec3::Zero();
+    s.params.time.substeps = 4;
+    s.params.time.iterations = 4;            // up to 16 passes: 25 mm fits in one substep, no subdivision
+    s.params.time.advance_tolerance = 1e-9;  // arrival up to rounding
+    s.params.time.advance_shortfall = shortfall;
+    return s;
+  };
+  const double dt = 1.0 / 240.0, r = 0.005;
+  for (const double shortfall : {0.0, 0.1}) {
+    Scene s = make(shortfall);
+    const double y0 = s.state.x[55].y();
+    Simulation sim(std::move(s));
+    const FrameStats fs = sim.step_frame();
+    EXPECT_EQ(fs.outer_iterations, 4 * 5) << shortfall;  // 25 mm in steps of r, every substep
+    EXPECT_EQ(fs.clamped_vertices, 0) << shortfall;
+    EXPECT_NEAR(sim.positions()[55].y(), y0 + 4 * 6.0 * dt, 1e-12) << shortfall;
+    EXPECT_NEAR(sim.velocities()[55].y(), 6.0, 1e-9) << shortfall;
+  }
+  Scene s = make(0.2);
+  const double y0 = s.state.x[55].y(), x3 = s.state.x[3].x();
+  Simulation sim(std::move(s));
+  const FrameStats fs = sim.step_frame();
+  EXPECT_EQ(fs.outer_iterations, 4);                        // one pass per substep
+  EXPECT_EQ(fs.clamped_vertices, 1);                        // the fast particle, in the first substep only
+  EXPECT_NEAR(sim.positions()[55].y(), y0 + 4 * r, 1e-12);  // then it moves r / dt: exactly r a substep
+  EXPECT_NEAR(sim.velocities()[55].y(), r / dt, 1e-9);
+  EXPECT_NEAR(sim.positions()[3].x(), x3 + 4 * 0.3 * dt, 1e-12);  // the others are unaffected
 }
 
 TEST(Guarantee, ScriptedStepsBeyondTheRadiusSubdivideOrStopWithAClearError) {

@@ -28,6 +28,11 @@ struct TimeParams {
   Vec3 gravity = Vec3(0, -9.81, 0);
   double damping = 0.0;             ///< fraction of velocity removed per second (0: none)
   double advance_tolerance = 0.01;  ///< outer iterations stop once no vertex is held back by r by more than tol · r
+  /// Also stop once the step bound cut at most this fraction of the pass's total intended advance
+  /// (sum over movable vertices), even if a few vertices are still held back; 0 keeps the
+  /// per-vertex rule alone. A handful of whipping vertices then no longer costs the whole scene
+  /// another pass; they keep their clamped step (counted in clamped_vertices).
+  double advance_shortfall = 0.0;
   /// Most pieces a substep may be split into when a scripted step exceeds r or the intended
   /// advance exceeds what the outer iterations can cover ((max_iterations - 1) · r); see Simulation.
   int max_subdivision = 64;

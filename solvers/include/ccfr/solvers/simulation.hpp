@@ -125,6 +125,9 @@ class Simulation {
     Index held_back = 0;         ///< vertices whose advance the solver or the step bound cut
     std::optional<Index> worst;  ///< the step bound's longest held-back step, if any
     double worst_length = 0.0;   ///< its length before the bound
+    /// The pass cut at most time.advance_shortfall of the intended advance (and no rigid body was
+    /// bounded): the substep may end although vertices are held back.
+    bool short_enough = false;
   };
   /// The end of one outer iteration, the same for every contact solver: the analytic obstacles'
   /// push, the step bound (solvers that clamp to r; paper Alg. 1 line 16) and the recount of

@@ -16,6 +16,8 @@ struct StepBoundResult {
   Index held_back = 0;         ///< movable vertices whose step exceeded r (1 + tolerance): their advance was cut
   std::optional<Index> worst;  ///< the vertex with the longest such step, if any was held back
   double worst_length = 0.0;   ///< its step length before the bound
+  double intended = 0.0;       ///< sum of the movable vertices' step lengths before the bound
+  double cut = 0.0;            ///< sum of what the bound cut from them (length - r where longer than r)
 };
 
 /// out_i = a_i + min(1, r / |x_i - a_i|) (x_i - a_i) for movable vertices (inv_mass > 0); scripted
