@@ -198,17 +198,23 @@ void solve_shape_matching(std::span<Vec3> x, std::span<const double> w, std::spa
 
 namespace {
 
-/// Runs body(constraint) over every constraint, colour after colour, each colour in parallel.
-template <class Body>
-void for_each_coloured(const Colouring& col, Body&& body) {
+/// A colour of a bending, strand-bending or tet batch is split into parallel tasks only beyond
+/// this many constraints; smaller colours run inline on the calling thread.
+constexpr Index kConstraintGrain = 256;
+
+/// One sweep of `batch` over `col`: colours in sequence, each colour's constraints (which share no
+/// dynamic vertex) in parallel.
+template <class Batch>
+void solve_coloured(Batch& batch, const Colouring& col, Positions& x, std::span<const double> w, double dt) {
+  const std::span<const Index> order(col.order);
   for (Index k = 0; k < col.colours(); ++k) {
     const Index b = col.offsets[k], e = col.offsets[k + 1];
     parallel_for(
         e - b,
         [&](Index lo, Index hi) {
-          for (Index t = lo; t < hi; ++t) body(col.order[b + t]);
+          batch.solve_in_order(order.subspan(static_cast<size_t>(b + lo), static_cast<size_t>(hi - lo)), x, w, dt);
         },
-        256);
+        kConstraintGrain);
   }
 }
 
@@ -235,13 +241,17 @@ void BendingBatch::finalize(Index num_vertices, std::span<const double> inv_mass
 
 void BendingBatch::reset_multipliers() { std::fill(lambda.begin(), lambda.end(), 0.0); }
 
-void BendingBatch::solve(Positions& x, std::span<const double> w, double dt) {
+void BendingBatch::solve(const Colouring& col, Positions& x, std::span<const double> w, double dt) {
+  solve_coloured(*this, col, x, w, dt);
+}
+
+void BendingBatch::solve_in_order(std::span<const Index> order, Positions& x, std::span<const double> w, double dt) {
   const double inv_dt2 = 1.0 / (dt * dt);
-  for_each_coloured(colouring, [&](Index c) {
+  for (const Index c : order) {
     const Vec4i& v = ids[c];
     xpbd::solve_dihedral_bending({&x[v[0]], &x[v[1]], &x[v[2]], &x[v[3]]}, {w[v[0]], w[v[1]], w[v[2]], w[v[3]]},
                                  rest_angle[c], compliance[c] * inv_dt2, lambda[c]);
-  });
+  }
 }
 
 // ---- StrandBendingBatch -------------------------------------------------------------------------
@@ -259,13 +269,18 @@ void StrandBendingBatch::finalize(Index num_vertices, std::span<const double> in
 
 void StrandBendingBatch::reset_multipliers() { std::fill(lambda.begin(), lambda.end(), 0.0); }
 
-void StrandBendingBatch::solve(Positions& x, std::span<const double> w, double dt) {
+void StrandBendingBatch::solve(const Colouring& col, Positions& x, std::span<const double> w, double dt) {
+  solve_coloured(*this, col, x, w, dt);
+}
+
+void StrandBendingBatch::solve_in_order(std::span<const Index> order, Positions& x, std::span<const double> w,
+                                        double dt) {
   const double inv_dt2 = 1.0 / (dt * dt);
-  for_each_coloured(colouring, [&](Index c) {
+  for (const Index c : order) {
     const Vec3i& v = ids[c];
     xpbd::solve_strand_bending({&x[v[0]], &x[v[1]], &x[v[2]]}, {w[v[0]], w[v[1]], w[v[2]]}, rest_angle[c],
                                compliance[c] * inv_dt2, lambda[c]);
-  });
+  }
 }
 
 // ---- TetBatch -----------------------------------------------------------------------------------
@@ -303,15 +318,19 @@ void TetBatch::reset_multipliers() {
   std::fill(lambda_deviatoric.begin(), lambda_deviatoric.end(), 0.0);
 }
 
-void TetBatch::solve(Positions& x, std::span<const double> w, double dt) {
+void TetBatch::solve(const Colouring& col, Positions& x, std::span<const double> w, double dt) {
+  solve_coloured(*this, col, x, w, dt);
+}
+
+void TetBatch::solve_in_order(std::span<const Index> order, Positions& x, std::span<const double> w, double dt) {
   const double inv_dt2 = 1.0 / (dt * dt);
-  for_each_coloured(colouring, [&](Index c) {
+  for (const Index c : order) {
     const Vec4i& v = ids[c];
     const std::array<Vec3*, 4> p{&x[v[0]], &x[v[1]], &x[v[2]], &x[v[3]]};
     const std::array<double, 4> wv{w[v[0]], w[v[1]], w[v[2]], w[v[3]]};
     xpbd::solve_tet_deviatoric(p, wv, rest_inverse[c], deviatoric_compliance[c] * inv_dt2, lambda_deviatoric[c]);
     xpbd::solve_tet_volume(p, wv, rest_volume[c], volume_compliance[c] * inv_dt2, lambda_volume[c]);
-  });
+  }
 }
 
 // ---- ShapeMatchingBatch -------------------------------------------------------------------------
@@ -444,6 +463,129 @@ MaterialSystem::MaterialSystem(const Topology& topo, const SimState& state, cons
   bending_.finalize(nv, inv_mass);
   strand_bending_.finalize(nv, inv_mass);
   tets_.finalize(nv, inv_mass);
+  build_schedule(nv, inv_mass);
+}
+
+namespace {
+
+/// Union-find over vertices with path halving.
+struct Islands {
+  std::vector<Index> parent;
+  explicit Islands(Index n) : parent(static_cast<size_t>(n)) {
+    for (Index i = 0; i < n; ++i) parent[i] = i;
+  }
+  Index find(Index i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  }
+  void unite(Index a, Index b) {
+    a = find(a), b = find(b);
+    if (a != b) parent[std::max(a, b)] = std::min(a, b);
+  }
+};
+
+}  // namespace
+
+void MaterialSystem::build_schedule(Index nv, std::span<const double> inv_mass) {
+  // Islands: dynamic vertices joined by constraints. Kinematic vertices are never written, so they
+  // join nothing; a constraint with only kinematic vertices belongs to the key of its first vertex.
+  Islands uf(nv);
+  auto link = [&](const auto& batch) {
+    for (Index c = 0; c < batch.size(); ++c) {
+      const auto& v = batch.ids[c];
+      Index first = -1;
+      for (int a = 0; a < static_cast<int>(v.size()); ++a) {
+        if (inv_mass[v[a]] == 0.0) continue;
+        if (first < 0)
+          first = v[a];
+        else
+          uf.unite(first, v[a]);
+      }
+    }
+  };
+  link(distance_), link(bending_), link(strand_bending_), link(tets_);
+  auto key = [&](const auto& batch, Index c) {
+    const auto& v = batch.ids[c];
+    for (int a = 0; a < static_cast<int>(v.size()); ++a)
+      if (inv_mass[v[a]] != 0.0) return uf.find(v[a]);
+    return v[0];
+  };
+
+  // Island ids in order of first appearance (batches in sweep order, constraints in colour order).
+  std::vector<Index> island_of_key(static_cast<size_t>(nv), -1);
+  Index num_islands = 0;
+  std::vector<char> large;
+  std::vector<double> cost;
+  std::vector<Index> colour_count;  // per island, constraints in the current colour
+  auto scan = [&](const auto& batch, Index grain, double unit_cost) {
+    const Colouring& col = batch.colouring;
+    for (Index k = 0; k < col.colours(); ++k) {
+      std::vector<Index> touched;
+      for (Index t = col.offsets[k]; t < col.offsets[k + 1]; ++t) {
+        Index& id = island_of_key[key(batch, col.order[t])];
+        if (id < 0) {
+          id = num_islands++;
+          large.push_back(0);
+          cost.push_back(0.0);
+          colour_count.push_back(0);
+        }
+        if (colour_count[id]++ == 0) touched.push_back(id);
+        cost[id] += unit_cost;
+      }
+      for (const Index id : touched) {
+        // Beyond the grain the colour-by-colour loop would split this island's colour into tasks.
+        if (colour_count[id] > grain) large[id] = 1;
+        colour_count[id] = 0;
+      }
+    }
+  };
+  // Unit costs: rough relative kernel costs, used only to start the largest small islands first.
+  scan(distance_, kDistanceGrain, 1.0);
+  scan(bending_, kConstraintGrain, 4.0);
+  scan(strand_bending_, kConstraintGrain, 3.0);
+  scan(tets_, kConstraintGrain, 10.0);
+
+  // Small islands numbered by decreasing cost (ties by first appearance): the order does not change
+  // the result, only the load balance.
+  std::vector<Index> small;
+  for (Index i = 0; i < num_islands; ++i)
+    if (!large[i]) small.push_back(i);
+  std::stable_sort(small.begin(), small.end(), [&](Index a, Index b) { return cost[a] > cost[b]; });
+  std::vector<Index> small_index(static_cast<size_t>(num_islands), -1);
+  for (size_t s = 0; s < small.size(); ++s) small_index[small[s]] = static_cast<Index>(s);
+  small_islands_ = static_cast<Index>(small.size());
+  large_islands_ = num_islands - small_islands_;
+
+  auto split = [&](const auto& batch, IslandOrder& by_island, Colouring& large_col) {
+    const Colouring& col = batch.colouring;
+    by_island.offsets.assign(static_cast<size_t>(small_islands_) + 1, 0);
+    by_island.order.clear();
+    large_col = Colouring{};
+    large_col.offsets.push_back(0);
+    for (Index t = 0; t < static_cast<Index>(col.order.size()); ++t) {
+      const Index s = small_index[island_of_key[key(batch, col.order[t])]];
+      if (s >= 0) ++by_island.offsets[s + 1];
+    }
+    for (Index s = 0; s < small_islands_; ++s) by_island.offsets[s + 1] += by_island.offsets[s];
+    by_island.order.resize(static_cast<size_t>(by_island.offsets.back()));
+    std::vector<Index> cursor(by_island.offsets.begin(), by_island.offsets.end() - 1);
+    for (Index k = 0; k < col.colours(); ++k) {
+      for (Index t = col.offsets[k]; t < col.offsets[k + 1]; ++t) {
+        const Index c = col.order[t];
+        const Index s = small_index[island_of_key[key(batch, c)]];
+        if (s >= 0)
+          by_island.order[cursor[s]++] = c;
+        else
+          large_col.order.push_back(c);
+      }
+      const Index n = static_cast<Index>(large_col.order.size());
+      if (n > large_col.offsets.back()) large_col.offsets.push_back(n);
+    }
+  };
+  split(distance_, small_distance_, large_distance_);
+  split(bending_, small_bending_, large_bending_);
+  split(strand_bending_, small_strand_, large_strand_);
+  split(tets_, small_tets_, large_tets_);
 }
 
 void MaterialSystem::reset_multipliers() {
@@ -454,6 +596,27 @@ void MaterialSystem::reset_multipliers() {
 }
 
 void MaterialSystem::solve(Positions& x, std::span<const double> inv_mass, double dt) {
+  // Small islands: one serial task each, in parallel. They share no dynamic vertex with each other
+  // or with the large islands, so neither the task order nor the thread count changes the result.
+  parallel_for(
+      small_islands_,
+      [&](Index lo, Index hi) {
+        for (Index i = lo; i < hi; ++i) {
+          distance_.solve_in_order(small_distance_.island(i), x, inv_mass, dt);
+          bending_.solve_in_order(small_bending_.island(i), x, inv_mass, dt);
+          strand_bending_.solve_in_order(small_strand_.island(i), x, inv_mass, dt);
+          tets_.solve_in_order(small_tets_.island(i), x, inv_mass, dt);
+        }
+      },
+      1);
+  distance_.solve(large_distance_, x, inv_mass, dt);
+  bending_.solve(large_bending_, x, inv_mass, dt);
+  strand_bending_.solve(large_strand_, x, inv_mass, dt);
+  tets_.solve(large_tets_, x, inv_mass, dt);
+  rigid_.solve(x, inv_mass);
+}
+
+void MaterialSystem::solve_by_colour(Positions& x, std::span<const double> inv_mass, double dt) {
   distance_.solve(x, inv_mass, dt);
   bending_.solve(x, inv_mass, dt);
   strand_bending_.solve(x, inv_mass, dt);
@@ -471,6 +634,8 @@ MaterialSystem::Counts MaterialSystem::counts() const {
   c.rigid_bodies = rigid_.size();
   c.colours = distance_.colouring.colours() + bending_.colouring.colours() + strand_bending_.colouring.colours() +
               tets_.colouring.colours();
+  c.small_islands = small_islands_;
+  c.large_islands = large_islands_;
   return c;
 }
 

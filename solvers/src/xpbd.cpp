@@ -58,20 +58,25 @@ void DistanceBatch::finalize(Index num_vertices, std::span<const double> inv_mas
 
 void DistanceBatch::reset_multipliers() { std::fill(lambda.begin(), lambda.end(), 0.0); }
 
-void DistanceBatch::solve(Positions& x, std::span<const double> w, double dt) {
-  const double inv_dt2 = 1.0 / (dt * dt);
-  for (Index k = 0; k < colouring.colours(); ++k) {
-    const Index b = colouring.offsets[k], e = colouring.offsets[k + 1];
+void DistanceBatch::solve(const Colouring& col, Positions& x, std::span<const double> w, double dt) {
+  for (Index k = 0; k < col.colours(); ++k) {
+    const Index b = col.offsets[k], e = col.offsets[k + 1];
     parallel_for(
         e - b,
         [&](Index lo, Index hi) {
-          for (Index t = lo; t < hi; ++t) {
-            const Index c = colouring.order[b + t];
-            const Index i = ids[c][0], j = ids[c][1];
-            xpbd::solve_distance(x[i], x[j], w[i], w[j], rest[c], compliance[c] * inv_dt2, lambda[c]);
-          }
+          solve_in_order(
+              std::span<const Index>(col.order).subspan(static_cast<size_t>(b + lo), static_cast<size_t>(hi - lo)), x,
+              w, dt);
         },
-        512);
+        kDistanceGrain);
+  }
+}
+
+void DistanceBatch::solve_in_order(std::span<const Index> order, Positions& x, std::span<const double> w, double dt) {
+  const double inv_dt2 = 1.0 / (dt * dt);
+  for (const Index c : order) {
+    const Index i = ids[c][0], j = ids[c][1];
+    xpbd::solve_distance(x[i], x[j], w[i], w[j], rest[c], compliance[c] * inv_dt2, lambda[c]);
   }
 }
 

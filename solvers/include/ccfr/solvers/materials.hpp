@@ -182,7 +182,12 @@ struct BendingBatch {
   void add(const Vec4i& v, double theta0, double alpha);
   void finalize(Index num_vertices, std::span<const double> inv_mass);
   void reset_multipliers();
-  void solve(Positions& x, std::span<const double> inv_mass, double dt);
+  /// One sweep over `colouring`: colours in sequence, each colour a parallel loop.
+  void solve(Positions& x, std::span<const double> inv_mass, double dt) { solve(colouring, x, inv_mass, dt); }
+  /// The same over `col`, a colouring of any subset of the constraints (grouped as in `colouring`).
+  void solve(const Colouring& col, Positions& x, std::span<const double> inv_mass, double dt);
+  /// The constraints `order` one after another on the calling thread (the kernel loop of every schedule).
+  void solve_in_order(std::span<const Index> order, Positions& x, std::span<const double> inv_mass, double dt);
   Index size() const { return static_cast<Index>(ids.size()); }
 };
 
@@ -197,7 +202,12 @@ struct StrandBendingBatch {
   void add(const Vec3i& v, double phi0, double alpha);
   void finalize(Index num_vertices, std::span<const double> inv_mass);
   void reset_multipliers();
-  void solve(Positions& x, std::span<const double> inv_mass, double dt);
+  /// One sweep over `colouring`: colours in sequence, each colour a parallel loop.
+  void solve(Positions& x, std::span<const double> inv_mass, double dt) { solve(colouring, x, inv_mass, dt); }
+  /// The same over `col`, a colouring of any subset of the constraints (grouped as in `colouring`).
+  void solve(const Colouring& col, Positions& x, std::span<const double> inv_mass, double dt);
+  /// The constraints `order` one after another on the calling thread (the kernel loop of every schedule).
+  void solve_in_order(std::span<const Index> order, Positions& x, std::span<const double> inv_mass, double dt);
   Index size() const { return static_cast<Index>(ids.size()); }
 };
 
@@ -218,7 +228,12 @@ struct TetBatch {
            double shear_compliance_per_volume);
   void finalize(Index num_vertices, std::span<const double> inv_mass);
   void reset_multipliers();
-  void solve(Positions& x, std::span<const double> inv_mass, double dt);
+  /// One sweep over `colouring`: colours in sequence, each colour a parallel loop.
+  void solve(Positions& x, std::span<const double> inv_mass, double dt) { solve(colouring, x, inv_mass, dt); }
+  /// The same over `col`, a colouring of any subset of the constraints (grouped as in `colouring`).
+  void solve(const Colouring& col, Positions& x, std::span<const double> inv_mass, double dt);
+  /// The constraints `order` one after another on the calling thread (the kernel loop of every schedule).
+  void solve_in_order(std::span<const Index> order, Positions& x, std::span<const double> inv_mass, double dt);
   Index size() const { return static_cast<Index>(ids.size()); }
 };
 
@@ -245,6 +260,15 @@ struct ShapeMatchingBatch {
 /// - particles, obstacle: none.
 /// One `solve` is one sweep: distance, bending, strand bending, tets, then shape matching last so that
 /// rigid bodies leave every sweep exactly rigid.
+///
+/// Schedule. Constraints that share no dynamic vertex, directly or through other constraints, form
+/// separate islands (connected components; in practice the objects). A small island (no colour of
+/// it exceeds the parallel grain of its batch, so colour-by-colour it would run on one thread
+/// anyway) is one task that runs its constraints serially in colour order; the small islands run in
+/// parallel. Large islands keep the colour-by-colour parallel loops. Each dynamic vertex sees the
+/// same updates in the same order as in `solve_by_colour`, so both give bit-identical results, for
+/// any thread count, while small scenes pay one parallel loop per sweep instead of one per colour and
+/// a scene of several small bodies uses every thread.
 class MaterialSystem {
  public:
   MaterialSystem() = default;  ///< an empty system (no constraints)
@@ -253,12 +277,17 @@ class MaterialSystem {
   MaterialSystem(const Topology& topo, const SimState& state, const SimulationParams& params);
 
   void reset_multipliers();
-  /// One sweep over all batches. x, inv_mass: #V.
+  /// One sweep over all batches (island schedule, see above). x, inv_mass: #V.
   void solve(Positions& x, std::span<const double> inv_mass, double dt);
+  /// The same sweep, every colour of every batch over the whole scene in turn (each colour a parallel
+  /// loop): the reference schedule, bit-identical to `solve`.
+  void solve_by_colour(Positions& x, std::span<const double> inv_mass, double dt);
 
   struct Counts {
     Index distance = 0, bending = 0, strand_bending = 0, tet_volume = 0, tet_deviatoric = 0, rigid_bodies = 0;
-    Index colours = 0;  ///< colours summed over the coloured batches: sequential parallel phases per sweep
+    Index colours = 0;        ///< colours summed over the coloured batches
+    Index small_islands = 0;  ///< islands solved as one serial task each (in parallel with each other)
+    Index large_islands = 0;  ///< islands solved colour by colour
   };
   Counts counts() const;
 
@@ -269,11 +298,28 @@ class MaterialSystem {
   const ShapeMatchingBatch& rigid() const { return rigid_; }
 
  private:
+  /// The constraints of one batch that belong to small islands, grouped by island (colour order kept
+  /// within an island): island i owns order[offsets[i], offsets[i+1]).
+  struct IslandOrder {
+    std::vector<Index> order;
+    std::vector<Index> offsets;  ///< #small islands + 1
+    std::span<const Index> island(Index i) const {
+      return std::span<const Index>(order).subspan(static_cast<size_t>(offsets[i]),
+                                                   static_cast<size_t>(offsets[i + 1] - offsets[i]));
+    }
+  };
+  void build_schedule(Index num_vertices, std::span<const double> inv_mass);
+
   DistanceBatch distance_;
   BendingBatch bending_;
   StrandBendingBatch strand_bending_;
   TetBatch tets_;
   ShapeMatchingBatch rigid_;
+
+  Index small_islands_ = 0, large_islands_ = 0;
+  IslandOrder small_distance_, small_bending_, small_strand_, small_tets_;
+  /// Each batch's colouring restricted to the constraints of large islands.
+  Colouring large_distance_, large_bending_, large_strand_, large_tets_;
 };
 
 }  // namespace ccfr

@@ -43,6 +43,10 @@ struct Colouring {
 Colouring colour_constraints(Index num_vertices, std::span<const Index> vertices, int arity,
                              std::span<const double> inv_mass);
 
+/// A colour of a distance batch is split into parallel tasks only beyond this many constraints;
+/// smaller colours run inline on the calling thread.
+inline constexpr Index kDistanceGrain = 512;
+
 /// Edge length constraints.
 struct DistanceBatch {
   std::vector<Vec2i> ids;
@@ -55,7 +59,12 @@ struct DistanceBatch {
   /// Colours the batch (call after the last add()).
   void finalize(Index num_vertices, std::span<const double> inv_mass);
   void reset_multipliers();
-  void solve(Positions& x, std::span<const double> inv_mass, double dt);
+  /// One sweep over `colouring`: colours in sequence, each colour a parallel loop.
+  void solve(Positions& x, std::span<const double> inv_mass, double dt) { solve(colouring, x, inv_mass, dt); }
+  /// The same over `col`, a colouring of any subset of the constraints (grouped as in `colouring`).
+  void solve(const Colouring& col, Positions& x, std::span<const double> inv_mass, double dt);
+  /// The constraints `order` one after another on the calling thread (the kernel loop of every schedule).
+  void solve_in_order(std::span<const Index> order, Positions& x, std::span<const double> inv_mass, double dt);
   Index size() const { return static_cast<Index>(ids.size()); }
 };
 
