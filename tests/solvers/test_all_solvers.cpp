@@ -166,13 +166,14 @@ TEST(FrameStatsCandidates, TotalSumsEveryDetectionPass) {
   EXPECT_TRUE(varied) << "the floor comes into reach during the fall: passes differ";
 }
 
-// With the kept list (the default skin), a cloth at rest runs the broad phase once per frame: each
+// With the kept list (a skin of r), a cloth at rest runs the broad phase once per frame: each
 // frame starts a new list (judged by the velocities, which a checkpoint holds), and every later
 // pass reuses it and adds no candidates. The frames equal those without the list bit for bit.
 TEST(FrameStatsCandidates, ReusedPassesAddNoCandidatesAndChangeNothing) {
   Scene still = cloth_on_floor("ccfr");
   still.params.time.gravity = Vec3::Zero();
-  ASSERT_GT(still.params.collision.reuse_skin, 0.0);
+  EXPECT_EQ(still.params.collision.reuse_skin, 0.0) << "off by default";
+  still.params.collision.reuse_skin = 1.0;
   Scene plain = cloth_on_floor("ccfr");
   plain.params.time.gravity = Vec3::Zero();
   plain.params.collision.reuse_skin = 0.0;
@@ -187,7 +188,9 @@ TEST(FrameStatsCandidates, ReusedPassesAddNoCandidatesAndChangeNothing) {
     EXPECT_EQ(kept.positions(), fresh.positions()) << "frame " << f + 1;
   }
   // A falling cloth (the floor comes into reach) matches too, reusing where the motion allows.
-  Simulation kept_falling(cloth_on_floor("ccfr"));
+  Scene kept_falling_scene = cloth_on_floor("ccfr");
+  kept_falling_scene.params.collision.reuse_skin = 1.0;
+  Simulation kept_falling(std::move(kept_falling_scene));
   Scene plain_falling = cloth_on_floor("ccfr");
   plain_falling.params.collision.reuse_skin = 0.0;
   Simulation fresh_falling(std::move(plain_falling));
