@@ -898,10 +898,8 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
   contact_buffers_.resize(static_cast<size_t>(chunks));
   for (auto& b : contact_buffers_) b.clear();
   std::vector<DetectionStats> counts(static_cast<size_t>(chunks));
-  if (listing)
-    list_.resize(static_cast<size_t>(chunks));
-  else
-    list_.clear();
+  // Without listing the old chunks stay allocated but invalid: the next listing pass refills them.
+  if (listing) list_.resize(static_cast<size_t>(chunks));
   parallel_chunks(n, chunks, [&](Index chunk, Index begin, Index end) {
     const double reach = 2.0 * params_.radius + params_.offset;
     DetectSink sink{
