@@ -951,6 +951,7 @@ void CollisionDetector::assemble(std::span<const double> inv_mass, std::span<con
   for (Index c = 0; c < chunks; ++c) start[c + 1] = start[c] + contact_buffers_[c].size();
   contacts.resize(start.back());
   regions.offsets.assign(static_cast<size_t>(nv) + 1, 0);
+  plane_sources_.clear();
   if (contacts.empty()) {
     regions.planes.clear();
     return;
@@ -991,11 +992,13 @@ void CollisionDetector::assemble(std::span<const double> inv_mass, std::span<con
       },
       4096);
   regions.planes.resize(static_cast<size_t>(regions.offsets.back()));
+  if (record_sources_) plane_sources_.resize(regions.planes.size());
   parallel_chunks(chunks, blocks, [&](Index b, Index chunk_begin, Index chunk_end) {
     Index* cursor = block_cursor_.data() + static_cast<size_t>(b) * nv;
     for (Index chunk = chunk_begin; chunk < chunk_end; ++chunk) {
       ContactPair* out = contacts.data() + start[chunk];
       for (const ContactPair& c : contact_buffers_[chunk]) {
+        const Index slot0 = 4 * static_cast<Index>(out - contacts.data());
         *out++ = c;
         const double phi = c.distance - c.offset;
         // Gap left to the movable vertices: phi plus the known approach of kinematic vertices
@@ -1022,6 +1025,7 @@ void CollisionDetector::assemble(std::span<const double> inv_mass, std::span<con
         for (int k = 0; k < c.size(); ++k) {
           const Index v = c.v[k];
           if (!(inv_mass[v] > 0.0)) continue;
+          if (record_sources_) plane_sources_[static_cast<size_t>(cursor[v])] = slot0 + k;
           HalfSpace& h = regions.planes[static_cast<size_t>(cursor[v]++)];
           h.n = k < na ? c.n : Vec3(-c.n);
           h.d = (k < na ? s_a : s_b) * gap;

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <numeric>
+#include <string>
 
+#include "ccfr/core/error.hpp"
 #include "ccfr/core/parallel.hpp"
 
 namespace ccfr {
@@ -14,23 +16,31 @@ double contact_gap(const ContactPair& c, const Positions& x) {
 }
 
 std::vector<double> visibility_weights(std::span<const ContactPair> contacts, double width) {
+  std::vector<double> vis;
+  VisibilityWorkspace ws;
+  visibility_weights(contacts, width, vis, ws);
+  return vis;
+}
+
+void visibility_weights(std::span<const ContactPair> contacts, double width, std::vector<double>& vis,
+                        VisibilityWorkspace& ws) {
   const Index n = static_cast<Index>(contacts.size());
-  std::vector<double> vis(static_cast<size_t>(n), 1.0);
-  if (width <= 0.0 || n == 0) return vis;
+  vis.assign(static_cast<size_t>(n), 1.0);
+  if (width <= 0.0 || n == 0) return;
   // Only contacts j with d_c - δ_v < d_j < d_c attenuate c (S vanishes for d_j >= d_c), and any j
   // with d_j <= d_c - δ_v occludes c completely (S = 1). So within a query vertex's group every
   // contact at least δ_v beyond the group's nearest has weight 0, and the product runs over the
   // few contacts inside that window: O(n + k²) without sorting, k the window's size.
   Index max_v = 0;
   for (const auto& c : contacts) max_v = std::max(max_v, c.v[0]);
-  std::vector<Index> start(static_cast<size_t>(max_v) + 2, 0);
+  std::vector<Index>& start = ws.start;
+  start.assign(static_cast<size_t>(max_v) + 2, 0);
   for (const auto& c : contacts) ++start[c.v[0] + 1];
   std::partial_sum(start.begin(), start.end(), start.begin());
-  std::vector<Index> order(static_cast<size_t>(n));
-  {
-    std::vector<Index> cursor(start.begin(), start.end() - 1);
-    for (Index i = 0; i < n; ++i) order[cursor[contacts[i].v[0]]++] = i;
-  }
+  std::vector<Index>& order = ws.order;
+  order.resize(static_cast<size_t>(n));
+  ws.cursor.assign(start.begin(), start.end() - 1);
+  for (Index i = 0; i < n; ++i) order[ws.cursor[contacts[i].v[0]]++] = i;
   auto gap = [&](Index i) { return contacts[i].distance - contacts[i].offset; };
   parallel_for(
       max_v + 1,
@@ -67,22 +77,40 @@ std::vector<double> visibility_weights(std::span<const ContactPair> contacts, do
         }
       },
       256);
-  return vis;
+}
+
+void ContactResponse::prepare_common(std::span<const ContactPair> contacts, const ContactParams& params) {
+  contacts_ = contacts;
+  if (params.repulsion_range <= 0.0) return;  // apply() does nothing without a repulsion range
+  const double width = params.visibility_width > 0.0 ? params.visibility_width : params.repulsion_range;
+  visibility_weights(contacts, width, visibility_, visibility_ws_);
+  // No zeroing: apply() clears each contact's four slots before writing them.
+  corr_.resize(contacts.size() * 4);
 }
 
 void ContactResponse::prepare(std::span<const ContactPair> contacts, Index num_vertices, const ContactParams& params) {
-  contacts_ = contacts;
-  const double width = params.visibility_width > 0.0 ? params.visibility_width : params.repulsion_range;
-  visibility_ = visibility_weights(contacts, width);
+  prepare_common(contacts, params);
   vertex_offsets_.assign(static_cast<size_t>(num_vertices) + 1, 0);
   for (const auto& c : contacts)
     for (int k = 0; k < c.size(); ++k) ++vertex_offsets_[c.v[k] + 1];
   std::partial_sum(vertex_offsets_.begin(), vertex_offsets_.end(), vertex_offsets_.begin());
   vertex_contacts_.resize(static_cast<size_t>(vertex_offsets_.back()));
-  std::vector<Index> cursor(vertex_offsets_.begin(), vertex_offsets_.end() - 1);
+  std::vector<Index>& cursor = visibility_ws_.cursor;
+  cursor.assign(vertex_offsets_.begin(), vertex_offsets_.end() - 1);
   for (Index ci = 0; ci < static_cast<Index>(contacts.size()); ++ci)
     for (int k = 0; k < contacts[ci].size(); ++k) vertex_contacts_[cursor[contacts[ci].v[k]]++] = ci * 4 + k;
-  corr_.assign(contacts.size() * 4, Vec3::Zero());
+  offsets_ = vertex_offsets_;
+  slots_ = vertex_contacts_;
+}
+
+void ContactResponse::prepare(std::span<const ContactPair> contacts, std::span<const Index> offsets,
+                              std::span<const Index> slots, const ContactParams& params) {
+  if (offsets.empty() || static_cast<size_t>(offsets.back()) != slots.size())
+    throw Error("ContactResponse::prepare: the incidence has " + std::to_string(slots.size()) +
+                " slots, its offsets end at " + (offsets.empty() ? std::string("nothing") : std::to_string(offsets.back())));
+  prepare_common(contacts, params);
+  offsets_ = offsets;
+  slots_ = slots;
 }
 
 void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<const double> inv_mass,
@@ -92,8 +120,11 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
     active_ = 0;
     return;
   }
+  if (visibility_.size() != contacts_.size())
+    throw Error("ContactResponse::apply: prepare() had no repulsion range, apply() has one");
   const double alpha_tilde = 1.0 / (p.stiffness * dt * dt);
-  std::vector<std::uint8_t> is_active(static_cast<size_t>(n), 0);
+  std::vector<std::uint8_t>& is_active = is_active_;
+  is_active.assign(static_cast<size_t>(n), 0);
   // Per contact: the correction of each of its vertices, computed from the same x (Jacobi).
   parallel_for(
       n,
@@ -132,15 +163,15 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
   active_ = static_cast<Index>(std::count(is_active.begin(), is_active.end(), 1));
   // Gather: each vertex takes the average of its contacts' corrections.
   parallel_for(
-      static_cast<Index>(x.size()),
+      std::min(static_cast<Index>(x.size()), static_cast<Index>(offsets_.size()) - 1),
       [&](Index b, Index e) {
         for (Index v = b; v < e; ++v) {
-          const Index s = vertex_offsets_[v], t = vertex_offsets_[v + 1];
+          const Index s = offsets_[v], t = offsets_[v + 1];
           if (s == t || inv_mass[v] == 0.0) continue;
           Vec3 sum = Vec3::Zero();
           int cnt = 0;
           for (Index q = s; q < t; ++q) {
-            const Vec3& d = corr_[vertex_contacts_[q]];
+            const Vec3& d = corr_[slots_[q]];
             if (d.squaredNorm() > 0.0) sum += d, ++cnt;
           }
           if (cnt) x[v] += sum / cnt;

@@ -22,6 +22,8 @@ void DetectingSolver::initialize(const Topology& topo, const SimState& state, co
       topo, state.x, params.contact,
       make_broad_phase(params.collision.broad_phase, params.collision.broad_phase_params));
   detector_->set_reuse_skin(params.collision.reuse_skin * params.contact.radius);
+  // The response reads the contacts per vertex in the order the region assembly already built.
+  detector_->set_record_plane_sources(true);
   regions_.clear(topo.num_vertices());
   num_vertices_ = topo.num_vertices();
   friction_override_.assign(static_cast<size_t>(topo.num_vertices()), -1.0);
@@ -59,7 +61,7 @@ DetectResult DetectingSolver::detect(const Positions& anchor, const SimState& st
   ctx.times.narrow += ds.narrow_s;
   {
     ScopedTimer t(ctx.times.narrow);  // contact bookkeeping for the response belongs to the narrow phase
-    response_.prepare(contacts_, state.size(), ctx.params.contact);
+    response_.prepare(contacts_, regions_.offsets, detector_->plane_sources(), ctx.params.contact);
   }
   DetectResult s;
   s.candidates = ds.candidates;

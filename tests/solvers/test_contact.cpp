@@ -4,7 +4,10 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <random>
+#include <string>
 
+#include "ccfr/core/error.hpp"
 #include "ccfr/feasibility/projector.hpp"
 #include "ccfr/geometry/generators.hpp"
 #include "ccfr/solvers/contact_response.hpp"
@@ -149,4 +152,79 @@ TEST(ContactResponse, VisibilityWeightsMatchTheProductDefinition) {
     // Bit-identical: the weights skip factors of exactly 1 and stop at 0, in the same order.
     EXPECT_EQ(w[c], expect) << c;
   }
+}
+
+TEST(ContactResponse, DetectorIncidenceGivesTheResponseOfItsOwnIndex) {
+  // Three stacked sheets 8 mm apart (r = 5 mm, ξ = 6 mm), jittered, the bottom one pinned: the
+  // incidence the detector records beside its half-spaces must name, for every plane, a contact
+  // of that vertex with that plane's normal, and drive the response to bit-identical positions.
+  TopologyBuilder tb;
+  Positions x;
+  std::vector<double> inv_mass;
+  auto rng = ccfr::test::rng(11);
+  std::uniform_real_distribution<double> jitter(-0.0008, 0.0008);
+  for (int layer = 0; layer < 3; ++layer) {
+    const gen::TriMesh m = gen::plane(0.2, 12);
+    tb.add_object("sheet" + std::to_string(layer), layer == 0 ? ObjectKind::obstacle : ObjectKind::cloth,
+                  static_cast<Index>(m.v.size()), m.f);
+    for (const Vec3& p : m.v) {
+      x.push_back(p + Vec3(jitter(rng), 0.008 * layer + jitter(rng), jitter(rng)));
+      inv_mass.push_back(layer == 0 ? 0.0 : 1.0 + (x.size() % 3));
+    }
+  }
+  const Topology topo = tb.finish();
+  ContactParams params;
+  params.radius = 0.005;
+  params.offset = 0.006;
+  params.repulsion_range = 0.002;
+  params.friction_static = 0.4;
+  params.friction_kinetic = 0.3;
+  CollisionDetector det(topo, x, params, make_broad_phase("bvh"));
+  det.set_record_plane_sources(true);
+  RegionSet regions;
+  std::vector<ContactPair> contacts;
+  DetectionStats stats;
+  det.detect(x, inv_mass, regions, contacts, stats);
+  const std::span<const Index> sources = det.plane_sources();
+  ASSERT_GT(contacts.size(), 100u);
+  ASSERT_EQ(sources.size(), regions.total());
+  for (Index v = 0; v < regions.num_vertices(); ++v) {
+    Index previous = -1;
+    for (Index i = regions.offsets[v]; i < regions.offsets[v + 1]; ++i) {
+      const Index s = sources[i], ci = s / 4, k = s % 4;
+      ASSERT_LT(static_cast<size_t>(ci), contacts.size());
+      const ContactPair& c = contacts[ci];
+      ASSERT_EQ(c.v[k], v);
+      EXPECT_GT(ci, previous) << "contact order";
+      previous = ci;
+      EXPECT_EQ(regions.planes[i].n, k < c.side_a() ? c.n : Vec3(-c.n));
+    }
+  }
+
+  // The recorded incidence against the response's own index, on positions pushed into the band.
+  Positions moved = x;
+  for (size_t i = 0; i < moved.size(); ++i)
+    if (inv_mass[i] > 0.0) moved[i].y() -= 0.003 * static_cast<double>(i % 2);
+  ContactResponse own, recorded;
+  own.prepare(contacts, topo.num_vertices(), params);
+  recorded.prepare(contacts, regions.offsets, sources, params);
+  Positions a = moved, b = moved;
+  own.apply(a, x, inv_mass, params, 1.0 / 240.0, {});
+  recorded.apply(b, x, inv_mass, params, 1.0 / 240.0, {});
+  EXPECT_GT(own.active(), 0);
+  EXPECT_EQ(own.active(), recorded.active());
+  size_t moved_count = 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i], b[i]) << i;  // bit-identical
+    moved_count += a[i] != moved[i];
+  }
+  EXPECT_GT(moved_count, 50u);
+
+  // An incidence whose offsets do not span its slots is refused.
+  std::vector<Index> short_offsets(regions.offsets.begin(), regions.offsets.end() - 1);
+  EXPECT_THROW(recorded.prepare(contacts, short_offsets, sources, params), Error);
+  // Without recording nothing is listed.
+  det.set_record_plane_sources(false);
+  det.detect(x, inv_mass, regions, contacts, stats);
+  EXPECT_TRUE(det.plane_sources().empty());
 }

@@ -228,6 +228,14 @@ class CollisionDetector {
   /// its initial value or above ξ (offsets are only ever raised, up to ξ).
   void restore_reduced_offsets(std::span<const double> offsets);
 
+  /// Whether detect() also records, for every half-space it writes, the contact slot it came
+  /// from (off by default; the contact response turns it on to skip indexing the contacts again).
+  void set_record_plane_sources(bool on) { record_sources_ = on; }
+  /// Per half-space of the last pass's RegionSet, in the same order: 4·c + k for contact c of the
+  /// returned contacts and its vertex c.v[k]. A vertex's entries are in contact order. Empty
+  /// unless set_record_plane_sources(true).
+  std::span<const Index> plane_sources() const { return plane_sources_; }
+
  private:
   void compute_exclusions(const Positions& initial);
   /// Raises the reduced offsets at the (feasible) positions x; drops pairs that reached ξ.
@@ -259,6 +267,8 @@ class CollisionDetector {
   std::vector<std::uint8_t> fixed_;  ///< !movable_, handed to the broad phase
   std::vector<std::vector<ContactPair>> contact_buffers_;
   std::vector<Index> block_cursor_;  ///< #blocks by #V plane counts, then write cursors
+  bool record_sources_ = false;
+  std::vector<Index> plane_sources_;  ///< per plane: 4 · contact + vertex slot (record_sources_ only)
   // The kept sub-pair list (set_reuse_skin), its listing positions and movable flags.
   double skin_ = 0.0;
   bool list_valid_ = false;

@@ -27,10 +27,25 @@ double contact_gap(const ContactPair& c, const Positions& x);
 /// that share c's query vertex (its first side-A vertex), from the gaps at detection time.
 std::vector<double> visibility_weights(std::span<const ContactPair> contacts, double width);
 
+/// Buffers of visibility_weights() kept between passes (a dense scene has millions of contacts).
+struct VisibilityWorkspace {
+  std::vector<Index> start, order, cursor;
+};
+
+/// visibility_weights() into `out`, reusing `ws`'s buffers.
+void visibility_weights(std::span<const ContactPair> contacts, double width, std::vector<double>& out,
+                        VisibilityWorkspace& ws);
+
 class ContactResponse {
  public:
   /// Indexes the contacts of a new detection pass (#V vertices).
   void prepare(std::span<const ContactPair> contacts, Index num_vertices, const ContactParams& params);
+  /// The same with the vertex -> contact incidence given: vertex v's corrections come from the
+  /// slots `slots[offsets[v], offsets[v+1])` (4·c + k for vertex contacts[c].v[k]), in contact
+  /// order, as CollisionDetector::plane_sources() lists them beside its RegionSet's offsets. Only
+  /// listed vertices are moved (the detector lists the movable ones). The spans must outlive apply().
+  void prepare(std::span<const ContactPair> contacts, std::span<const Index> offsets, std::span<const Index> slots,
+               const ContactParams& params);
   /// One Jacobi pass of repulsion then friction on candidate positions `x`; `x_start` are the
   /// positions at the start of the substep (friction acts on the substep's tangential motion).
   /// `friction_of(vertex)` gives (μ_s, μ_k) for a contact by its query vertex.
@@ -39,10 +54,15 @@ class ContactResponse {
   Index active() const { return active_; }
 
  private:
+  void prepare_common(std::span<const ContactPair> contacts, const ContactParams& params);
+
   std::span<const ContactPair> contacts_;
   std::vector<double> visibility_;
-  std::vector<Index> vertex_offsets_, vertex_contacts_;  ///< CSR vertex -> contacts
+  VisibilityWorkspace visibility_ws_;
+  std::vector<Index> vertex_offsets_, vertex_contacts_;  ///< CSR vertex -> contact slots (first prepare())
+  std::span<const Index> offsets_, slots_;  ///< the CSR in use: the vectors above or the caller's
   std::vector<Vec3> corr_;  ///< per contact slot: correction of each vertex (4 per contact)
+  std::vector<std::uint8_t> is_active_;  ///< per contact, in apply()
   Index active_ = 0;
 };
 
