@@ -884,7 +884,12 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
   compute_primitive_boxes(
       prims_, topo_, x,
       box_inflation(params_.radius, params_.offset, params_.repulsion_range) + (listing ? 0.5 * skin_ : 0.0), boxes_);
-  broad_->update(boxes_);
+  if (rebuild_) {
+    broad_->build(boxes_);
+    rebuild_ = false;
+  } else {
+    broad_->update(boxes_);
+  }
   broad_->set_fixed(fixed_);
   broad_->query_pairs(candidates_);
   stats.broad_s = watch.seconds();

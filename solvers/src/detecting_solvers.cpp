@@ -47,6 +47,10 @@ void DetectingSolver::restore_state(std::span<const double> state) {
 }
 
 DetectResult DetectingSolver::detect(const Positions& anchor, const SimState& state, StepContext& ctx) {
+  if (ctx.frame != rebuild_frame_) {
+    rebuild_frame_ = ctx.frame;
+    detector_->rebuild_broad_phase();
+  }
   if (detector_->reuse_skin() > 0.0 && ctx.frame != reuse_frame_) {
     // Frame start: the kept list restarts from what a checkpoint holds (the velocities), so a
     // resumed run lists and reuses exactly where the uninterrupted one did (same stats.csv).

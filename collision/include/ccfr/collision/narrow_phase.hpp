@@ -231,6 +231,8 @@ class CollisionDetector {
   /// Whether detect() also records, for every half-space it writes, the contact slot it came
   /// from (off by default; the contact response turns it on to skip indexing the contacts again).
   void set_record_plane_sources(bool on) { record_sources_ = on; }
+  /// The next pass rebuilds the broad phase over the current boxes instead of updating it.
+  void rebuild_broad_phase() { rebuild_ = true; }
   /// Per half-space of the last pass's RegionSet, in the same order: 4·c + k for contact c of the
   /// returned contacts and its vertex c.v[k]. A vertex's entries are in contact order. Empty
   /// unless set_record_plane_sources(true).
@@ -268,6 +270,7 @@ class CollisionDetector {
   std::vector<std::vector<ContactPair>> contact_buffers_;
   std::vector<Index> block_cursor_;  ///< #blocks by #V plane counts, then write cursors
   bool record_sources_ = false;
+  bool rebuild_ = false;
   std::vector<Index> plane_sources_;  ///< per plane: 4 · contact + vertex slot (record_sources_ only)
   // The kept sub-pair list (set_reuse_skin), its listing positions and movable flags.
   double skin_ = 0.0;

@@ -50,6 +50,7 @@ class DetectingSolver : public ContactSolver {
 
   std::unique_ptr<CollisionDetector> detector_;
   int reuse_frame_ = -1;  ///< frame whose start restarted the detector's kept list
+  int rebuild_frame_ = -1;  ///< frame whose first pass rebuilt the broad phase
   RegionSet regions_;
   std::vector<ContactPair> contacts_;
   ContactResponse response_;
