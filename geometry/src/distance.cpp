@@ -55,21 +55,6 @@ PointTriangleResult point_degenerate_triangle(const Vec3& p, const Vec3& a, cons
 
 }  // namespace
 
-PointEdgeResult point_edge(const Vec3& p, const Vec3& a, const Vec3& b) {
-  PointEdgeResult r;
-  const Vec3 d = b - a;
-  const double len_sq = d.squaredNorm();
-  // A zero-length edge is its vertex v0; the division below would give NaN.
-  double t = len_sq > 0.0 ? (p - a).dot(d) / len_sq : 0.0;
-  if (!(t > 0.0)) t = 0.0;  // also catches t = NaN from an overflowing dot product
-  if (t > 1.0) t = 1.0;
-  r.t = t;
-  r.feature = edge_feature(t);
-  r.closest = r.feature == EdgeFeature::v0 ? a : (r.feature == EdgeFeature::v1 ? b : Vec3(a + t * d));
-  r.distance_sq = (p - r.closest).squaredNorm();
-  return r;
-}
-
 PointTriangleResult point_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
   const Vec3 ab = b - a, ac = c - a, bc = c - b;
   const double lmax = std::max({ab.squaredNorm(), ac.squaredNorm(), bc.squaredNorm()});

@@ -40,8 +40,22 @@ struct EdgeEdgeResult {
 
 /// Squared distance between two points.
 inline double point_point_distance_sq(const Vec3& p, const Vec3& q) { return (p - q).squaredNorm(); }
-/// Closest point on segment (a, b) to p.
-PointEdgeResult point_edge(const Vec3& p, const Vec3& a, const Vec3& b);
+/// Closest point on segment (a, b) to p. Inline: edge_edge() calls it four times per boundary
+/// case and the detection sinks call it for every vertex-edge pair.
+inline PointEdgeResult point_edge(const Vec3& p, const Vec3& a, const Vec3& b) {
+  PointEdgeResult r;
+  const Vec3 d = b - a;
+  const double len_sq = d.squaredNorm();
+  // A zero-length edge is its vertex v0; the division below would give NaN.
+  double t = len_sq > 0.0 ? (p - a).dot(d) / len_sq : 0.0;
+  if (!(t > 0.0)) t = 0.0;  // also catches t = NaN from an overflowing dot product
+  if (t > 1.0) t = 1.0;
+  r.t = t;
+  r.feature = t <= 0.0 ? EdgeFeature::v0 : (t >= 1.0 ? EdgeFeature::v1 : EdgeFeature::interior);
+  r.closest = r.feature == EdgeFeature::v0 ? a : (r.feature == EdgeFeature::v1 ? b : Vec3(a + t * d));
+  r.distance_sq = (p - r.closest).squaredNorm();
+  return r;
+}
 /// Closest point on triangle (a, b, c) to p.
 PointTriangleResult point_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c);
 /// Closest points between segments (a0, a1) and (b0, b1).
