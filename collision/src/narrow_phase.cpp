@@ -956,9 +956,9 @@ void CollisionDetector::assemble(std::span<const double> inv_mass, std::span<con
   for (Index c = 0; c < chunks; ++c) start[c + 1] = start[c] + contact_buffers_[c].size();
   contacts.resize(start.back());
   regions.offsets.assign(static_cast<size_t>(nv) + 1, 0);
-  plane_sources_.clear();
   if (contacts.empty()) {
     regions.planes.clear();
+    plane_sources_.clear();
     return;
   }
   const Index blocks = std::min<Index>(chunks, 32);
@@ -997,7 +997,8 @@ void CollisionDetector::assemble(std::span<const double> inv_mass, std::span<con
       },
       4096);
   regions.planes.resize(static_cast<size_t>(regions.offsets.back()));
-  if (record_sources_) plane_sources_.resize(regions.planes.size());
+  // Every entry is written below: resizing without clearing first skips zero-filling them.
+  plane_sources_.resize(record_sources_ ? regions.planes.size() : 0);
   parallel_chunks(chunks, blocks, [&](Index b, Index chunk_begin, Index chunk_end) {
     Index* cursor = block_cursor_.data() + static_cast<size_t>(b) * nv;
     for (Index chunk = chunk_begin; chunk < chunk_end; ++chunk) {

@@ -167,7 +167,9 @@ void Bvh::self_pairs(std::vector<std::pair<Index, Index>>& out, std::span<const 
   if (!fixed.empty() && static_cast<Index>(fixed.size()) != num_boxes_)
     throw Error("Bvh::self_pairs: " + std::to_string(fixed.size()) + " fixed flags, the tree holds " +
                 std::to_string(num_boxes_) + " boxes");
-  std::vector<std::uint8_t> fixed_sorted, live;
+  // Kept between calls: fresh blocks of this size every pass were faulted in again each time.
+  std::vector<std::uint8_t>& fixed_sorted = scratch_fixed_;
+  std::vector<std::uint8_t>& live = scratch_live_;
   if (!fixed.empty()) {
     fixed_sorted.resize(order_.size());
     for (size_t k = 0; k < order_.size(); ++k) fixed_sorted[k] = fixed[order_[k]] != 0;
@@ -187,9 +189,11 @@ void Bvh::self_pairs(std::vector<std::pair<Index, Index>>& out, std::span<const 
   const std::uint8_t* fs = fixed.empty() ? nullptr : fixed_sorted.data();
   const std::uint8_t* lv = fixed.empty() ? nullptr : live.data();
   const Index chunks = default_chunk_count(num_leaves);
-  std::vector<std::vector<std::pair<Index, Index>>> parts(static_cast<size_t>(chunks));
+  std::vector<std::vector<std::pair<Index, Index>>>& parts = scratch_parts_;
+  parts.resize(static_cast<size_t>(chunks));
   parallel_chunks(num_leaves, chunks, [&](Index c, Index begin, Index end) {
     auto& part = parts[c];
+    part.clear();
     part.reserve(static_cast<size_t>(end - begin) * 64);
     for (Index l = begin; l < end; ++l) leaf_pairs(leaves_[l], fs, lv, part);
   });

@@ -27,6 +27,7 @@ class Bvh {
   /// As above, but pairs of two boxes flagged in `fixed` (#B by original index, or empty for none)
   /// are never enumerated: subtrees holding only flagged boxes are skipped against each other, so a
   /// large static mesh costs nothing against itself (only its pairs with unflagged boxes remain).
+  /// Not for concurrent calls on one Bvh: both overloads keep their buffers between calls.
   void self_pairs(std::vector<std::pair<Index, Index>>& out, std::span<const std::uint8_t> fixed) const;
   /// Indices of boxes overlapping `box`, appended to `out` in a deterministic order. A box with a
   /// NaN coordinate overlaps nothing.
@@ -53,6 +54,9 @@ class Bvh {
   std::vector<Index> order_;   ///< #boxes: box ids, leaf-contiguous
   std::vector<AABB> sorted_;   ///< #boxes: boxes in order_ order, for cache-friendly leaf tests
   std::vector<Index> leaves_;  ///< leaf node ids in depth-first order
+  // self_pairs() buffers, kept between calls (so one Bvh must not be queried from two threads).
+  mutable std::vector<std::vector<std::pair<Index, Index>>> scratch_parts_;
+  mutable std::vector<std::uint8_t> scratch_fixed_, scratch_live_;
   Index num_boxes_ = 0;
 };
 
