@@ -107,7 +107,8 @@ void ContactResponse::prepare(std::span<const ContactPair> contacts, std::span<c
                               std::span<const Index> slots, const ContactParams& params) {
   if (offsets.empty() || static_cast<size_t>(offsets.back()) != slots.size())
     throw Error("ContactResponse::prepare: the incidence has " + std::to_string(slots.size()) +
-                " slots, its offsets end at " + (offsets.empty() ? std::string("nothing") : std::to_string(offsets.back())));
+                " slots, its offsets end at " +
+                (offsets.empty() ? std::string("nothing") : std::to_string(offsets.back())));
   prepare_common(contacts, params);
   offsets_ = offsets;
   slots_ = slots;

@@ -60,8 +60,8 @@ class ContactResponse {
   std::vector<double> visibility_;
   VisibilityWorkspace visibility_ws_;
   std::vector<Index> vertex_offsets_, vertex_contacts_;  ///< CSR vertex -> contact slots (first prepare())
-  std::span<const Index> offsets_, slots_;  ///< the CSR in use: the vectors above or the caller's
-  std::vector<Vec3> corr_;  ///< per contact slot: correction of each vertex (4 per contact)
+  std::span<const Index> offsets_, slots_;               ///< the CSR in use: the vectors above or the caller's
+  std::vector<Vec3> corr_;               ///< per contact slot: correction of each vertex (4 per contact)
   std::vector<std::uint8_t> is_active_;  ///< per contact, in apply()
   Index active_ = 0;
 };

@@ -49,7 +49,7 @@ class DetectingSolver : public ContactSolver {
   std::pair<Index, Index> mark_contact_vertices(int frame, std::span<const double> inv_mass);
 
   std::unique_ptr<CollisionDetector> detector_;
-  int reuse_frame_ = -1;  ///< frame whose start restarted the detector's kept list
+  int reuse_frame_ = -1;    ///< frame whose start restarted the detector's kept list
   int rebuild_frame_ = -1;  ///< frame whose first pass rebuilt the broad phase
   RegionSet regions_;
   std::vector<ContactPair> contacts_;
