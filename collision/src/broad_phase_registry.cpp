@@ -7,7 +7,8 @@ BroadPhaseRegistry& broad_phases() {
   static BroadPhaseRegistry registry = [] {
     BroadPhaseRegistry r("broad phase");
     r.add({"bvh",
-           "flat BVH over the primitive boxes, refitted each pass, parallel self-query (default, fastest measured)",
+           "flat BVH over the primitive boxes, built at each frame's first pass and refitted in the others, parallel "
+           "self-query (default, fastest measured)",
            {},
            [](const ParamValues&) { return std::make_unique<BvhBroadPhase>(); }});
     r.add({"fcl", "FCL's dynamic AABB tree (single-threaded)", {}, [](const ParamValues&) {

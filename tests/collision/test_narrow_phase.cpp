@@ -406,6 +406,15 @@ TEST_P(NarrowPhaseScenes, RebuiltBroadPhaseFindsTheSameContacts) {
         ASSERT_EQ(planes(a.regions.of(v)), planes(b.regions.of(v))) << where << ", vertex " << v;
       }
     }
+    // A rebuild drops the kept list: the pass after it enumerates through the new tree.
+    CollisionDetector kept(s.topo, s.x, kParams, make_broad_phase(name));
+    kept.set_reuse_skin(2 * kR);
+    EXPECT_FALSE(run(kept, x, s.inv_mass).stats.reused) << name;  // no previous motion: no list
+    EXPECT_FALSE(run(kept, x, s.inv_mass).stats.reused) << name;  // lists
+    EXPECT_TRUE(run(kept, x, s.inv_mass).stats.reused) << name;
+    kept.rebuild_broad_phase();
+    EXPECT_FALSE(run(kept, x, s.inv_mass).stats.reused) << name;  // rebuilt, lists again
+    EXPECT_TRUE(run(kept, x, s.inv_mass).stats.reused) << name;
   }
 }
 

@@ -231,8 +231,13 @@ class CollisionDetector {
   /// Whether detect() also records, for every half-space it writes, the contact slot it came
   /// from (off by default; the contact response turns it on to skip indexing the contacts again).
   void set_record_plane_sources(bool on) { record_sources_ = on; }
-  /// The next pass rebuilds the broad phase over the current boxes instead of updating it.
-  void rebuild_broad_phase() { rebuild_ = true; }
+  /// The next pass rebuilds the broad phase over the current boxes instead of updating it. It
+  /// also drops the kept list: a list enumerates in the order of the tree it was made with, and
+  /// the passes after a rebuild must come out in the new tree's order, as fresh passes do.
+  void rebuild_broad_phase() {
+    rebuild_ = true;
+    list_valid_ = false;
+  }
   /// Per half-space of the last pass's RegionSet, in the same order: 4·c + k for contact c of the
   /// returned contacts and its vertex c.v[k]. A vertex's entries are in contact order. Empty
   /// unless set_record_plane_sources(true).

@@ -1,6 +1,6 @@
 #pragma once
 /// @file bvh.hpp
-/// A flat bounding volume hierarchy over boxes: built once, refitted each pass, and queried for
+/// A flat bounding volume hierarchy over boxes: built, refitted as the boxes move, and queried for
 /// all overlapping pairs in parallel. Used by the `bvh` broad phase and the penetration audit.
 #include <cstdint>
 #include <span>
