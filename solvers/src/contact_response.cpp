@@ -81,7 +81,8 @@ void visibility_weights(std::span<const ContactPair> contacts, double width, std
 
 void ContactResponse::prepare_common(std::span<const ContactPair> contacts, const ContactParams& params) {
   contacts_ = contacts;
-  if (params.repulsion_range <= 0.0) return;  // apply() does nothing without a repulsion range
+  prepared_repulsion_ = params.repulsion_range > 0.0;
+  if (!prepared_repulsion_) return;  // apply() does nothing without a repulsion range
   const double width = params.visibility_width > 0.0 ? params.visibility_width : params.repulsion_range;
   visibility_weights(contacts, width, visibility_, visibility_ws_);
   // No zeroing: apply() clears each contact's four slots before writing them.
@@ -121,8 +122,7 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
     active_ = 0;
     return;
   }
-  if (visibility_.size() != contacts_.size())
-    throw Error("ContactResponse::apply: prepare() had no repulsion range, apply() has one");
+  if (!prepared_repulsion_) throw Error("ContactResponse::apply: prepare() had no repulsion range, apply() has one");
   const double alpha_tilde = 1.0 / (p.stiffness * dt * dt);
   std::vector<std::uint8_t>& is_active = is_active_;
   is_active.assign(static_cast<size_t>(n), 0);

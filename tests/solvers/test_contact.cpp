@@ -223,6 +223,14 @@ TEST(ContactResponse, DetectorIncidenceGivesTheResponseOfItsOwnIndex) {
   // An incidence whose offsets do not span its slots is refused.
   std::vector<Index> short_offsets(regions.offsets.begin(), regions.offsets.end() - 1);
   EXPECT_THROW(recorded.prepare(contacts, short_offsets, sources, params), Error);
+  // Prepared without a repulsion range, the response has no weights: applying one is refused.
+  ContactParams no_repulsion = params;
+  no_repulsion.repulsion_range = 0.0;
+  recorded.prepare(contacts, regions.offsets, sources, no_repulsion);
+  Positions c = moved;
+  recorded.apply(c, x, inv_mass, no_repulsion, 1.0 / 240.0, {});  // nothing to do
+  EXPECT_EQ(c, moved);
+  EXPECT_THROW(recorded.apply(c, x, inv_mass, params, 1.0 / 240.0, {}), Error);
   // Without recording nothing is listed.
   det.set_record_plane_sources(false);
   det.detect(x, inv_mass, regions, contacts, stats);

@@ -63,6 +63,7 @@ class ContactResponse {
   std::span<const Index> offsets_, slots_;               ///< the CSR in use: the vectors above or the caller's
   std::vector<Vec3> corr_;               ///< per contact slot: correction of each vertex (4 per contact)
   std::vector<std::uint8_t> is_active_;  ///< per contact, in apply()
+  bool prepared_repulsion_ = false;      ///< the last prepare() computed weights and buffers
   Index active_ = 0;
 };
 
