@@ -65,13 +65,14 @@ void visibility_weights(std::span<const ContactPair> contacts, double width, std
           }
           // Factors of contacts no nearer than c are exactly 1 (S = 0) and a product that reached
           // 0 stays 0 (every factor is in [0, 1]): skipping both leaves every weight bit-identical.
+          // Only nearer contacts (g_j < g_i) have t > 0, so the division is taken for them alone;
+          // the factors and their order are those of the full product (j = i is never nearer).
           const size_t k = window.size();
           for (size_t i = 0; i < k; ++i) {
+            const double gi = window_gap[i];
             double w = 1.0;
-            for (size_t j = 0; j < k && w != 0.0; ++j) {
-              const double t = (window_gap[i] - window_gap[j]) / width;
-              if (j != i && t > 0.0) w *= 1.0 - smoothstep(t);
-            }
+            for (size_t j = 0; j < k && w != 0.0; ++j)
+              if (window_gap[j] < gi) w *= 1.0 - smoothstep((gi - window_gap[j]) / width);
             vis[window[i]] = w;
           }
         }
