@@ -5,7 +5,7 @@ Usage: /usr/bin/python3 scripts/results_md.py [--regenerate] [RESULTS_DIR] [ABLA
   --regenerate: first runs scripts/reproduce-results into RESULTS_DIR (every paper scene, peak RSS
   recorded by /usr/bin/time) and the twisting-cloth ablation (ccfr against post_process, every
   frame audited) into ABLATE_DIR, so the whole table comes from one command."""
-import csv, json, os, re, statistics, subprocess, sys
+import csv, json, os, re, shutil, statistics, subprocess, sys
 
 PAPER = {  # Table "Performance results" (seconds per frame, 8-core i9-11900)
     "twisting_cloth": (15908, 0.902338, 3.069347, 0.844467, 0.872114, 0.250559, 0.024683),
@@ -26,6 +26,9 @@ def regenerate(root, res, abl, exe):
     subprocess.run([os.path.join(root, "scripts", "reproduce-results"), res], check=True, stdout=subprocess.DEVNULL)
     for scene, solvers in ABLATIONS.items():
         out = os.path.join(abl, scene)
+        # `ccfr ablate` keeps the completed runs of a previous ablation (sweep semantics): remove
+        # them, so every row comes from this build.
+        shutil.rmtree(out, ignore_errors=True)
         subprocess.run([exe, "ablate", os.path.join(root, "configs", scene + ".yaml"), "--solvers", solvers,
                         "--out", out, "--audit-stride", "1", "--log-level", "warn"], check=False)
 
