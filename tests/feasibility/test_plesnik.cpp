@@ -128,9 +128,10 @@ ProjectResult full_sort_reference(const ProjectorParams& params, const Vec3& anc
   return res;
 }
 
-// The projector sorts only the planes violated at the candidate and the rest only when a pass
-// reaches one of them violated: every point it returns equals the full sort's bit for bit, on
-// dense regions (up to 300 planes, clustered normals, as a vertex of folded cloth has).
+// The projector sorts only the planes violated at the candidate, and of the rest only those
+// violated at the point of the pass, collected again after each addition: every point it returns
+// equals the full sort's bit for bit, on dense regions (up to 300 planes, clustered normals, as a
+// vertex of folded cloth has).
 TEST(PlesnikProjector, LazySortVisitsPlanesExactlyAsTheFullSort) {
   auto g = test::rng(2024);
   ProjectorParams params;
