@@ -119,14 +119,21 @@ ProjectResult PlesnikProjector::project(const Vec3& x_anchor, const Vec3& x_cand
   // key and takes the smallest, which is usually added; the others wait for the next collection,
   // since the move may satisfy them. This visits the planes exactly as the full sort does.
   SmallBuffer<std::pair<double, std::uint32_t>> pending(count);
-  auto visit = [&](Vec3& x_check, PlesnikRecursion& rec) {
+  // `at_candidate`: the pass starts at the candidate, where the violated planes are order[0, near).
+  auto visit = [&](Vec3& x_check, PlesnikRecursion& rec, bool at_candidate) {
     std::pair<double, std::uint32_t> after{-std::numeric_limits<double>::infinity(), 0};
     // Three independent equations fix the point: every later plane is dependent (add() says so).
     while (rec.m < 3) {
       std::size_t np = 0;
-      for (std::size_t i = 0; i < count; ++i) {
-        const HalfSpace& h = planes[order[i].second];
-        if (after < order[i] && !(h.n.dot(x_check) + h.d >= -tol)) pending[np++] = order[i];  // line 10
+      if (at_candidate) {
+        np = near;
+        std::copy(order.begin(), order.begin() + near, pending.begin());
+        at_candidate = false;
+      } else {
+        for (std::size_t i = 0; i < count; ++i) {
+          const HalfSpace& h = planes[order[i].second];
+          if (after < order[i] && !(h.n.dot(x_check) + h.d >= -tol)) pending[np++] = order[i];  // line 10
+        }
       }
       if (np == 0) return;
       std::swap(pending[0], *std::min_element(pending.begin(), pending.begin() + np));
@@ -151,7 +158,7 @@ ProjectResult PlesnikProjector::project(const Vec3& x_anchor, const Vec3& x_cand
   for (int it = 1; it <= params_.max_iterations; ++it) {
     rec.reset(x_pass);
     Vec3 x_check = x_pass;  // the retracted point, where constraints are evaluated
-    visit(x_check, rec);
+    visit(x_check, rec, it == 1);
     x_pass = x_check;
     res.iterations = it;
     bool ok = true;  // clarification 2: re-check every constraint after the pass
