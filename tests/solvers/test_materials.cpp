@@ -502,6 +502,22 @@ TEST(PolarRotation, NewtonMatchesSvd) {
   EXPECT_LT((xpbd::polar_rotation_newton(rot * Eigen::Vector3d(1, 2, 3).asDiagonal()) - rot).norm(), 1e-12);
 }
 
+// The Newton iteration stops after a step below 1e-7 without a confirming step (its error is then
+// about step²/2): on the F of a mildly strained tet (the sweeps' common case) it must still agree
+// with the SVD to round-off, not merely to 1e-12.
+TEST(PolarRotation, NewtonStopsAtRoundOffForMildStrain) {
+  auto g = test::rng(11);
+  std::uniform_real_distribution<double> size(0.0, 1.0);
+  for (int trial = 0; trial < 2000; ++trial) {
+    Mat3 e = Mat3::Random();
+    e = 0.5 * (e + e.transpose());
+    e *= (trial % 3 == 0 ? 1e-6 : trial % 3 == 1 ? 0.02 : 0.3) * size(g) / std::max(e.norm(), 1e-300);
+    const Mat3 a = random_rotation(g) * (Mat3::Identity() + e);
+    EXPECT_LT((xpbd::polar_rotation_newton(a) - xpbd::polar_rotation(a)).norm(), 2e-14) << "trial " << trial << "\n"
+                                                                                        << a;
+  }
+}
+
 TEST(ShapeMatching, FlatAndReflectedInputStaysFinite) {
   // A planar body mirrored through its plane must come back as a rotation, not a reflection.
   const std::vector<Vec3> q{Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(-1, 0, 0), Vec3(0, -1, 0)};
