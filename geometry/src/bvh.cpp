@@ -69,7 +69,7 @@ void Bvh::build(std::span<const AABB> boxes, int leaf_size) {
 }
 
 void Bvh::build_node(Index id, Index first, Index count, int leaf_size, const std::vector<Vec3>& centres) {
-  nodes_[id] = Node{AABB{}, -1, first, count};
+  nodes_[id] = Node{AABB{}, -1, first, count, id + subtree_nodes(count, leaf_size)};
   if (count <= leaf_size) return;
   // Split at the median centre along the longest axis of the (finite) centre bounds.
   AABB cb;
@@ -137,18 +137,18 @@ void Bvh::leaf_pairs(Index leaf, const std::uint8_t* fixed_sorted, const std::ui
       for (Index j = i + 1; j < lend; ++j)
         if (sorted_[i].overlaps(sorted_[j]) && !both_fixed(i, j)) emit(i, j);
   // Pairs with leaves after this one in depth-first order: each leaf pair is found exactly once.
-  std::array<Index, kMaxStack> stack;
-  int top = 0;
-  stack[top++] = 0;
-  while (top > 0) {
-    const Index id = stack[--top];
+  // Those nodes are exactly the ones after the leaf in the array, so a forward scan that jumps over
+  // a non-overlapping subtree visits them in the same order as a descent from the root, without
+  // passing through the leaf's ancestors again or keeping a stack.
+  const Index num_nodes = static_cast<Index>(nodes_.size());
+  for (Index id = leaf + 1; id < num_nodes;) {
     const Node& n = nodes_[id];
-    if (n.first + n.count <= lend || !n.box.overlaps(L.box) || (!leaf_live && !live[id])) continue;
-    if (n.right >= 0) {
-      stack[top++] = n.right;
-      stack[top++] = id + 1;
+    if (!n.box.overlaps(L.box) || (!leaf_live && !live[id])) {
+      id = n.skip;
       continue;
     }
+    ++id;
+    if (n.right >= 0) continue;
     for (Index i = L.first; i < lend; ++i) {
       const AABB& bi = sorted_[i];
       if (!bi.overlaps(n.box)) continue;

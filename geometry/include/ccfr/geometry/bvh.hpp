@@ -42,6 +42,7 @@ class Bvh {
     AABB box;
     Index right = -1;            ///< right child, -1 for a leaf
     Index first = 0, count = 0;  ///< range in order_
+    Index skip = 0;              ///< the node after this subtree in depth-first order (#nodes after the last)
   };
   void build_node(Index id, Index first, Index count, int leaf_size, const std::vector<Vec3>& centres);
   void gather(std::span<const AABB> boxes);
