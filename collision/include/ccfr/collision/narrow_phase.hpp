@@ -54,6 +54,15 @@ struct ContactPair {
   }
 };
 
+/// A certified lower bound of the distance between the contact's two primitives at positions
+/// `x`, from its detection normal: every point of side A lies at n·p >= min over A's vertices and
+/// every point of side B at n·p <= max over B's vertices (the hulls' extremes along n are
+/// vertices), so for unit n the primitives are at least the difference apart. Holds for any
+/// direction, whatever moved since detection; the rounding of the dot products and of n's unit
+/// length is subtracted (a few ulps of the coordinates' magnitude). NaN positions give NaN.
+/// Where it already clears a threshold, the exact distance kernel need not run.
+double separation_lower_bound(const ContactPair& c, const std::vector<Vec3>& x);
+
 /// Counts and timings of one detect() pass.
 struct DetectionStats {
   Index candidates = 0;          ///< primitive pairs reported by the broad phase
