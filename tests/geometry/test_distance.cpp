@@ -447,5 +447,32 @@ TEST(Distance, NotAboveSampledMinimum) {
   }
 }
 
+
+// The dense scenes' edge pairs: short edges at every angle above 1e-3 rad, near each other, most
+// with the unconstrained stationary point just outside a side, outside a corner, or far away;
+// plus endpoints shared within rounding and far-from-origin coordinates. Against the best of the
+// four endpoint-segment tests and the long-double reference.
+TEST(Distance, EdgeEdgeShortEdgesNearEachOther) {
+  auto g = test::rng(20261124);
+  std::uniform_real_distribution<double> u(-1.0, 1.0), u01(0.0, 1.0);
+  for (int i = 0; i < 200000; ++i) {
+    const double len = std::pow(10.0, -3.0 + 2.0 * u01(g));  // 1 mm .. 10 cm
+    const Vec3 origin = i % 3 == 0 ? Vec3(1e3, -1e3, 5e2) : Vec3::Zero();
+    const Vec3 a0 = origin + len * rand_vec(g), a1 = a0 + len * rand_vec(g).normalized();
+    Vec3 b0 = a0 + 2.0 * len * rand_vec(g), b1 = b0 + len * (1.0 + u01(g)) * rand_vec(g).normalized();
+    if (i % 11 == 0) b0 = a1 + Vec3::Constant(1e-13 * len);  // nearly shared endpoint
+    const Vec3 da = a1 - a0, db = b1 - b0;
+    if (!(da.cross(db).squaredNorm() > 1e-6 * da.squaredNorm() * db.squaredNorm())) continue;
+    const EdgeEdgeResult r = edge_edge(a0, a1, b0, b1);
+    double best = std::min({point_edge(a0, b0, b1).distance_sq, point_edge(a1, b0, b1).distance_sq,
+                            point_edge(b0, a0, a1).distance_sq, point_edge(b1, a0, a1).distance_sq});
+    const double scale = origin.norm() + 3.0 * len;
+    const double slack = 64 * std::numeric_limits<double>::epsilon() * scale * scale;
+    ASSERT_LE(r.distance_sq, best + slack) << "pair " << i;
+    ASSERT_NEAR(r.distance_sq, static_cast<double>(ref_ee(L(a0), L(a1), L(b0), L(b1))), slack) << "pair " << i;
+    ASSERT_NEAR(r.distance_sq, (r.pa - r.pb).squaredNorm(), slack) << "pair " << i;
+  }
+}
+
 }  // namespace
 }  // namespace ccfr
