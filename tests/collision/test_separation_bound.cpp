@@ -50,7 +50,7 @@ TEST(SeparationLowerBound, NeverExceedsTheProjectionGapForAnyKindOrNormal) {
     const double shift = trial % 2 ? 1e4 : 0.0, size = trial % 3 == 0 ? 1e-3 : 0.05;
     Positions x(4);
     for (auto& p : x) p = Vec3(shift + size * u(rng), -shift + size * u(rng), size * u(rng));
-    if (trial % 5 == 0) x[1] = x[0];  // coincident points
+    if (trial % 5 == 0) x[1] = x[0];                 // coincident points
     if (trial % 7 == 0) x[3] = 0.5 * (x[1] + x[2]);  // zero-area triangle / collinear
     Vec3 n(u(rng), u(rng), u(rng));
     n.normalize();

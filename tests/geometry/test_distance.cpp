@@ -447,7 +447,6 @@ TEST(Distance, NotAboveSampledMinimum) {
   }
 }
 
-
 // The dense scenes' edge pairs: short edges at every angle above 1e-3 rad, near each other, most
 // with the unconstrained stationary point just outside a side, outside a corner, or far away;
 // plus endpoints shared within rounding and far-from-origin coordinates. Against the best of the
