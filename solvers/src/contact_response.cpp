@@ -86,7 +86,8 @@ void ContactResponse::prepare_common(std::span<const ContactPair> contacts, cons
   if (!prepared_repulsion_) return;  // apply() does nothing without a repulsion range
   const double width = params.visibility_width > 0.0 ? params.visibility_width : params.repulsion_range;
   visibility_weights(contacts, width, visibility_, visibility_ws_);
-  // No zeroing: apply() clears each contact's four slots before writing them.
+  // No zeroing: apply() clears an active contact's four slots before writing them, and its
+  // gather reads only the slots of active contacts.
   corr_.resize(contacts.size() * 4);
 }
 
@@ -133,14 +134,16 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
       [&](Index b, Index e) {
         for (Index ci = b; ci < e; ++ci) {
           const ContactPair& c = contacts_[ci];
-          for (int k = 0; k < 4; ++k) corr_[ci * 4 + k].setZero();
           const double gap = contact_gap(c, x);
           const double vis = visibility_[ci];
           if (gap >= p.repulsion_range || vis <= 1e-12) continue;
           double wsum = 0.0;
           for (int k = 0; k < c.size(); ++k) wsum += c.w[k] * c.w[k] * inv_mass[c.v[k]];
           if (wsum <= 0.0) continue;
+          // Only active contacts write corrections; the gather skips the others by is_active, so
+          // the (many) contacts beyond δ cost no 96-byte zero fill and no read-back.
           is_active[ci] = 1;
+          for (int k = 0; k < 4; ++k) corr_[ci * 4 + k].setZero();
           // Repulsion C = d_c - δ <= 0 with compliance α/w_c (visibility scales the stiffness):
           // Δλ = -C / (Σ w_k² m_k⁻¹ + α̃ / w_c), Δx_k = m_k⁻¹ w_k n Δλ.
           const double dl = -(gap - p.repulsion_range) / (wsum + alpha_tilde / vis);
@@ -173,6 +176,7 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
           Vec3 sum = Vec3::Zero();
           int cnt = 0;
           for (Index q = s; q < t; ++q) {
+            if (!is_active[static_cast<size_t>(slots_[q] / 4)]) continue;
             const Vec3& d = corr_[slots_[q]];
             if (d.squaredNorm() > 0.0) sum += d, ++cnt;
           }
