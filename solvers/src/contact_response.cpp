@@ -86,8 +86,8 @@ void ContactResponse::prepare_common(std::span<const ContactPair> contacts, cons
   if (!prepared_repulsion_) return;  // apply() does nothing without a repulsion range
   const double width = params.visibility_width > 0.0 ? params.visibility_width : params.repulsion_range;
   visibility_weights(contacts, width, visibility_, visibility_ws_);
-  // No zeroing: apply() clears an active contact's four slots before writing them, and its
-  // gather reads only the slots of active contacts.
+  // No zeroing: apply() writes every used slot of an active contact, and its gather reads only
+  // the slots of active contacts.
   corr_.resize(contacts.size() * 4);
 }
 
@@ -140,10 +140,10 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
           double wsum = 0.0;
           for (int k = 0; k < c.size(); ++k) wsum += c.w[k] * c.w[k] * inv_mass[c.v[k]];
           if (wsum <= 0.0) continue;
-          // Only active contacts write corrections; the gather skips the others by is_active, so
-          // the (many) contacts beyond δ cost no 96-byte zero fill and no read-back.
+          // Only active contacts write corrections, each of its c.size() slots below (the only
+          // ones the gather can name); the gather skips the others by is_active, so the (many)
+          // contacts beyond δ cost no 96-byte zero fill and no read-back.
           is_active[ci] = 1;
-          for (int k = 0; k < 4; ++k) corr_[ci * 4 + k].setZero();
           // Repulsion C = d_c - δ <= 0 with compliance α/w_c (visibility scales the stiffness):
           // Δλ = -C / (Σ w_k² m_k⁻¹ + α̃ / w_c), Δx_k = m_k⁻¹ w_k n Δλ.
           const double dl = -(gap - p.repulsion_range) / (wsum + alpha_tilde / vis);
