@@ -311,6 +311,7 @@ struct DetectSink {
   void vf_eval(Index v, Index f, Index slot) {
     const Vec3& p = x[v];
     const Vec3i& t = topo.faces[f];
+    if (point_triangle_apart_along_centres(p, x[t[0]], x[t[1]], x[t[2]], filter_reach_sq())) return;
     const PointTriangleResult r = point_triangle(p, x[t[0]], x[t[1]], x[t[2]]);
     const double dist = accept(ContactKind::vf, v, f, slot, r.distance_sq,
                                w[v] > 0.0 || w[t[0]] > 0.0 || w[t[1]] > 0.0 || w[t[2]] > 0.0);
@@ -329,7 +330,9 @@ struct DetectSink {
   void ee_eval(Index e0, Index e1, Index slot) {
     const Vec2i &ea = topo.edges[e0], &eb = topo.edges[e1];
     const Vec3 &a0 = x[ea[0]], &a1 = x[ea[1]], &b0 = x[eb[0]], &b1 = x[eb[1]];
-    if (segments_certainly_apart(a0, a1, b0, b1, filter_reach_sq())) return;  // accept() would refuse it
+    // Two separating-axis bounds before the kernel; accept() would refuse what they settle.
+    if (segments_apart_along_centres(a0, a1, b0, b1, filter_reach_sq())) return;
+    if (segments_certainly_apart(a0, a1, b0, b1, filter_reach_sq())) return;
     const EdgeEdgeResult r = edge_edge(a0, a1, b0, b1);
     const double dist = accept(ContactKind::ee, e0, e1, slot, r.distance_sq,
                                w[ea[0]] > 0.0 || w[ea[1]] > 0.0 || w[eb[0]] > 0.0 || w[eb[1]] > 0.0);
@@ -348,6 +351,7 @@ struct DetectSink {
   void ve_eval(Index v, Index e, Index slot) {
     const Vec3& p = x[v];
     const Vec2i& s = topo.edges[e];
+    if (point_segment_apart_along_centres(p, x[s[0]], x[s[1]], filter_reach_sq())) return;
     const PointEdgeResult r = point_edge(p, x[s[0]], x[s[1]]);
     const double dist =
         accept(ContactKind::ve, v, e, slot, r.distance_sq, w[v] > 0.0 || w[s[0]] > 0.0 || w[s[1]] > 0.0);

@@ -316,6 +316,67 @@ TEST(Distance, SegmentsCertainlyApartNeverRejectsAPairWithinReach) {
   EXPECT_FALSE(segments_certainly_apart(a0, a1, a0 + off, a1 + off + Vec3(0, 0, 1e-9), reach_sq));  // nearly parallel
 }
 
+// The centre-axis filters (segments_apart_along_centres and its point-triangle and point-segment
+// kin) are separating-axis bounds: whatever they call apart must be at least reach apart by the
+// long-double reference, also 1e4 from the origin, where the coordinates' rounding is largest.
+// Parallel, collinear, zero-length and coplanar pairs are decided like any other (the bound holds
+// for every axis); coincident centres, pairs within reach and NaN must stay undecided.
+TEST(Distance, CentreAxisFiltersNeverRejectAPairWithinReach) {
+  auto g = test::rng(67);
+  const double reach = 0.02, reach_sq = reach * reach;
+  int decided_ee = 0, decided_pt = 0, decided_pe = 0;
+  for (const double origin : {0.0, 1e4}) {
+    for (int i = 0; i < 100000; ++i) {
+      const Vec3 o = Vec3::Constant(origin) + 0.02 * rand_vec(g);
+      // Every fourth pair degenerate: a zero-length edge, or B parallel to A.
+      const Vec3 a0 = o, a1 = i % 4 == 1 ? a0 : Vec3(a0 + 0.03 * rand_vec(g));
+      const Vec3 b0 = o + 0.04 * rand_vec(g), b1 = i % 4 == 2 ? Vec3(b0 + (a1 - a0)) : Vec3(b0 + 0.03 * rand_vec(g));
+      const Vec3 c = i % 4 == 3 ? Vec3(0.5 * (b0 + b1)) : Vec3(b0 + 0.03 * rand_vec(g));  // zero-area triangle
+      if (segments_apart_along_centres(a0, a1, b0, b1, reach_sq)) {
+        ++decided_ee;
+        ASSERT_GE(ref_ee(L(a0), L(a1), L(b0), L(b1)), static_cast<LD>(reach_sq)) << "pair " << i;
+      }
+      if (point_triangle_apart_along_centres(a0, b0, b1, c, reach_sq)) {
+        ++decided_pt;
+        ASSERT_GE(ref_pt(L(a0), L(b0), L(b1), L(c)), static_cast<LD>(reach_sq)) << "pair " << i;
+      }
+      if (point_segment_apart_along_centres(a0, b0, b1, reach_sq)) {
+        ++decided_pe;
+        ASSERT_GE(ref_pe(L(a0), L(b0), L(b1)), static_cast<LD>(reach_sq)) << "pair " << i;
+      }
+    }
+  }
+  // Not vacuous: each filter settles a good share of these pairs.
+  EXPECT_GT(decided_ee, 10000);
+  EXPECT_GT(decided_pt, 10000);
+  EXPECT_GT(decided_pe, 10000);
+
+  // Parallel segments side by side, z apart by reach (1 ± 1e-9): the axis is exact here, so within
+  // reach is never settled and beyond it only outside the 1e-6 margin.
+  const Vec3 a0(-0.01, 0, 0), a1(0.01, 0, 0), up(0, 0, 1);
+  for (double f : {1.0 - 1e-9, 1.0, 1.0 + 1e-9, 1.0 + 1e-7}) {
+    EXPECT_FALSE(segments_apart_along_centres(a0, a1, a0 + f * reach * up, a1 + f * reach * up, reach_sq)) << f;
+    EXPECT_FALSE(point_segment_apart_along_centres(Vec3::Zero(), a0 + f * reach * up, a1 + f * reach * up, reach_sq));
+  }
+  EXPECT_TRUE(segments_apart_along_centres(a0, a1, a0 + 1.001 * reach * up, a1 + 1.001 * reach * up, reach_sq));
+  // A point above a triangle's centroid: within reach never, beyond it yes.
+  const Vec3 ta(-0.01, -0.01, 0), tb(0.02, -0.01, 0), tc(-0.01, 0.02, 0);
+  EXPECT_FALSE(point_triangle_apart_along_centres(0.999 * reach * up, ta, tb, tc, reach_sq));
+  EXPECT_TRUE(point_triangle_apart_along_centres(1.001 * reach * up, ta, tb, tc, reach_sq));
+  // Crossing segments (an X), coincident midpoints: the axis vanishes, undecided.
+  EXPECT_FALSE(segments_apart_along_centres(Vec3(-1, 0, 0), Vec3(1, 0, 0), Vec3(0, -1, 0), Vec3(0, 1, 0), reach_sq));
+  // Coincident points, shared endpoints, NaN.
+  EXPECT_FALSE(point_segment_apart_along_centres(a0, a0, a0, reach_sq));
+  EXPECT_FALSE(segments_apart_along_centres(a0, a1, a1, Vec3(1, 1, 1), reach_sq));
+  const Vec3 nan(std::nan(""), 0, 0);
+  EXPECT_FALSE(segments_apart_along_centres(a0, a1, nan, Vec3(1, 1, 1), reach_sq));
+  EXPECT_FALSE(point_triangle_apart_along_centres(nan, ta, tb, tc, reach_sq));
+  EXPECT_FALSE(point_segment_apart_along_centres(Vec3(1, 1, 1), nan, a1, reach_sq));
+  // Far apart but across more than 1e5 reaches (a 10 km edge at reach 2 cm): left undecided.
+  EXPECT_FALSE(
+      segments_apart_along_centres(Vec3(-5e3, 0, 0), Vec3(5e3, 0, 0), Vec3(-5e3, 0, 1), Vec3(5e3, 0, 1), reach_sq));
+}
+
 TEST(Distance, NeverNaNOnExtremeInput) {
   const double big = 1e150, tiny = 1e-300;
   const Vec3 o = Vec3::Zero();

@@ -4,6 +4,7 @@
 /// parameters (barycentric coordinates) of the closest points and the closest feature.
 /// All routines are total: degenerate input (zero-length edges, zero-area triangles, parallel
 /// or collinear edges, coincident points) gives a valid closest pair, never NaN.
+#include <algorithm>
 #include <cstdint>
 
 #include "ccfr/core/types.hpp"
@@ -88,6 +89,62 @@ inline bool segments_certainly_apart(const Vec3& a0, const Vec3& a1, const Vec3&
   if (!(cc > 1e-6 * da.squaredNorm() * db.squaredNorm())) return false;  // near-parallel, degenerate or NaN
   const double along = (b0 - a0).dot(c);
   return along * along > reach_sq * cc * (1.0 + 1e-6);
+}
+
+namespace detail {
+/// The decision shared by the centre-axis filters below: `gap` is the separation of two point sets
+/// along the unnormalised axis u (|u|² = `uu`), computed in coordinates local to the pair. Each
+/// dot product is off by a few ulps of |u| times the pair's size, so the bound must clear the
+/// reach by a relative 1e-6, and pairs more than 1e5 reaches across are left undecided (there the
+/// rounding could approach that margin). NaN gives false.
+inline bool gap_clears_reach(double gap, double uu, double reach_sq) {
+  return gap > 0.0 && gap * gap > reach_sq * uu * (1.0 + 1e-6);
+}
+/// The size condition of gap_clears_reach, checked only once the gap has cleared the reach.
+inline bool small_enough_to_decide(double size_sq, double reach_sq) { return size_sq <= 1e10 * reach_sq; }
+}  // namespace detail
+
+/// True only if segments (a0, a1) and (b0, b1) are certainly at least \f$\sqrt{\text{reach\_sq}}\f$
+/// apart, decided by one separating axis: for any direction u, every point of A lies at u·p <=
+/// max(u·a0, u·a1) and every point of B at u·p >= min(u·b0, u·b1) (segments' extremes along u
+/// are endpoints), so the distance is at least the difference over |u|. The axis joins the
+/// midpoints, u = (b0 + b1) - (a0 + a1), which separates most pairs that the boxes let through
+/// but the kernel finds out of reach (about 93 % of them in the soft-wire pile, 63 % in the
+/// twisting rope) for about 40 instructions against edge_edge's 320 (callgrind, the pile).
+/// Complements segments_certainly_apart, which catches crossing pairs whose midpoints lie side by
+/// side. False means undecided.
+inline bool segments_apart_along_centres(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1,
+                                         double reach_sq) {
+  // Local to a0: the rounding then scales with the pair's size, not with its distance from the origin.
+  const Vec3 p1 = a1 - a0, q0 = b0 - a0, q1 = b1 - a0;
+  const Vec3 u = q0 + q1 - p1;
+  const double gap = std::min(u.dot(q0), u.dot(q1)) - std::max(0.0, u.dot(p1));
+  return detail::gap_clears_reach(gap, u.squaredNorm(), reach_sq) &&
+         detail::small_enough_to_decide(std::max({p1.squaredNorm(), q0.squaredNorm(), q1.squaredNorm()}), reach_sq);
+}
+
+/// True only if point p and triangle (a, b, c) are certainly at least \f$\sqrt{\text{reach\_sq}}\f$
+/// apart, by the separating axis from p to the triangle's centroid (see
+/// segments_apart_along_centres). In the twisting rope it settles about half of the
+/// vertex-face sub-pairs that the boxes let through, before point_triangle. False means undecided.
+inline bool point_triangle_apart_along_centres(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c,
+                                               double reach_sq) {
+  const Vec3 qa = a - p, qb = b - p, qc = c - p;
+  const Vec3 u = qa + qb + qc;
+  const double gap = std::min({u.dot(qa), u.dot(qb), u.dot(qc)});
+  return detail::gap_clears_reach(gap, u.squaredNorm(), reach_sq) &&
+         detail::small_enough_to_decide(std::max({qa.squaredNorm(), qb.squaredNorm(), qc.squaredNorm()}), reach_sq);
+}
+
+/// True only if point p and segment (a, b) are certainly at least \f$\sqrt{\text{reach\_sq}}\f$
+/// apart, by the separating axis from p to the segment's midpoint (see
+/// segments_apart_along_centres). False means undecided.
+inline bool point_segment_apart_along_centres(const Vec3& p, const Vec3& a, const Vec3& b, double reach_sq) {
+  const Vec3 qa = a - p, qb = b - p;
+  const Vec3 u = qa + qb;
+  const double gap = std::min(u.dot(qa), u.dot(qb));
+  return detail::gap_clears_reach(gap, u.squaredNorm(), reach_sq) &&
+         detail::small_enough_to_decide(std::max(qa.squaredNorm(), qb.squaredNorm()), reach_sq);
 }
 
 }  // namespace ccfr
