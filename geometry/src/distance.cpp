@@ -112,9 +112,41 @@ EdgeEdgeResult edge_edge(const Vec3& a0, const Vec3& a1, const Vec3& b0, const V
   EdgeEdgeResult r;
   r.parallel = a > 0.0 && c > 0.0 && !(denom > kParallel * a * c);
 
-  // Interior candidate (Cramer's rule, see the header). Near-parallel edges make s uncertain along
-  // the edges; t is then the projection of pa onto B, so pa - pb stays perpendicular to B and its
-  // error along A is damped by sin^2 of the angle: the pair stays extreme along its own normal.
+  if (denom > kWellConditioned * a * c) {
+    // Well-conditioned (angle > 1e-3 rad, so a, c > 0; s* is accurate to ~eps / sin^2 <= 2e-10):
+    // the minimum over the square follows from two clamps (Ericson, Real-Time Collision Detection
+    // 5.1.9) instead of the four boundary candidates below. Let s* be the stationary point's s and
+    // t(s) the best t on B's line for a given s (affine in s); g(s) = min_t f(s, t) is convex with
+    // its minimum at s*. With s = clamp(s*), the point (s, t(s)) is the minimum whenever t(s) lies
+    // in [0, 1]: no s in [0, 1] has a smaller g. Otherwise, say t(s) > 1, the minimum lies on the
+    // side t = 1: a minimiser at t < 1 has t = t(s') or t = 0 with t(s') <= 0, and between s' and
+    // s some s'' has t(s'') in [0, 1] and g(s'') < g(s'). On that side the best s is the
+    // vertex-segment projection. 90-98 % of the narrow phase's calls end on the boundary, where
+    // this takes two point-segment projections instead of five.
+    const double s_raw = (b0 - a0).cross(db).dot(cr) / denom;
+    if (!std::isnan(s_raw)) {
+      const double s = s_raw <= 0.0 ? 0.0 : (s_raw >= 1.0 ? 1.0 : s_raw);
+      // The end points themselves, not a0 + 1 * da: the same input the boundary candidates use.
+      const Vec3 pa = s == 0.0 ? a0 : (s == 1.0 ? a1 : Vec3(a0 + s * da));
+      const PointEdgeResult q = point_edge(pa, b0, b1);
+      if (q.feature == EdgeFeature::interior) {
+        r.s = s, r.t = q.t, r.pa = pa, r.pb = q.closest, r.distance_sq = q.distance_sq;
+      } else {
+        const bool at_b1 = q.feature == EdgeFeature::v1;
+        const Vec3& pb = at_b1 ? b1 : b0;
+        const PointEdgeResult p = point_edge(pb, a0, a1);
+        r.s = p.t, r.t = at_b1 ? 1.0 : 0.0, r.pa = p.closest, r.pb = pb, r.distance_sq = p.distance_sq;
+      }
+      r.feature_a = edge_feature(r.s);
+      r.feature_b = edge_feature(r.t);
+      return r;
+    }
+  }
+
+  // Nearly parallel or degenerate: the interior candidate (Cramer's rule, see the header) must
+  // beat the four boundary candidates. Near-parallel edges make s uncertain along the edges; t is then the projection
+  // of pa onto B, so pa - pb stays perpendicular to B and its error along A is damped by sin^2 of the angle: the pair
+  // stays extreme along its own normal.
   bool interior = false;
   if (denom > 0.0) {
     const double s = (b0 - a0).cross(db).dot(cr) / denom;
@@ -126,12 +158,6 @@ EdgeEdgeResult edge_edge(const Vec3& a0, const Vec3& a1, const Vec3& b0, const V
       r.pb = q.closest;
       r.distance_sq = q.distance_sq;
       interior = true;
-      // Well-conditioned and inside the square: the stationary point of the convex distance is the
-      // global minimum, and s is accurate to ~eps / sin^2 (<= 2e-10 here); no boundary needed.
-      if (q.feature == EdgeFeature::interior && denom > kWellConditioned * a * c) {
-        r.feature_a = r.feature_b = EdgeFeature::interior;
-        return r;
-      }
     }
   }
 

@@ -534,5 +534,35 @@ TEST(Distance, EdgeEdgeShortEdgesNearEachOther) {
   }
 }
 
+// The clamped path for edges more than 1e-3 rad apart: the distance of the long-double reference,
+// and the separating-plane property the narrow phase builds on (check_ee_plane), over arrangements
+// that end on every side and corner of the parameter square: B beside A's end, beyond it, across
+// it, at angles from 1e-3 rad (just inside the path) to perpendicular, 1e3 from the origin too.
+TEST(Distance, EdgeEdgeClampedPathKeepsTheSeparatingPlane) {
+  auto g = test::rng(20261125);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  int sides[3][3] = {};  // how the result's (s, t) lies: 0 at 0, 1 inside, 2 at 1
+  double worst = 0.0;
+  for (int i = 0; i < 40000; ++i) {
+    const Vec3 origin = i % 4 == 0 ? Vec3(1e3, -2e2, 7e2) : Vec3::Zero();
+    const double len = std::pow(10.0, -2.0 + 2.0 * u01(g));
+    const Vec3 a0 = origin + len * rand_vec(g), da = len * rand_vec(g).normalized();
+    // B's direction: A's turned by an angle from 1.1e-3 rad to pi/2 about a random axis.
+    const double angle = i % 5 == 0 ? 1.1e-3 * (1.0 + u01(g)) : 1.5707 * u01(g) + 1.1e-3;
+    const Vec3 axis = da.cross(rand_vec(g)).normalized();
+    const Vec3 db = (Eigen::AngleAxisd(angle, axis) * da) * (0.5 + u01(g));
+    const Vec3 b0 = a0 + (2.0 * u01(g) - 0.5) * da + 0.5 * len * rand_vec(g) - u01(g) * db;
+    const Vec3 a1 = a0 + da, b1 = b0 + db;
+    if (!(da.cross(db).squaredNorm() > 1e-6 * da.squaredNorm() * db.squaredNorm())) continue;
+    worst = std::max(worst, check_ee_plane(a0, a1, b0, b1));
+    const EdgeEdgeResult r = edge_edge(a0, a1, b0, b1);
+    ++sides[r.s <= 0.0 ? 0 : (r.s >= 1.0 ? 2 : 1)][r.t <= 0.0 ? 0 : (r.t >= 1.0 ? 2 : 1)];
+    if (::testing::Test::HasFailure()) break;
+  }
+  EXPECT_LE(worst, 1.0);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) EXPECT_GT(sides[i][j], 100) << "s side " << i << ", t side " << j;
+}
+
 }  // namespace
 }  // namespace ccfr

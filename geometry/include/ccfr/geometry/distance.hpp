@@ -61,9 +61,11 @@ inline PointEdgeResult point_edge(const Vec3& p, const Vec3& a, const Vec3& b) {
 PointTriangleResult point_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c);
 /// Closest points between segments (a0, a1) and (b0, b1).
 ///
-/// The interior stationary point when it lies inside both edges and the edges are well apart in
-/// angle (> 1e-3 rad); otherwise the best of the four endpoint-segment candidates and, if strictly
-/// closer, the interior candidate:
+/// Edges well apart in angle (> 1e-3 rad): the stationary point's s clamped to [0, 1], the best t
+/// for it clamped, and, if that clamp bit, the best s for the clamped t (exact for the convex
+/// distance over the square; proof in the source). Otherwise (nearly parallel or degenerate
+/// edges) the best of the four endpoint-segment candidates and, if strictly closer, the interior
+/// candidate:
 /// with \f$\mathbf{c} = \mathbf{d}_a \times \mathbf{d}_b\f$, \f$\mathbf{d}_a = \mathbf{a}_1 - \mathbf{a}_0\f$,
 /// \f$\mathbf{d}_b = \mathbf{b}_1 - \mathbf{b}_0\f$, the point where \f$\mathbf{p}_a - \mathbf{p}_b \parallel
 /// \mathbf{c}\f$ has \f$s = ((\mathbf{b}_0 - \mathbf{a}_0)\times\mathbf{d}_b)\cdot\mathbf{c} / \|\mathbf{c}\|^2\f$
