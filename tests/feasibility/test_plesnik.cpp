@@ -131,7 +131,8 @@ ProjectResult full_sort_reference(const ProjectorParams& params, const Vec3& anc
 // The projector sorts only the planes violated at the candidate, and of the rest only those
 // violated at the point of the pass, collected again after each addition: every point it returns
 // equals the full sort's bit for bit, on dense regions (up to 300 planes, clustered normals, as a
-// vertex of folded cloth has).
+// vertex of folded cloth has). So does its skipping of planes whose value at the candidate is
+// too far above zero for the pass's move to reach.
 TEST(PlesnikProjector, LazySortVisitsPlanesExactlyAsTheFullSort) {
   auto g = test::rng(2024);
   ProjectorParams params;
@@ -151,6 +152,16 @@ TEST(PlesnikProjector, LazySortVisitsPlanesExactlyAsTheFullSort) {
       for (auto& h : p.planes) h.d += 0.02;
       p.planes.insert(p.planes.begin() + count / 2, HalfSpace{ez, d1});
       p.planes.push_back(HalfSpace{(-ex - ez).normalized(), 0.0003 * u(g)});
+    }
+    if (trial % 7 == 3) {
+      // Normals of lengths 0.5-2 (the same half-spaces, other values): the projector's bound that
+      // skips evaluating planes far from violation must scale with |n|.
+      std::uniform_real_distribution<double> scale(0.5, 2.0);
+      for (auto& h : p.planes) {
+        const double f = scale(g);
+        h.n *= f;
+        h.d *= f;
+      }
     }
     const ProjectResult ref = full_sort_reference(params, p.anchor, p.candidate, p.planes);
     const ProjectResult got = proj.project(p.anchor, p.candidate, p.planes);

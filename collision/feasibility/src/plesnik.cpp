@@ -76,6 +76,19 @@ Vec3 retract_toward_anchor(const Vec3& p, double epsilon) {
   return p * ((len - epsilon) / len);
 }
 
+namespace {
+/// A plane's value at the candidate and its index, ordered by value, ties by index: the order in
+/// which Alg. ProjectOntoConvexRegion visits the planes. Trivial, so scratch arrays of it start
+/// uninitialised (SmallBuffer).
+struct PlaneKey {
+  double rho;
+  std::uint32_t index;
+  friend bool operator<(const PlaneKey& a, const PlaneKey& b) {
+    return a.rho < b.rho || (!(b.rho < a.rho) && a.index < b.index);
+  }
+};
+}  // namespace
+
 PlesnikProjector::PlesnikProjector(const ProjectorParams& params) : params_(params) { validate(params_); }
 
 ProjectResult PlesnikProjector::project(const Vec3& x_anchor, const Vec3& x_candidate,
@@ -90,10 +103,11 @@ ProjectResult PlesnikProjector::project(const Vec3& x_anchor, const Vec3& x_cand
   ProjectResult res;
   res.x = x_candidate;
   // Violated planes (rho < -tol) fill `order` from the front, the others from the back.
-  SmallBuffer<std::pair<double, std::uint32_t>> order(count);
+  SmallBuffer<PlaneKey> order(count);
   std::size_t near = 0, far = count;
-  double d_min = 0.0;
+  double d_min = 0.0, nn_max = 0.0;
   for (std::size_t k = 0; k < count; ++k) {
+    nn_max = std::max(nn_max, planes[k].n.squaredNorm());
     const double rho = planes[k].n.dot(q) + planes[k].d;
     if (std::isnan(rho)) return unusable_input(x_anchor);  // a non-finite plane: nothing can be certified
     d_min = std::min(d_min, planes[k].d);
@@ -118,10 +132,20 @@ ProjectResult PlesnikProjector::project(const Vec3& x_anchor, const Vec3& x_cand
   // only when a plane is added. So each step collects the violated planes after the last added
   // key and takes the smallest, which is usually added; the others wait for the next collection,
   // since the move may satisfy them. This visits the planes exactly as the full sort does.
-  SmallBuffer<std::pair<double, std::uint32_t>> pending(count);
+  SmallBuffer<PlaneKey> pending(count);
+  // A plane's value moves by at most |n| |x - q| from its value rho at the candidate, so planes
+  // with rho well above that hold at x without evaluating them: a dense vertex has ~150 planes,
+  // 3-4 violated (soft-wire pile), and the scans below then read only its rho. The margin covers
+  // the rounding of |n|, |x - q| and both values (a few ulps of |n| (|x| + |q|) and |rho|), so
+  // exactly the planes an evaluation would find violated are evaluated.
+  const double n_max = std::sqrt(nn_max), q_norm = q.norm();
+  auto holds_by_bound = [&](double rho, double limit) { return rho - 1e-14 * std::abs(rho) > limit; };
+  auto bound_limit = [&](const Vec3& x) {
+    return n_max * ((x - q).norm() * (1.0 + 1e-12) + 1e-14 * (x.norm() + q_norm)) - tol;
+  };
   // `at_candidate`: the pass starts at the candidate, where the violated planes are order[0, near).
   auto visit = [&](Vec3& x_check, PlesnikRecursion& rec, bool at_candidate) {
-    std::pair<double, std::uint32_t> after{-std::numeric_limits<double>::infinity(), 0};
+    PlaneKey after{-std::numeric_limits<double>::infinity(), 0};
     // Three independent equations fix the point: every later plane is dependent (add() says so).
     while (rec.m < 3) {
       std::size_t np = 0;
@@ -130,9 +154,11 @@ ProjectResult PlesnikProjector::project(const Vec3& x_anchor, const Vec3& x_cand
         std::copy(order.begin(), order.begin() + near, pending.begin());
         at_candidate = false;
       } else {
+        const double limit = bound_limit(x_check);
         for (std::size_t i = 0; i < count; ++i) {
-          const HalfSpace& h = planes[order[i].second];
-          if (after < order[i] && !(h.n.dot(x_check) + h.d >= -tol)) pending[np++] = order[i];  // line 10
+          if (holds_by_bound(order[i].rho, limit) || !(after < order[i])) continue;
+          const HalfSpace& h = planes[order[i].index];
+          if (!(h.n.dot(x_check) + h.d >= -tol)) pending[np++] = order[i];  // line 10
         }
       }
       if (np == 0) return;
@@ -140,7 +166,7 @@ ProjectResult PlesnikProjector::project(const Vec3& x_anchor, const Vec3& x_cand
       std::size_t j = 0;
       auto add = [&](std::size_t at) {
         // Line 11: n_k . (x - x_anchor) = -d_k is the plane in anchor-relative coordinates.
-        const HalfSpace& h = planes[pending[at].second];
+        const HalfSpace& h = planes[pending[at].index];
         return rec.add(h.n, -h.d, params_.redundancy_tolerance) == PlesnikRecursion::Step::added;
       };
       if (!add(0)) {  // dependent on the stored equations (rare): the next ones in key order
@@ -162,11 +188,12 @@ ProjectResult PlesnikProjector::project(const Vec3& x_anchor, const Vec3& x_cand
     x_pass = x_check;
     res.iterations = it;
     bool ok = true;  // clarification 2: re-check every constraint after the pass
-    for (const auto& h : planes)
-      if (!(h.n.dot(x_pass) + h.d >= -tol)) {
-        ok = false;
-        break;
-      }
+    const double limit = bound_limit(x_pass);
+    for (std::size_t i = 0; i < count && ok; ++i) {
+      if (holds_by_bound(order[i].rho, limit)) continue;
+      const HalfSpace& h = planes[order[i].index];
+      ok = h.n.dot(x_pass) + h.d >= -tol;
+    }
     if (ok) {
       // The anchor is feasible and |0 - q| from the candidate, so the projection is never farther.
       // Plesník's point can be (it never drops an equality): replace it by the exact projection.
