@@ -680,23 +680,9 @@ void CollisionDetector::compute_exclusions(const Positions& initial) {
 }
 
 double separation_lower_bound(const ContactPair& c, const std::vector<Vec3>& x) {
-  const int na = c.side_a(), n = c.size();
-  double lo_a = std::numeric_limits<double>::infinity(), hi_b = -lo_a, scale = 0.0;
-  for (int k = 0; k < n; ++k) {
-    const Vec3& p = x[c.v[k]];
-    const double along = c.n.dot(p);
-    if (std::isnan(along)) return along;  // std::min and std::max would drop it
-    if (k < na)
-      lo_a = std::min(lo_a, along);
-    else
-      hi_b = std::max(hi_b, along);
-    scale = std::max(scale, p.cwiseAbs().sum());
-  }
-  // Each dot product is off by at most 3 eps sum|n_i p_i| <= 3 eps (1 + eps) |p|_1, the
-  // difference by one more rounding, and |n| by a few ulps: 64 eps of margin covers all of it.
-  constexpr double kEps = std::numeric_limits<double>::epsilon();
-  const double gap = lo_a - hi_b;
-  return (gap - 64.0 * kEps * (scale + std::abs(gap))) * (1.0 - 64.0 * kEps);
+  double scale = 0.0;
+  for (int k = 0; k < c.size(); ++k) scale = std::max(scale, x[static_cast<size_t>(c.v[k])].cwiseAbs().sum());
+  return separation_lower_bound(c, x, scale);
 }
 
 double CollisionDetector::pair_offset(ContactKind kind, Index a, Index b) const {

@@ -121,6 +121,13 @@ Index DetectingSolver::contact_vertex_count(std::span<const double> inv_mass) co
 std::optional<Index> DetectingSolver::count_outside(const Positions& x, const Positions&, const SimState&,
                                                     StepContext& ctx) const {
   const double keep = 1.0 - ctx.params.debug.audit_tolerance;
+  // One rounding scale for every contact's bound: the largest |x|_1 (NaN or infinity if any
+  // coordinate is, which makes every bound undecided and sends each pair to the exact distance).
+  double scale = 0.0;
+  for (const Vec3& p : x) {
+    const double s = p.cwiseAbs().sum();
+    scale = s > scale || std::isnan(s) ? s : scale;
+  }
   std::atomic<Index> close{0};
   std::atomic<Index> first{std::numeric_limits<Index>::max()};
   parallel_for(
@@ -131,7 +138,7 @@ std::optional<Index> DetectingSolver::count_outside(const Positions& x, const Po
           // Most pairs are settled by the bound along their own normal, four dot products
           // instead of a distance kernel (after a CCFR projection every kept pair is).
           const double need = keep * contacts_[i].offset;
-          if (separation_lower_bound(contacts_[i], x) >= need) continue;
+          if (separation_lower_bound(contacts_[i], x, scale) >= need) continue;
           if (!(pair_distance(contacts_[i], x) >= need)) {  // NaN counts
             ++local;
             Index cur = first.load();

@@ -58,6 +58,11 @@ TEST(SeparationLowerBound, NeverExceedsTheProjectionGapForAnyKindOrNormal) {
     const double lb = separation_lower_bound(c, x);
     const LD ref = gap_ld(c, x);
     ASSERT_LE(LD(lb), ref) << "trial " << trial;
+    // The recount's form: one scale for the whole scene, here its extent 1e4 + 1 or 1 (at least
+    // each vertex's |p|_1, as the contract requires). Looser by a few ulps of it, never above.
+    const double scene = 3.0 * (shift + 1.0), lb_scene = separation_lower_bound(c, x, scene);
+    ASSERT_LE(lb_scene, lb) << "trial " << trial;
+    ASSERT_GT(lb_scene, lb - 1e-12 * (1.0 + shift)) << "trial " << trial;
     tight += ref - LD(lb) < 1e-12L * (1.0L + shift);
   }
   EXPECT_GT(tight, 190000);  // the margin is a few ulps, not a loss of the bound
