@@ -97,10 +97,19 @@ TEST(SeparationLowerBound, IsNegativeForCrossedOrTouchingPairsAndNaNForNaN) {
     Positions bad = x;
     bad[k].y() = std::numeric_limits<double>::quiet_NaN();
     EXPECT_TRUE(std::isnan(separation_lower_bound(vf, bad))) << "vertex " << k;
+    // The recount's form with one scene scale, finite or (as its loop gives for a NaN) NaN.
+    EXPECT_TRUE(std::isnan(separation_lower_bound(vf, bad, 10.0))) << "vertex " << k;
+    EXPECT_TRUE(std::isnan(separation_lower_bound(vf, bad, std::nan("")))) << "vertex " << k;
   }
   Positions inf = x;
   inf[2].x() = std::numeric_limits<double>::infinity();
   EXPECT_FALSE(separation_lower_bound(vf, inf) >= 0.0);  // never a clearance from an infinite vertex
+  const double infinite = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(separation_lower_bound(vf, inf, infinite) >= 0.0);
+  Positions up = x;  // a vertex at +infinity along the normal, on side A
+  up[0].z() = infinite;
+  EXPECT_FALSE(separation_lower_bound(vf, up, infinite) >= 0.0);
+  EXPECT_FALSE(separation_lower_bound(vf, up, 10.0) >= 0.0);
 }
 
 }  // namespace

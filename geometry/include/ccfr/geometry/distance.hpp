@@ -100,10 +100,13 @@ namespace detail {
 /// reach by a relative 1e-6, and pairs more than 1e5 reaches across are left undecided (there the
 /// rounding could approach that margin). NaN gives false.
 inline bool gap_clears_reach(double gap, double uu, double reach_sq) {
-  return gap > 0.0 && gap * gap > reach_sq * uu * (1.0 + 1e-6);
+  // Below 1e-290 the product may be subnormal and the relative margin lost: undecided.
+  const double need = reach_sq * uu;
+  return gap > 0.0 && need >= 1e-290 && gap * gap > need * (1.0 + 1e-6);
 }
-/// The size condition of gap_clears_reach, checked only once the gap has cleared the reach.
-inline bool small_enough_to_decide(double size_sq, double reach_sq) { return size_sq <= 1e10 * reach_sq; }
+/// The size condition of gap_clears_reach, checked only once the gap has cleared the reach
+/// (written so that no product can overflow).
+inline bool small_enough_to_decide(double size_sq, double reach_sq) { return 1e-10 * size_sq <= reach_sq; }
 }  // namespace detail
 
 /// True only if segments (a0, a1) and (b0, b1) are certainly at least \f$\sqrt{\text{reach\_sq}}\f$
@@ -115,6 +118,10 @@ inline bool small_enough_to_decide(double size_sq, double reach_sq) { return siz
 /// twisting rope) for about 40 instructions against edge_edge's 320 (callgrind, the pile).
 /// Complements segments_certainly_apart, which catches crossing pairs whose midpoints lie side by
 /// side. False means undecided.
+///
+/// The kernels work in global coordinates, so where their own rounding exceeds 1e-6 of the reach
+/// (coordinates beyond about 1e8 reaches from the origin) a pair this settles can differ from
+/// what the kernel would have said at the reach's edge; the bound is then the better answer.
 inline bool segments_apart_along_centres(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1,
                                          double reach_sq) {
   // Local to a0: the rounding then scales with the pair's size, not with its distance from the origin.
