@@ -144,9 +144,9 @@ EdgeEdgeResult edge_edge(const Vec3& a0, const Vec3& a1, const Vec3& b0, const V
   }
 
   // Nearly parallel or degenerate: the interior candidate (Cramer's rule, see the header) must
-  // beat the four boundary candidates. Near-parallel edges make s uncertain along the edges; t is then the projection
-  // of pa onto B, so pa - pb stays perpendicular to B and its error along A is damped by sin^2 of the angle: the pair
-  // stays extreme along its own normal.
+  // beat the four boundary candidates. Near-parallel edges make s uncertain along the edges; t
+  // is then the projection of pa onto B, so pa - pb stays perpendicular to B and its error along
+  // A is damped by sin^2 of the angle: the pair stays extreme along its own normal.
   bool interior = false;
   if (denom > 0.0) {
     const double s = (b0 - a0).cross(db).dot(cr) / denom;
