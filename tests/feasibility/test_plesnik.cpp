@@ -186,6 +186,45 @@ TEST(PlesnikProjector, LazySortVisitsPlanesExactlyAsTheFullSort) {
   EXPECT_GT(rest_needed, 10);
 }
 
+// The scans read a shortlist of the planes that could be violated within twice the first scan's
+// move, and rebuild it when a later move goes farther. Thin slabs (pairs of nearly opposite
+// planes around the anchor) make the second addition move the point many times farther than the
+// first, onto planes far from violation at the candidate: the points must still equal the full
+// scan's, and such far moves must occur (a shortlist never rebuilt fails here).
+TEST(PlesnikProjector, ShortlistFindsThePlanesOfMovesBeyondItsLimit) {
+  auto g = test::rng(77);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  ProjectorParams params;
+  params.exact_fallback = false;
+  const PlesnikProjector proj(params);
+  int compared = 0, far_moves = 0;
+  for (int trial = 0; trial < 6000; ++trial) {
+    const int count = 4 + trial % 120;
+    test::RandomProblem p = test::random_problem(g, count);
+    // A slab of width w around the anchor, tilted by phi, that the candidate leaves by a small depth.
+    const Vec3 a = test::random_unit(g), t = a.unitOrthogonal();
+    const double w = 0.002 * (0.2 + u(g)), phi = 0.02 + 0.3 * u(g);
+    p.planes.insert(p.planes.begin() + count / 3, HalfSpace{a, 0.5 * w});
+    p.planes.push_back(HalfSpace{(-a + phi * t).normalized(), 0.5 * w});
+    p.candidate = p.anchor - (0.5 * w + 0.0005 * u(g)) * a + 0.01 * (u(g) - 0.5) * t;
+    const ProjectResult ref = full_sort_reference(params, p.anchor, p.candidate, p.planes);
+    const ProjectResult got = proj.project(p.anchor, p.candidate, p.planes);
+    if (got.active == 0 || ref.status == ProjectStatus::infeasible) continue;
+    ++compared;
+    ASSERT_EQ(got.status, ref.status) << "trial " << trial;
+    ASSERT_EQ(got.iterations, ref.iterations) << "trial " << trial;
+    if (ref.status != ProjectStatus::projected) continue;
+    ASSERT_EQ(got.x, ref.x) << "trial " << trial;
+    // A move more than twice the candidate's deepest violation: beyond a first shortlist.
+    double deepest = 0.0;
+    const Vec3 q = p.candidate - p.anchor;
+    for (const auto& h : p.planes) deepest = std::max(deepest, -(h.n.dot(q) + h.d));
+    far_moves += (ref.x - p.candidate).norm() > 3.0 * deepest;
+  }
+  EXPECT_GT(compared, 1000);
+  EXPECT_GT(far_moves, 20);
+}
+
 TEST(PlesnikProjector, SinglePlaneIsProjectionRetractedByEpsilonTowardTheAnchor) {
   const PlesnikProjector proj;
   const Vec3 anchor(0.1, 0.2, 0.3);

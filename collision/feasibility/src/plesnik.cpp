@@ -143,6 +143,23 @@ ProjectResult PlesnikProjector::project(const Vec3& x_anchor, const Vec3& x_cand
   auto bound_limit = [&](const Vec3& x) {
     return n_max * ((x - q).norm() * (1.0 + 1e-12) + 1e-14 * (x.norm() + q_norm)) - tol;
   };
+  // The scans read a shortlist: the entries of `order`, in their order, that do not hold by bound
+  // at `short_limit`. A plane that holds by bound there holds by bound at every smaller limit, so a
+  // scan with limit <= short_limit skips exactly the planes a scan of all of `order` would. The
+  // limit grows as the point leaves the candidate; a scan beyond the shortlist's limit rebuilds it
+  // at twice its own. A vertex of the pile then scans ~10 entries instead of its ~150.
+  SmallBuffer<PlaneKey> shortlist(count);
+  std::size_t n_short = 0;
+  double short_limit = -std::numeric_limits<double>::infinity();
+  auto planes_to_scan = [&](double limit) {
+    if (!(limit <= short_limit)) {
+      short_limit = limit + std::max(limit, 0.0) + tol;
+      n_short = 0;
+      for (std::size_t i = 0; i < count; ++i)
+        if (!holds_by_bound(order[i].rho, short_limit)) shortlist[n_short++] = order[i];
+    }
+    return std::span<const PlaneKey>(shortlist.begin(), n_short);
+  };
   // `at_candidate`: the pass starts at the candidate, where the violated planes are order[0, near).
   auto visit = [&](Vec3& x_check, PlesnikRecursion& rec, bool at_candidate) {
     PlaneKey after{-std::numeric_limits<double>::infinity(), 0};
@@ -155,10 +172,10 @@ ProjectResult PlesnikProjector::project(const Vec3& x_anchor, const Vec3& x_cand
         at_candidate = false;
       } else {
         const double limit = bound_limit(x_check);
-        for (std::size_t i = 0; i < count; ++i) {
-          if (holds_by_bound(order[i].rho, limit) || !(after < order[i])) continue;
-          const HalfSpace& h = planes[order[i].index];
-          if (!(h.n.dot(x_check) + h.d >= -tol)) pending[np++] = order[i];  // line 10
+        for (const PlaneKey& key : planes_to_scan(limit)) {
+          if (holds_by_bound(key.rho, limit) || !(after < key)) continue;
+          const HalfSpace& h = planes[key.index];
+          if (!(h.n.dot(x_check) + h.d >= -tol)) pending[np++] = key;  // line 10
         }
       }
       if (np == 0) return;
@@ -189,10 +206,13 @@ ProjectResult PlesnikProjector::project(const Vec3& x_anchor, const Vec3& x_cand
     res.iterations = it;
     bool ok = true;  // clarification 2: re-check every constraint after the pass
     const double limit = bound_limit(x_pass);
-    for (std::size_t i = 0; i < count && ok; ++i) {
-      if (holds_by_bound(order[i].rho, limit)) continue;
-      const HalfSpace& h = planes[order[i].index];
-      ok = h.n.dot(x_pass) + h.d >= -tol;
+    for (const PlaneKey& key : planes_to_scan(limit)) {
+      if (holds_by_bound(key.rho, limit)) continue;
+      const HalfSpace& h = planes[key.index];
+      if (!(h.n.dot(x_pass) + h.d >= -tol)) {
+        ok = false;
+        break;
+      }
     }
     if (ok) {
       // The anchor is feasible and |0 - q| from the candidate, so the projection is never farther.
