@@ -131,7 +131,7 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
             bool region_ok = true, bound_ok = true;
             for (size_t i = 0; i < n; ++i) {
               const Index v = b.begin + static_cast<Index>(i);
-              if (regions.count(v) > 0 && !(min_value(anchor[v], p[i], regions.of(v)) >= kOutside)) region_ok = false;
+              if (falls_below(anchor[v], p[i], regions.of(v), kOutside)) region_ok = false;
               if (!((p[i] - anchor[v]).norm() <= step_bound * (1.0 + 1e-12))) bound_ok = false;
               if (!region_ok) break;
             }

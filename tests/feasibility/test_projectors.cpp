@@ -188,6 +188,43 @@ TEST(Degenerate, NoPlanesMeansFeasible) {
   }
 }
 
+// falls_below stops at the first plane below the level; its answer must be min_value's on every
+// input: planes exactly at the level, NaN or infinite planes, NaN positions and levels, no planes.
+TEST(Degenerate, FallsBelowAnswersAsTheFullMinimum) {
+  auto g = test::rng(31);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::uniform_int_distribution<int> pick(0, 9);
+  const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+  int below = 0, above = 0;
+  for (int trial = 0; trial < 20000; ++trial) {
+    const Vec3 anchor(u(g), u(g), u(g));
+    Vec3 x = anchor + 0.01 * Vec3(u(g), u(g), u(g));
+    if (trial % 97 == 0) x[trial % 3] = nan;
+    std::vector<HalfSpace> planes(static_cast<size_t>(trial % 40));
+    for (auto& h : planes) {
+      h.n = test::random_unit(g);
+      h.d = 0.01 * u(g);
+      if (pick(g) == 0) h.d = -h.n.dot(x - anchor);  // exactly zero at x, up to rounding
+      if (trial % 53 == 0 && pick(g) == 0) h.d = pick(g) < 5 ? nan : inf;
+    }
+    double level = trial % 3 == 0 ? 0.0 : 0.005 * u(g);
+    if (trial % 211 == 0) level = nan;
+    if (trial % 223 == 0) level = inf;
+    // Reference: the minimum over all planes, NaN as soon as one value is NaN.
+    double lo = inf;
+    for (const auto& h : planes) {
+      const double r = (x - anchor).dot(h.n) + h.d;
+      lo = std::isnan(r) || std::isnan(lo) ? nan : std::min(lo, r);
+    }
+    const bool expected = !(lo >= level);
+    ASSERT_EQ(falls_below(anchor, x, planes, level), expected) << "trial " << trial;
+    ASSERT_EQ(expected, !(min_value(anchor, x, planes) >= level)) << "trial " << trial;
+    (expected ? below : above)++;
+  }
+  EXPECT_GT(below, 2000);
+  EXPECT_GT(above, 500);
+}
+
 TEST(Degenerate, NanCandidateIsInfeasibleAndKeepsTheAnchor) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const std::vector<HalfSpace> planes = {{Vec3::UnitZ(), 0.01}};

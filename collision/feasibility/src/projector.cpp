@@ -129,6 +129,13 @@ double min_value(const Vec3& x_anchor, const Vec3& x, std::span<const HalfSpace>
   return lo;
 }
 
+bool falls_below(const Vec3& x_anchor, const Vec3& x, std::span<const HalfSpace> planes, double level) {
+  const Vec3 q = x - x_anchor;
+  for (const auto& h : planes)
+    if (!(h.n.dot(q) + h.d >= level)) return true;  // below, or NaN
+  return planes.empty() && !(std::numeric_limits<double>::infinity() >= level);  // min_value's +inf
+}
+
 ProjectResult unusable_input(const Vec3& x_anchor) {
   ProjectResult res;
   res.x = x_anchor;
@@ -152,8 +159,7 @@ BatchStats project_all(const Projector& projector, const RegionSet& regions, con
       const auto planes = regions.of(v);
       if (planes.empty()) continue;
       // Cheap pre-check: most vertices are inside their region and skip the projector.
-      const double lo = min_value(anchor[v], x[v], planes);
-      if (lo >= 0.0) continue;
+      if (!falls_below(anchor[v], x[v], planes, 0.0)) continue;
       const ProjectResult r = projector.project(anchor[v], x[v], planes);
       if (r.status == ProjectStatus::feasible) continue;  // within the projector's tolerance
       ++s.violated;
@@ -168,8 +174,7 @@ BatchStats project_all(const Projector& projector, const RegionSet& regions, con
       if (r.rescued) ++s.rescued;
       x[v] = r.x;
       // Independent re-check of the output, with a slack above every projector's rounding tolerance.
-      const double out = min_value(anchor[v], x[v], planes);
-      if (!(out >= -kRemainingSlack)) ++s.remaining;
+      if (falls_below(anchor[v], x[v], planes, -kRemainingSlack)) ++s.remaining;
     }
     per_chunk[static_cast<size_t>(c)] = s;
   });
