@@ -131,9 +131,11 @@ double min_value(const Vec3& x_anchor, const Vec3& x, std::span<const HalfSpace>
 
 bool falls_below(const Vec3& x_anchor, const Vec3& x, std::span<const HalfSpace> planes, double level) {
   const Vec3 q = x - x_anchor;
+  // Below the level, or NaN.
   for (const auto& h : planes)
-    if (!(h.n.dot(q) + h.d >= level)) return true;  // below, or NaN
-  return planes.empty() && !(std::numeric_limits<double>::infinity() >= level);  // min_value's +inf
+    if (!(h.n.dot(q) + h.d >= level)) return true;
+  // No planes: min_value's +infinity.
+  return planes.empty() && !(std::numeric_limits<double>::infinity() >= level);
 }
 
 ProjectResult unusable_input(const Vec3& x_anchor) {
