@@ -55,6 +55,7 @@ int run_bench(const BenchOptions& o) {
     std::printf("%-20s %12.6f %12.6f %12.6f\n", name, a.median, a.mean, a.max);
   };
   line("frame", [](const FrameStats& f) { return f.wall_s; });
+  line("cpu, all threads", [](const FrameStats& f) { return f.cpu_s; });
   line("xpbd", [](const FrameStats& f) { return f.times.xpbd; });
   line("broad phase", [](const FrameStats& f) { return f.times.broad; });
   line("narrow phase", [](const FrameStats& f) { return f.times.narrow; });

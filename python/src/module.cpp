@@ -88,6 +88,7 @@ py::dict frame_stats_dict(const FrameStats& s) {
   d["frame"] = s.frame;
   d["sim_time"] = s.sim_time;
   d["wall_s"] = s.wall_s;
+  d["cpu_s"] = s.cpu_s;
   d["xpbd_s"] = s.times.xpbd;
   d["broad_s"] = s.times.broad;
   d["narrow_s"] = s.times.narrow;

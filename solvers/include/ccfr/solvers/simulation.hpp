@@ -21,6 +21,9 @@ struct FrameStats {
   int frame = 0;
   double sim_time = 0.0;
   double wall_s = 0.0;
+  /// CPU seconds of the whole process during the frame, summed over its threads (at most about
+  /// wall_s times the thread count): the work of the frame independent of how many cores ran it.
+  double cpu_s = 0.0;
   StageTimes times;
   Index candidates = 0;            ///< largest broad-phase pair count of the frame
   Index constraints = 0;           ///< largest half-space / contact-constraint count of the frame
@@ -155,6 +158,9 @@ class Simulation {
   std::vector<const Motion*> kin_motion_;  ///< motion of each kinematic vertex (nullptr: static)
   std::vector<Index> analytic_obstacles_;  ///< objects with an analytic shape
   Positions predicted_, anchor_, solve_, kinematic_step_;
+  /// The material sweeps' result from the prediction, computed once per substep: every outer
+  /// iteration restarts from the same prediction with fresh multipliers, so it is the same each time.
+  Positions material_solved_;
   bool warned_violation_ = false;
   std::vector<bool> warned_capped_;  ///< per object: the capped-speed warning was given
   AuditHook audit_;
