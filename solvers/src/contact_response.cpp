@@ -31,16 +31,61 @@ void visibility_weights(std::span<const ContactPair> contacts, double width, std
   // with d_j <= d_c - δ_v occludes c completely (S = 1). So within a query vertex's group every
   // contact at least δ_v beyond the group's nearest has weight 0, and the product runs over the
   // few contacts inside that window: O(n + k²) without sorting, k the window's size.
-  Index max_v = 0;
-  for (const auto& c : contacts) max_v = std::max(max_v, c.v[0]);
+  //
+  // Grouping by query vertex, in parallel: fixed blocks of consecutive contacts count their query
+  // vertices, prefix sums over (vertex, block) give each block its own cursor per vertex, and each
+  // block scatters its contacts. Every group thus lists its contacts in increasing index order, as
+  // a serial counting sort would, for any thread count. (Serial, these three passes over the
+  // 96-byte contact records were about 6 % of a soft-wire frame at one thread.)
+  const Index blocks = std::min<Index>(default_chunk_count(n), 32);
+  std::vector<Index> block_max(static_cast<size_t>(blocks), 0);
+  parallel_chunks(n, blocks, [&](Index b, Index lo, Index hi) {
+    Index m = 0;
+    for (Index i = lo; i < hi; ++i) m = std::max(m, contacts[i].v[0]);
+    block_max[b] = m;
+  });
+  const Index nq = *std::max_element(block_max.begin(), block_max.end()) + 1;  // query vertices 0..nq-1
+  std::vector<Index>& cursor = ws.cursor;  // (block, vertex): a count, then the block's write cursor
+  cursor.resize(static_cast<size_t>(blocks) * nq);
+  parallel_chunks(n, blocks, [&](Index b, Index lo, Index hi) {
+    Index* count = cursor.data() + static_cast<size_t>(b) * nq;
+    std::fill(count, count + nq, 0);
+    for (Index i = lo; i < hi; ++i) ++count[contacts[i].v[0]];
+  });
   std::vector<Index>& start = ws.start;
-  start.assign(static_cast<size_t>(max_v) + 2, 0);
-  for (const auto& c : contacts) ++start[c.v[0] + 1];
+  start.assign(static_cast<size_t>(nq) + 1, 0);
+  parallel_for(
+      nq,
+      [&](Index lo, Index hi) {
+        for (Index v = lo; v < hi; ++v) {
+          Index total = 0;
+          for (Index b = 0; b < blocks; ++b) total += cursor[static_cast<size_t>(b) * nq + v];
+          start[v + 1] = total;
+        }
+      },
+      4096);
   std::partial_sum(start.begin(), start.end(), start.begin());
+  parallel_for(
+      nq,
+      [&](Index lo, Index hi) {
+        for (Index v = lo; v < hi; ++v) {
+          Index at = start[v];
+          for (Index b = 0; b < blocks; ++b) {
+            Index& slot = cursor[static_cast<size_t>(b) * nq + v];
+            const Index count = slot;
+            slot = at;
+            at += count;
+          }
+        }
+      },
+      4096);
   std::vector<Index>& order = ws.order;
   order.resize(static_cast<size_t>(n));
-  ws.cursor.assign(start.begin(), start.end() - 1);
-  for (Index i = 0; i < n; ++i) order[ws.cursor[contacts[i].v[0]]++] = i;
+  parallel_chunks(n, blocks, [&](Index b, Index lo, Index hi) {
+    Index* at = cursor.data() + static_cast<size_t>(b) * nq;
+    for (Index i = lo; i < hi; ++i) order[at[contacts[i].v[0]]++] = i;
+  });
+  const Index max_v = nq - 1;
   auto gap = [&](Index i) { return contacts[i].distance - contacts[i].offset; };
   parallel_for(
       max_v + 1,

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "ccfr/core/error.hpp"
+#include "ccfr/core/parallel.hpp"
 #include "ccfr/feasibility/projector.hpp"
 #include "ccfr/geometry/generators.hpp"
 #include "ccfr/solvers/contact_response.hpp"
@@ -152,6 +153,43 @@ TEST(ContactResponse, VisibilityWeightsMatchTheProductDefinition) {
     // Bit-identical: the weights skip factors of exactly 1 and stop at 0, in the same order.
     EXPECT_EQ(w[c], expect) << c;
   }
+}
+
+TEST(ContactResponse, VisibilityWeightsOfManyShuffledGroupsMatchTheProductAtAnyThreadCount) {
+  // 20,000 contacts of 500 query vertices in random order (the grouping runs in 32 blocks, which
+  // split most groups), gaps within a few widths so that windows hold several contacts: every
+  // weight equals the brute-force product over the same vertex's other contacts, taken in index
+  // order, bit for bit, at 1 and 2 threads.
+  auto rng = ccfr::test::rng(19);
+  std::uniform_int_distribution<Index> vertex(0, 499);
+  std::uniform_real_distribution<double> U(0.0, 0.006);
+  std::vector<ContactPair> cs(20000);
+  for (auto& c : cs) {
+    c.v = {vertex(rng), 600, 601, 602};
+    c.distance = 0.01 + U(rng);
+    c.offset = 0.01;
+  }
+  const double width = 0.002;
+  auto gap = [&](size_t i) { return cs[i].distance - cs[i].offset; };
+  std::vector<std::vector<size_t>> groups(500);
+  for (size_t i = 0; i < cs.size(); ++i) groups[static_cast<size_t>(cs[i].v[0])].push_back(i);
+  std::vector<double> expect(cs.size());
+  size_t partial = 0;
+  for (size_t c = 0; c < cs.size(); ++c) {
+    double w = 1.0;
+    for (size_t j : groups[static_cast<size_t>(cs[c].v[0])])
+      if (j != c && gap(j) < gap(c)) w *= 1.0 - smoothstep((gap(c) - gap(j)) / width);
+    expect[c] = w;
+    partial += w > 0.0 && w < 1.0;
+  }
+  EXPECT_GT(partial, 1000u) << "the test wants many weights strictly between 0 and 1";
+  for (int threads : {1, 2}) {
+    set_thread_count(threads);
+    const auto w = visibility_weights(cs, width);
+    for (size_t c = 0; c < cs.size(); ++c)
+      ASSERT_EQ(w[c], expect[c]) << "contact " << c << ", " << threads << " threads";
+  }
+  set_thread_count(0);
 }
 
 TEST(ContactResponse, DetectorIncidenceGivesTheResponseOfItsOwnIndex) {
