@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 
+#include "ccfr/core/block_cursors.hpp"
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/core/timer.hpp"
@@ -977,31 +978,7 @@ void CollisionDetector::assemble(std::span<const double> inv_mass, std::span<con
         for (int k = 0; k < c.size(); ++k)
           if (inv_mass[c.v[k]] > 0.0) ++count[c.v[k]];
   });
-  parallel_for(
-      nv,
-      [&](Index begin, Index end) {
-        for (Index v = begin; v < end; ++v) {
-          Index total = 0;
-          for (Index b = 0; b < blocks; ++b) total += block_cursor_[static_cast<size_t>(b) * nv + v];
-          regions.offsets[v + 1] = total;
-        }
-      },
-      4096);
-  for (Index v = 0; v < nv; ++v) regions.offsets[v + 1] += regions.offsets[v];
-  parallel_for(
-      nv,
-      [&](Index begin, Index end) {
-        for (Index v = begin; v < end; ++v) {
-          Index cursor = regions.offsets[v];
-          for (Index b = 0; b < blocks; ++b) {
-            Index& slot = block_cursor_[static_cast<size_t>(b) * nv + v];
-            const Index count = slot;
-            slot = cursor;
-            cursor += count;
-          }
-        }
-      },
-      4096);
+  counts_to_block_cursors(nv, blocks, block_cursor_, regions.offsets);
   regions.planes.resize(static_cast<size_t>(regions.offsets.back()));
   // Every entry is written below: resizing without clearing first skips zero-filling them.
   plane_sources_.resize(record_sources_ ? regions.planes.size() : 0);

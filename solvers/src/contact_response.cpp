@@ -4,6 +4,7 @@
 #include <numeric>
 #include <string>
 
+#include "ccfr/core/block_cursors.hpp"
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/parallel.hpp"
 
@@ -53,32 +54,7 @@ void visibility_weights(std::span<const ContactPair> contacts, double width, std
     for (Index i = lo; i < hi; ++i) ++count[contacts[i].v[0]];
   });
   std::vector<Index>& start = ws.start;
-  start.assign(static_cast<size_t>(nq) + 1, 0);
-  parallel_for(
-      nq,
-      [&](Index lo, Index hi) {
-        for (Index v = lo; v < hi; ++v) {
-          Index total = 0;
-          for (Index b = 0; b < blocks; ++b) total += cursor[static_cast<size_t>(b) * nq + v];
-          start[v + 1] = total;
-        }
-      },
-      4096);
-  std::partial_sum(start.begin(), start.end(), start.begin());
-  parallel_for(
-      nq,
-      [&](Index lo, Index hi) {
-        for (Index v = lo; v < hi; ++v) {
-          Index at = start[v];
-          for (Index b = 0; b < blocks; ++b) {
-            Index& slot = cursor[static_cast<size_t>(b) * nq + v];
-            const Index count = slot;
-            slot = at;
-            at += count;
-          }
-        }
-      },
-      4096);
+  counts_to_block_cursors(nq, blocks, cursor, start);
   std::vector<Index>& order = ws.order;
   order.resize(static_cast<size_t>(n));
   parallel_chunks(n, blocks, [&](Index b, Index lo, Index hi) {
