@@ -311,8 +311,8 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
       // Solve from the prediction (design clarification 6) with fresh multipliers: paper Alg.
       // "Our simulation loop" lines 5-9. Their result depends only on the prediction, dt and the
       // masses, all fixed within the substep, so the sweeps run in the first outer iteration and
-      // later iterations start from their result (bit-identical, and the substep's largest cost
-      // in the twisting cloth's rope frames, which run up to 5 outer iterations per substep).
+      // later iterations start from their result (bit-identical; a third of the twisting cloth's
+      // XPBD stage, whose rope frames run up to 5 outer iterations per substep).
       if (it == 0) {
         material_solved_ = predicted_;
         materials_.reset_multipliers();
