@@ -968,7 +968,9 @@ void CollisionDetector::assemble(std::span<const double> inv_mass, std::span<con
     plane_sources_.clear();
     return;
   }
-  const Index blocks = std::min<Index>(chunks, 32);
+  // Blocks x vertices cursors cost as much as the scatter they split once the contacts are few (a
+  // pass that moves a handful of vertices): about 1,024 contacts per block, at most 32.
+  const Index blocks = std::clamp<Index>(static_cast<Index>(start.back() / 1024), 1, std::min<Index>(chunks, 32));
   block_cursor_.resize(static_cast<size_t>(blocks) * nv);
   parallel_chunks(chunks, blocks, [&](Index b, Index chunk_begin, Index chunk_end) {
     Index* count = block_cursor_.data() + static_cast<size_t>(b) * nv;

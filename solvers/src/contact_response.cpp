@@ -16,6 +16,52 @@ double contact_gap(const ContactPair& c, const Positions& x) {
   return c.n.dot(d) - c.offset;
 }
 
+namespace {
+struct GroupScratch {
+  std::vector<Index> window;
+  std::vector<double> window_gap;
+};
+
+/// The weights of one query vertex's contacts, `group` in increasing index order.
+///
+/// Only contacts j with d_c - δ_v < d_j < d_c attenuate c (S vanishes for d_j >= d_c), and any j
+/// with d_j <= d_c - δ_v occludes c completely (S = 1). So within a group every contact at least
+/// δ_v beyond the group's nearest has weight 0, and the product runs over the few contacts inside
+/// that window: O(n + k²) without sorting, k the window's size.
+void weigh_group(std::span<const Index> group, std::span<const ContactPair> contacts, double width,
+                 std::vector<double>& vis, GroupScratch& scratch) {
+  if (group.size() < 2) return;
+  auto gap = [&](Index i) { return contacts[i].distance - contacts[i].offset; };
+  double nearest = gap(group[0]);
+  for (size_t i = 1; i < group.size(); ++i) nearest = std::min(nearest, gap(group[i]));
+  auto& window = scratch.window;
+  auto& window_gap = scratch.window_gap;
+  window.clear();
+  window_gap.clear();
+  for (const Index c : group) {
+    const double g = gap(c);
+    if (g - nearest >= width) {
+      vis[c] = 0.0;
+    } else {
+      window.push_back(c);
+      window_gap.push_back(g);
+    }
+  }
+  // Factors of contacts no nearer than c are exactly 1 (S = 0) and a product that reached 0 stays
+  // 0 (every factor is in [0, 1]): skipping both leaves every weight bit-identical. Only nearer
+  // contacts (g_j < g_i) have t > 0, so the division is taken for them alone; the factors and
+  // their order are those of the full product (j = i is never nearer).
+  const size_t k = window.size();
+  for (size_t i = 0; i < k; ++i) {
+    const double gi = window_gap[i];
+    double w = 1.0;
+    for (size_t j = 0; j < k && w != 0.0; ++j)
+      if (window_gap[j] < gi) w *= 1.0 - smoothstep((gi - window_gap[j]) / width);
+    vis[window[i]] = w;
+  }
+}
+}  // namespace
+
 std::vector<double> visibility_weights(std::span<const ContactPair> contacts, double width) {
   std::vector<double> vis;
   VisibilityWorkspace ws;
@@ -28,17 +74,13 @@ void visibility_weights(std::span<const ContactPair> contacts, double width, std
   const Index n = static_cast<Index>(contacts.size());
   vis.assign(static_cast<size_t>(n), 1.0);
   if (width <= 0.0 || n == 0) return;
-  // Only contacts j with d_c - δ_v < d_j < d_c attenuate c (S vanishes for d_j >= d_c), and any j
-  // with d_j <= d_c - δ_v occludes c completely (S = 1). So within a query vertex's group every
-  // contact at least δ_v beyond the group's nearest has weight 0, and the product runs over the
-  // few contacts inside that window: O(n + k²) without sorting, k the window's size.
-  //
   // Grouping by query vertex, in parallel: fixed blocks of consecutive contacts count their query
   // vertices, prefix sums over (vertex, block) give each block its own cursor per vertex, and each
   // block scatters its contacts. Every group thus lists its contacts in increasing index order, as
   // a serial counting sort would, for any thread count. (Serial, these three passes over the
-  // 96-byte contact records were about 6 % of a soft-wire frame at one thread.)
-  const Index blocks = std::min<Index>(default_chunk_count(n), 32);
+  // 96-byte contact records were about 6 % of a soft-wire frame at one thread.) About 1,024
+  // contacts per block, at most 32: the blocks x vertices cursors must not outweigh few contacts.
+  const Index blocks = std::clamp<Index>(n / 1024, 1, 32);
   std::vector<Index> block_max(static_cast<size_t>(blocks), 0);
   parallel_chunks(n, blocks, [&](Index b, Index lo, Index hi) {
     Index m = 0;
@@ -61,59 +103,82 @@ void visibility_weights(std::span<const ContactPair> contacts, double width, std
     Index* at = cursor.data() + static_cast<size_t>(b) * nq;
     for (Index i = lo; i < hi; ++i) order[at[contacts[i].v[0]]++] = i;
   });
-  const Index max_v = nq - 1;
-  auto gap = [&](Index i) { return contacts[i].distance - contacts[i].offset; };
   parallel_for(
-      max_v + 1,
+      nq,
       [&](Index vb, Index ve) {
-        std::vector<Index> window;
-        std::vector<double> window_gap;
-        for (Index v = vb; v < ve; ++v) {
-          const Index b = start[v], e = start[v + 1];
-          if (e - b < 2) continue;
-          double nearest = gap(order[b]);
-          for (Index i = b + 1; i < e; ++i) nearest = std::min(nearest, gap(order[i]));
-          window.clear();
-          window_gap.clear();
-          for (Index i = b; i < e; ++i) {
-            const double g = gap(order[i]);
-            if (g - nearest >= width) {
-              vis[order[i]] = 0.0;
-            } else {
-              window.push_back(order[i]);
-              window_gap.push_back(g);
-            }
-          }
-          // Factors of contacts no nearer than c are exactly 1 (S = 0) and a product that reached
-          // 0 stays 0 (every factor is in [0, 1]): skipping both leaves every weight bit-identical.
-          // Only nearer contacts (g_j < g_i) have t > 0, so the division is taken for them alone;
-          // the factors and their order are those of the full product (j = i is never nearer).
-          const size_t k = window.size();
-          for (size_t i = 0; i < k; ++i) {
-            const double gi = window_gap[i];
-            double w = 1.0;
-            for (size_t j = 0; j < k && w != 0.0; ++j)
-              if (window_gap[j] < gi) w *= 1.0 - smoothstep((gi - window_gap[j]) / width);
-            vis[window[i]] = w;
-          }
-        }
+        GroupScratch scratch;
+        for (Index v = vb; v < ve; ++v)
+          weigh_group(std::span<const Index>(order).subspan(start[v], start[v + 1] - start[v]), contacts, width, vis,
+                      scratch);
       },
       256);
 }
 
-void ContactResponse::prepare_common(std::span<const ContactPair> contacts, const ContactParams& params) {
+void visibility_weights(std::span<const ContactPair> contacts, std::span<const Index> offsets,
+                        std::span<const Index> slots, double width, std::vector<double>& vis, VisibilityWorkspace& ws) {
+  const Index n = static_cast<Index>(contacts.size());
+  vis.assign(static_cast<size_t>(n), 1.0);
+  if (width <= 0.0 || n == 0) return;
+  if (offsets.empty() || static_cast<size_t>(offsets.back()) != slots.size())
+    throw Error("visibility_weights: the incidence has " + std::to_string(slots.size()) +
+                " slots, its offsets end at " +
+                (offsets.empty() ? std::string("nothing") : std::to_string(offsets.back())));
+  const Index nv = static_cast<Index>(offsets.size()) - 1;
+  // A listed vertex's slots of k = 0 are exactly its contacts as query vertex, in contact order:
+  // its group, read without the three passes over the 96-byte records the grouping needs.
+  parallel_for(
+      nv,
+      [&](Index vb, Index ve) {
+        GroupScratch scratch;
+        std::vector<Index> group;
+        for (Index v = vb; v < ve; ++v) {
+          group.clear();
+          for (Index q = offsets[v]; q < offsets[v + 1]; ++q)
+            if (slots[q] % 4 == 0) group.push_back(slots[q] / 4);
+          weigh_group(group, contacts, width, vis, scratch);
+        }
+      },
+      256);
+  // Contacts whose query vertex is not listed (not movable: every movable vertex lists its own
+  // contacts) are grouped apart: collected per block in index order, then stably by vertex.
+  const Index blocks = std::clamp<Index>(n / 4096, 1, 32);
+  std::vector<std::vector<Index>> found(static_cast<size_t>(blocks));
+  parallel_chunks(n, blocks, [&](Index b, Index lo, Index hi) {
+    for (Index i = lo; i < hi; ++i) {
+      const Index v = contacts[i].v[0];
+      if (v >= nv || offsets[v + 1] == offsets[v]) found[b].push_back(i);
+    }
+  });
+  std::vector<Index>& rest = ws.order;
+  rest.clear();
+  for (const auto& f : found) rest.insert(rest.end(), f.begin(), f.end());
+  std::stable_sort(rest.begin(), rest.end(), [&](Index a, Index b) { return contacts[a].v[0] < contacts[b].v[0]; });
+  GroupScratch scratch;
+  for (size_t b = 0; b < rest.size();) {
+    size_t e = b + 1;
+    while (e < rest.size() && contacts[rest[e]].v[0] == contacts[rest[b]].v[0]) ++e;
+    weigh_group(std::span<const Index>(rest).subspan(b, e - b), contacts, width, vis, scratch);
+    b = e;
+  }
+}
+
+void ContactResponse::prepare_common(std::span<const ContactPair> contacts, const ContactParams& params,
+                                     std::span<const Index> offsets, std::span<const Index> slots) {
   contacts_ = contacts;
   prepared_repulsion_ = params.repulsion_range > 0.0;
   if (!prepared_repulsion_) return;  // apply() does nothing without a repulsion range
   const double width = params.visibility_width > 0.0 ? params.visibility_width : params.repulsion_range;
-  visibility_weights(contacts, width, visibility_, visibility_ws_);
+  if (offsets.empty())
+    visibility_weights(contacts, width, visibility_, visibility_ws_);
+  else
+    visibility_weights(contacts, offsets, slots, width, visibility_, visibility_ws_);
   // No zeroing: apply() writes every used slot of an active contact, and its gather reads only
   // the slots of active contacts.
   corr_.resize(contacts.size() * 4);
 }
 
 void ContactResponse::prepare(std::span<const ContactPair> contacts, Index num_vertices, const ContactParams& params) {
-  prepare_common(contacts, params);
+  prepare_common(contacts, params, {}, {});
   vertex_offsets_.assign(static_cast<size_t>(num_vertices) + 1, 0);
   for (const auto& c : contacts)
     for (int k = 0; k < c.size(); ++k) ++vertex_offsets_[c.v[k] + 1];
@@ -133,7 +198,7 @@ void ContactResponse::prepare(std::span<const ContactPair> contacts, std::span<c
     throw Error("ContactResponse::prepare: the incidence has " + std::to_string(slots.size()) +
                 " slots, its offsets end at " +
                 (offsets.empty() ? std::string("nothing") : std::to_string(offsets.back())));
-  prepare_common(contacts, params);
+  prepare_common(contacts, params, offsets, slots);
   offsets_ = offsets;
   slots_ = slots;
 }

@@ -192,6 +192,61 @@ TEST(ContactResponse, VisibilityWeightsOfManyShuffledGroupsMatchTheProductAtAnyT
   set_thread_count(0);
 }
 
+TEST(ContactResponse, VisibilityWeightsFromTheIncidenceEqualTheGroupedOnes) {
+  // 20,000 contacts of 4 vertices each among 900; a third of the vertices immovable (pinned or
+  // scripted), so many contacts have a query vertex that lists nothing and are grouped by the scan.
+  // The incidence is built as the region assembly builds it: every contact's slot under each of its
+  // movable vertices, in contact order. Both ways must give the same weights bit for bit.
+  auto rng = ccfr::test::rng(23);
+  std::uniform_int_distribution<Index> vertex(0, 899);
+  std::uniform_real_distribution<double> U(0.0, 0.006);
+  std::vector<ContactPair> cs(20000);
+  for (auto& c : cs) {
+    Index v[4];
+    for (int k = 0; k < 4; ++k) {
+      bool again = true;
+      while (again) {  // four distinct vertices
+        v[k] = vertex(rng);
+        again = false;
+        for (int j = 0; j < k; ++j) again = again || v[j] == v[k];
+      }
+    }
+    c.v = {v[0], v[1], v[2], v[3]};
+    c.distance = 0.01 + U(rng);
+    c.offset = 0.01;
+  }
+  std::vector<std::uint8_t> movable(900);
+  for (Index v = 0; v < 900; ++v) movable[v] = v % 3 != 0;
+  std::vector<Index> offsets(901, 0), slots;
+  for (const auto& c : cs)
+    for (int k = 0; k < 4; ++k) offsets[c.v[k] + 1] += movable[c.v[k]];
+  for (size_t v = 0; v < 900; ++v) offsets[v + 1] += offsets[v];
+  slots.resize(static_cast<size_t>(offsets.back()));
+  std::vector<Index> at(offsets.begin(), offsets.end() - 1);
+  for (size_t i = 0; i < cs.size(); ++i)
+    for (int k = 0; k < 4; ++k)
+      if (movable[cs[i].v[k]]) slots[at[cs[i].v[k]]++] = static_cast<Index>(4 * i + k);
+  const double width = 0.002;
+  const auto expect = visibility_weights(cs, width);
+  size_t partial = 0;
+  for (double w : expect) partial += w > 0.0 && w < 1.0;
+  EXPECT_GT(partial, 1000u) << "the test wants many weights strictly between 0 and 1";
+  for (int threads : {1, 2}) {
+    set_thread_count(threads);
+    std::vector<double> w;
+    VisibilityWorkspace ws;
+    visibility_weights(cs, offsets, slots, width, w, ws);
+    ASSERT_EQ(w.size(), cs.size());
+    for (size_t c = 0; c < cs.size(); ++c)
+      ASSERT_EQ(w[c], expect[c]) << "contact " << c << ", " << threads << " threads";
+  }
+  set_thread_count(0);
+  std::vector<double> w;
+  VisibilityWorkspace ws;
+  const std::vector<Index> short_offsets(offsets.begin(), offsets.end() - 1);
+  EXPECT_THROW(visibility_weights(cs, short_offsets, slots, width, w, ws), Error);
+}
+
 TEST(ContactResponse, DetectorIncidenceGivesTheResponseOfItsOwnIndex) {
   // Three stacked sheets 8 mm apart (r = 5 mm, ξ = 6 mm), jittered, the bottom one pinned: the
   // incidence the detector records beside its half-spaces must name, for every plane, a contact

@@ -36,6 +36,14 @@ struct VisibilityWorkspace {
 void visibility_weights(std::span<const ContactPair> contacts, double width, std::vector<double>& out,
                         VisibilityWorkspace& ws);
 
+/// The same weights, bit for bit, with the groups read from a vertex -> contact-slot incidence that
+/// lists every contact (slot 4·c + k) under each of its movable vertices in contact order, as
+/// CollisionDetector::plane_sources() does: vertex v's group is its slots with k = 0. Contacts whose
+/// query vertex lists nothing (an immovable one) are grouped by a scan. Throws ccfr::Error if the
+/// offsets do not end at the slot count.
+void visibility_weights(std::span<const ContactPair> contacts, std::span<const Index> offsets,
+                        std::span<const Index> slots, double width, std::vector<double>& out, VisibilityWorkspace& ws);
+
 class ContactResponse {
  public:
   /// Indexes the contacts of a new detection pass (#V vertices).
@@ -54,7 +62,10 @@ class ContactResponse {
   Index active() const { return active_; }
 
  private:
-  void prepare_common(std::span<const ContactPair> contacts, const ContactParams& params);
+  /// Keeps the contacts and computes their visibility weights (grouped through `offsets`/`slots`
+  /// when given).
+  void prepare_common(std::span<const ContactPair> contacts, const ContactParams& params,
+                      std::span<const Index> offsets, std::span<const Index> slots);
 
   std::span<const ContactPair> contacts_;
   std::vector<double> visibility_;
