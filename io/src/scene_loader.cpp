@@ -378,6 +378,8 @@ class Builder {
     p.time.damping = t["damping"].as<double>();
     p.time.advance_tolerance = t["advance_tolerance"].as<double>();
     p.time.advance_shortfall = t["advance_shortfall"].as<double>();
+    p.time.continuation = t["continuation"].as<std::string>() == "held_back" ? TimeParams::Continuation::held_back
+                                                                             : TimeParams::Continuation::full;
     p.time.max_subdivision = t["max_subdivision"].as<int>();
     p.time.max_iterations = t["max_iterations"].as<int>();
     const auto c = cfg_["contact"];

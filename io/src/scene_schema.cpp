@@ -321,6 +321,14 @@ NodePtr build_scene_schema() {
                         "keep their step of r (counted in clamped_vertices). 0 iterates while any vertex is held "
                         "back",
                         Range::unit())},
+                {"continuation",
+                 choice(
+                     "full", [] { return std::vector<std::string>{"full", "held_back"}; },
+                     "what the outer iterations after a substep's first one solve: full, the whole scene again (the "
+                     "paper); held_back, only the vertices the step bound held back in the pass before (and those "
+                     "around pairs its recount found closer than their offset), every other vertex fixed where it "
+                     "stands for that pass, so detection skips pairs of two fixed vertices. Scenes with rigid bodies "
+                     "always run full passes")},
                 {"max_subdivision",
                  integer(td.max_subdivision,
                          "most pieces a substep is split into automatically when scripted vertices move more than r or "

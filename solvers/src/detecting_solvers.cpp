@@ -130,6 +130,7 @@ std::optional<Index> DetectingSolver::count_outside(const Positions& x, const Po
   }
   std::atomic<Index> close{0};
   std::atomic<Index> first{std::numeric_limits<Index>::max()};
+  if (!ctx.violated.empty()) pair_marks_.assign(ctx.violated.size(), 0);
   parallel_for(
       static_cast<Index>(contacts_.size()),
       [&](Index b, Index e) {
@@ -141,6 +142,9 @@ std::optional<Index> DetectingSolver::count_outside(const Positions& x, const Po
           if (separation_lower_bound(contacts_[i], x, scale) >= need) continue;
           if (!(pair_distance(contacts_[i], x) >= need)) {  // NaN counts
             ++local;
+            if (!ctx.violated.empty())
+              for (int k = 0; k < contacts_[i].size(); ++k)
+                std::atomic_ref<std::uint8_t>(pair_marks_[contacts_[i].v[k]]).store(1, std::memory_order_relaxed);
             Index cur = first.load();
             while (i < cur && !first.compare_exchange_weak(cur, i)) {
             }
@@ -149,6 +153,23 @@ std::optional<Index> DetectingSolver::count_outside(const Positions& x, const Po
         close += local;
       },
       2048);
+  if (close.load() > 0 && !ctx.violated.empty()) {
+    // The violated pairs' vertices and every vertex they share a contact with: a pair inside its
+    // offset needs the room its neighbours give (with them fixed, its region can be empty).
+    parallel_for(
+        static_cast<Index>(contacts_.size()),
+        [&](Index b, Index e) {
+          for (Index i = b; i < e; ++i) {
+            const ContactPair& c = contacts_[i];
+            bool touches = false;
+            for (int k = 0; k < c.size(); ++k) touches = touches || pair_marks_[c.v[k]];
+            if (touches)
+              for (int k = 0; k < c.size(); ++k)
+                std::atomic_ref<std::uint8_t>(ctx.violated[c.v[k]]).store(1, std::memory_order_relaxed);
+          }
+        },
+        4096);
+  }
   if (close.load() > 0) {
     // The lowest-numbered violation, so the message does not depend on the thread count.
     const ContactPair& c = contacts_[first.load()];

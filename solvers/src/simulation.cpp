@@ -12,6 +12,32 @@
 
 namespace ccfr {
 
+namespace {
+/// For one outer iteration under time.continuation: held_back: sets the inverse mass of every
+/// vertex not marked to 0 (kept in `saved`), and restores all of them when the pass ends, also by
+/// an exception. Does nothing for empty marks.
+class InverseMassMask {
+ public:
+  InverseMassMask(std::vector<double>& inv_mass, std::vector<double>& saved, std::span<const std::uint8_t> marks)
+      : inv_mass_(marks.empty() ? nullptr : &inv_mass), saved_(saved) {
+    if (!inv_mass_) return;
+    saved_ = inv_mass;
+    for (size_t i = 0; i < inv_mass.size(); ++i)
+      if (!marks[i]) inv_mass[i] = 0.0;
+  }
+  ~InverseMassMask() {
+    if (inv_mass_) std::copy(saved_.begin(), saved_.end(), inv_mass_->begin());
+  }
+  InverseMassMask(const InverseMassMask&) = delete;
+  InverseMassMask& operator=(const InverseMassMask&) = delete;
+  bool active() const { return inv_mass_ != nullptr; }
+
+ private:
+  std::vector<double>* inv_mass_;
+  std::vector<double>& saved_;
+};
+}  // namespace
+
 Simulation::Simulation(Scene scene) : scene_(std::move(scene)) {
   const auto& topo = scene_.topo;
   auto& st = scene_.state;
@@ -235,7 +261,8 @@ void Simulation::check_violations(Index remaining, int substep_index) {
   warned_violation_ = true;
 }
 
-Simulation::OuterIterationEnd Simulation::end_outer_iteration(const SolveResult& res, double t1, StepContext& ctx) {
+Simulation::OuterIterationEnd Simulation::end_outer_iteration(const SolveResult& res, double t1, StepContext& ctx,
+                                                              std::span<std::uint8_t> held) {
   const auto& st = scene_.state;
   const auto& tp = scene_.params.time;
   OuterIterationEnd end;
@@ -247,8 +274,8 @@ Simulation::OuterIterationEnd Simulation::end_outer_iteration(const SolveResult&
   // Step bound: no vertex moves farther than r from its anchor in one outer iteration, so
   // primitives not seen by this iteration's detection cannot be reached (paper Alg. line 16).
   if (contact_->clamps_to_radius()) {
-    const StepBoundResult sb =
-        apply_step_bound(solve_, anchor_, st.inv_mass, scene_.params.contact.radius, tp.advance_tolerance, solve_);
+    const StepBoundResult sb = apply_step_bound(solve_, anchor_, st.inv_mass, scene_.params.contact.radius,
+                                                tp.advance_tolerance, solve_, held);
     end.held_back += sb.held_back;
     end.worst = sb.worst;
     end.worst_length = sb.worst_length;
@@ -291,6 +318,24 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
 
   anchor_ = st.x;
   StepContext ctx{scene_.topo, params, dt, frame_ + 1, substep_index, 0, fs.times};
+  // time.continuation: held_back. A pass after the first moves only the vertices of the pass
+  // before that the step bound held back or whose pairs its recount found closer than their
+  // offset; every other vertex runs it with an inverse mass of 0, so detection, response and
+  // projection treat it as fixed where that pass left it and skip its pairs with other fixed
+  // vertices. Those pairs were recounted clean by an earlier pass and did not move, so the recount
+  // of the moving vertices' pairs is the whole scene's. A rigid body moves as a whole, so a scene
+  // with one runs full passes, and so does a pass after a recount that could not name its pairs.
+  const bool local = tp.continuation == TimeParams::Continuation::held_back && contact_->clamps_to_radius() &&
+                     std::none_of(scene_.topo.objects.begin(), scene_.topo.objects.end(),
+                                  [](const auto& o) { return o.kind == ObjectKind::rigid; });
+  bool next_local = false;
+  if (local) {
+    held_marks_.assign(static_cast<size_t>(nv), 0);
+    violated_marks_.assign(static_cast<size_t>(nv), 0);
+  } else {
+    held_marks_.clear();
+    violated_marks_.clear();
+  }
   const double r = params.contact.radius;
   OuterIterationEnd end;
   // Until no vertex is held back by r (often after one pass, so fewer than time.iterations may
@@ -298,6 +343,9 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
   const int bound = tp.iteration_bound();
   for (int it = 0; it < bound; ++it) {
     ctx.iteration = it;
+    const InverseMassMask mask(
+        st.inv_mass, inv_mass_saved_,
+        next_local ? std::span<const std::uint8_t>(held_marks_) : std::span<const std::uint8_t>());
     ctx.kinematic_step = (it == 0 && kin_moves) ? std::span<const Vec3>(kinematic_step_) : std::span<const Vec3>();
     const DetectResult det = contact_->detect(anchor_, st, ctx);
     fs.candidates = std::max(fs.candidates, det.candidates);
@@ -320,6 +368,14 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
         check_finite(material_solved_, "xpbd");
       }
       solve_ = material_solved_;
+      if (mask.active())  // the vertices fixed for this pass start (and stay) where they are
+        parallel_for(
+            nv,
+            [&](Index b, Index e) {
+              for (Index i = b; i < e; ++i)
+                if (!(st.inv_mass[i] > 0.0)) solve_[i] = anchor_[i];
+            },
+            4096);
       contact_->respond(solve_, anchor_, st, ctx);
       check_finite(solve_, "contact response");
     }
@@ -339,7 +395,21 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
     ++fs.outer_iterations;
     {
       ScopedTimer check_timer(fs.times.check);
-      end = end_outer_iteration(res, t1, ctx);
+      if (local) std::fill(violated_marks_.begin(), violated_marks_.end(), std::uint8_t{0});
+      ctx.violated = violated_marks_;
+      end = end_outer_iteration(res, t1, ctx, held_marks_);
+      ctx.violated = {};
+      if (local) {
+        // The next pass frees the held back and the vertices around violated pairs. A full pass
+        // follows a recount that found violations but named no vertex, and a moving few that
+        // could not clear theirs.
+        bool named = false;
+        for (size_t i = 0; i < held_marks_.size(); ++i) {
+          named = named || violated_marks_[i];
+          held_marks_[i] |= violated_marks_[i];
+        }
+        next_local = end.remaining == 0 || (named && !mask.active());
+      }
     }
     anchor_.swap(solve_);
     if (end.held_back == 0) break;  // every vertex reached its intended advance

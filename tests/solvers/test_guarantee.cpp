@@ -11,6 +11,7 @@
 #include "ccfr/core/error.hpp"
 #include "ccfr/geometry/distance.hpp"
 #include "ccfr/geometry/generators.hpp"
+#include "ccfr/solvers/contact_solver.hpp"
 #include "ccfr/solvers/rigid_projection.hpp"
 #include "ccfr/solvers/simulation.hpp"
 #include "ccfr/solvers/step_bound.hpp"
@@ -176,32 +177,60 @@ TEST(Guarantee, StepBoundSumsTheIntendedAdvanceAndTheCut) {
   EXPECT_EQ(out[3], x[3]);
 }
 
+namespace {
+/// Particles of 10 g at `x`, at rest, in one object; r = 5 mm, xi = 10 mm.
+Scene particle_scene(const Positions& x) {
+  const Index n = static_cast<Index>(x.size());
+  TopologyBuilder tb;
+  tb.add_object("dust", ObjectKind::particles, n);
+  Scene s;
+  s.topo = tb.finish();
+  s.state.resize(n);
+  for (Index i = 0; i < n; ++i) {
+    s.state.x[i] = x[i];
+    s.state.mass[i] = 0.01;
+    s.state.inv_mass[i] = 100.0;
+  }
+  s.state.rest = s.state.x_prev = s.state.x;
+  s.params.objects.resize(1);
+  s.params.contact.radius = 0.005;
+  s.params.contact.offset = 0.01;
+  return s;
+}
+
+/// A 10 x 10 layer of particles `spacing` apart drifting at 0.3 m/s, particle 55 flying up at
+/// `fast_speed` instead; no gravity, arrival up to rounding, up to 16 passes per substep.
+Scene drifting_layer(double spacing, double fast_speed) {
+  Positions x(100);
+  for (Index i = 0; i < 100; ++i) x[i] = Vec3(spacing * (i % 10), 1.0, spacing * (i / 10));
+  Scene s = particle_scene(x);
+  for (Vec3& v : s.state.v) v = Vec3(0.3, 0, 0);
+  s.state.v[55] = Vec3(0, fast_speed, 0);
+  s.params.time.gravity = Vec3::Zero();
+  s.params.time.iterations = 4;
+  s.params.time.advance_tolerance = 1e-9;
+  return s;
+}
+
+/// The layer for time.continuation: one substep of 1/240 s per frame, no repulsion.
+Scene drifting_layer(double spacing, double fast_speed, TimeParams::Continuation mode) {
+  Scene s = drifting_layer(spacing, fast_speed);
+  s.params.contact.repulsion_range = 0.0;
+  s.params.time.fps = 240.0;
+  s.params.time.substeps = 1;
+  s.params.time.continuation = mode;
+  return s;
+}
+}  // namespace
+
 // time.advance_shortfall: a hundred particles drift 1.25 mm per substep and one flies at 6 m/s
 // (25 mm per substep, 5 r). The fast one's first pass cuts 20 mm of 148.75 mm intended (13.4 %).
 // At 0.2 the substep ends there: one pass per substep, the fast particle keeps its step of r and
 // flies on at r / dt. At 0.1 (and 0) the passes go on until it arrives: free flight, uncapped.
 TEST(Guarantee, ShortfallRuleEndsThePassForFewOutliersOnly) {
   auto make = [](double shortfall) {
-    TopologyBuilder tb;
-    tb.add_object("dust", ObjectKind::particles, 100);
-    Scene s;
-    s.topo = tb.finish();
-    s.state.resize(100);
-    for (Index i = 0; i < 100; ++i) {
-      s.state.x[i] = Vec3(0.1 * (i % 10), 1.0, 0.1 * (i / 10));  // 0.1 m apart: beyond 2r + xi
-      s.state.v[i] = Vec3(0.3, 0, 0);
-      s.state.mass[i] = 0.01;
-      s.state.inv_mass[i] = 100.0;
-    }
-    s.state.v[55] = Vec3(0, 6.0, 0);  // upward: away from the layer
-    s.state.rest = s.state.x_prev = s.state.x;
-    s.params.objects.resize(1);
-    s.params.contact.radius = 0.005;
-    s.params.contact.offset = 0.01;
-    s.params.time.gravity = Vec3::Zero();
-    s.params.time.substeps = 4;
-    s.params.time.iterations = 4;            // up to 16 passes: 25 mm fits in one substep, no subdivision
-    s.params.time.advance_tolerance = 1e-9;  // arrival up to rounding
+    Scene s = drifting_layer(0.1, 6.0);  // 0.1 m apart: beyond 2r + xi
+    s.params.time.substeps = 4;          // 25 mm fits in one substep's 16 passes, no subdivision
     s.params.time.advance_shortfall = shortfall;
     return s;
   };
@@ -225,6 +254,103 @@ TEST(Guarantee, ShortfallRuleEndsThePassForFewOutliersOnly) {
   EXPECT_NEAR(sim.positions()[55].y(), y0 + 4 * r, 1e-12);  // then it moves r / dt: exactly r a substep
   EXPECT_NEAR(sim.velocities()[55].y(), r / dt, 1e-9);
   EXPECT_NEAR(sim.positions()[3].x(), x3 + 4 * 0.3 * dt, 1e-12);  // the others are unaffected
+}
+
+// The held-back marks are exactly the steps longer than r (1 + tolerance) of movable vertices.
+TEST(Guarantee, StepBoundMarksExactlyTheHeldBackVertices) {
+  const Positions anchor(5, Vec3::Zero());
+  const Positions x = {Vec3(0.003, 0, 0), Vec3(0, 0.025, 0), Vec3(0, 0, -0.0101), Vec3(0.5, 0, 0), Vec3(0, 0, 0.02)};
+  const std::vector<double> w = {1.0, 1.0, 2.0, 0.0, 1.0};  // vertex 3 is scripted
+  Positions out;
+  std::vector<std::uint8_t> held(5, 7);  // every entry is written
+  const StepBoundResult sb = apply_step_bound(x, anchor, w, 0.01, 0.05, out, held);
+  EXPECT_EQ(held, (std::vector<std::uint8_t>{0, 1, 0, 0, 1}));
+  EXPECT_EQ(sb.held_back, 2);
+  std::vector<std::uint8_t> wrong(4);
+  EXPECT_THROW(apply_step_bound(x, anchor, w, 0.01, 0.05, out, wrong), Error);
+}
+
+// time.continuation: held_back against full. A 10 x 10 layer of particles drifts at 0.3 m/s
+// (1.25 mm per substep) and one of them flies up at 6 m/s, 5 r per substep: the step bound holds it
+// back in every pass until it arrives. Spaced 0.1 m apart nothing is in contact, both modes run
+// the same passes on the same targets, and every position must be bit-identical.
+//
+// Spaced 12 mm apart (all within 2r + xi of their neighbours) the layer's contacts cut the back
+// particles' steps by projection in the first pass. Full passes re-solve them in the fast
+// particle's extra passes, so they catch up; held-back passes move the fast particle alone, so
+// the layer ends exactly where a substep without the fast one (one pass: nothing held back) leaves
+// it: the planes of the first pass depend on the anchors and masses only, the same in both.
+
+TEST(Guarantee, HeldBackContinuationEqualsFullPassesWithoutContact) {
+  Simulation full(drifting_layer(0.1, 6.0, TimeParams::Continuation::full));
+  Simulation local(drifting_layer(0.1, 6.0, TimeParams::Continuation::held_back));
+  for (int frame = 0; frame < 4; ++frame) {
+    const FrameStats ff = full.step_frame(), fl = local.step_frame();
+    EXPECT_EQ(ff.outer_iterations, 5);  // 25 mm in steps of r
+    EXPECT_EQ(fl.outer_iterations, 5);
+    EXPECT_EQ(fl.clamped_vertices, 0);
+  }
+  for (Index i = 0; i < 100; ++i) {
+    EXPECT_EQ(full.positions()[i], local.positions()[i]) << i;
+    EXPECT_EQ(full.velocities()[i], local.velocities()[i]) << i;
+  }
+}
+
+TEST(Guarantee, HeldBackContinuationMovesOnlyTheHeldBack) {
+  const auto held_back = TimeParams::Continuation::held_back;
+  Simulation full(drifting_layer(0.012, 6.0, TimeParams::Continuation::full));
+  Simulation local(drifting_layer(0.012, 6.0, held_back));
+  Simulation alone(drifting_layer(0.012, 0.0, held_back));  // the same layer, nothing fast
+  const double y0 = local.positions()[55].y();
+  const FrameStats ff = full.step_frame(), fl = local.step_frame(), fa = alone.step_frame();
+  EXPECT_EQ(fa.outer_iterations, 1);
+  EXPECT_EQ(ff.outer_iterations, 5);
+  EXPECT_EQ(fl.outer_iterations, 5);
+  EXPECT_EQ(fl.clamped_vertices, 0);
+  EXPECT_EQ(fl.violations_remaining, 0);
+  EXPECT_GT(ff.candidates, 100);  // the layer's neighbour pairs
+  // The first pass lists the layer, the later ones only the fast particle's pairs (none once it left).
+  EXPECT_LT(fl.candidates_total, ff.candidates_total / 3) << fl.candidates_total << " vs " << ff.candidates_total;
+  EXPECT_GT(fl.violations_detected, 0);  // the layer's back particles were projected
+  EXPECT_NEAR(local.positions()[55].y(), y0 + 6.0 / 240.0, 1e-12);
+  Index caught_up = 0;
+  for (Index i = 0; i < 100; ++i) {
+    if (i == 55) continue;
+    EXPECT_EQ(local.positions()[i], alone.positions()[i]) << i;
+    caught_up += full.positions()[i].x() > local.positions()[i].x();
+  }
+  EXPECT_GT(caught_up, 0);  // full passes let the layer finish its advance in the fast one's passes
+  // Brute force over every pair: none closer than xi.
+  double closest = 1.0;
+  for (Index i = 0; i < 100; ++i)
+    for (Index j = i + 1; j < 100; ++j)
+      closest = std::min(closest, (local.positions()[i] - local.positions()[j]).norm());
+  EXPECT_GE(closest, 0.01 * (1.0 - 1e-9));
+}
+
+// The recount names what a held-back pass must free: the vertices of every pair it counts and of
+// every contact sharing a vertex with one. Six particles on a line 12 mm apart (neighbours within
+// 2r + xi); particle 2 then moves 8 mm toward 3: only the pair (2, 3) is closer than xi, and the
+// contacts touching 2 or 3 are (1, 2), (2, 3) and (3, 4).
+TEST(Guarantee, RecountMarksTheVerticesAroundEveryViolatedPair) {
+  Positions beads(6);
+  for (Index i = 0; i < 6; ++i) beads[i] = Vec3(0.012 * i, 0, 0);
+  const Scene s = particle_scene(beads);
+  auto solver = make_contact_solver("ccfr");
+  solver->initialize(s.topo, s.state, s.params);
+  StageTimes times;
+  StepContext ctx{s.topo, s.params, 1.0 / 240.0, 1, 0, 0, times};
+  solver->detect(s.state.x, s.state, ctx);
+  Positions x = s.state.x;
+  x[2].x() += 0.008;
+  EXPECT_EQ(solver->count_outside(x, s.state.x, s.state, ctx), 1);  // no marks asked: just the count
+  std::vector<std::uint8_t> marks(6, 0);
+  ctx.violated = marks;
+  EXPECT_EQ(solver->count_outside(x, s.state.x, s.state, ctx), 1);
+  EXPECT_EQ(marks, (std::vector<std::uint8_t>{0, 1, 1, 1, 1, 0}));
+  std::fill(marks.begin(), marks.end(), 0);
+  EXPECT_EQ(solver->count_outside(s.state.x, s.state.x, s.state, ctx), 0);  // clean: nothing marked
+  EXPECT_EQ(marks, std::vector<std::uint8_t>(6, 0));
 }
 
 TEST(Guarantee, ScriptedStepsBeyondTheRadiusSubdivideOrStopWithAClearError) {

@@ -35,6 +35,10 @@ struct StepContext {
   /// leave room for it: a kinematic side's motion is known, not bounded by a share (Eq. 3 with a
   /// known \f$\Delta\mathbf{x}_B\f$).
   std::span<const Vec3> kinematic_step = {};
+  /// One entry per vertex, or empty: count_outside() sets the entry of every vertex of each pair
+  /// it counts (and leaves the others), so time.continuation: held_back can free them for the next
+  /// pass. A solver that does not set them leaves that pass a full one.
+  std::span<std::uint8_t> violated = {};
 };
 
 /// Counts of one detection pass, as a contact solver reports them (collision's own counters are DetectionStats).

@@ -56,6 +56,7 @@ class DetectingSolver : public ContactSolver {
   ContactResponse response_;
   std::vector<double> friction_override_;  ///< #V: material friction of the vertex's object (< 0: global)
   mutable std::string last_violation_;
+  mutable std::vector<std::uint8_t> pair_marks_;  ///< #V: vertices of the pairs count_outside() counted
   Index num_vertices_ = 0;                   ///< #V of the scene (the regions are empty before the first detection)
   std::vector<std::uint8_t> contact_marks_;  ///< #V: in contact during frame `contact_marks_frame_`
   int contact_marks_frame_ = -1;

@@ -33,6 +33,12 @@ struct TimeParams {
   /// per-vertex rule alone. A handful of whipping vertices then no longer costs the whole scene
   /// another pass; they keep their clamped step (counted in clamped_vertices).
   double advance_shortfall = 0.0;
+  /// What the outer iterations after a substep's first one solve again.
+  enum class Continuation {
+    full,       ///< the whole scene: detection, response and projection for every vertex (the paper)
+    held_back,  ///< only the vertices the step bound held back in the pass before; the rest stay put
+  };
+  Continuation continuation = Continuation::full;
   /// Most pieces a substep may be split into when a scripted step exceeds r or the intended
   /// advance exceeds what the outer iterations can cover ((max_iterations - 1) · r); see Simulation.
   int max_subdivision = 64;

@@ -135,7 +135,9 @@ class Simulation {
   /// The end of one outer iteration, the same for every contact solver: the analytic obstacles'
   /// push, the step bound (solvers that clamp to r; paper Alg. 1 line 16) and the recount of
   /// violations at the positions the iteration really ends with. Works on solve_ against anchor_.
-  OuterIterationEnd end_outer_iteration(const SolveResult& res, double t1, StepContext& ctx);
+  /// `held`, if not empty, receives the step bound's held-back marks (time.continuation: held_back).
+  OuterIterationEnd end_outer_iteration(const SolveResult& res, double t1, StepContext& ctx,
+                                        std::span<std::uint8_t> held);
   /// Pieces the next substep of length dt must be split into so that scripted vertices move at
   /// most r per piece and the intended advance fits in the outer iterations' step bounds.
   int subdivision(double dt);
@@ -161,6 +163,11 @@ class Simulation {
   /// The material sweeps' result from the prediction, computed once per substep: every outer
   /// iteration restarts from the same prediction with fresh multipliers, so it is the same each time.
   Positions material_solved_;
+  /// time.continuation: held_back: the vertices the last pass held back (then also those of its
+  /// violated pairs: the next pass's moving vertices), the vertices of the pairs its recount found
+  /// violated, and the true inverse masses while a pass runs with every other vertex's set to 0.
+  std::vector<std::uint8_t> held_marks_, violated_marks_;
+  std::vector<double> inv_mass_saved_;
   bool warned_violation_ = false;
   std::vector<bool> warned_capped_;  ///< per object: the capped-speed warning was given
   AuditHook audit_;

@@ -4,6 +4,7 @@
 /// ends farther than r from its anchor, so primitives that this iteration's detection did not see
 /// cannot be reached. One implementation, used by the substep loop and by solvers that need the
 /// bounded positions before the loop applies them (toi_clamp's path ends).
+#include <cstdint>
 #include <optional>
 #include <span>
 
@@ -22,8 +23,10 @@ struct StepBoundResult {
 
 /// out_i = a_i + min(1, r / |x_i - a_i|) (x_i - a_i) for movable vertices (inv_mass > 0); scripted
 /// and fixed vertices keep x_i (their motion is known, not bounded by r). `out` may be `x`.
-/// Steps longer than r (1 + `tolerance`) count as held back. Deterministic for any thread count.
+/// Steps longer than r (1 + `tolerance`) count as held back; if `held` is not empty (one entry per
+/// vertex), it is set to 1 for exactly those vertices and 0 for all others. Deterministic for any
+/// thread count.
 StepBoundResult apply_step_bound(const Positions& x, const Positions& anchor, std::span<const double> inv_mass,
-                                 double r, double tolerance, Positions& out);
+                                 double r, double tolerance, Positions& out, std::span<std::uint8_t> held = {});
 
 }  // namespace ccfr
