@@ -4,7 +4,6 @@
 #include <vector>
 
 #include "ccfr/core/error.hpp"
-
 #include "ccfr/core/parallel.hpp"
 
 namespace ccfr {

@@ -24,6 +24,35 @@ namespace {
 Scene floor_scene(double speed, double mu_s, double mu_k, const std::string& solver) {
   return ccfr::test::floor_puck_scene(0.0115, speed, solver, 0.002, mu_s, mu_k);
 }
+
+/// 20,000 contacts at gaps in [0, 0.006) beyond an offset of 0.01, their query vertex drawn from
+/// [0, n): with `distinct`, all four vertices are distinct ones of [0, n); otherwise the other
+/// three are n + 100, n + 101, n + 102.
+std::vector<ContactPair> random_contacts(std::uint64_t seed, Index n, bool distinct) {
+  auto rng = ccfr::test::rng(seed);
+  std::uniform_int_distribution<Index> vertex(0, n - 1);
+  std::uniform_real_distribution<double> U(0.0, 0.006);
+  std::vector<ContactPair> cs(20000);
+  for (auto& c : cs) {
+    if (distinct) {
+      Index v[4];
+      for (int k = 0; k < 4; ++k) {
+        bool again = true;
+        while (again) {
+          v[k] = vertex(rng);
+          again = false;
+          for (int j = 0; j < k; ++j) again = again || v[j] == v[k];
+        }
+      }
+      c.v = {v[0], v[1], v[2], v[3]};
+    } else {
+      c.v = {vertex(rng), n + 100, n + 101, n + 102};
+    }
+    c.distance = 0.01 + U(rng);
+    c.offset = 0.01;
+  }
+  return cs;
+}
 }  // namespace
 
 TEST(FloorSliding, FrictionlessVertexKeepsItsTangentialVelocityUnderCcfr) {
@@ -160,15 +189,7 @@ TEST(ContactResponse, VisibilityWeightsOfManyShuffledGroupsMatchTheProductAtAnyT
   // split most groups), gaps within a few widths so that windows hold several contacts: every
   // weight equals the brute-force product over the same vertex's other contacts, taken in index
   // order, bit for bit, at 1 and 2 threads.
-  auto rng = ccfr::test::rng(19);
-  std::uniform_int_distribution<Index> vertex(0, 499);
-  std::uniform_real_distribution<double> U(0.0, 0.006);
-  std::vector<ContactPair> cs(20000);
-  for (auto& c : cs) {
-    c.v = {vertex(rng), 600, 601, 602};
-    c.distance = 0.01 + U(rng);
-    c.offset = 0.01;
-  }
+  const std::vector<ContactPair> cs = random_contacts(19, 500, false);
   const double width = 0.002;
   auto gap = [&](size_t i) { return cs[i].distance - cs[i].offset; };
   std::vector<std::vector<size_t>> groups(500);
@@ -197,24 +218,7 @@ TEST(ContactResponse, VisibilityWeightsFromTheIncidenceEqualTheGroupedOnes) {
   // scripted), so many contacts have a query vertex that lists nothing and are grouped by the scan.
   // The incidence is built as the region assembly builds it: every contact's slot under each of its
   // movable vertices, in contact order. Both ways must give the same weights bit for bit.
-  auto rng = ccfr::test::rng(23);
-  std::uniform_int_distribution<Index> vertex(0, 899);
-  std::uniform_real_distribution<double> U(0.0, 0.006);
-  std::vector<ContactPair> cs(20000);
-  for (auto& c : cs) {
-    Index v[4];
-    for (int k = 0; k < 4; ++k) {
-      bool again = true;
-      while (again) {  // four distinct vertices
-        v[k] = vertex(rng);
-        again = false;
-        for (int j = 0; j < k; ++j) again = again || v[j] == v[k];
-      }
-    }
-    c.v = {v[0], v[1], v[2], v[3]};
-    c.distance = 0.01 + U(rng);
-    c.offset = 0.01;
-  }
+  const std::vector<ContactPair> cs = random_contacts(23, 900, true);
   std::vector<std::uint8_t> movable(900);
   for (Index v = 0; v < 900; ++v) movable[v] = v % 3 != 0;
   std::vector<Index> offsets(901, 0), slots;
