@@ -321,7 +321,10 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
             std::copy(y.begin(), y.end(), xb.begin());
             continue;
           }
-          if (regions_ok) target = pose;  // only the step bound shortens it: the line search is exact for it
+          // The line search runs toward the pose solve's result: when the sweeps left a small
+          // violation, a step short of it by about that fraction is admissible (toward the
+          // unconstrained pose, the violated contacts stop it near the anchor and the body halts).
+          target = pose;
           // Fallback (rare when the pose solve converged: the step bound, or a body the sweeps could
           // not free). Line search along the rigid interpolation from the anchor pose (slerp, lerp).
           // The bound of the linear blend anchor + α (y - anchor) is exact per half-space and per

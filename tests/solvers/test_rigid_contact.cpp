@@ -262,5 +262,43 @@ TEST(RigidContact, FreeSpinKeepsItsAngularVelocity) {
   EXPECT_NEAR(pose_of(sim).c.y(), 1.0, 1e-9);
 }
 
+TEST(RigidContact, FlatTriangleLandsAndLiesDown) {
+  // Degenerate: one triangle, no volume (so no core) and three point masses. Dropped tilted by
+  // 40 deg, it lands on a corner and falls flat: all three corners rest at the offset, the
+  // edges keep their lengths and no pass halts it.
+  const gen::TriMesh floor = gen::plane(4.0, 8);
+  TopologyBuilder tb;
+  tb.add_object("floor", ObjectKind::obstacle, static_cast<Index>(floor.v.size()), floor.f);
+  tb.add_object("body", ObjectKind::rigid, 3, {Vec3i(0, 1, 2)});
+  Scene s;
+  s.topo = tb.finish();
+  s.state.resize(s.topo.num_vertices());
+  const Index nf = static_cast<Index>(floor.v.size());
+  for (Index i = 0; i < nf; ++i) s.state.x[i] = floor.v[i];
+  const Eigen::Matrix3d tilt = Eigen::AngleAxisd(40.0 * kPi / 180.0, Vec3::UnitZ()).toRotationMatrix();
+  const Vec3 corners[3] = {Vec3(0.15, 0, 0), Vec3(-0.1, 0, 0.12), Vec3(-0.1, 0, -0.12)};
+  for (Index k = 0; k < 3; ++k) {
+    s.state.x[nf + k] = tilt * corners[k] + Vec3(0, 0.2, 0);
+    s.state.mass[nf + k] = 0.5;
+    s.state.inv_mass[nf + k] = 2.0;
+  }
+  s.state.rest = s.state.x_prev = s.state.x;
+  s.params.objects.resize(2);
+  s.params.contact.radius = 0.005;
+  s.params.contact.offset = 0.005;
+  s.params.time.substeps = 8;
+  s.params.time.iterations = 2;
+  Simulation sim(std::move(s));
+  Index halted = 0;
+  for (int f = 0; f < 60; ++f) halted += sim.step_frame().halted_vertices;
+  const Positions& x = sim.positions();
+  for (Index k = 0; k < 3; ++k) {
+    ASSERT_TRUE(x[nf + k].allFinite());
+    EXPECT_NEAR(x[nf + k].y(), 0.005, 1e-3) << k;  // resting at the offset
+    EXPECT_NEAR((x[nf + k] - x[nf + (k + 1) % 3]).norm(), (corners[k] - corners[(k + 1) % 3]).norm(), 1e-9) << k;
+  }
+  EXPECT_EQ(halted, 0);
+}
+
 }  // namespace
 }  // namespace ccfr
