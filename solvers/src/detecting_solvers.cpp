@@ -189,6 +189,15 @@ void DetectingSolver::respond(Positions& x, const Positions& anchor, const SimSt
   response_.apply(x, state.x_prev, state.inv_mass, ctx.params.contact, ctx.dt, friction_override_);
 }
 
+void RegionProjectionSolver::respond(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) {
+  if (rigid_.empty()) return DetectingSolver::respond(x, anchor, state, ctx);
+  // Unpinned rigid bodies respond in their pose solve (enforce), with their generalized masses:
+  // here they count as fixed (a vertex's own mass gave a rigid body a far too weak impulse).
+  free_mask_.assign(state.inv_mass.begin(), state.inv_mass.end());
+  rigid_.mask_free(free_mask_);
+  response_.apply(x, state.x_prev, free_mask_, ctx.params.contact, ctx.dt, friction_override_);
+}
+
 RegionProjectionSolver::RegionProjectionSolver(std::string solver_name, std::string projector_name, ParamValues params)
     : name_(std::move(solver_name)), projector_name_(std::move(projector_name)), projector_params_(std::move(params)) {}
 
@@ -208,7 +217,15 @@ SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& ancho
     halted_.assign(x.size(), 0);
     halted_frame_ = ctx.frame;
   }
-  const BatchStats b = project_all(*projector_, regions_, anchor, x, state.inv_mass, halted_);
+  // Unpinned rigid bodies' vertices are not projected one by one: enforce() resolves their
+  // contacts in the body's pose space.
+  std::span<const double> projected_mass = state.inv_mass;
+  if (!rigid_.empty()) {
+    free_mask_.assign(state.inv_mass.begin(), state.inv_mass.end());
+    rigid_.mask_free(free_mask_);
+    projected_mass = free_mask_;
+  }
+  const BatchStats b = project_all(*projector_, regions_, anchor, x, projected_mass, halted_);
   SolveResult r;
   r.violations_detected = b.violated;
   r.violations_remaining = b.remaining;
@@ -223,9 +240,36 @@ SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& ancho
     for (const auto& o : ctx.topo.objects)
       if (o.kind == ObjectKind::rigid)
         for (Index v = o.vertex_begin; v < o.vertex_end; ++v) wanted[v] = x[v] != anchor[v];
+    // The repulsion of a rigid vertex's plane acts on its pair's gap, which exceeds the plane's
+    // value by the other side's share (gap - d), and the pair's other side takes its part of the
+    // correction (its inverse masses): against a light cloth a heavy ball then barely moves, as
+    // the pair's XPBD repulsion has it, instead of bouncing off a stiff spring.
+    const auto sources = detector_->plane_sources();
+    const double delta = ctx.params.contact.repulsion_range;
+    repulsion_target_.assign(regions_.planes.size(), delta);
+    repulsion_other_.assign(regions_.planes.size(), 0.0);
+    if (sources.size() == regions_.planes.size())
+      for (const auto& o : ctx.topo.objects) {
+        if (o.kind != ObjectKind::rigid) continue;
+        for (Index q = regions_.offsets[o.vertex_begin]; q < regions_.offsets[o.vertex_end]; ++q) {
+          const ContactPair& c = contacts_[static_cast<size_t>(sources[q] / 4)];
+          const int k = static_cast<int>(sources[q] % 4), na = c.side_a();
+          double other = 0.0;
+          for (int j = k < na ? na : 0; j < (k < na ? c.size() : na); ++j)
+            other += c.w[j] * c.w[j] * state.inv_mass[c.v[j]];
+          repulsion_other_[static_cast<size_t>(q)] = other;
+          const double gap = c.distance - c.offset;
+          repulsion_target_[static_cast<size_t>(q)] =
+              delta - std::max(0.0, gap - regions_.planes[static_cast<size_t>(q)].d);
+        }
+      }
     const RigidEnforceStats rs =
         rigid_.enforce(x, anchor, regions_, *projector_, ctx.params.contact.radius, ctx.params.time.advance_tolerance,
-                       rigid_.predicted_cores(state, ctx.dt, ctx.params.time.gravity));
+                       rigid_.predicted_cores(state, ctx.dt, ctx.params.time.gravity),
+                       RigidContactOptions{&state.x_prev, ctx.params.contact.repulsion_range,
+                                           1.0 / (ctx.params.contact.stiffness * ctx.dt * ctx.dt), repulsion_target_,
+                                           repulsion_other_});
+    r.violations_detected += rs.vertices_violated;
     r.halted_vertices += rs.vertices_halted;
     r.bounded_vertices += rs.bodies_bounded;
     if (rs.bodies_halted > 0)

@@ -381,6 +381,43 @@ void ShapeMatchingBatch::solve(Positions& x, std::span<const double> w) const {
       1);
 }
 
+void ShapeMatchingBatch::predict(const Positions& x, const Positions& v, std::span<const double> inv_mass, double dt,
+                                 const Vec3& g_dt2, Positions& predicted) const {
+  parallel_for(
+      size(),
+      [&](Index lo, Index hi) {
+        for (Index b = lo; b < hi; ++b) {
+          const size_t n = static_cast<size_t>(end[b] - begin[b]);
+          const size_t o = static_cast<size_t>(offset[b]);
+          bool dynamic = true;
+          for (Index i = begin[b]; i < end[b] && dynamic; ++i) dynamic = inv_mass[i] > 0.0;
+          if (!dynamic) continue;  // pinned bodies follow their pins through shape matching
+          double total = 0.0;
+          Vec3 c = Vec3::Zero(), c_prev = Vec3::Zero();
+          for (size_t k = 0; k < n; ++k) {
+            const Index i = begin[b] + static_cast<Index>(k);
+            total += weight[o + k];
+            c += weight[o + k] * x[i];
+            c_prev += weight[o + k] * (x[i] - dt * v[i]);
+          }
+          c /= total;
+          c_prev /= total;
+          Eigen::Matrix3d a = Eigen::Matrix3d::Zero(), a_prev = Eigen::Matrix3d::Zero();
+          for (size_t k = 0; k < n; ++k) {
+            const Index i = begin[b] + static_cast<Index>(k);
+            a.noalias() += weight[o + k] * (x[i] - c) * rest_offset[o + k].transpose();
+            a_prev.noalias() += weight[o + k] * (x[i] - dt * v[i] - c_prev) * rest_offset[o + k].transpose();
+          }
+          const Eigen::Matrix3d r = xpbd::polar_rotation(a);
+          const Eigen::Matrix3d next = r * xpbd::polar_rotation(a_prev).transpose() * r;  // ΔR R
+          const Vec3 centre = 2.0 * c - c_prev + g_dt2;
+          for (size_t k = 0; k < n; ++k)
+            predicted[begin[b] + static_cast<Index>(k)] = next * rest_offset[o + k] + centre;
+        }
+      },
+      1);
+}
+
 // ---- MaterialSystem -----------------------------------------------------------------------------
 
 MaterialSystem::MaterialSystem(const Topology& topo, const SimState& state, const SimulationParams& params) {

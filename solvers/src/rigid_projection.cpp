@@ -1,9 +1,11 @@
 #include "ccfr/solvers/rigid_projection.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <iterator>
 
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/geometry/mass_properties.hpp"
@@ -15,8 +17,13 @@ namespace {
 
 /// A constraint value below this counts as outside (the recount's tolerance).
 constexpr double kOutside = -1e-9;
-/// Refit iterations before the line search: project, fit, re-check.
-constexpr int kRefitIterations = 3;
+/// Projected Gauss-Seidel sweeps of a body's pose solve.
+constexpr int kPoseSweeps = 32;
+/// Sweeps a body with acting contacts runs at least.
+constexpr int kMinPoseSweeps = 4;
+/// The pose solve aims this fraction of r inside every half-space, so that the exact check of the
+/// rigid pose (rotation no longer linearized) passes.
+constexpr double kMarginOfBound = 1e-4;
 /// Halvings of the line search after the linear-blend bound.
 constexpr int kLineSearchHalvings = 12;
 
@@ -75,9 +82,28 @@ RigidBodies::RigidBodies(const Topology& topo, const SimState& state, const Simu
       centre += m * state.rest[v];
     }
     centre /= total;
+    Eigen::Matrix3d second = Eigen::Matrix3d::Zero();
     for (Index v = b.begin; v < b.end; ++v) {
       b.rest.push_back(state.rest[v] - centre);
       b.extent = std::max(b.extent, b.rest.back().norm());
+    }
+    b.mass = total;
+    for (size_t i = 0; i < b.rest.size(); ++i) second.noalias() += b.weight[i] * b.rest[i] * b.rest[i].transpose();
+    // The vertices' inertia about the centre, I = tr(S) 1 - S: with the loader's moment-matched masses
+    // the solid's (the core adds none). Inverted on its range: a rod or a single vertex does not
+    // turn about the axes it has no extent across, and those turns move none of its vertices.
+    const Eigen::Matrix3d inertia = second.trace() * Eigen::Matrix3d::Identity() - second;
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(inertia);
+    const double top = eig.eigenvalues().cwiseAbs().maxCoeff();
+    Vec3 inv = Vec3::Zero();
+    for (int k = 0; k < 3; ++k)
+      if (eig.eigenvalues()[k] > 1e-12 * top) inv[k] = 1.0 / eig.eigenvalues()[k];
+    b.inv_inertia = eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
+    if (params) {
+      const MaterialParams& mat =
+          params->objects.size() == topo.objects.size() ? params->objects[oi].material : MaterialParams{};
+      b.mu_s = mat.friction >= 0.0 ? mat.friction : params->contact.friction_static;
+      b.mu_k = mat.friction >= 0.0 ? mat.friction : params->contact.friction_kinetic;
     }
     if (with_cores && !b.pinned) {
       std::vector<Vec3i> faces;
@@ -108,14 +134,45 @@ std::vector<Vec3> RigidBodies::predicted_cores(const SimState& state, double dt,
   return out;
 }
 
+void RigidBodies::mask_free(std::vector<double>& inv_mass) const {
+  for (const Body& b : bodies_)
+    if (!b.pinned) std::fill(inv_mass.begin() + b.begin, inv_mass.begin() + b.end, 0.0);
+}
+
+namespace {
+
+/// One contact of a body in the pose solve: a half-space of one of its vertices, with the
+/// accumulated normal and tangential multipliers (positional impulses, kg·m) of the sweeps.
+struct PoseContact {
+  Index i = 0;  ///< vertex within the body
+  HalfSpace h;
+  double repel = 0.0;     ///< the value the repulsion aims at
+  double other_w = 0.0;   ///< inverse mass of the pair's other side
+  double lambda_n = 0.0;  ///< hard: C >= margin
+  double lambda_r = 0.0;  ///< repulsion: C >= δ, compliant
+  Vec3 lambda_t = Vec3::Zero();
+};
+
+Eigen::Quaterniond rotated(const Eigen::Quaterniond& q, const Vec3& dtheta) {
+  // q + ½ (Δθ, 0) q, normalized (Müller et al. 2020, Eq. 8-9).
+  Eigen::Quaterniond d(0.0, dtheta.x(), dtheta.y(), dtheta.z());
+  d = d * q;
+  Eigen::Quaterniond out(q.w() + 0.5 * d.w(), q.x() + 0.5 * d.x(), q.y() + 0.5 * d.y(), q.z() + 0.5 * d.z());
+  out.normalize();
+  return out;
+}
+
+}  // namespace
+
 RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, const RegionSet& regions,
-                                       const Projector& projector, double step_bound, double advance_tolerance,
-                                       std::span<const Vec3> cores) const {
+                                       const Projector&, double step_bound, double advance_tolerance,
+                                       std::span<const Vec3> cores, const RigidContactOptions& options) const {
   std::vector<RigidEnforceStats> per(bodies_.size());
   parallel_for(
       size(),
       [&](Index lo, Index hi) {
         std::vector<Vec3> y;
+        std::vector<PoseContact> contacts;
         for (Index bi = lo; bi < hi; ++bi) {
           const Body& b = bodies_[bi];
           RigidEnforceStats& st = per[bi];
@@ -126,17 +183,21 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
             out.resize(n);
             for (size_t i = 0; i < n; ++i) out[i] = r * b.rest[i] + p.c;
           };
-          // Largest violation of the regions and the step bound; >= 0 means admissible.
-          auto admissible = [&](const std::vector<Vec3>& p, bool& by_bound_only) {
-            bool region_ok = true, bound_ok = true;
+          auto regions_hold = [&](const std::vector<Vec3>& p) {
             for (size_t i = 0; i < n; ++i) {
               const Index v = b.begin + static_cast<Index>(i);
-              if (falls_below(anchor[v], p[i], regions.of(v), kOutside)) region_ok = false;
-              if (!((p[i] - anchor[v]).norm() <= step_bound * (1.0 + 1e-12))) bound_ok = false;
-              if (!region_ok) break;
+              if (falls_below(anchor[v], p[i], regions.of(v), kOutside)) return false;
             }
-            by_bound_only = region_ok && !bound_ok;
-            return region_ok && bound_ok;
+            return true;
+          };
+          auto longest_step = [&](const std::vector<Vec3>& p) {
+            double l = 0.0;
+            for (size_t i = 0; i < n; ++i) l = std::max(l, (p[i] - anchor[b.begin + static_cast<Index>(i)]).norm());
+            return l;
+          };
+          // Largest violation of the regions and the step bound; >= 0 means admissible.
+          auto admissible = [&](const std::vector<Vec3>& p) {
+            return regions_hold(p) && longest_step(p) <= step_bound * (1.0 + 1e-12);
           };
           const std::span<Vec3> xb(x.data() + b.begin, n);
           const double core = cores.empty() ? 0.0 : b.core;
@@ -148,40 +209,127 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
             ++st.bodies_refitted;
             continue;
           }
-          bool bounded = false;
-          bool ok = false;
-          // Whether the step bound, not a region, shortened the body's step (by more than the
-          // substep's advance tolerance): the substep must then iterate on, or it caps the body's
-          // speed at r per substep without a word (a 30 m/s projectile fell at 2.4 m/s).
-          bool held_by_bound = false;
-          for (int it = 0; it < kRefitIterations && !ok; ++it) {
-            place(target, y);
-            ok = admissible(y, bounded);
-            if (ok) break;
-            // Project the fitted positions vertex by vertex, hold them within the step bound, refit.
-            for (size_t i = 0; i < n; ++i) {
-              const Index v = b.begin + static_cast<Index>(i);
-              if (regions.count(v) > 0) y[i] = projector.project(anchor[v], y[i], regions.of(v)).x;
-              const Vec3 d = y[i] - anchor[v];
-              const double len = d.norm();
-              if (len > step_bound) {
-                held_by_bound = held_by_bound || len > step_bound * (1.0 + advance_tolerance);
-                y[i] = anchor[v] + (step_bound / len) * d;
-              }
-              if (!y[i].allFinite()) y[i] = anchor[v];
-            }
-            target = fit(y, rest, b.weight, core, target.c);  // the core moves with the pose it refines
-          }
           ++st.bodies_refitted;
-          if (ok) {
+          // The contacts: every half-space of the body's vertices. Only those the sweeps find
+          // violated act (λ_n > 0), but any may become violated as the body turns.
+          contacts.clear();
+          for (size_t i = 0; i < n; ++i) {
+            const Index v = b.begin + static_cast<Index>(i);
+            for (Index q = regions.offsets[v]; q < regions.offsets[v + 1]; ++q)
+              contacts.push_back(
+                  {static_cast<Index>(i), regions.planes[static_cast<size_t>(q)],
+                   options.repulsion_target.empty() ? options.repulsion_range
+                                                    : options.repulsion_target[static_cast<size_t>(q)],
+                   options.repulsion_other.empty() ? 0.0 : options.repulsion_other[static_cast<size_t>(q)]});
+          }
+          place(target, y);
+          for (size_t i = 0; i < n; ++i) {
+            const Index v = b.begin + static_cast<Index>(i);
+            if (regions.count(v) > 0 && falls_below(anchor[v], y[i], regions.of(v), 0.0)) ++st.vertices_violated;
+          }
+          // Resolve the contacts in the body's pose space (Müller et al. 2020, positional
+          // constraints with generalized inverse masses): projected Gauss-Seidel on the pose's
+          // kinetic metric, rotation linearized about the current pose and re-linearized after
+          // every correction, the inverse inertia once per sweep.
+          const double mass = b.mass + core;
+          const double margin = kMarginOfBound * step_bound;
+          Pose pose = target;
+          bool converged = contacts.empty();
+          for (int sweep = 0; sweep < kPoseSweeps && !converged; ++sweep) {
+            const Eigen::Matrix3d r = pose.q.toRotationMatrix();
+            const Eigen::Matrix3d inv_inertia = r * b.inv_inertia * r.transpose();
+            double worst = 0.0;
+            for (PoseContact& c : contacts) {
+              const Index v = b.begin + c.i;
+              const Vec3 arm = pose.q * b.rest[c.i];
+              const Vec3 at = arm + pose.c;
+              const double value = c.h.value(anchor[v], at);
+              worst = std::min(worst, value - 0.5 * margin);
+              // Normal: C = n·(p - a) + d >= margin, with λ_n >= 0 accumulated over the sweeps.
+              const Vec3 rn = arm.cross(c.h.n);
+              const double w = 1.0 / mass + rn.dot(inv_inertia * rn);
+              const double next = std::max(0.0, c.lambda_n + (margin - value) / w);
+              const double dl = next - c.lambda_n;
+              if (dl != 0.0) {
+                c.lambda_n = next;
+                pose.c += (dl / mass) * c.h.n;
+                pose.q = rotated(pose.q, inv_inertia * rn * dl);
+              }
+              if (options.repulsion_range > 0.0) {
+                // XPBD repulsion of the pair's gap toward δ with compliance α̃, its multiplier kept >= 0.
+                const double alpha = options.repulsion_compliance;
+                const double now_value = c.h.value(anchor[v], pose.q * b.rest[c.i] + pose.c);
+                const double rep =
+                    std::max(0.0, c.lambda_r + (c.repel - now_value - alpha * c.lambda_r) / (w + c.other_w + alpha));
+                const double dr = rep - c.lambda_r;
+                if (dr != 0.0) {
+                  c.lambda_r = rep;
+                  pose.c += (dr / mass) * c.h.n;
+                  pose.q = rotated(pose.q, inv_inertia * rn * dr);
+                }
+              }
+              const double pressed = c.lambda_n + c.lambda_r;
+              if (!options.x_start || (b.mu_s <= 0.0 && b.mu_k <= 0.0)) continue;
+              if (pressed <= 0.0 && c.lambda_t.squaredNorm() == 0.0) continue;
+              // Friction on the contact point's tangential motion over the substep (the other
+              // side taken at rest): static cancels it while |λ_t| <= μ_s λ_n, kinetic is bounded
+              // by μ_k λ_n (Müller et al. 2020, Sec. 3.5, with Coulomb's cone on the accumulated λ_t).
+              const Vec3 now = pose.q * b.rest[c.i] + pose.c;
+              const Vec3 moved = now - (*options.x_start)[v];
+              const Vec3 slip = moved - c.h.n.dot(moved) * c.h.n;
+              const double sl = slip.norm();
+              Vec3 want = c.lambda_t;
+              if (sl > 0.0) {
+                const Vec3 t = slip / sl;
+                const Vec3 rt = (now - pose.c).cross(t);
+                want -= (sl / (1.0 / mass + rt.dot(inv_inertia * rt))) * t;
+              }
+              const double wl = want.norm();
+              if (wl > b.mu_s * pressed) want *= b.mu_k * pressed / wl;
+              const Vec3 dt = want - c.lambda_t;
+              if (dt.squaredNorm() == 0.0) continue;
+              c.lambda_t = want;
+              pose.c += dt / mass;
+              pose.q = rotated(pose.q, inv_inertia * (now - pose.c).cross(dt));
+            }
+            // Friction and repulsion need a few sweeps to settle among the contacts even when the
+            // hard constraints hold from the start.
+            bool acting = false;
+            for (const PoseContact& c : contacts)
+              acting = acting || c.lambda_n > 0.0 || c.lambda_r > 0.0 || c.lambda_t.squaredNorm() > 0.0;
+            converged = worst >= 0.0 && (!acting || sweep + 1 >= kMinPoseSweeps);
+          }
+          // Redundant contacts (a face resting on four corners) leave the sweeps converging
+          // slowly through the rotation's coupling: the last fraction of a violation is removed by
+          // translation alone (w = 1/M), a residual of a fraction of a percent of g dt² that
+          // would otherwise fail the exact check below and halt the body.
+          for (int sweep = 0; sweep < kPoseSweeps && !converged; ++sweep) {
+            double worst = 0.0;
+            for (PoseContact& c : contacts) {
+              const double value = c.h.value(anchor[b.begin + c.i], pose.q * b.rest[c.i] + pose.c);
+              worst = std::min(worst, value - 0.5 * margin);
+              if (value < margin) {
+                c.lambda_n += (margin - value) * mass;
+                pose.c += (margin - value) * c.h.n;
+              }
+            }
+            converged = worst >= 0.0;
+          }
+          place(pose, y);
+          const bool regions_ok = regions_hold(y);
+          if (regions_ok && longest_step(y) <= step_bound * (1.0 + 1e-12)) {
             std::copy(y.begin(), y.end(), xb.begin());
-            if (held_by_bound) ++st.bodies_bounded;
             continue;
           }
-          // Line search along the rigid interpolation from the anchor pose (slerp, lerp). The bound
-          // of the linear blend anchor + α (y - anchor) is exact per half-space and per step-bound
-          // ball (both convex, both hold at α = 0); the rigid pose at that α is then verified and
-          // halved until admissible, since it deviates from the blend by O(α(1-α)θ²).
+          // The line search runs toward the pose solve's result: when the sweeps left a small
+          // violation, a step short of it by about that fraction is admissible (toward the
+          // unconstrained pose, the violated contacts stop it near the anchor and the body halts).
+          target = pose;
+          // Fallback (rare when the pose solve converged: the step bound, or a body the sweeps could
+          // not free). Line search along the rigid interpolation from the anchor pose (slerp, lerp).
+          // The bound of the linear blend anchor + α (y - anchor) is exact per half-space and per
+          // step-bound ball (both convex, both hold at α = 0); the rigid pose at that α is then
+          // verified and shrunk until admissible, since it deviates from the blend by O(α(1-α)θ²).
           const std::span<const Vec3> ab(anchor.data() + b.begin, n);
           const Pose from = fit(ab, rest, b.weight);
           place(target, y);
@@ -205,20 +353,25 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
           }
           std::vector<Vec3> z;
           bool found = false;
-          for (int k = 0; k <= kLineSearchHalvings && alpha > 0.0; ++k, alpha *= 0.5) {
+          // Small cuts first (the rigid pose leaves the blend by a second-order amount), then halvings.
+          static constexpr double kShrink[] = {1.0, 1.0 - 1e-6, 1.0 - 1e-4, 0.99, 0.9};
+          for (int k = 0; k < static_cast<int>(std::size(kShrink)) + kLineSearchHalvings && alpha > 0.0; ++k) {
+            const double a = k < static_cast<int>(std::size(kShrink))
+                                 ? alpha * kShrink[k]
+                                 : alpha * 0.9 * std::ldexp(1.0, -(k - static_cast<int>(std::size(kShrink)) + 1));
             Pose p;
-            p.q = from.q.slerp(alpha, target.q);
-            p.c = from.c + alpha * (target.c - from.c);
+            p.q = from.q.slerp(a, target.q);
+            p.c = from.c + a * (target.c - from.c);
             place(p, z);
-            bool dummy = false;
-            if (admissible(z, dummy)) {
+            if (admissible(z)) {
               found = true;
+              if (bound_limits) bound_limits = a * (1.0 + advance_tolerance) < 1.0;
               break;
             }
           }
           if (found) {
             std::copy(z.begin(), z.end(), xb.begin());
-            ++st.bodies_shortened;
+            if (!regions_ok) ++st.bodies_shortened;
             if (bound_limits) ++st.bodies_bounded;
           } else {
             std::copy(ab.begin(), ab.end(), xb.begin());
@@ -235,6 +388,7 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
     total.bodies_halted += s.bodies_halted;
     total.vertices_halted += s.vertices_halted;
     total.bodies_bounded += s.bodies_bounded;
+    total.vertices_violated += s.vertices_violated;
   }
   return total;
 }

@@ -309,6 +309,8 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
           predicted_[i] = st.inv_mass[i] > 0.0 ? Vec3(st.x[i] + dt * st.v[i] + g_dt2) : st.x[i];
       },
       4096);
+  // Rigid bodies repeat their last substep's rigid motion: the linear extrapolation bleeds spin.
+  materials_.rigid().predict(st.x, st.v, st.inv_mass, dt, g_dt2, predicted_);
   // Kinematic vertices reach their scripted positions at t1 in the first outer iteration. Their
   // step is known, so the first detection (at the old positions) accounts for it exactly instead
   // of letting a handle or obstacle jump into its neighbours before any region exists.

@@ -72,6 +72,8 @@ class RegionProjectionSolver final : public DetectingSolver {
   std::string_view name() const override { return name_; }
   void initialize(const Topology& topo, const SimState& state, const SimulationParams& params) override;
   SolveResult resolve(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) override;
+  /// The contact response of every vertex but those of unpinned rigid bodies (their pose solve has its own).
+  void respond(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) override;
   bool clamps_to_radius() const override { return true; }
   bool guarantees_separation() const override { return projector_name_ != "successive_projection"; }
   void vertex_diagnostics(std::vector<std::int32_t>& half_spaces, std::vector<double>& distance,
@@ -84,7 +86,10 @@ class RegionProjectionSolver final : public DetectingSolver {
   std::string name_, projector_name_;
   ParamValues projector_params_;
   std::unique_ptr<Projector> projector_;
-  RigidBodies rigid_;                 ///< rigid bodies, whose correction is taken as a rigid motion
+  RigidBodies rigid_;                     ///< rigid bodies, whose correction is taken as a rigid motion
+  std::vector<double> repulsion_target_;  ///< per plane: δ - (gap - d), the value its repulsion aims at
+  std::vector<double> repulsion_other_;   ///< per plane: the inverse masses of its pair's other side
+  std::vector<double> free_mask_;  ///< inverse masses with unpinned rigid bodies' vertices at 0 (not projected alone)
   std::vector<std::uint8_t> halted_;  ///< #V: halted during frame `halted_frame_`
   int halted_frame_ = -1;
 };

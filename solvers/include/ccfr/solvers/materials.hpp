@@ -250,6 +250,13 @@ struct ShapeMatchingBatch {
   /// Adds the body made of vertices [first, last) with rest positions `rest` and inverse masses `inv_mass` (#V).
   void add(Index first, Index last, const Positions& rest, std::span<const double> inv_mass);
   void solve(Positions& x, std::span<const double> inv_mass) const;
+  /// Rigid prediction: every body without kinematic vertices repeats the rigid motion of its
+  /// last substep, read from `x` and `x - dt v` (its centre moves by dt v_c + `g_dt2`, its
+  /// rotation turns again by the last substep's ΔR), into `predicted`. The per-vertex prediction
+  /// x + dt v followed by shape matching turns by θ - 2θ³/3 instead of θ = ω dt, which bled
+  /// 2θ²/3 of the spin per substep (a tenth of a 10 rad/s spin per second at 480 substeps/s).
+  void predict(const Positions& x, const Positions& v, std::span<const double> inv_mass, double dt, const Vec3& g_dt2,
+               Positions& predicted) const;
   Index size() const { return static_cast<Index>(begin.size()); }
 };
 

@@ -8,6 +8,7 @@
 /// not fit moves only part of the way along the rigid interpolation from its anchor pose (a line
 /// search that is exact for the half-spaces of a linear blend and verified for the rigid pose), or
 /// halts as a whole at its anchor pose.
+#include <Eigen/Core>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -23,11 +24,29 @@ namespace ccfr {
 
 /// Counts of one RigidBodies::enforce pass.
 struct RigidEnforceStats {
-  Index bodies_refitted = 0;   ///< bodies whose projected positions were replaced by a rigid fit
-  Index bodies_shortened = 0;  ///< bodies that moved only part of their rigid step (line search)
-  Index bodies_halted = 0;     ///< bodies left at their anchor pose
-  Index vertices_halted = 0;   ///< vertices of the halted bodies
-  Index bodies_bounded = 0;    ///< bodies whose step was shortened by the step bound r alone
+  Index bodies_refitted = 0;    ///< bodies whose projected positions were replaced by a rigid fit
+  Index bodies_shortened = 0;   ///< bodies that moved only part of their rigid step (line search)
+  Index bodies_halted = 0;      ///< bodies left at their anchor pose
+  Index vertices_halted = 0;    ///< vertices of the halted bodies
+  Index bodies_bounded = 0;     ///< bodies whose step was shortened by the step bound r alone
+  Index vertices_violated = 0;  ///< vertices outside their region at the body's unconstrained pose
+};
+
+/// The contact response of the pose solve (the per-vertex response skips unpinned rigid bodies).
+struct RigidContactOptions {
+  /// Positions at the substep start: friction acts on a contact point's slip since then. Null:
+  /// no friction.
+  const Positions* x_start = nullptr;
+  /// Repulsion: every half-space pushes softly while its value is below δ (XPBD compliance
+  /// α̃ = 1 / (k dt²), as ContactResponse), a normal impulse that also bounds friction.
+  double repulsion_range = 0.0;
+  double repulsion_compliance = 0.0;
+  /// Per plane of the RegionSet: the value its repulsion aims at, δ - (gap - d): the pair's gap
+  /// exceeds the plane's value by the other side's share of it. Empty: δ for every plane.
+  std::span<const double> repulsion_target;
+  /// Per plane: Σ wₖ² m⁻¹ of the pair's other side, which takes its part of the repulsion's
+  /// correction (XPBD: Δλ = -C / (w_body + w_other + α̃)). Empty: 0 (a fixed obstacle).
+  std::span<const double> repulsion_other;
 };
 
 /// The rigid objects of a scene with their rest shapes about their centres of mass.
@@ -51,8 +70,15 @@ class RigidBodies {
   /// bound shortened by more than `advance_tolerance` (relative) counts in bodies_bounded, so the
   /// substep keeps iterating until it arrives.
   /// `cores` (#bodies, from predicted_cores) places the cores; empty: no core.
+  /// `contact` adds friction and repulsion (see RigidContactOptions). The projector is not used
+  /// (kept for the callers of the refit the pose solve replaced).
   RigidEnforceStats enforce(Positions& x, const Positions& anchor, const RegionSet& regions, const Projector& projector,
-                            double step_bound, double advance_tolerance = 0.01, std::span<const Vec3> cores = {}) const;
+                            double step_bound, double advance_tolerance = 0.01, std::span<const Vec3> cores = {},
+                            const RigidContactOptions& contact = {}) const;
+
+  /// Sets the inverse masses of the vertices of every unpinned body to 0: those bodies' contacts
+  /// are resolved in their pose space by enforce(), not vertex by vertex.
+  void mask_free(std::vector<double>& inv_mass) const;
 
   /// Where each body's core is before any contact acts in the substep: its centre of mass moved
   /// ballistically from `state` (x, v at the substep start) by dt under `gravity`, as the vertices are.
@@ -71,6 +97,9 @@ class RigidBodies {
     std::vector<std::uint8_t> kinematic;  ///< 1 for pinned vertices, which keep their scripted positions
     double extent = 0.0;                  ///< largest |rest offset|, the lever arm of a rotation
     double core = 0.0;                    ///< mass at the centre of mass carried by no vertex (kg)
+    double mass = 0.0;                    ///< Σ weight (the vertices' mass; + core = the solid's)
+    Eigen::Matrix3d inv_inertia = Eigen::Matrix3d::Zero();  ///< inverse of the rest inertia about the centre
+    double mu_s = 0.0, mu_k = 0.0;                          ///< the body's static and kinetic friction
   };
   std::vector<Body> bodies_;
 };
