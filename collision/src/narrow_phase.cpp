@@ -615,6 +615,29 @@ void CollisionDetector::compute_exclusions(const Positions& initial) {
         if (v >= 0) sources[v] = 1;
     adjacency = TopologicalAdjacency(topo_, initial, kAdjacencyRadiusInOffsets * params_.offset, sources);
   }
+  // Pairs only in the repulsion band (ξ <= d0 < ξ + δ) are mesh neighbours, exempt from repulsion,
+  // within 2 (ξ + δ) plus the longest edge along the mesh: on a surface whose edges are longer than
+  // 2ξ (the knot's 5 mm against ξ = 2 mm, δ = 1 mm) a face one ring away is already further than
+  // 2ξ along the edges, and repulsion pushed such pairs apart every substep (1 mm of distortion).
+  TopologicalAdjacency band_adjacency;
+  {
+    std::vector<std::uint8_t> sources(static_cast<size_t>(topo_.num_vertices()), 0);
+    bool any = false;
+    for (const CloseSubPair& c : close_all)
+      if (!(c.distance < params_.offset))
+        for (Index v : c.va)
+          if (v >= 0) sources[v] = 1, any = true;
+    if (any) {
+      double longest = 0.0;
+      for (Index e = 0; e < topo_.num_edges(); ++e) {
+        const ObjectKind k = topo_.objects[topo_.edge_object[e]].kind;
+        if (k == ObjectKind::obstacle || k == ObjectKind::rigid) continue;
+        longest = std::max(longest, (initial[topo_.edges[e][1]] - initial[topo_.edges[e][0]]).norm());
+      }
+      band_adjacency = TopologicalAdjacency(
+          topo_, initial, kAdjacencyRadiusInOffsets * (params_.offset + params_.repulsion_range) + longest, sources);
+    }
+  }
   reduced_key_.clear();
   reduced_offset_.clear();
   reduced_fixed_.clear();
@@ -632,8 +655,8 @@ void CollisionDetector::compute_exclusions(const Positions& initial) {
     // Neighbours on a mesh finer than ξ keep contact too, at their rest distance less the margin,
     // never raised: raising would stiffen the material (a stretched pair could not relax back),
     // excluding them let a held-back soft knot intersect itself unseen (issue #39).
-    const bool adjacent = adjacency.adjacent(va, vb);
     const bool close_to_offset = c.distance < params_.offset;
+    const bool adjacent = close_to_offset ? adjacency.adjacent(va, vb) : band_adjacency.adjacent(va, vb);
     if (!close_to_offset && !adjacent) continue;  // only in the repulsion band: an ordinary pair
     entries.emplace_back(c.key, static_cast<Index>(reduced_key_.size()));
     reduced_key_.push_back(c.key);
