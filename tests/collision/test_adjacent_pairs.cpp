@@ -98,7 +98,7 @@ TEST(AdjacentPairs, AFoldThroughANeighbourIsSeenAndItsOffsetNeverRises) {
   });
   ASSERT_NE(it, contacts.end()) << "the neighbour pair is detected";
   EXPECT_DOUBLE_EQ(it->offset, (1.0 - kInitialOffsetMargin) * d0);
-  EXPECT_TRUE(it->neighbours);  // no repulsion: their distance is the material's business
+  EXPECT_TRUE(it->neighbours);          // no repulsion: their distance is the material's business
   EXPECT_LT(it->distance, it->offset);  // inside its offset: the recount sees it
 }
 
