@@ -205,7 +205,10 @@ Index Simulation::carry_isolated_objects() {
   carry_capped_.assign(anchor_.size(), 0);
   for (size_t o = 0; o < no; ++o) {
     const auto& obj = topo.objects[o];
-    if (obj.kind == ObjectKind::rigid || obj.kind == ObjectKind::obstacle || obj.num_vertices() < 2) continue;
+    // Bodies only: a particle cloud or a strand set is many independent pieces, not one shape.
+    const bool body =
+        obj.kind == ObjectKind::tet_solid || obj.kind == ObjectKind::cloth || obj.kind == ObjectKind::shell;
+    if (!body || obj.num_vertices() < 2) continue;
     if (!box[o].valid()) continue;
     bool movable = true;
     for (Index v = obj.vertex_begin; v < obj.vertex_end && movable; ++v) movable = st.inv_mass[v] > 0.0;

@@ -152,7 +152,7 @@ class Simulation {
   double kinematic_targets(double t, Positions& target);
   void check_finite(const Positions& x, const char* stage) const;
   void collide_analytic(Positions& x, double t) const;
-  /// Carries every isolated deformable object's anchors along its best rigid motion toward the
+  /// Carries every isolated deformable body's (tet solid, cloth, shell) anchors along its best rigid motion toward the
   /// material solve (at most r per vertex), before the pass detects; returns the objects moved.
   /// Isolated: its anchor box is more than 4r + ξ + δ from every other object's, so nothing
   /// within 2r of it can meet another object this pass. A rigid motion keeps every pair of the
