@@ -52,9 +52,9 @@ std::vector<std::string> scene_advice(const Scene& scene) {
   if (shortest_object >= 0 && xi > kMaxOffsetOverEdge * shortest * (1.0 + 1e-9))
     out.push_back(fmt::format(
         "contact.offset (xi) = {:.4g} is {:.2f} times the shortest edge of object '{}' ({:.4g}); above {:.2f} the "
-        "pairs "
-        "that start within xi of their mesh neighbours are excluded and tight folds go unprotected. Use xi <= {:.4g} "
-        "or edges of at least {:.4g} (docs/choosing-parameters.md)",
+        "pairs that start within xi of their mesh neighbours keep 90% of their rest distance as offset, so the "
+        "surface resists compression and tight folds there, and the search range covers many neighbours (cost). "
+        "Use xi <= {:.4g} or edges of at least {:.4g} (docs/choosing-parameters.md)",
         xi, xi / shortest, topo.objects[shortest_object].name, shortest, kMaxOffsetOverEdge,
         kMaxOffsetOverEdge * shortest, xi / kMaxOffsetOverEdge));
 

@@ -252,6 +252,7 @@ struct DetectSink {
   std::vector<detail::ListedSubPair>* list = nullptr;
   double list_reach = 0.0, list_reach_sq = 0.0;
   Index within = 0, degenerate = 0, excluded = 0, reduced_contacts = 0;
+  const std::uint8_t* fixed = nullptr;  ///< per reduced slot: mesh neighbours (CollisionDetector::reduced_fixed_)
 
   /// Adds this sink's counters to a pass's statistics.
   void add_to(DetectionStats& stats) const {
@@ -287,11 +288,14 @@ struct DetectSink {
     }
     return dist;
   }
+  /// Whether the slot is a mesh neighbours' fixed offset (reduced_fixed_).
+  bool fixed_at(Index slot) const { return slot >= 0 && fixed && fixed[slot]; }
   void emit(ContactKind kind, const std::array<Index, 4>& v, const std::array<double, 4>& wts, const Vec3& pa,
-            const Vec3& pb, double dist, double offset) {
+            const Vec3& pb, double dist, double offset, bool neighbours) {
     // Built whole in place: a default-constructed record overwritten field by field cost a
     // second write of its 96 bytes.
-    contacts.push_back(ContactPair{kind, v, wts, (pa - pb) / dist, dist, offset});  // lines 9/25/40: n from B to A
+    contacts.push_back(
+        ContactPair{kind, v, wts, (pa - pb) / dist, dist, offset, neighbours});  // lines 9/25/40: n from B to A
     reduced_contacts += offset < xi;
   }
 
@@ -314,7 +318,7 @@ struct DetectSink {
                                w[v] > 0.0 || w[t[0]] > 0.0 || w[t[1]] > 0.0 || w[t[2]] > 0.0);
     if (dist < 0.0) return;
     emit(ContactKind::vf, {v, t[0], t[1], t[2]}, {1.0, -r.bary[0], -r.bary[1], -r.bary[2]}, p, r.closest, dist,
-         offset_at(slot));
+         offset_at(slot), fixed_at(slot));
   }
   void ee(Index e0, Index e1) {
     if (e0 > e1) std::swap(e0, e1);
@@ -335,7 +339,7 @@ struct DetectSink {
                                w[ea[0]] > 0.0 || w[ea[1]] > 0.0 || w[eb[0]] > 0.0 || w[eb[1]] > 0.0);
     if (dist < 0.0) return;
     emit(ContactKind::ee, {ea[0], ea[1], eb[0], eb[1]}, {1.0 - r.s, r.s, -(1.0 - r.t), -r.t}, r.pa, r.pb, dist,
-         offset_at(slot));
+         offset_at(slot), fixed_at(slot));
   }
   void ve(Index v, Index e) {
     const Vec3& p = x[v];
@@ -353,7 +357,8 @@ struct DetectSink {
     const double dist =
         accept(ContactKind::ve, v, e, slot, r.distance_sq, w[v] > 0.0 || w[s[0]] > 0.0 || w[s[1]] > 0.0);
     if (dist < 0.0) return;
-    emit(ContactKind::ve, {v, s[0], s[1], -1}, {1.0, -(1.0 - r.t), -r.t, 0.0}, p, r.closest, dist, offset_at(slot));
+    emit(ContactKind::ve, {v, s[0], s[1], -1}, {1.0, -(1.0 - r.t), -r.t, 0.0}, p, r.closest, dist, offset_at(slot),
+         fixed_at(slot));
   }
   void vv(Index v0, Index v1) {
     if (v0 > v1) std::swap(v0, v1);
@@ -367,7 +372,7 @@ struct DetectSink {
     const double dist =
         accept(ContactKind::vv, v0, v1, slot, point_point_distance_sq(p, q), w[v0] > 0.0 || w[v1] > 0.0);
     if (dist < 0.0) return;
-    emit(ContactKind::vv, {v0, v1, -1, -1}, {1.0, -1.0, 0.0, 0.0}, p, q, dist, offset_at(slot));
+    emit(ContactKind::vv, {v0, v1, -1, -1}, {1.0, -1.0, 0.0, 0.0}, p, q, dist, offset_at(slot), fixed_at(slot));
   }
 };
 
@@ -525,7 +530,8 @@ void CollisionDetector::compute_exclusions(const Positions& initial) {
   std::vector<std::vector<CloseSubPair>> close(static_cast<size_t>(chunks));
   std::vector<std::vector<std::uint64_t>> crossing(static_cast<size_t>(chunks));
   std::atomic<Index> intersecting{0};
-  const ClosestPoints cp{topo_, initial, params_.offset};
+  // Within ξ + δ: mesh neighbours inside the repulsion band at rest are flagged too (no repulsion).
+  const ClosestPoints cp{topo_, initial, params_.offset + params_.repulsion_range};
   parallel_chunks(n, chunks, [&](Index chunk, Index begin, Index end) {
     CloserThanOffsetSink close_sink{cp, close[chunk]};
     AllKeysSink all_sink{crossing[chunk]};
@@ -609,32 +615,65 @@ void CollisionDetector::compute_exclusions(const Positions& initial) {
         if (v >= 0) sources[v] = 1;
     adjacency = TopologicalAdjacency(topo_, initial, kAdjacencyRadiusInOffsets * params_.offset, sources);
   }
+  // Pairs only in the repulsion band (ξ <= d0 < ξ + δ) are mesh neighbours, exempt from repulsion,
+  // within 2 (ξ + δ) plus the longest edge along the mesh: on a surface whose edges are longer than
+  // 2ξ (the knot's 5 mm against ξ = 2 mm, δ = 1 mm) a face one ring away is already further than
+  // 2ξ along the edges, and repulsion pushed such pairs apart every substep (1 mm of distortion).
+  TopologicalAdjacency band_adjacency;
+  {
+    std::vector<std::uint8_t> sources(static_cast<size_t>(topo_.num_vertices()), 0);
+    bool any = false;
+    for (const CloseSubPair& c : close_all)
+      if (!(c.distance < params_.offset))
+        for (Index v : c.va)
+          if (v >= 0) sources[v] = 1, any = true;
+    if (any) {
+      double longest = 0.0;
+      for (Index e = 0; e < topo_.num_edges(); ++e) {
+        const ObjectKind k = topo_.objects[topo_.edge_object[e]].kind;
+        if (k == ObjectKind::obstacle || k == ObjectKind::rigid) continue;
+        longest = std::max(longest, (initial[topo_.edges[e][1]] - initial[topo_.edges[e][0]]).norm());
+      }
+      band_adjacency = TopologicalAdjacency(
+          topo_, initial, kAdjacencyRadiusInOffsets * (params_.offset + params_.repulsion_range) + longest, sources);
+    }
+  }
   reduced_key_.clear();
   reduced_offset_.clear();
+  reduced_fixed_.clear();
   auto on_obstacle = [&](std::span<const Index> vs) {
     for (Index v : vs)
       if (topo_.objects[topo_.vertex_object[v]].kind != ObjectKind::obstacle) return false;
     return true;
   };
+  Index band_neighbours = 0;
   for (const CloseSubPair& c : close_all) {
     if (crossing_key(c.key)) continue;
     const std::span<const Index> va(c.va.data(), c.va[1] >= 0 ? 2 : 1);
     const std::span<const Index> vb(c.vb.data(), c.vb[2] >= 0 ? 3 : (c.vb[1] >= 0 ? 2 : 1));
     if (on_obstacle(va) && on_obstacle(vb)) continue;  // scripted on both sides: never constrained
-    if (adjacency.adjacent(va, vb)) {
-      entries.emplace_back(c.key, detail::InitialPairTable::kExcluded);
-      ++proximity_.adjacent_excluded;
-      continue;
-    }
+    // Neighbours on a mesh finer than ξ keep contact too, at their rest distance less the margin,
+    // never raised: raising would stiffen the material (a stretched pair could not relax back),
+    // excluding them let a held-back soft knot intersect itself unseen (issue #39).
+    const bool close_to_offset = c.distance < params_.offset;
+    const bool adjacent = close_to_offset ? adjacency.adjacent(va, vb) : band_adjacency.adjacent(va, vb);
+    if (!close_to_offset && !adjacent) continue;  // only in the repulsion band: an ordinary pair
     entries.emplace_back(c.key, static_cast<Index>(reduced_key_.size()));
     reduced_key_.push_back(c.key);
-    reduced_offset_.push_back((1.0 - kInitialOffsetMargin) * c.distance);
+    // Neighbours between ξ and ξ + δ keep ξ and only lose the repulsion (ContactPair::neighbours).
+    reduced_offset_.push_back(close_to_offset ? (1.0 - kInitialOffsetMargin) * c.distance : params_.offset);
+    reduced_fixed_.push_back(adjacent ? 1 : 0);
+    if (adjacent && close_to_offset) ++proximity_.adjacent_kept;
+    if (!close_to_offset) ++band_neighbours;
   }
-  proximity_.reduced_offset = static_cast<Index>(reduced_key_.size());
-  proximity_.min_reduced_offset =
-      reduced_offset_.empty() ? 0.0 : *std::min_element(reduced_offset_.begin(), reduced_offset_.end());
-  active_.resize(reduced_key_.size());
-  for (size_t i = 0; i < active_.size(); ++i) active_[i] = static_cast<Index>(i);
+  proximity_.reduced_offset = static_cast<Index>(reduced_key_.size()) - proximity_.adjacent_kept - band_neighbours;
+  proximity_.min_reduced_offset = std::numeric_limits<double>::infinity();
+  for (size_t i = 0; i < reduced_offset_.size(); ++i)
+    if (!reduced_fixed_[i]) proximity_.min_reduced_offset = std::min(proximity_.min_reduced_offset, reduced_offset_[i]);
+  if (proximity_.reduced_offset == 0) proximity_.min_reduced_offset = 0.0;
+  active_.clear();
+  for (size_t i = 0; i < reduced_key_.size(); ++i)
+    if (!reduced_fixed_[i]) active_.push_back(static_cast<Index>(i));
   initial_.assign(std::move(entries));
 
   // Shortest edge of the deformable objects, for the warning on ξ against the mesh resolution.
@@ -651,9 +690,12 @@ void CollisionDetector::compute_exclusions(const Positions& initial) {
   const InitialProximity& ip = proximity_;
   spdlog::info(
       "collision: {} primitives; initial configuration: {} sub-pairs closer than the offset {} ({} adjacent, "
-      "excluded; {} kept with a reduced offset), {} intersecting primitive pairs ({} sub-pairs excluded)",
-      prims_.size(), close_all.size(), params_.offset, ip.adjacent_excluded, ip.reduced_offset, ip.intersecting_pairs,
-      ip.intersecting_excluded);
+      "kept with a fixed reduced offset; {} others kept with a rising reduced offset), {} intersecting primitive "
+      "pairs ({} sub-pairs excluded)",
+      prims_.size(),
+      std::count_if(close_all.begin(), close_all.end(),
+                    [&](const CloseSubPair& c) { return c.distance < params_.offset; }),
+      params_.offset, ip.adjacent_kept, ip.reduced_offset, ip.intersecting_pairs, ip.intersecting_excluded);
   if (ip.reduced_offset > 0)
     spdlog::warn(
         "collision: {} sub-pairs that are not neighbours on a mesh start closer than the offset {} (closest "
@@ -661,14 +703,14 @@ void CollisionDetector::compute_exclusions(const Positions& initial) {
         "separate",
         ip.reduced_offset, params_.offset, ip.min_reduced_offset / (1.0 - kInitialOffsetMargin),
         100.0 * kInitialOffsetMargin, params_.offset);
-  if (ip.adjacent_excluded > 0 && shortest_object >= 0)
+  if (ip.adjacent_kept > 0 && shortest_object >= 0)
     spdlog::warn(
         "collision: the offset {} is large against the mesh (shortest edge {:.4g} in object '{}'): {} sub-pairs "
-        "joined by a path of at most {:.4g} along the mesh start closer than the offset and are excluded for the "
-        "run, so folds tighter than that are not protected. Use edges of at least the offset (a coarser mesh) "
-        "or a smaller contact.offset",
-        params_.offset, ip.shortest_edge, topo_.objects[shortest_object].name, ip.adjacent_excluded,
-        kAdjacencyRadiusInOffsets * params_.offset);
+        "joined by a path of at most {:.4g} along the mesh start closer than the offset; they keep their rest "
+        "distance less {:.0f}% as offset for the run, so the surface resists being compressed more than that "
+        "there (docs/choosing-parameters.md, \"Meshes finer than xi\")",
+        params_.offset, ip.shortest_edge, topo_.objects[shortest_object].name, ip.adjacent_kept,
+        kAdjacencyRadiusInOffsets * params_.offset, 100.0 * kInitialOffsetMargin);
   if (ip.intersecting_pairs > 0)
     spdlog::warn(
         "collision: {} primitive pairs intersect in the initial configuration; their {} sub-pairs are excluded "
@@ -698,11 +740,19 @@ void CollisionDetector::restore_reduced_offsets(std::span<const double> offsets)
           fmt::format("collision state: reduced offset {} is {:.17g}, outside [{:.17g}, {:.17g}] (its initial "
                       "value and the offset)",
                       i, offsets[i], reduced_offset_[i], xi));
+  for (size_t i = 0; i < offsets.size(); ++i)
+    if (reduced_fixed_[i] && offsets[i] != reduced_offset_[i])
+      throw Error(
+          fmt::format("collision state: reduced offset {} belongs to an adjacent sub-pair and is fixed at "
+                      "{:.17g}, got {:.17g}",
+                      i, reduced_offset_[i], offsets[i]));
   reduced_offset_.assign(offsets.begin(), offsets.end());
-  // Exactly the slots raise_reduced_offsets() would have kept: those still below ξ, ascending.
+  // Exactly the slots raise_reduced_offsets() would have kept: those still below ξ, ascending,
+  // except the adjacent ones, which never rise.
   active_.clear();
-  for (size_t i = 0; i < reduced_offset_.size(); ++i)
-    if (reduced_offset_[i] < xi) active_.push_back(static_cast<Index>(i));
+  for (size_t i = 0; i < reduced_offset_.size(); ++i) {
+    if (reduced_offset_[i] < xi && !reduced_fixed_[i]) active_.push_back(static_cast<Index>(i));
+  }
 }
 
 /// Initial proximity: \f$\xi_p \leftarrow \min(\xi, \max(\xi_p, (1 - m)\,d))\f$ at the anchors,
@@ -799,6 +849,7 @@ void CollisionDetector::detect_from_list(const Positions& x, std::span<const dou
   parallel_chunks(chunks, chunks, [&](Index chunk, Index, Index) {
     DetectSink sink{
         topo_, x, inv_mass, initial_, reduced_offset_, params_.offset, reach, reach * reach, contact_buffers_[chunk]};
+    sink.fixed = reduced_fixed_.data();
     const auto& d = disp_;
     for (const detail::ListedSubPair& p : list_[chunk]) {
       const double listed = p.distance;
@@ -916,6 +967,7 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
     const double reach = 2.0 * params_.radius + params_.offset;
     DetectSink sink{
         topo_, x, inv_mass, initial_, reduced_offset_, params_.offset, reach, reach * reach, contact_buffers_[chunk]};
+    sink.fixed = reduced_fixed_.data();
     if (listing) {
       list_[chunk].clear();
       sink.list = &list_[chunk];

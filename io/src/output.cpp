@@ -378,6 +378,7 @@ void RunWriter::write_run_json(const std::string& status, bool finished) {
   j["vertices"] = topo_.num_vertices();
   if (const auto& ip = meta_.initial_proximity) {
     j["initial_proximity"] = {{"adjacent_excluded", ip->adjacent_excluded},
+                              {"adjacent_kept", ip->adjacent_kept},
                               {"reduced_offset_pairs", ip->reduced_offset},
                               {"min_reduced_offset", ip->min_reduced_offset},
                               {"intersecting_pairs", ip->intersecting_pairs},

@@ -220,6 +220,7 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
       [&](Index b, Index e) {
         for (Index ci = b; ci < e; ++ci) {
           const ContactPair& c = contacts_[ci];
+          if (c.neighbours) continue;  // a fine mesh's neighbours: their distance is the material's
           const double gap = contact_gap(c, x);
           const double vis = visibility_[ci];
           if (gap >= p.repulsion_range || vis <= 1e-12) continue;

@@ -471,23 +471,29 @@ INSTANTIATE_TEST_SUITE_P(Collision, NarrowPhaseScenes, ::testing::Values(0, 1, 2
 
 TEST(NarrowPhaseExclusions, SubPairsCloserThanOffsetInitially) {
   // Fine cloth: 2.5 mm edges, far below ξ = 10 mm (design clarification 5): every sub-pair closer
-  // than ξ lies within 2ξ along the sheet, so all are adjacent and excluded, with a warning.
+  // than ξ lies within 2ξ along the sheet, so all are adjacent: none is excluded (that hid
+  // self-intersections, issue #39), each keeps its rest distance less the margin as a fixed offset.
   test::ExpectWarnings expect;
   const test::TestScene s =
       test::SceneBuilder().mesh("cloth", ObjectKind::cloth, test::accordion_cloth(0.06, 24, 1, 0.011, 0.002)).finish();
   CollisionDetector det(s.topo, s.x, kParams, make_broad_phase("bvh"));
-  std::set<std::pair<int, std::pair<Index, Index>>> close;
+  std::map<std::pair<int, std::pair<Index, Index>>, double> close;
   for_each_sub_pair(s, s.x, [&](ContactKind kind, Index a, Index b, auto&&, auto&&, auto&&, auto&&, double dist_sq) {
-    if (dist_sq < kXi * kXi) close.insert({static_cast<int>(kind), {a, b}});
+    if (dist_sq < kXi * kXi) close[{static_cast<int>(kind), {a, b}}] = std::sqrt(dist_sq);
   });
+  ASSERT_FALSE(close.empty());
   EXPECT_EQ(det.num_initially_intersecting(), 0);
-  EXPECT_EQ(det.num_excluded(), static_cast<Index>(close.size()));
-  for (const auto& [kind, ab] : close)
-    EXPECT_TRUE(det.is_excluded(static_cast<ContactKind>(kind), ab.first, ab.second));
+  EXPECT_EQ(det.num_excluded(), 0);
+  EXPECT_EQ(det.initial_proximity().adjacent_kept, static_cast<Index>(close.size()));
+  for (const auto& [kab, d0] : close) {
+    const auto kind = static_cast<ContactKind>(kab.first);
+    EXPECT_FALSE(det.is_excluded(kind, kab.second.first, kab.second.second));
+    EXPECT_DOUBLE_EQ(det.pair_offset(kind, kab.second.first, kab.second.second), (1.0 - kInitialOffsetMargin) * d0);
+  }
 
   const Detection d = run(det, s.x, s.inv_mass);
-  EXPECT_GT(d.stats.excluded_initial, 0);
-  for (const auto& c : d.contacts) EXPECT_GE(c.distance, kXi) << "an initially close sub-pair was not excluded";
+  EXPECT_EQ(d.stats.excluded_initial, 0);
+  for (const auto& c : d.contacts) EXPECT_GE(c.distance, c.offset) << "the rest configuration is feasible";
   for (const HalfSpace& h : d.regions.planes) EXPECT_GE(h.d, 0.0);
 }
 

@@ -48,6 +48,10 @@ struct ContactPair {
   /// This sub-pair's minimum separation: ξ, or a reduced offset for a pair that started closer
   /// than ξ (CollisionDetector, "initial proximity"); the pair must stay at least this far apart.
   double offset = 0.0;
+  /// Mesh neighbours (closer than ξ at rest and topologically adjacent, offset fixed at 0.9 d₀):
+  /// they keep their half-spaces but get no repulsion or friction, which would push a fine mesh's
+  /// neighbours apart from their rest distance every substep.
+  bool neighbours = false;
   /// Vertices on side A (the first ones in v).
   int side_a() const { return kind == ContactKind::ee ? 2 : 1; }
   /// Vertices used in v.
@@ -169,7 +173,11 @@ struct ListedSubPair {
 
 /// What the initial configuration did to contact (counts of sub-pairs), for the log and run.json.
 struct InitialProximity {
-  Index adjacent_excluded = 0;      ///< closer than ξ and topologically adjacent: excluded for the run
+  /// Always 0 now: adjacent sub-pairs closer than ξ are kept (adjacent_kept); excluding them let a
+  /// held-back soft knot intersect itself 319 times with no violation counted.
+  Index adjacent_excluded = 0;
+  /// Closer than ξ at rest and topologically adjacent: kept with the fixed offset (1 − m) d₀.
+  Index adjacent_kept = 0;
   Index intersecting_pairs = 0;     ///< primitive pairs crossing each other (exact test)
   Index intersecting_excluded = 0;  ///< sub-pairs of those crossing pairs: excluded for the run
   Index reduced_offset = 0;         ///< closer than ξ, not adjacent: kept with a reduced offset
@@ -181,13 +189,14 @@ struct InitialProximity {
 /// Collision detection for one scene. Owns the primitive set, the broad phase and the exclusions
 /// computed from the initial configuration; `topo` must outlive the detector.
 ///
-/// Exclusions (design clarification 5, corrected; paper §4.1): sub-pairs whose primitives share a
-/// vertex are never tested; sub-pairs closer than ξ in the initial configuration that are
-/// topologically adjacent (a path of length ≤ kAdjacencyRadiusInOffsets · ξ along the mesh edges
-/// joins them), and every sub-pair of a primitive pair (triangle-triangle, triangle-segment) that
-/// crosses in the initial configuration (exact predicates), are excluded for the whole run. Other
-/// sub-pairs closer than ξ keep contact with a reduced offset (kInitialOffsetMargin). Triangles of
-/// one rigid or obstacle object do not collide with each other.
+/// Exclusions (design clarification 5, corrected twice; paper §4.1): sub-pairs whose primitives
+/// share a vertex are never tested, and neither is any sub-pair of a primitive pair
+/// (triangle-triangle, triangle-segment) that crosses in the initial configuration (exact
+/// predicates). Every other sub-pair closer than ξ there keeps contact with a reduced offset
+/// (1 − kInitialOffsetMargin) d₀: fixed for the run when it is topologically adjacent (a path of
+/// length ≤ kAdjacencyRadiusInOffsets · ξ along the mesh edges joins them: a fine mesh's
+/// neighbours), raised toward ξ as it separates otherwise. Triangles of one rigid or obstacle
+/// object do not collide with each other.
 class CollisionDetector {
  public:
   /// Builds the primitives and the broad phase at `initial` (#V) and records the exclusions
@@ -302,7 +311,8 @@ class CollisionDetector {
   /// Per slot: the sub-pair key and its current offset (never lowered, at most ξ).
   std::vector<std::uint64_t> reduced_key_;
   std::vector<double> reduced_offset_;
-  std::vector<Index> active_;  ///< slots whose offset is still below ξ, ascending
+  std::vector<std::uint8_t> reduced_fixed_;  ///< per slot: an adjacent pair, its offset never raised
+  std::vector<Index> active_;                ///< slots whose offset is still below ξ and may rise, ascending
   // Reused between passes to avoid reallocating millions of entries per outer iteration.
   std::vector<AABB> boxes_;
   std::vector<IndexPair> candidates_;

@@ -152,6 +152,13 @@ class Simulation {
   double kinematic_targets(double t, Positions& target);
   void check_finite(const Positions& x, const char* stage) const;
   void collide_analytic(Positions& x, double t) const;
+  /// Carries every isolated deformable body's (tet solid, cloth, shell) anchors along its best rigid motion toward the
+  /// material solve (at most r per vertex), before the pass detects; returns the objects moved.
+  /// Isolated: its anchor box is more than 4r + ξ + δ from every other object's, so nothing
+  /// within 2r of it can meet another object this pass. A rigid motion keeps every pair of the
+  /// object as far apart as it was, so the new anchors are as feasible as the old ones, and the
+  /// pass's regions, built there, no longer hold back a body in free flight by its own pairs.
+  Index carry_isolated_objects();
 
   Scene scene_;
   std::unique_ptr<ContactSolver> contact_;
@@ -167,6 +174,8 @@ class Simulation {
   /// violated pairs: the next pass's moving vertices), the vertices of the pairs its recount found
   /// violated, and the true inverse masses while a pass runs with every other vertex's set to 0.
   std::vector<std::uint8_t> held_marks_, violated_marks_;
+  /// Per vertex: its object was carried only part of its rigid motion this pass (at most r).
+  std::vector<std::uint8_t> carry_capped_;
   std::vector<double> inv_mass_saved_;
   bool warned_violation_ = false;
   std::vector<bool> warned_capped_;  ///< per object: the capped-speed warning was given
