@@ -31,6 +31,16 @@ NumericalError::NumericalError(int frame, Index vertex, std::string stage)
       vertex_(vertex),
       stage_(std::move(stage)) {}
 
+NumericalError::NumericalError(int frame, Index vertex, std::string stage, std::string object, Index object_vertex)
+    : Error("non-finite position at frame " + std::to_string(frame) + ", vertex " + std::to_string(vertex) +
+            " (object '" + object + "', vertex " + std::to_string(object_vertex) + " of the object), after stage '" +
+            stage + "'"),
+      frame_(frame),
+      vertex_(vertex),
+      stage_(std::move(stage)),
+      object_(std::move(object)),
+      object_vertex_(object_vertex) {}
+
 GuaranteeError::GuaranteeError(int frame, std::string message)
     : Error("frame " + std::to_string(frame) + ": " + message), frame_(frame) {}
 

@@ -207,7 +207,7 @@ class Builder {
       check_size(total, predict(o["shape"], kind), spath, name, kind);
       RawGeometry g;
       try {
-        g = make_geometry(o["shape"], kind, path);
+        g = make_geometry(o["shape"], kind, path, o["transform"]["scale"].as<double>());
       } catch (const std::invalid_argument& e) {
         ctx_.fail(spath, in_node(spath), e.what());
       }
@@ -513,7 +513,9 @@ class Builder {
     return mp;
   }
 
-  RawGeometry make_geometry(const YAML::Node& s, ObjectKind kind, const std::string& path) {
+  /// `scale`: the object's transform.scale, applied after this (place): tetgen's volume bound is
+  /// in the file's units, so shape.max_volume (m³) is divided by scale³ for it.
+  RawGeometry make_geometry(const YAML::Node& s, ObjectKind kind, const std::string& path, double scale = 1.0) {
     const std::string type = s["type"].as<std::string>();
     const std::string tpath = path + ".shape.type";
     auto require = [&](bool ok, const std::string& what) {
@@ -615,7 +617,8 @@ class Builder {
       if (file.is_relative()) file = base_ / file;
       if (!fs::exists(file) && ext != ".node" && ext != ".ele")
         ctx_.fail(ppath, in_node(ppath), "mesh file '" + file.string() + "' does not exist");
-      if (ext != ".obj") {
+      const bool surface_file = ext == ".obj" || ext == ".off";
+      if (!surface_file) {
         require(kind == ObjectKind::tet_solid, "a tet mesh (" + ext + ") makes a tet_solid object");
         TetMesh m;
         try {
@@ -629,7 +632,7 @@ class Builder {
       }
       ObjMesh m;
       try {
-        m = read_obj_mesh(file);
+        m = ext == ".off" ? read_off_mesh(file) : read_obj_mesh(file);
       } catch (const Error& e) {
         ctx_.fail(ppath, in_node(ppath), std::string("cannot read mesh: ") + e.what());
       }
@@ -640,8 +643,8 @@ class Builder {
                     {path + ".kind"});
         TetMesh t;
         try {
-          t = tetrahedralize(m.v, m.f, s["quality"].as<double>(), s["max_volume"].as<double>(),
-                             "mesh '" + file.string() + "'");
+          t = tetrahedralize(m.v, m.f, s["quality"].as<double>(),
+                             s["max_volume"].as<double>() / (scale * scale * scale), "mesh '" + file.string() + "'");
         } catch (const Error& e) {
           ctx_.fail(ppath, in_node(ppath), e.what());
         }

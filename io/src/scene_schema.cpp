@@ -102,18 +102,19 @@ NodePtr shape_schema() {
                         {"tooth_length", number(0.4, "tooth length below the spine (m)", pos)},
                         {"tooth_width", number(0.02, "tooth width along x (m)", pos)}})},
           // Mesh inputs (docs/interop.md).
-          {"mesh", map("a mesh file: Wavefront .obj (triangles; `l` lines for strands; a closed surface makes a "
-                       "tet_solid through the tetgen program), TetGen .node/.ele or Gmsh .msh (v2, v4 ASCII) tet "
-                       "meshes for tet_solid",
-                       {{"path", string(std::nullopt, "path, relative to the scene file")},
-                        {"quality", number(2.0,
-                                           "tet_solid from a surface .obj: tetgen's radius-edge ratio bound (-q); 0 "
-                                           "turns quality refinement off",
-                                           Range::up_to(100))},
-                        {"max_volume", number(0.0,
-                                              "tet_solid from a surface .obj: largest tet volume (m³, tetgen -a); "
-                                              "0 means no bound",
-                                              Range::up_to(kMaxLength))}})},
+          {"mesh",
+           map("a mesh file: Wavefront .obj (triangles; `l` lines for strands; a closed surface makes a "
+               "tet_solid through the tetgen program), TetGen .node/.ele or Gmsh .msh (v2, v4 ASCII) tet "
+               "meshes for tet_solid",
+               {{"path", string(std::nullopt, "path, relative to the scene file")},
+                {"quality", number(2.0,
+                                   "tet_solid from a surface .obj or .off: tetgen's radius-edge ratio bound (-q); 0 "
+                                   "turns quality refinement off",
+                                   Range::up_to(100))},
+                {"max_volume", number(0.0,
+                                      "tet_solid from a surface .obj or .off: largest tet volume (m³ of "
+                                      "the placed object, after transform.scale; tetgen -a); 0 means no bound",
+                                      Range::up_to(kMaxLength))}})},
       });
 }
 

@@ -16,7 +16,7 @@ namespace ccfr::io {
 namespace fs = std::filesystem;
 
 const std::vector<std::string>& mesh_extensions() {
-  static const std::vector<std::string> e{".obj", ".node", ".ele", ".msh"};
+  static const std::vector<std::string> e{".obj", ".off", ".node", ".ele", ".msh"};
   return e;
 }
 

@@ -155,7 +155,11 @@ void Simulation::check_finite(const Positions& x, const char* stage) const {
           }
       },
       4096);
-  if (first.load() != std::numeric_limits<Index>::max()) throw NumericalError(frame_ + 1, first.load(), stage);
+  const Index v = first.load();
+  if (v == std::numeric_limits<Index>::max()) return;
+  // The last line of defence: the stage, the object and the vertex, global and within its object.
+  const auto& o = scene_.topo.object_of_vertex(v);
+  throw NumericalError(frame_ + 1, v, stage, o.name, v - o.vertex_begin);
 }
 
 void Simulation::collide_analytic(Positions& x, double t) const {

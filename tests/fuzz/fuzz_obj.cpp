@@ -1,5 +1,6 @@
 // libFuzzer target: OBJ bytes -> ccfr::io::read_frame_obj and read_obj_mesh (frames read back by
-// `ccfr audit` / `render`, meshes imported by scenes). The readers take a path, so each input is
+// `ccfr audit` / `render`, meshes imported by scenes), and the same bytes as an OFF mesh
+// (read_off_mesh; the corpus holds OFF seeds too). The readers take a path, so each input is
 // written to one temporary file per process. A frame that reads without error must be
 // self-consistent: every index in range, every object's ranges inside the global arrays.
 #include <unistd.h>
@@ -69,5 +70,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (ccfr::fuzz::expect_ccfr_error("read_frame_obj", [&] { fr = ccfr::io::read_frame_obj(input_file()); }))
     check_frame(fr);
   ccfr::fuzz::expect_ccfr_error("read_obj_mesh", [&] { (void)ccfr::io::read_obj_mesh(input_file()); });
+  ccfr::io::ObjMesh off;
+  if (ccfr::fuzz::expect_ccfr_error("read_off_mesh", [&] { off = ccfr::io::read_off_mesh(input_file()); })) {
+    const auto nv = static_cast<ccfr::Index>(off.v.size());
+    for (const auto& f : off.f)
+      for (int k = 0; k < 3; ++k)
+        if (f[k] < 0 || f[k] >= nv) ccfr::fuzz::finding("read_off_mesh", "a mesh", "face index out of range");
+    if (off.face_lines.size() != off.f.size()) ccfr::fuzz::finding("read_off_mesh", "a mesh", "face lines");
+  }
   return 0;
 }

@@ -247,7 +247,8 @@ TEST(BadInput, UnsupportedMeshFormatsNameTheExtension) {
     const auto e = config_error(shape("{type: mesh, path: m." + ext + "}"), {}, mesh_dir());
     EXPECT_EQ(e.key_path(), "objects[0].shape.path");
     EXPECT_EQ(e.line(), 10);
-    EXPECT_TRUE(has(e, "unsupported mesh format '." + ext + "' (supported: .obj, .node, .ele, .msh)")) << e.what();
+    EXPECT_TRUE(has(e, "unsupported mesh format '." + ext + "' (supported: .obj, .off, .node, .ele, .msh)"))
+        << e.what();
   }
   std::ofstream(mesh_dir() / "ok.OBJ") << "v 0 0 0\nv 1 0 0\nv 0 0 1\nf 1 2 3\n";
   EXPECT_NO_THROW(io::load_scene_text(shape("{type: mesh, path: ok.OBJ}"), "scene.yaml", mesh_dir()));

@@ -209,8 +209,8 @@ TEST(TetMesh, ScenesLoadTetFilesAndRefuseOtherFormats) {
     return std::string("(no error)");
   };
   const std::string gltf = err(scene("shell", "{type: mesh, path: body.gltf}"));
-  EXPECT_NE(gltf.find("s.yaml:6: 'objects[0].shape.path': unsupported mesh format '.gltf' (supported: .obj, .node, "
-                      ".ele, .msh)"),
+  EXPECT_NE(gltf.find("s.yaml:6: 'objects[0].shape.path': unsupported mesh format '.gltf' (supported: .obj, .off, "
+                      ".node, .ele, .msh)"),
             std::string::npos)
       << gltf;
   EXPECT_NE(err(scene("cloth", "{type: mesh, path: box.msh}")).find("a tet mesh (.msh) makes a tet_solid object"),

@@ -113,6 +113,11 @@ ExactProjection dual_active_set(const Vec3& q, std::span<const HalfSpace> planes
       if (sk < worst) worst = sk, p = k;
     }
     if (p < 0) {
+      // A NaN slack fails every `<` above: only a finite point is certified feasible.
+      if (!x.allFinite()) {
+        out.active = -2;
+        return out;
+      }
       out.p = x;
       out.found = true;
       out.active = na;
@@ -147,6 +152,13 @@ ExactProjection dual_active_set(const Vec3& q, std::span<const HalfSpace> planes
       }
       const double t2 = primal ? -slack(p) / zz : std::numeric_limits<double>::infinity();
       const double t = std::min(t1, t2);
+      // A primal step beyond the emptiness radius comes from a nearly singular active set (z ~ 0):
+      // rounding then decides its direction, and repeated steps grew x to infinity (a strand vertex
+      // squeezed between a moving comb tooth and its neighbours). No verdict: the caller goes on.
+      if (primal && t == t2 && !(t2 * std::sqrt(zz) <= farkas_radius)) {
+        out.active = -2;
+        return out;
+      }
       if (primal) x += t * z;
       for (int i = 0; i < na; ++i) u[i] -= t * r[i];
       up += t;

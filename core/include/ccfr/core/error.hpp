@@ -30,18 +30,24 @@ class ConfigError : public Error {
   int line_;
 };
 
-/// The simulation produced a non-finite value; names where it was first seen.
+/// The simulation produced a non-finite value; names where it was first seen: frame, stage,
+/// vertex (global index) and, when known, its object and index within that object.
 class NumericalError : public Error {
  public:
   NumericalError(int frame, Index vertex, std::string stage);
+  NumericalError(int frame, Index vertex, std::string stage, std::string object, Index object_vertex);
   int frame() const { return frame_; }
   Index vertex() const { return vertex_; }
   const std::string& stage() const { return stage_; }
+  const std::string& object() const { return object_; }   ///< empty when not known
+  Index object_vertex() const { return object_vertex_; }  ///< -1 when not known
 
  private:
   int frame_;
   Index vertex_;
   std::string stage_;
+  std::string object_;
+  Index object_vertex_ = -1;
 };
 
 /// The run cannot keep its promise: a substep ended with pairs closer than their offset under a

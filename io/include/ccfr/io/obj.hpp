@@ -51,6 +51,13 @@ struct ObjMesh {
   std::vector<int> face_lines;  ///< #F: source line of each face, for messages
 };
 ObjMesh read_obj_mesh(const std::filesystem::path& path);
+/// A triangle mesh imported from a Geomview OFF file (the format of CGAL's, Princeton's and many
+/// scanned-mesh collections): the header `OFF` (or `COFF`, `NOFF`, `STOFF`, ...; extra per-vertex
+/// values are ignored), the counts `#V #F #E` (on the header's line or the next), #V vertex lines
+/// and #F faces `n i0 ... i(n-1) [colour]` with 0-based indices, fan-triangulated; `#` comments
+/// anywhere. Throws ccfr::Error naming the file and line on malformed input, non-finite
+/// coordinates, counts the file cannot hold, 4-D/n-D or binary OFF, and data after the last face.
+ObjMesh read_off_mesh(const std::filesystem::path& path);
 
 /// Writes `content` to `path` atomically (temporary file, then rename).
 void write_file_atomic(const std::filesystem::path& path, const std::string& content);

@@ -15,7 +15,7 @@ struct TetMesh {
   std::vector<Vec4i> t;  ///< positively oriented (tets read inverted are flipped)
 };
 
-/// Mesh file extensions ccfr reads, lower case with the dot: .obj, .node, .ele, .msh.
+/// Mesh file extensions ccfr reads, lower case with the dot: .obj, .off, .node, .ele, .msh.
 const std::vector<std::string>& mesh_extensions();
 
 /// TetGen's pair `stem.node` + `stem.ele`; `path` is either. Indices may start at 0 or 1 (as the
