@@ -79,7 +79,8 @@ Counts as_kind(Counts c, ObjectKind kind) {
 // base); the base is the process itself (16-17 MB for a 379-vertex scene). Checked against the peak
 // RSS of eleven scenes of every kind (docs/performance.md, "Memory estimate"): 1.1-2x above it,
 // except self-contact that develops during a run (the twisting cloth wrapping into a rope), which
-// the geometry as loaded cannot tell.
+// the geometry as loaded cannot tell, and contact between rigid bodies, charged to neither side
+// (configs/scanned/rigid_pile.yaml: 2.2x the estimate by frame 30; a contact-area term is to do).
 constexpr double kBaseBytes = 26e6;
 constexpr double kBytesPerVertex = 4096;          ///< 2048 before the check below (codimensional.yaml: 0.89x)
 constexpr double kBytesPerCrowdedVertex = 16384;  ///< times ((ξ + r + δ) / mean edge length)²
