@@ -85,8 +85,7 @@ ObjMesh read_off_mesh(const fs::path& path) {
     if (prefix.find('4') != std::string::npos || prefix.find('n') != std::string::npos)
       fail(path, t.line(), "'" + head + "': only 3-D vertices are supported (no 4OFF or nOFF)");
     for (char c : prefix)
-      if (c != 'S' && c != 'T' && c != 'C' && c != 'N')
-        fail(path, t.line(), "unknown OFF header '" + head + "'");
+      if (c != 'S' && c != 'T' && c != 'C' && c != 'N') fail(path, t.line(), "unknown OFF header '" + head + "'");
     if (tok.size() > 1 && tok[1] == "BINARY") fail(path, t.line(), "binary OFF is not supported (write it as text)");
     at = 1;
   }
@@ -121,8 +120,8 @@ ObjMesh read_off_mesh(const fs::path& path) {
     const long n = parse_count(tok[0], t, "face vertex");
     if (n < 3) fail(path, t.line(), "face needs at least 3 vertices");
     if (tok.size() < static_cast<size_t>(n) + 1)
-      fail(path, t.line(), "face declares " + std::to_string(n) + " vertices but lists " +
-                               std::to_string(tok.size() - 1));
+      fail(path, t.line(),
+           "face declares " + std::to_string(n) + " vertices but lists " + std::to_string(tok.size() - 1));
     std::vector<Index> poly(static_cast<size_t>(n));
     for (long k = 0; k < n; ++k) {
       const std::string& s = tok[static_cast<size_t>(k) + 1];

@@ -89,7 +89,8 @@ TEST(Off, CubeQuadsGiveTheSameTrianglesAsObjAndItsVolume) {
   std::string obj;
   for (const auto& p : m.v)
     obj += "v " + std::to_string(p.x()) + " " + std::to_string(p.y()) + " " + std::to_string(p.z()) + "\n";
-  for (const char* q : {"1 4 3 2", "5 6 7 8", "1 2 6 5", "2 3 7 6", "3 4 8 7", "4 1 5 8"}) obj += std::string("f ") + q + "\n";
+  for (const char* q : {"1 4 3 2", "5 6 7 8", "1 2 6 5", "2 3 7 6", "3 4 8 7", "4 1 5 8"})
+    obj += std::string("f ") + q + "\n";
   const auto o = io::read_obj_mesh(write(d, "cube.obj", obj));
   ASSERT_EQ(o.f.size(), m.f.size());
   for (size_t i = 0; i < m.f.size(); ++i) EXPECT_EQ(o.f[i], m.f[i]) << "triangle " << i;
@@ -106,7 +107,8 @@ TEST(Off, HeaderVariantsColoursNormalsAndCountsOnTheHeaderLine) {
   EXPECT_EQ(a.f[0], Vec3i(0, 1, 2));
   EXPECT_EQ(a.v[1], Vec3(1, 0, 0));
   // COFF and NOFF carry colours and normals after the coordinates: ignored.
-  const auto c = io::read_off_mesh(write(d, "c.off", "COFF\n3 1 3\n0 0 0 1 0 0 1\n2 0 0 1 0 0 1\n0 3 0 1 0 0 1\n3 0 1 2\n"));
+  const auto c =
+      io::read_off_mesh(write(d, "c.off", "COFF\n3 1 3\n0 0 0 1 0 0 1\n2 0 0 1 0 0 1\n0 3 0 1 0 0 1\n3 0 1 2\n"));
   EXPECT_EQ(c.v[2], Vec3(0, 3, 0));
   const auto n = io::read_off_mesh(write(d, "n.off", "NOFF\n3 1 0\n0 0 1 0 0 1\n1 0 1 0 0 1\n0 1 1 0 0 1\n3 0 1 2\n"));
   EXPECT_EQ(n.v[0], Vec3(0, 0, 1));
@@ -114,8 +116,8 @@ TEST(Off, HeaderVariantsColoursNormalsAndCountsOnTheHeaderLine) {
   const auto h = io::read_off_mesh(write(d, "h.off", "3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 2 1 0\n"));
   EXPECT_EQ(h.f[0], Vec3i(2, 1, 0));
   // A pentagon becomes a fan of three triangles from its first vertex.
-  const auto p = io::read_off_mesh(
-      write(d, "p.off", "OFF\n5 1 0\n1 0 0\n0.309 0.951 0\n-0.809 0.588 0\n-0.809 -0.588 0\n0.309 -0.951 0\n5 0 1 2 3 4\n"));
+  const auto p = io::read_off_mesh(write(
+      d, "p.off", "OFF\n5 1 0\n1 0 0\n0.309 0.951 0\n-0.809 0.588 0\n-0.809 -0.588 0\n0.309 -0.951 0\n5 0 1 2 3 4\n"));
   ASSERT_EQ(p.f.size(), 3u);
   EXPECT_EQ(p.f[1], Vec3i(0, 2, 3));
 }
