@@ -67,10 +67,10 @@ void register_run(CLI::App& app) {
       if (!opts->resume.empty()) {
         // The checkpoint carries the configuration: anything that would change it is refused.
         if (!opts->config.empty() || !opts->out.empty() || opts->frames >= 0 || !opts->solver.empty() ||
-            !opts->overrides.empty() || opts->force)
+            opts->max_memory >= 0 || !opts->overrides.empty() || opts->force)
           throw Error(
               "--resume continues a run exactly as it was configured: give it alone (with --threads or "
-              "--log-level), without a scene file, --out, --frames, --solver, --set or --force");
+              "--log-level), without a scene file, --out, --frames, --solver, --max-memory, --set or --force");
       } else if (opts->config.empty()) {
         throw Error("a scene file is required (or --resume DIR)");
       }

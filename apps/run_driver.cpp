@@ -91,6 +91,10 @@ void add_run_options(CLI::App* cmd, RunOptions& opts) {
   cmd->add_option("--solver", opts.solver, "Contact solver (overrides contact.solver)");
   cmd->add_option("--set", opts.overrides,
                   "Override a scene key: key.path=value (repeatable), e.g. --set contact.radius=0.01");
+  cmd->add_option("--max-memory", opts.max_memory,
+                  "Largest estimated memory (GB) the scene may need to load (overrides max_memory; default: what "
+                  "the machine has available). Raise it knowingly: a scene above the machine's memory is OOM-killed")
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--threads", opts.threads, "Worker threads (default: all cores)")->check(CLI::NonNegativeNumber);
 }
 
@@ -123,6 +127,7 @@ RunSummary run_scene(const RunOptions& opts) {
   std::vector<std::string> overrides = resume ? resume->ckpt.overrides : opts.overrides;
   if (!resume && opts.frames >= 0) overrides.push_back("time.frames=" + std::to_string(opts.frames));
   if (!resume && !opts.solver.empty()) overrides.push_back("contact.solver=" + opts.solver);
+  if (!resume && opts.max_memory >= 0) overrides.push_back("max_memory=" + std::to_string(opts.max_memory));
   set_thread_count(opts.threads);
 
   const std::filesystem::path config = resume ? resume->ckpt.scene_file : opts.config;

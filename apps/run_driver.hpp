@@ -15,6 +15,7 @@ struct RunOptions {
   std::filesystem::path out;             ///< empty: no output directory (bench)
   int frames = -1;                       ///< -1: from the scene
   std::string solver;                    ///< empty: from the scene
+  double max_memory = -1;                ///< --max-memory GB (overrides max_memory); < 0: from the scene
   std::vector<std::string> overrides;    ///< --set key.path=value
   int threads = 0;                       ///< 0: all hardware threads
   bool progress = true;                  ///< per-frame progress with ETA (progress.hpp) unless --quiet

@@ -16,6 +16,9 @@ void BroadPhase::check_fixed_count(size_t num_boxes) const {
   if (!fixed_.empty() && fixed_.size() != num_boxes)
     throw Error(std::string(name()) + " broad phase: " + std::to_string(fixed_.size()) + " fixed flags for " +
                 std::to_string(num_boxes) + " boxes");
+  if (!groups_.empty() && groups_.size() != num_boxes)
+    throw Error(std::string(name()) + " broad phase: " + std::to_string(groups_.size()) + " group ids for " +
+                std::to_string(num_boxes) + " boxes");
 }
 
 void BruteForceBroadPhase::build(std::span<const AABB> boxes) {
@@ -38,7 +41,7 @@ void BruteForceBroadPhase::query_pairs(std::vector<IndexPair>& out) {
   parallel_chunks(n, chunks, [&](Index c, Index begin, Index end) {
     for (Index i = begin; i < end; ++i)
       for (Index j = i + 1; j < n; ++j)
-        if (boxes_[i].overlaps(boxes_[j]) && !both_fixed(i, j)) parts[c].emplace_back(i, j);
+        if (!excluded(i, j) && boxes_[i].overlaps(boxes_[j])) parts[c].emplace_back(i, j);
   });
   for (const auto& p : parts) out.insert(out.end(), p.begin(), p.end());
 }
@@ -58,7 +61,7 @@ void BvhBroadPhase::update(std::span<const AABB> boxes) {
 void BvhBroadPhase::query_pairs(std::vector<IndexPair>& out) {
   out.clear();
   check_fixed_count(static_cast<size_t>(bvh_.size()));
-  bvh_.self_pairs(out, fixed_);
+  bvh_.self_pairs(out, fixed_, groups_);
 }
 
 // Measured on a 16k-vertex crumpled cloth (docs/perf/collision.md): the flat BVH refit + parallel

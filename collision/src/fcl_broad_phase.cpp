@@ -46,13 +46,42 @@ bool collect_pair(fcl::CollisionObjectd* o1, fcl::CollisionObjectd* o2, void* da
   return false;  // never stop early: we want every pair
 }
 
+using Manager = fcl::DynamicAABBTreeCollisionManagerd;
+
 }  // namespace
 
 struct FclBroadPhase::Impl {
   std::shared_ptr<fcl::CollisionGeometryd> dummy = std::make_shared<fcl::Sphered>(0.0);
   std::vector<std::unique_ptr<BoxObject>> objects;
   std::vector<AABB> boxes;
-  std::unique_ptr<fcl::DynamicAABBTreeCollisionManagerd> manager;
+  /// managers[0]: the objects of no group, self-collided; then one tree per nonzero group, only
+  /// collided against the other trees, so no pair inside a group is ever enumerated.
+  std::vector<std::unique_ptr<Manager>> managers;
+  std::uint64_t groups_version = 0;  ///< the set_groups() call the partition was made for
+  bool stale = false;                ///< partitioned without the groups (they did not fit the boxes)
+  bool built = false;
+
+  void partition(std::span<const std::uint32_t> groups) {
+    managers.clear();
+    std::vector<std::vector<fcl::CollisionObjectd*>> members(1);
+    std::vector<std::pair<std::uint32_t, Index>> keyed;  // (group, object) of grouped objects
+    for (size_t i = 0; i < objects.size(); ++i) {
+      if (groups.empty() || groups[i] == 0)
+        members[0].push_back(objects[i].get());
+      else
+        keyed.emplace_back(groups[i], static_cast<Index>(i));
+    }
+    std::sort(keyed.begin(), keyed.end());
+    for (size_t k = 0; k < keyed.size(); ++k) {
+      if (k == 0 || keyed[k].first != keyed[k - 1].first) members.emplace_back();
+      members.back().push_back(objects[static_cast<size_t>(keyed[k].second)].get());
+    }
+    for (auto& m : members) {
+      managers.push_back(std::make_unique<Manager>());
+      managers.back()->registerObjects(m);
+      managers.back()->setup();
+    }
+  }
 };
 
 FclBroadPhase::FclBroadPhase() : impl_(std::make_unique<Impl>()) {}
@@ -62,39 +91,46 @@ void FclBroadPhase::build(std::span<const AABB> boxes) {
   check_finite_boxes(boxes, name());
   Impl& m = *impl_;
   m.boxes.assign(boxes.begin(), boxes.end());
-  m.manager = std::make_unique<fcl::DynamicAABBTreeCollisionManagerd>();
   m.objects.clear();
   m.objects.reserve(boxes.size());
-  std::vector<fcl::CollisionObjectd*> raw;
-  raw.reserve(boxes.size());
   for (size_t i = 0; i < boxes.size(); ++i) {
     m.objects.push_back(std::make_unique<BoxObject>(m.dummy, static_cast<Index>(i)));
     m.objects.back()->set_box(boxes[i]);
-    raw.push_back(m.objects.back().get());
   }
-  m.manager->registerObjects(raw);
-  m.manager->setup();
+  m.built = true;
+  // Partitioned by the current groups if they fit the boxes; else query_pairs() rejects them.
+  const bool fits = groups_.empty() || groups_.size() == boxes.size();
+  m.partition(fits ? std::span<const std::uint32_t>(groups_) : std::span<const std::uint32_t>{});
+  m.groups_version = groups_version_;
+  m.stale = !fits;
 }
 
 void FclBroadPhase::update(std::span<const AABB> boxes) {
   Impl& m = *impl_;
-  if (!m.manager || boxes.size() != m.objects.size())
+  if (!m.built || boxes.size() != m.objects.size())
     throw Error("fcl broad phase: update() with a different box count than build()");
   check_finite_boxes(boxes, name());
   m.boxes.assign(boxes.begin(), boxes.end());
   for (size_t i = 0; i < boxes.size(); ++i) m.objects[i]->set_box(boxes[i]);
   // The no-argument update copies every object's box into its leaf and refits the tree once;
   // update(objects) re-inserts leaf by leaf, ~10x slower and keeping stale, larger boxes.
-  m.manager->update();
+  for (auto& tree : m.managers) tree->update();
 }
 
 void FclBroadPhase::query_pairs(std::vector<IndexPair>& out) {
   out.clear();
   Impl& m = *impl_;
-  if (!m.manager) return;
+  if (!m.built) return;
   check_fixed_count(m.boxes.size());
+  if (m.stale || m.groups_version != groups_version_) {
+    m.partition(groups_);
+    m.groups_version = groups_version_;
+    m.stale = false;
+  }
   CollideData data{&m.boxes, &fixed_, &out};
-  m.manager->collide(&data, collect_pair);
+  m.managers[0]->collide(&data, collect_pair);
+  for (size_t i = 0; i < m.managers.size(); ++i)
+    for (size_t j = i + 1; j < m.managers.size(); ++j) m.managers[i]->collide(m.managers[j].get(), &data, collect_pair);
   // FCL's traversal order follows its tree, whose rebalancing depends on every earlier update: in
   // pair order, a run resumed from a checkpoint (a fresh tree) gives the same contacts as one that
   // never stopped.

@@ -493,6 +493,14 @@ CollisionDetector::CollisionDetector(const Topology& topo, const Positions& init
   compute_primitive_boxes(prims_, topo_, initial,
                           box_inflation(params_.radius, params_.offset, params_.repulsion_range), boxes_);
   broad_->build(boxes_);
+  // The triangles of one rigid body or one obstacle move as a whole and never meet (face_no_self):
+  // one group per such object, so the broad phase never enumerates its internal pairs.
+  std::vector<std::uint32_t> groups(static_cast<size_t>(prims_.size()), 0);
+  for (Index f = 0; f < prims_.num_triangles; ++f)
+    if (prims_.face_no_self[f]) groups[f] = static_cast<std::uint32_t>(topo_.face_object[f]) + 1;
+  // Without any group the broad phase skips the per-pass group bookkeeping altogether.
+  const bool grouped = std::any_of(groups.begin(), groups.end(), [](std::uint32_t g) { return g != 0; });
+  broad_->set_groups(grouped ? std::span<const std::uint32_t>(groups) : std::span<const std::uint32_t>{});
   compute_exclusions(initial);
 }
 

@@ -120,22 +120,29 @@ void Bvh::refit(std::span<const AABB> boxes) {
   gather(boxes);
 }
 
-void Bvh::leaf_pairs(Index leaf, const std::uint8_t* fixed_sorted, const std::uint8_t* live,
-                     std::vector<std::pair<Index, Index>>& out) const {
+void Bvh::leaf_pairs(Index leaf, const PairFilter& f, std::vector<std::pair<Index, Index>>& out) const {
   const Node& L = nodes_[leaf];
   const Index lend = L.first + L.count;
   auto emit = [&](Index i, Index j) {
     const Index a = order_[i], b = order_[j];
     out.emplace_back(std::min(a, b), std::max(a, b));
   };
-  auto both_fixed = [&](Index i, Index j) { return fixed_sorted && fixed_sorted[i] && fixed_sorted[j]; };
-  // A leaf of flagged boxes only looks at subtrees that hold an unflagged one.
-  const bool leaf_live = !live || live[leaf];
+  auto excluded = [&](Index i, Index j) {
+    return (f.fixed_sorted && f.fixed_sorted[i] && f.fixed_sorted[j]) ||
+           (f.group_sorted && f.group_sorted[i] != 0 && f.group_sorted[i] == f.group_sorted[j]);
+  };
+  // A leaf of flagged boxes only looks at subtrees that hold an unflagged one; a leaf of one group
+  // skips the subtrees of that same group.
+  const bool leaf_live = !f.live || f.live[leaf];
+  const std::uint32_t leaf_group = f.node_group ? f.node_group[leaf] : 0;
+  auto skipped = [&](Index id) {
+    return (!leaf_live && !f.live[id]) || (leaf_group != 0 && f.node_group[id] == leaf_group);
+  };
   // Pairs inside the leaf.
-  if (leaf_live)
+  if (leaf_live && leaf_group == 0)
     for (Index i = L.first; i < lend; ++i)
       for (Index j = i + 1; j < lend; ++j)
-        if (sorted_[i].overlaps(sorted_[j]) && !both_fixed(i, j)) emit(i, j);
+        if (sorted_[i].overlaps(sorted_[j]) && !excluded(i, j)) emit(i, j);
   // Pairs with leaves after this one in depth-first order: each leaf pair is found exactly once.
   // Those nodes are exactly the ones after the leaf in the array, so a forward scan that jumps over
   // a non-overlapping subtree visits them in the same order as a descent from the root, without
@@ -143,7 +150,7 @@ void Bvh::leaf_pairs(Index leaf, const std::uint8_t* fixed_sorted, const std::ui
   const Index num_nodes = static_cast<Index>(nodes_.size());
   for (Index id = leaf + 1; id < num_nodes;) {
     const Node& n = nodes_[id];
-    if (!n.box.overlaps(L.box) || (!leaf_live && !live[id])) {
+    if (skipped(id) || !n.box.overlaps(L.box)) {
       id = n.skip;
       continue;
     }
@@ -153,29 +160,35 @@ void Bvh::leaf_pairs(Index leaf, const std::uint8_t* fixed_sorted, const std::ui
       const AABB& bi = sorted_[i];
       if (!bi.overlaps(n.box)) continue;
       for (Index j = n.first; j < n.first + n.count; ++j)
-        if (bi.overlaps(sorted_[j]) && !both_fixed(i, j)) emit(i, j);
+        if (bi.overlaps(sorted_[j]) && !excluded(i, j)) emit(i, j);
     }
   }
 }
 
-void Bvh::self_pairs(std::vector<std::pair<Index, Index>>& out) const { self_pairs(out, {}); }
+void Bvh::self_pairs(std::vector<std::pair<Index, Index>>& out) const { self_pairs(out, {}, {}); }
 
-void Bvh::self_pairs(std::vector<std::pair<Index, Index>>& out, std::span<const std::uint8_t> fixed) const {
+void Bvh::self_pairs(std::vector<std::pair<Index, Index>>& out, std::span<const std::uint8_t> fixed,
+                     std::span<const std::uint32_t> groups) const {
   out.clear();
-  const Index num_leaves = static_cast<Index>(leaves_.size());
-  if (num_leaves == 0) return;
   if (!fixed.empty() && static_cast<Index>(fixed.size()) != num_boxes_)
     throw Error("Bvh::self_pairs: " + std::to_string(fixed.size()) + " fixed flags, the tree holds " +
                 std::to_string(num_boxes_) + " boxes");
+  if (!groups.empty() && static_cast<Index>(groups.size()) != num_boxes_)
+    throw Error("Bvh::self_pairs: " + std::to_string(groups.size()) + " group ids, the tree holds " +
+                std::to_string(num_boxes_) + " boxes");
+  const Index num_leaves = static_cast<Index>(leaves_.size());
+  if (num_leaves == 0) return;
+  const Index num_nodes = static_cast<Index>(nodes_.size());
+  PairFilter filter;
   // Kept between calls: fresh blocks of this size every pass were faulted in again each time.
-  std::vector<std::uint8_t>& fixed_sorted = scratch_fixed_;
-  std::vector<std::uint8_t>& live = scratch_live_;
+  // Children follow their parent in depth-first order, so the reverse sweeps below are bottom-up.
   if (!fixed.empty()) {
+    std::vector<std::uint8_t>& fixed_sorted = scratch_fixed_;
+    std::vector<std::uint8_t>& live = scratch_live_;
     fixed_sorted.resize(order_.size());
     for (size_t k = 0; k < order_.size(); ++k) fixed_sorted[k] = fixed[order_[k]] != 0;
-    // Children follow their parent in depth-first order, so a reverse sweep is bottom-up.
     live.resize(nodes_.size());
-    for (Index n = static_cast<Index>(nodes_.size()) - 1; n >= 0; --n) {
+    for (Index n = num_nodes - 1; n >= 0; --n) {
       const Node& node = nodes_[n];
       if (node.right < 0) {
         std::uint8_t any = 0;
@@ -185,9 +198,30 @@ void Bvh::self_pairs(std::vector<std::pair<Index, Index>>& out, std::span<const 
         live[n] = live[n + 1] | live[node.right];
       }
     }
+    filter.fixed_sorted = fixed_sorted.data();
+    filter.live = live.data();
   }
-  const std::uint8_t* fs = fixed.empty() ? nullptr : fixed_sorted.data();
-  const std::uint8_t* lv = fixed.empty() ? nullptr : live.data();
+  if (!groups.empty()) {
+    std::vector<std::uint32_t>& group_sorted = scratch_group_;
+    std::vector<std::uint32_t>& node_group = scratch_node_group_;
+    group_sorted.resize(order_.size());
+    for (size_t k = 0; k < order_.size(); ++k) group_sorted[k] = groups[order_[k]];
+    node_group.resize(nodes_.size());
+    for (Index n = num_nodes - 1; n >= 0; --n) {
+      const Node& node = nodes_[n];
+      if (node.right < 0) {
+        std::uint32_t g = group_sorted[node.first];
+        for (Index k = node.first + 1; k < node.first + node.count; ++k)
+          if (group_sorted[k] != g) g = 0;
+        node_group[n] = g;
+      } else {
+        const std::uint32_t g = node_group[n + 1];
+        node_group[n] = g == node_group[node.right] ? g : 0;
+      }
+    }
+    filter.group_sorted = group_sorted.data();
+    filter.node_group = node_group.data();
+  }
   const Index chunks = default_chunk_count(num_leaves);
   std::vector<std::vector<std::pair<Index, Index>>>& parts = scratch_parts_;
   parts.resize(static_cast<size_t>(chunks));
@@ -195,7 +229,7 @@ void Bvh::self_pairs(std::vector<std::pair<Index, Index>>& out, std::span<const 
     auto& part = parts[c];
     part.clear();
     part.reserve(static_cast<size_t>(end - begin) * 64);
-    for (Index l = begin; l < end; ++l) leaf_pairs(leaves_[l], fs, lv, part);
+    for (Index l = begin; l < end; ++l) leaf_pairs(leaves_[l], filter, part);
   });
   std::vector<size_t> offset(parts.size() + 1, 0);
   for (size_t c = 0; c < parts.size(); ++c) offset[c + 1] = offset[c] + parts[c].size();

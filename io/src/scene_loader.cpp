@@ -53,30 +53,49 @@ struct RawGeometry {
 /// Element counts of one object (or a whole scene), in doubles: products of 32-bit keys must not wrap.
 struct Counts {
   double v = 0, f = 0, t = 0, e = 0;  ///< vertices, surface faces, tets, strand segments
+  double bv = 0, bf = 0;              ///< of those, the vertices and faces of rigid bodies and obstacles
   double crowd = 0;  ///< sum over vertices of ((ξ + r + δ) / mean edge length)² (strands: to the power 1)
   Counts& operator+=(const Counts& o) {
-    v += o.v, f += o.f, t += o.t, e += o.e, crowd += o.crowd;
+    v += o.v, f += o.f, t += o.t, e += o.e, bv += o.bv, bf += o.bf, crowd += o.crowd;
     return *this;
   }
 };
 
-// A rough estimate of the memory a scene needs while it runs. Per element: positions, velocities,
-// masses, rest state, BVHs, constraints, adjacency and frame text. Per crowded vertex: the contact
-// pairs and regions, which grow with the number of primitives within the contact range ξ + r + δ,
-// i.e. with (range / edge length)². Calibrated on peak resident sizes of a 200 x 200 cloth grid
-// (40401 vertices) alone: 62 MB at edge 0.1 m, 230 MB at 20 mm, 1.6 GB at 10 mm, 5.5 GB at 5 mm
-// (range 15 mm), rounded up. The estimate only has to tell a scene that fits from one that would
-// be OOM-killed.
-constexpr double kBytesPerVertex = 2048;
+/// Marks the elements of a rigid body or an obstacle: they move as a whole, so they carry no
+/// material constraints and never pair with each other.
+Counts as_kind(Counts c, ObjectKind kind) {
+  if (kind == ObjectKind::rigid || kind == ObjectKind::obstacle) c.bv = c.v, c.bf = c.f, c.crowd = 0;
+  return c;
+}
+
+// A rough estimate of the peak memory of a run, from the geometry as loaded. Per element of a
+// deformable object: positions, velocities, masses, rest state, BVHs, constraints, adjacency and
+// frame text. Per crowded vertex: the contact pairs and regions, which grow with the number of
+// primitives within the contact range ξ + r + δ, i.e. with (range / edge length)²; calibrated on
+// peak resident sizes of a 200 x 200 cloth grid (40401 vertices) alone: 62 MB at edge 0.1 m, 230 MB
+// at 20 mm, 1.6 GB at 10 mm, 5.5 GB at 5 mm (range 15 mm), rounded up. A rigid body or an obstacle
+// adds no crowding (its own pairs are never enumerated; its pairs with others are counted on their
+// side) and a quarter of the per-vertex bytes (measured: a 37,706-vertex bunny, 29-35 MB above the
+// base); the base is the process itself (16-17 MB for a 379-vertex scene). Checked against the peak
+// RSS of eleven scenes of every kind (docs/performance.md, "Memory estimate"): 1.1-2x above it,
+// except self-contact that develops during a run (the twisting cloth wrapping into a rope), which
+// the geometry as loaded cannot tell.
+constexpr double kBaseBytes = 26e6;
+constexpr double kBytesPerVertex = 4096;          ///< 2048 before the check below (codimensional.yaml: 0.89x)
 constexpr double kBytesPerCrowdedVertex = 16384;  ///< times ((ξ + r + δ) / mean edge length)²
 constexpr double kBytesPerFace = 512;
 constexpr double kBytesPerTet = 1024;
 constexpr double kBytesPerSegment = 512;
+constexpr double kBytesPerBodyVertex = 1024;  ///< rigid bodies and obstacles
+constexpr double kBytesPerBodyFace = 256;
 
-double estimate_bytes(const Counts& c) {
-  return kBytesPerVertex * c.v + kBytesPerCrowdedVertex * c.crowd + kBytesPerFace * c.f + kBytesPerTet * c.t +
-         kBytesPerSegment * c.e;
+/// What the elements of one object (or of several: the sum is linear) add to the estimate.
+double object_bytes(const Counts& c) {
+  return kBytesPerVertex * (c.v - c.bv) + kBytesPerBodyVertex * c.bv + kBytesPerCrowdedVertex * c.crowd +
+         kBytesPerFace * (c.f - c.bf) + kBytesPerBodyFace * c.bf + kBytesPerTet * c.t + kBytesPerSegment * c.e;
 }
+
+double estimate_bytes(const Counts& c) { return kBaseBytes + object_bytes(c); }
 
 std::string count_str(double n) {
   char buf[48];
@@ -84,7 +103,9 @@ std::string count_str(double n) {
   return buf;
 }
 
-double available_memory_bytes_unlimited() {
+/// Memory the system can give this process without swapping: MemAvailable of /proc/meminfo, else
+/// the free physical pages; 0 when unknown (then no limit is applied).
+double available_memory_bytes() {
   std::ifstream mi("/proc/meminfo");
   std::string key;
   double kb = 0;
@@ -95,17 +116,6 @@ double available_memory_bytes_unlimited() {
   }
   const long pages = ::sysconf(_SC_AVPHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
   return pages > 0 && page > 0 ? double(pages) * double(page) : 0.0;
-}
-
-/// Memory the system can give this process without swapping: MemAvailable of /proc/meminfo, else
-/// the free physical pages; 0 when unknown (then no limit is applied). CCFR_MEMORY_LIMIT_MB, when
-/// set, caps it: the fuzz targets run under a 2 GB RSS limit, far below a machine's memory.
-double available_memory_bytes() {
-  if (const char* cap = std::getenv("CCFR_MEMORY_LIMIT_MB")) {
-    const double mb = std::atof(cap);
-    if (mb > 0) return std::min(mb * 1e6, available_memory_bytes_unlimited());
-  }
-  return available_memory_bytes_unlimited();
 }
 
 std::string gigabytes(double b) {
@@ -194,7 +204,7 @@ class Builder {
       const ObjectKind kind = *object_kind_from_string(o["kind"].as<std::string>());
       // Refuse what cannot fit before generating it: counts are predicted from the shape's keys.
       const std::string spath = path + ".shape";
-      check_size(total, predict(o["shape"], kind), spath);
+      check_size(total, predict(o["shape"], kind), spath, name, kind);
       RawGeometry g;
       try {
         g = make_geometry(o["shape"], kind, path, o["transform"]["scale"].as<double>());
@@ -203,13 +213,21 @@ class Builder {
       }
       place(g, o["transform"]);
       const Counts actual = counts(g, kind, p.contact.offset + p.contact.radius + p.contact.repulsion_range);
-      check_size(total, actual, spath);
+      check_size(total, actual, spath, name, kind);
       total += actual;
+      costs_.push_back({name, kind, actual});
       tb.add_object(name, kind, static_cast<Index>(g.v.size()), g.faces, g.tets, g.lines);
       geoms.push_back(std::move(g));
     }
-    spdlog::debug("{}: estimated memory {} ({} vertices), {} available", ctx_.file, gigabytes(estimate_bytes(total)),
-                  count_str(total.v), gigabytes(available_memory_()));
+    if (spdlog::should_log(spdlog::level::debug)) {
+      std::string detail;
+      for (const ObjectCost& c : costs_)
+        detail +=
+            fmt::format("; '{}' {} v={} f={} t={} e={} crowd={:.0f}: {:.1f} MB", printable(c.name), to_string(c.kind),
+                        c.counts.v, c.counts.f, c.counts.t, c.counts.e, c.counts.crowd, object_bytes(c.counts) / 1e6);
+      spdlog::debug("{}: estimated memory {:.1f} MB ({} vertices{}), limit {}", ctx_.file, estimate_bytes(total) / 1e6,
+                    count_str(total.v), detail, gigabytes(memory_limit_()));
+    }
     scene.topo = tb.finish();
 
     auto& st = scene.state;
@@ -303,8 +321,7 @@ class Builder {
     } else if (type == "cylinder") {
       c.v = 2 * i(s["segments"]) + 2, c.f = 4 * i(s["segments"]);
     }
-    (void)kind;
-    return c;
+    return as_kind(c, kind);
   }
 
   /// Element counts of generated or loaded geometry, with the crowding of its vertices relative
@@ -325,12 +342,15 @@ class Builder {
       const double s = range / (sum / n);
       c.crowd = c.v * (kind == ObjectKind::strand ? s : s * s);
     }
-    return c;
+    // A rigid body or an obstacle moves as a whole: its own primitives never form a contact pair
+    // (the broad phase does not even enumerate them), so as_kind drops its crowding.
+    return as_kind(c, kind);
   }
 
-  /// Fails when `add` does not fit 32-bit indices or the scene would need more memory than the
-  /// machine has available.
-  void check_size(const Counts& before, const Counts& add, const std::string& spath) const {
+  /// Fails when `add` (object `name`) does not fit 32-bit indices or the scene would need more
+  /// memory than the limit: max_memory if set, else what the machine has available.
+  void check_size(const Counts& before, const Counts& add, const std::string& spath, const std::string& name,
+                  ObjectKind kind) const {
     Counts all = before;
     all += add;
     constexpr double kMax = std::numeric_limits<Index>::max();
@@ -345,27 +365,39 @@ class Builder {
       ctx_.fail(spath, in_node(spath),
                 "the scene would have " + count_str(all.v) + " vertices, more than the " + count_str(kMax) +
                     " that 32-bit indices address");
-    const double need = estimate_bytes(all), have = available_memory_();
-    if (have > 0 && need > have)
+    const double need = estimate_bytes(all), have = memory_limit_();
+    if (have > 0 && need > have) {
+      std::vector<ObjectCost> costs = costs_;
+      costs.push_back({name, kind, add});
       ctx_.fail(spath, in_node(spath),
-                "the scene would need about " + gigabytes(need) + " of memory (" + count_str(all.v) + " vertices" +
-                    (all.f > 0 ? ", " + count_str(all.f) + " faces" : "") +
+                "the scene would need about " + gigabytes(need) + " of memory (" + cost_list(costs) + "; " +
+                    count_str(all.v) + " vertices" + (all.f > 0 ? ", " + count_str(all.f) + " faces" : "") +
                     (all.t > 0 ? ", " + count_str(all.t) + " tets" : "") +
-                    (all.e > 0 ? ", " + count_str(all.e) + " strand segments" : "") + "; estimated at " +
-                    std::to_string(int(kBytesPerVertex)) + " B per vertex plus " +
-                    std::to_string(int(kBytesPerCrowdedVertex)) +
-                    " B per vertex times ((offset + radius + repulsion_range) / mean edge length)^2), more than the " +
-                    gigabytes(have) +
-                    " available (MemAvailable); reduce the resolution, or the contact offset and radius");
+                    (all.e > 0 ? ", " + count_str(all.e) + " strand segments" : "") + "), more than the " +
+                    gigabytes(have) + (max_memory_gb_ > 0 ? " of max_memory" : " available (MemAvailable)") +
+                    ". Contact pairs grow with ((offset + radius + repulsion_range) / mean edge length)^2 per "
+                    "vertex of a deformable object: reduce the resolution, or the contact offset and radius; or, "
+                    "if the machine has the memory, raise the limit with max_memory (GB) or `ccfr run "
+                    "--max-memory GB` (docs/choosing-parameters.md)");
+    }
   }
 
-  double available_memory_() const {
-    if (available_ < 0) available_ = available_memory_bytes();
+  /// The bytes a scene may be estimated to need: max_memory (GB) if set, else what the machine has
+  /// available; CCFR_MEMORY_LIMIT_MB caps either (the fuzz targets run under a small RSS limit).
+  double memory_limit_() const {
+    if (available_ < 0) {
+      available_ = max_memory_gb_ > 0 ? max_memory_gb_ * 1e9 : available_memory_bytes();
+      if (const char* cap = std::getenv("CCFR_MEMORY_LIMIT_MB")) {
+        const double mb = std::atof(cap);
+        if (mb > 0) available_ = available_ > 0 ? std::min(available_, mb * 1e6) : mb * 1e6;
+      }
+    }
     return available_;
   }
 
   void read_global(SimulationParams& p) {
     p.scene_name = cfg_["scene"] ? cfg_["scene"].as<std::string>() : std::string("scene");
+    max_memory_gb_ = cfg_["max_memory"].as<double>();
     if (const std::string why = name_problem(p.scene_name, false); !why.empty())
       ctx_.fail("scene", in_node("scene"), "scene name '" + printable(p.scene_name) + "' " + why);
     const auto t = cfg_["time"];
@@ -996,6 +1028,21 @@ class Builder {
     return g;
   }
 
+  /// The objects placed so far, with their element counts (the refusal message lists them).
+  struct ObjectCost {
+    std::string name;
+    ObjectKind kind;
+    Counts counts;
+  };
+  static std::string cost_list(const std::vector<ObjectCost>& costs) {
+    std::string out;
+    for (const ObjectCost& c : costs)
+      out += (out.empty() ? "" : ", ") + ("'" + printable(c.name) + "' (" + std::string(to_string(c.kind)) + ", " +
+                                          count_str(c.counts.v) + " vertices) " + gigabytes(object_bytes(c.counts)));
+    return out;
+  }
+  std::vector<ObjectCost> costs_;
+  double max_memory_gb_ = 0;  ///< max_memory: 0 uses what the machine has available
   mutable double available_ = -1;
   const YAML::Node& in_;
   const YAML::Node& cfg_;

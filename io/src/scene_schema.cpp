@@ -290,6 +290,13 @@ NodePtr build_scene_schema() {
       "a ccfr scene",
       {
           {"scene", optional_string("scene name (default: the file name without extension)")},
+          {"max_memory",
+           number(0.0,
+                  "largest estimated memory (GB) a scene may need: a scene estimated above it is refused while "
+                  "loading, naming what each object costs; 0 means the memory the machine has available "
+                  "(MemAvailable). Raise it knowingly (`ccfr run --max-memory GB`) when the estimate is "
+                  "pessimistic for the scene (docs/performance.md compares it with measured peaks)",
+                  Range{0, 1e6, false, false})},
           {"time",
            map("time stepping",
                {{"fps", number(td.fps, "frames per second", Range::positive_up_to(kMaxFps))},

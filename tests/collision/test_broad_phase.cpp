@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "ccfr/collision/broad_phase.hpp"
+#include "ccfr/collision/narrow_phase.hpp"
 #include "ccfr/collision/primitives.hpp"
 #include "ccfr/core/error.hpp"
 #include "scenes.hpp"
@@ -79,6 +80,15 @@ test::TestScene mixed_scene() {
       .finish();
 }
 
+void perturb_boxes(std::vector<AABB>& boxes, std::uint64_t seed) {
+  auto g = test::rng(seed);
+  for (auto& b : boxes) {
+    const Vec3 d = test::random_in_ball(g, 0.03);
+    b.lo += d;
+    b.hi += d;
+  }
+}
+
 void perturb(Positions& x, std::uint64_t seed, double r) {
   auto g = test::rng(seed);
   for (auto& p : x) p += test::random_in_ball(g, r);
@@ -148,6 +158,98 @@ TEST_P(EveryBroadPhase, FixedPairsAreNeverReported) {
     EXPECT_EQ(sorted_pairs(*bp), reference_pairs(boxes)) << GetParam();
     bp->set_fixed(std::vector<std::uint8_t>(boxes.size() + 1, 0));
     EXPECT_THROW(sorted_pairs(*bp), Error) << GetParam() << ": flag count differs from the box count";
+  }
+}
+
+// Pairs inside one nonzero group, or of two fixed boxes, are never reported; every other
+// overlapping pair is, in every broad phase. Reference: the brute-force pair set without groups or
+// flags, filtered afterwards. Boxes include coincident and zero-size ones; groups are clustered
+// (subtrees of one group) or scattered; flags and groups change between queries and refits.
+TEST_P(EveryBroadPhase, GroupPairsAreNeverReported) {
+  for (std::uint64_t seed = 1; seed <= 4; ++seed) {
+    std::vector<AABB> boxes = random_soup(seed, 1000, 0.08);
+    for (size_t k = 0; k < 60; ++k) boxes[k] = AABB::of(Vec3(0.4, 0.4, 0.4), Vec3(0.5, 0.5, 0.5));  // coincident
+    for (size_t k = 60; k < 100; ++k) boxes[k] = AABB::of(Vec3(0.45, 0.45, 0.45));  // zero-size, inside them
+    auto g = test::rng(seed + 70);
+    std::vector<std::uint32_t> groups(boxes.size());
+    std::vector<std::uint8_t> fixed(boxes.size(), 0);
+    for (size_t i = 0; i < boxes.size(); ++i) {
+      // Seed 1: one group for all (nothing reported); 2: blocks by index, some ungrouped; 3: random
+      // groups; 4: random groups and random fixed flags.
+      groups[i] = seed == 1   ? 3u
+                  : seed == 2 ? ((i / 80) % 4 == 0 ? 0u : static_cast<std::uint32_t>(i / 80))
+                              : static_cast<std::uint32_t>(g() % 6);
+      if (seed == 4) fixed[i] = g() % 3 == 0;
+    }
+    auto bp = make_broad_phase(GetParam());
+    bp->set_groups(groups);  // before build: kept for it
+    bp->build(boxes);
+    for (int pass = 0; pass < 3; ++pass) {
+      if (pass == 1) {
+        perturb_boxes(boxes, seed + 5);
+        bp->update(boxes);
+      }
+      if (pass == 2) {  // new groups after build: a tree partitioned by group must follow
+        for (auto& id : groups) id = id == 2 ? 0u : id + 1;
+        bp->set_groups(groups);
+      }
+      if (seed == 4) bp->set_fixed(fixed);
+      std::vector<IndexPair> expected;
+      for (const auto& [i, j] : reference_pairs(boxes))
+        if (!(groups[i] != 0 && groups[i] == groups[j]) && !(fixed[i] && fixed[j])) expected.emplace_back(i, j);
+      const auto got = sorted_pairs(*bp);
+      EXPECT_EQ(got, expected) << GetParam() << ", seed " << seed << ", pass " << pass;
+      EXPECT_TRUE(std::adjacent_find(got.begin(), got.end()) == got.end()) << GetParam() << ": duplicate pairs";
+      if (seed == 1 && pass < 2) EXPECT_TRUE(expected.empty());
+      if (seed > 1) EXPECT_FALSE(expected.empty());
+    }
+    bp->set_groups({});  // cleared: every pair again
+    bp->set_fixed({});
+    EXPECT_EQ(sorted_pairs(*bp), reference_pairs(boxes)) << GetParam();
+    bp->set_groups(std::vector<std::uint32_t>(boxes.size() - 1, 0));
+    EXPECT_THROW(sorted_pairs(*bp), Error) << GetParam() << ": group count differs from the box count";
+  }
+}
+
+// A lone rigid body or obstacle has no candidate pair at all (today's main: one per pair of
+// overlapping triangle boxes, dropped later by the narrow phase); next to a cloth, the candidates
+// are exactly the cloth's pairs and the cloth-body pairs.
+TEST_P(EveryBroadPhase, DetectorNeverPairsOneRigidBodyOrObstacleWithItself) {
+  for (ObjectKind kind : {ObjectKind::rigid, ObjectKind::obstacle}) {
+    gen::TriMesh ball = gen::sphere(0.1, 3);
+    const test::TestScene lone =
+        test::SceneBuilder().mesh("ball", kind, ball, kind == ObjectKind::rigid ? 1.0 : 0.0).finish();
+    CollisionDetector det(lone.topo, lone.x, {0.005, 0.01, 0.0}, make_broad_phase(GetParam()));
+    RegionSet regions;
+    std::vector<ContactPair> contacts;
+    DetectionStats stats;
+    det.detect(lone.x, lone.inv_mass, regions, contacts, stats);
+    EXPECT_EQ(stats.candidates, 0) << GetParam() << ", " << to_string(kind);
+    EXPECT_TRUE(contacts.empty());
+
+    gen::TriMesh cloth = gen::grid(0.3, 0.3, 12, 12);
+    for (auto& p : cloth.v) p += Vec3(-0.15, 0.112, -0.15);  // 12 mm above: boxes overlap, no pair below ξ
+    gen::TriMesh ball2 = ball;
+    for (auto& p : ball2.v) p += Vec3(0.215, 0, 0);  // 15 mm from the first ball: pairs across bodies
+    const test::TestScene s = test::SceneBuilder()
+                                  .mesh("ball", kind, ball, kind == ObjectKind::rigid ? 1.0 : 0.0)
+                                  .mesh("ball2", kind, ball2, kind == ObjectKind::rigid ? 1.0 : 0.0)
+                                  .mesh("cloth", ObjectKind::cloth, cloth)
+                                  .finish();
+    CollisionDetector mixed(s.topo, s.x, {0.005, 0.01, 0.0}, make_broad_phase(GetParam()));
+    mixed.detect(s.x, s.inv_mass, regions, contacts, stats);
+    const CollisionPrimitives prims = build_collision_primitives(s.topo);
+    std::vector<AABB> boxes;
+    compute_primitive_boxes(prims, s.topo, s.x, box_inflation(0.005, 0.01, 0.0), boxes);
+    Index expected = 0;
+    for (const auto& [i, j] : reference_pairs(boxes)) {
+      const Index oi = s.topo.face_object[i], oj = s.topo.face_object[j];
+      const bool body_i = s.topo.objects[oi].kind == kind, body_j = s.topo.objects[oj].kind == kind;
+      if (body_i && body_j && (oi == oj || kind == ObjectKind::obstacle)) continue;  // one body, or two obstacles
+      ++expected;
+    }
+    EXPECT_GT(expected, 0);
+    EXPECT_EQ(stats.candidates, expected) << GetParam() << ", " << to_string(kind);
   }
 }
 

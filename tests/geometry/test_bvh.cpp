@@ -113,6 +113,59 @@ TEST(Bvh, DegenerateBoxes) {
   EXPECT_EQ(sorted(p), brute_pairs(boxes));
 }
 
+// Pairs inside one group or of two fixed boxes are never reported, every other overlapping pair
+// is. Reference: the brute-force pair set, filtered afterwards. Groups are laid out both as
+// clustered blocks (whole subtrees of one group: the pruned case) and scattered at random.
+TEST(Bvh, GroupsAndFixedFlagsMatchFilteredBruteForce) {
+  auto g = test::rng(21);
+  for (int leaf : {1, 4}) {
+    for (int n : {0, 1, 2, 5, 300, 2000}) {
+      for (int layout = 0; layout < 4; ++layout) {
+        auto boxes = random_soup(g, n, 0.1);
+        // Degenerate boxes: a run of coincident boxes and zero-size boxes at one point.
+        for (int k = 0; k < n / 10; ++k)
+          boxes[static_cast<size_t>(k)] = AABB::of(Vec3(0.5, 0.5, 0.5), Vec3(0.6, 0.6, 0.6));
+        for (int k = n / 10; k < n / 5; ++k) boxes[static_cast<size_t>(k)] = AABB::of(Vec3(0.55, 0.55, 0.55));
+        std::vector<std::uint32_t> groups(static_cast<size_t>(n), 0);
+        std::vector<std::uint8_t> fixed(static_cast<size_t>(n), 0);
+        for (int i = 0; i < n; ++i) {
+          // 0: one group for all; 1: blocks of 100 by index, a third ungrouped; 2: random of 4; 3: random + fixed.
+          groups[i] = layout == 0   ? 7u
+                      : layout == 1 ? ((i / 100) % 3 == 0 ? 0u : static_cast<std::uint32_t>(i / 100) + 1)
+                                    : static_cast<std::uint32_t>(g() % 5);
+          fixed[i] = layout == 3 ? static_cast<std::uint8_t>(g() % 3 == 0) : 0;
+        }
+        Bvh bvh;
+        bvh.build(boxes, leaf);
+        for (int pass = 0; pass < 2; ++pass) {
+          if (pass == 1) {
+            boxes = random_soup(g, n, 0.15);
+            bvh.refit(boxes);
+          }
+          Pairs want;
+          for (auto [i, j] : brute_pairs(boxes))
+            if (!(groups[i] != 0 && groups[i] == groups[j]) && !(fixed[i] && fixed[j])) want.emplace_back(i, j);
+          Pairs p;
+          bvh.self_pairs(p, layout == 3 ? std::span<const std::uint8_t>(fixed) : std::span<const std::uint8_t>{},
+                         groups);
+          EXPECT_EQ(sorted(p), want) << "n=" << n << " leaf=" << leaf << " layout=" << layout << " pass=" << pass;
+          const std::set<std::pair<Index, Index>> unique(p.begin(), p.end());
+          EXPECT_EQ(unique.size(), p.size());
+          if (layout == 0) EXPECT_TRUE(p.empty());
+          // Without groups, every pair again.
+          bvh.self_pairs(p, {}, {});
+          EXPECT_EQ(sorted(p), brute_pairs(boxes));
+        }
+      }
+    }
+  }
+  std::vector<AABB> boxes(6, AABB::of(Vec3(0, 0, 0), Vec3(1, 1, 1)));
+  Bvh bvh;
+  bvh.build(boxes);
+  Pairs p;
+  EXPECT_THROW(bvh.self_pairs(p, {}, std::vector<std::uint32_t>(5, 1)), Error);
+}
+
 TEST(Bvh, QueryMatchesBruteForce) {
   auto g = test::rng(12);
   auto boxes = random_soup(g, 3000, 0.05);

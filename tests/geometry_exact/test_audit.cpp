@@ -105,6 +105,36 @@ TEST(Audit, VertexPulledThroughSheet) {
   EXPECT_FALSE(r.examples.empty());
 }
 
+// The broad phase never pairs a rigid body's triangles with each other (they move as a whole), but
+// the audit must: a rigid body that deformed into itself is a failure the audit has to report.
+// One rigid object of two layers 5 cm apart; a vertex of the top layer pushed through the bottom.
+TEST(Audit, RigidBodyIntersectingItselfIsReported) {
+  Scene s;
+  TopologyBuilder& b = s.builder;
+  const int n = 10;
+  std::vector<Vec3i> faces;
+  for (int layer = 0; layer < 2; ++layer) {
+    const Index first = static_cast<Index>(s.x.size());
+    for (int i = 0; i <= n; ++i)
+      for (int j = 0; j <= n; ++j)
+        s.x.emplace_back(0.03 * layer + 1.0 * i / n, 0.02 * layer + 1.0 * j / n, 0.05 * layer);
+    auto id = [&](int i, int j) { return first + static_cast<Index>(i * (n + 1) + j); };
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) {
+        faces.emplace_back(id(i, j), id(i + 1, j), id(i + 1, j + 1));
+        faces.emplace_back(id(i, j), id(i + 1, j + 1), id(i, j + 1));
+      }
+  }
+  b.add_object("body", ObjectKind::rigid, static_cast<Index>(s.x.size()), faces);
+  const PenetrationAudit a = s.audit();
+  ASSERT_TRUE(a.audit(s.x).clean());
+  Positions x = s.x;
+  x[121 + 5 * 11 + 5].z() = -0.02;  // a middle vertex of the top layer, below the bottom layer
+  const FrameAudit r = a.audit(x);
+  EXPECT_GT(r.triangle_intersections, 0);
+  EXPECT_GT(r.close_pairs, 0);
+}
+
 TEST(Audit, StrandThroughSheet) {
   Scene s;
   s.sheet("cloth", 8, 1.0, 0.0);

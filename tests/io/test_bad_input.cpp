@@ -106,6 +106,38 @@ TEST(BadInput, ScenesLargerThanTheMemoryAreRefusedBeforeAllocating) {
   EXPECT_TRUE(has(e, "400040001 vertices")) << e.what();
 }
 
+// A fine mesh (40962 vertices, edges ~8 mm, contact range 20.5 mm) as a shell crowds every vertex
+// with ~6 neighbours' pairs: estimated above 1 GB. The same mesh as a rigid body or an obstacle
+// never pairs with itself, so only its elements count (about 0.1 GB) and it loads under that limit.
+TEST(BadInput, MemoryEstimateChargesNoSelfPairsToRigidsAndObstacles) {
+  const std::string ball = with(shape("{type: sphere, radius: 0.5, subdivisions: 6}"), "scene: t\n",
+                                "scene: t\nmax_memory: 1\nmaterials: {m: {density: 1000}}\n");
+  for (const char* kind : {"kind: rigid\n    material: m", "kind: obstacle"}) {
+    const std::string y = with(ball, "kind: cloth", kind);
+    EXPECT_NO_THROW(io::load_scene_text(y, "scene.yaml", ".")) << kind;
+  }
+  const std::string shell = with(ball, "kind: cloth", "kind: shell");
+  auto e = config_error(shell);
+  EXPECT_EQ(e.key_path(), "objects[0].shape");
+  EXPECT_TRUE(has(e, "'sheet' (shell, 40962 vertices)")) << e.what();
+  EXPECT_TRUE(has(e, "more than the 1.0 GB of max_memory")) << e.what();
+  EXPECT_TRUE(has(e, "--max-memory")) << e.what();
+  // Next to a rigid copy, the refusal names both objects and what each costs.
+  const std::string two = shell +
+                          "  - name: body\n    kind: rigid\n    material: m\n"
+                          "    shape: {type: sphere, radius: 0.5, subdivisions: 6}\n"
+                          "    transform: {translate: [3, 0, 0]}\n";
+  const std::string rigid_first = with(with(two, "kind: shell", "kind: rigid\n    material: m"),
+                                       "  - name: body\n    kind: rigid", "  - name: body\n    kind: shell");
+  e = config_error(rigid_first);
+  EXPECT_EQ(e.key_path(), "objects[1].shape");
+  EXPECT_TRUE(has(e, "'sheet' (rigid, 40962 vertices) 0.1 GB, 'body' (shell, 40962 vertices)")) << e.what();
+  // Raised knowingly (what `ccfr run --max-memory` sets): the shell loads.
+  EXPECT_NO_THROW(io::load_scene_text(shell, "scene.yaml", ".", {"max_memory=1000"}));
+  e = config_error(shell, {"max_memory=-1"});
+  EXPECT_EQ(e.key_path(), "max_memory");
+}
+
 TEST(BadInput, DuplicateKeysAreErrors) {
   auto e = config_error(with(kBase, "  fps: 60\n", "  fps: 60\n  fps: -5\n"));
   EXPECT_EQ(e.key_path(), "time.fps");

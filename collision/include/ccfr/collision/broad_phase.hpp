@@ -29,21 +29,38 @@ class BroadPhase {
   /// New boxes for the same primitives (same count and order): refit, do not rebuild.
   /// Throws ccfr::Error if a box is not finite or the count differs from build().
   virtual void update(std::span<const AABB> boxes) = 0;
-  /// Every pair (i, j), i < j, whose boxes overlap (closed intervals) and that are not both
-  /// fixed (set_fixed), appended to `out` after clearing it. The pair set is exact; the order is
-  /// deterministic for given input. Throws ccfr::Error if the fixed flags do not match the boxes.
+  /// Every pair (i, j), i < j, whose boxes overlap (closed intervals), that are not both fixed
+  /// (set_fixed) and not of one nonzero group (set_groups), appended to `out` after clearing it.
+  /// The pair set is exact; the order is deterministic for given input. Throws ccfr::Error if the
+  /// fixed flags or the group ids do not match the boxes in count.
   virtual void query_pairs(std::vector<IndexPair>& out) = 0;
   virtual std::string_view name() const = 0;
 
-  /// Flags primitives that cannot move (#P, or empty: none), kept until the next call. A pair of
-  /// two fixed primitives can never change, so query_pairs() never reports it: a static obstacle
-  /// is never paired with itself or another obstacle (the bvh does not even enumerate such pairs).
+  /// Flags primitives that cannot move this pass (#P, or empty: none), kept until the next call. A
+  /// pair of two fixed primitives can never change, so query_pairs() never reports it: a static
+  /// obstacle is never paired with another obstacle, and under held-back continuation the
+  /// primitives a pass does not move are not paired with each other.
   void set_fixed(std::span<const std::uint8_t> fixed) { fixed_.assign(fixed.begin(), fixed.end()); }
+  /// Group id of every primitive (#P, or empty: none), kept until the next call; 0 is no group. A
+  /// pair of two primitives with the same nonzero id is never reported: the triangles of one rigid
+  /// body or one obstacle move as a whole and never meet. Composes with set_fixed(): a pair is
+  /// dropped when either rule drops it. The bvh and fcl broad phases prune whole subtrees of one
+  /// group, so a large rigid mesh costs nothing against itself.
+  void set_groups(std::span<const std::uint32_t> groups) {
+    groups_.assign(groups.begin(), groups.end());
+    ++groups_version_;
+  }
 
  protected:
   bool both_fixed(Index a, Index b) const { return !fixed_.empty() && fixed_[a] && fixed_[b]; }
+  bool same_group(Index a, Index b) const { return !groups_.empty() && groups_[a] != 0 && groups_[a] == groups_[b]; }
+  /// Whether query_pairs() must drop the pair (a, b).
+  bool excluded(Index a, Index b) const { return both_fixed(a, b) || same_group(a, b); }
+  /// Throws ccfr::Error if the fixed flags or group ids are set for another box count.
   void check_fixed_count(size_t num_boxes) const;
   std::vector<std::uint8_t> fixed_;
+  std::vector<std::uint32_t> groups_;
+  std::uint64_t groups_version_ = 0;  ///< bumped by set_groups(), for trees that partition by group
 };
 
 /// O(P²) reference: tests every pair. For tests and tiny scenes only.
@@ -59,7 +76,8 @@ class BruteForceBroadPhase final : public BroadPhase {
 };
 
 /// The flat BVH of ccfr::geometry (at most 4 boxes per leaf): built once, refitted by update(),
-/// self-queried in parallel. About 5x faster than FCL's tree on 2 cores (docs/perf/collision.md).
+/// self-queried in parallel, skipping subtrees of one group or of fixed boxes against each other.
+/// About 5x faster than FCL's tree on 2 cores (docs/perf/collision.md).
 class BvhBroadPhase final : public BroadPhase {
  public:
   void build(std::span<const AABB> boxes) override;
@@ -73,7 +91,9 @@ class BvhBroadPhase final : public BroadPhase {
 
 /// FCL's DynamicAABBTreeCollisionManager, the AABB tree of the paper's implementation. Objects are
 /// registered once; update() writes the new boxes into them and refits the tree (FCL's `update()`
-/// without arguments); query_pairs() runs FCL's self-collide. Single-threaded. FCL stays private
+/// without arguments); query_pairs() runs FCL's self-collide. The objects of each nonzero group
+/// (set_groups) live in a tree of their own that is only collided against the other trees, so a
+/// group's internal pairs are never enumerated. Single-threaded. FCL stays private
 /// to fcl_broad_phase.cpp, hence the opaque implementation.
 class FclBroadPhase final : public BroadPhase {
  public:

@@ -25,10 +25,14 @@ class Bvh {
   /// for given input (independent of thread timing and thread count).
   void self_pairs(std::vector<std::pair<Index, Index>>& out) const;
   /// As above, but pairs of two boxes flagged in `fixed` (#B by original index, or empty for none)
-  /// are never enumerated: subtrees holding only flagged boxes are skipped against each other, so a
-  /// large static mesh costs nothing against itself (only its pairs with unflagged boxes remain).
+  /// and pairs of two boxes with the same nonzero id in `groups` (#B, or empty for none) are never
+  /// enumerated: subtrees holding only flagged boxes are skipped against each other, and so are
+  /// subtrees holding only boxes of one group, so a large static mesh or rigid body costs nothing
+  /// against itself (only its pairs with other boxes remain). Throws ccfr::Error if a non-empty
+  /// `fixed` or `groups` does not hold #B entries.
   /// Not for concurrent calls on one Bvh: both overloads keep their buffers between calls.
-  void self_pairs(std::vector<std::pair<Index, Index>>& out, std::span<const std::uint8_t> fixed) const;
+  void self_pairs(std::vector<std::pair<Index, Index>>& out, std::span<const std::uint8_t> fixed,
+                  std::span<const std::uint32_t> groups = {}) const;
   /// Indices of boxes overlapping `box`, appended to `out` in a deterministic order. A box with a
   /// NaN coordinate overlaps nothing.
   void query(const AABB& box, std::vector<Index>& out) const;
@@ -46,10 +50,14 @@ class Bvh {
   };
   void build_node(Index id, Index first, Index count, int leaf_size, const std::vector<Vec3>& centres);
   void gather(std::span<const AABB> boxes);
-  /// `fixed_sorted` (#boxes in order_ order) and `live` (#nodes: the subtree holds an unflagged
-  /// box) are null when nothing is flagged.
-  void leaf_pairs(Index leaf, const std::uint8_t* fixed_sorted, const std::uint8_t* live,
-                  std::vector<std::pair<Index, Index>>& out) const;
+  /// Per-box and per-node filters of self_pairs(); each pointer is null when unused.
+  struct PairFilter {
+    const std::uint8_t* fixed_sorted = nullptr;   ///< #boxes in order_ order: flagged fixed
+    const std::uint8_t* live = nullptr;           ///< #nodes: the subtree holds an unflagged box
+    const std::uint32_t* group_sorted = nullptr;  ///< #boxes in order_ order: group id
+    const std::uint32_t* node_group = nullptr;    ///< #nodes: the one group of the subtree, 0 if mixed
+  };
+  void leaf_pairs(Index leaf, const PairFilter& f, std::vector<std::pair<Index, Index>>& out) const;
 
   std::vector<Node> nodes_;
   std::vector<Index> order_;   ///< #boxes: box ids, leaf-contiguous
@@ -58,6 +66,7 @@ class Bvh {
   // self_pairs() buffers, kept between calls (so one Bvh must not be queried from two threads).
   mutable std::vector<std::vector<std::pair<Index, Index>>> scratch_parts_;
   mutable std::vector<std::uint8_t> scratch_fixed_, scratch_live_;
+  mutable std::vector<std::uint32_t> scratch_group_, scratch_node_group_;
   Index num_boxes_ = 0;
 };
 
