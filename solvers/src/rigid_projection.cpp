@@ -415,6 +415,23 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
             p.q = from.q.slerp(a, target.q);
             p.c = from.c + a * (target.c - from.c);
             place(p, z);
+            if (!admissible(z) && longest_step(z) <= step_bound * (1.0 - 1e-3)) {
+              // The rigid path curves off the blend by O(α(1-α)θ²): a plane with d ~ 0 that the blend
+              // slides along is then crossed by that much at every α, and the body halted although
+              // both ends were admissible. Translation alone removes such a residual (as after the
+              // sweeps); the exact check below decides.
+              const Eigen::Matrix3d turned_p = p.q.toRotationMatrix();
+              bool clear = false;
+              for (int sweep = 0; sweep < kPoseSweeps && !clear; ++sweep) {
+                clear = true;
+                for (const PoseContact& c : contacts) {
+                  const double value = c.h.value(anchor[b.begin + c.i], turned_p * b.rest[c.i] + p.c);
+                  if (value < accept(c)) clear = false;
+                  if (value < aim(c)) p.c += (aim(c) - value) * c.h.n;
+                }
+              }
+              place(p, z);
+            }
             if (admissible(z)) {
               found = true;
               if (bound_limits) bound_limits = a * (1.0 + advance_tolerance) < 1.0;
