@@ -248,16 +248,43 @@ SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& ancho
     const double delta = ctx.params.contact.repulsion_range;
     repulsion_target_.assign(regions_.planes.size(), delta);
     repulsion_other_.assign(regions_.planes.size(), 0.0);
+    other_motion_.assign(regions_.planes.size(), Vec3::Zero());
+    friction_other_.assign(regions_.planes.size(), 0.0);
+    // An unpinned rigid body on the other side answers with its generalized inverse mass at the
+    // closest point (its vertices' own masses would make it a light cloth). Its frame is taken at
+    // the anchor, where the regions were built.
+    const std::vector<RigidFrame> frames = rigid_.frames(anchor);
     if (sources.size() == regions_.planes.size())
       for (const auto& o : ctx.topo.objects) {
         if (o.kind != ObjectKind::rigid) continue;
         for (Index q = regions_.offsets[o.vertex_begin]; q < regions_.offsets[o.vertex_end]; ++q) {
           const ContactPair& c = contacts_[static_cast<size_t>(sources[q] / 4)];
           const int k = static_cast<int>(sources[q] % 4), na = c.side_a();
+          const int lo = k < na ? na : 0, hi = k < na ? c.size() : na;
           double other = 0.0;
-          for (int j = k < na ? na : 0; j < (k < na ? c.size() : na); ++j)
-            other += c.w[j] * c.w[j] * state.inv_mass[c.v[j]];
+          Vec3 moved = Vec3::Zero(), point = Vec3::Zero();
+          // The other side's closest point and its motion over the substep (x is every other
+          // body's candidate: a cloth's projected, an obstacle's scripted target, a rigid body's
+          // predicted position), for the friction on the relative slip.
+          for (int j = lo; j < hi; ++j) {
+            const Index u = c.v[j];
+            other += c.w[j] * c.w[j] * state.inv_mass[u];
+            moved += std::abs(c.w[j]) * (x[u] - state.x_prev[u]);
+            point += std::abs(c.w[j]) * anchor[u];
+          }
+          const Vec3 n = regions_.planes[static_cast<size_t>(q)].n;
+          double tangential = other;
+          const Index ob = rigid_.body_of(c.v[lo]);
+          if (ob >= 0 && frames[static_cast<size_t>(ob)].inv_mass > 0.0) {
+            const RigidFrame& f = frames[static_cast<size_t>(ob)];
+            other = f.inverse_mass_at(point, n);
+            // Against the tangential correction: the mean over the tangent plane's two axes.
+            const Vec3 t1 = n.unitOrthogonal(), t2 = n.cross(t1);
+            tangential = 0.5 * (f.inverse_mass_at(point, t1) + f.inverse_mass_at(point, t2));
+          }
           repulsion_other_[static_cast<size_t>(q)] = other;
+          other_motion_[static_cast<size_t>(q)] = moved;
+          friction_other_[static_cast<size_t>(q)] = tangential;
           const double gap = c.distance - c.offset;
           repulsion_target_[static_cast<size_t>(q)] =
               delta - std::max(0.0, gap - regions_.planes[static_cast<size_t>(q)].d);
@@ -268,7 +295,7 @@ SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& ancho
                        rigid_.predicted_cores(state, ctx.dt, ctx.params.time.gravity),
                        RigidContactOptions{&state.x_prev, ctx.params.contact.repulsion_range,
                                            1.0 / (ctx.params.contact.stiffness * ctx.dt * ctx.dt), repulsion_target_,
-                                           repulsion_other_});
+                                           repulsion_other_, other_motion_, friction_other_});
     r.violations_detected += rs.vertices_violated;
     r.halted_vertices += rs.vertices_halted;
     r.bounded_vertices += rs.bodies_bounded;

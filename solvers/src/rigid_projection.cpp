@@ -146,10 +146,12 @@ namespace {
 struct PoseContact {
   Index i = 0;  ///< vertex within the body
   HalfSpace h;
-  double repel = 0.0;     ///< the value the repulsion aims at
-  double other_w = 0.0;   ///< inverse mass of the pair's other side
-  double lambda_n = 0.0;  ///< hard: C >= margin
-  double lambda_r = 0.0;  ///< repulsion: C >= δ, compliant
+  double repel = 0.0;                ///< the value the repulsion aims at
+  double other_w = 0.0;              ///< inverse mass of the pair's other side
+  Vec3 other_motion = Vec3::Zero();  ///< the other side's motion over the substep
+  double other_wt = 0.0;             ///< its inverse mass against the friction's correction
+  double lambda_n = 0.0;             ///< hard: C >= aim
+  double lambda_r = 0.0;             ///< repulsion: C >= δ, compliant
   Vec3 lambda_t = Vec3::Zero();
 };
 
@@ -173,6 +175,7 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
       [&](Index lo, Index hi) {
         std::vector<Vec3> y;
         std::vector<PoseContact> contacts;
+        std::vector<Index> live;
         for (Index bi = lo; bi < hi; ++bi) {
           const Body& b = bodies_[bi];
           RigidEnforceStats& st = per[bi];
@@ -220,7 +223,9 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
                   {static_cast<Index>(i), regions.planes[static_cast<size_t>(q)],
                    options.repulsion_target.empty() ? options.repulsion_range
                                                     : options.repulsion_target[static_cast<size_t>(q)],
-                   options.repulsion_other.empty() ? 0.0 : options.repulsion_other[static_cast<size_t>(q)]});
+                   options.repulsion_other.empty() ? 0.0 : options.repulsion_other[static_cast<size_t>(q)],
+                   options.other_motion.empty() ? Vec3::Zero() : options.other_motion[static_cast<size_t>(q)],
+                   options.friction_other.empty() ? 0.0 : options.friction_other[static_cast<size_t>(q)]});
           }
           place(target, y);
           for (size_t i = 0; i < n; ++i) {
@@ -233,27 +238,67 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
           // every correction, the inverse inertia once per sweep.
           const double mass = b.mass + core;
           const double margin = kMarginOfBound * step_bound;
+          // What the pose solve aims at per half-space: the margin, but no more than the anchor's own
+          // value d. A body squeezed between contacts with d ~ 0 on opposite sides (a slab under a
+          // box on a floor, the middle body of a pile) cannot clear the margin on both: aiming there
+          // failed the solve and halted the body, although sliding along both planes (value d) or
+          // staying put is admissible. Accepted once every value is within half its aim (or, for an
+          // aim <= 0, a tenth of the recount's tolerance below it); the exact check follows anyway.
+          auto aim = [&](const PoseContact& c) { return std::min(margin, c.h.d); };
+          auto accept = [&](const PoseContact& c) {
+            const double a = aim(c);
+            return a > 0.0 ? 0.5 * a : a + 0.1 * kOutside;
+          };
           Pose pose = target;
           bool converged = contacts.empty();
+          // Most half-spaces of a resting body are far from acting: a contact does nothing in a
+          // sweep while its value clears both the margin and its repulsion target and it carries no
+          // multiplier. The sweeps visit only the live ones: those within `slack` of acting when the
+          // list was built. The pose has since moved every point by at most `drift` (Σ |Δc| +
+          // |Δθ| extent of the corrections), so while drift stays below slack the others cannot act;
+          // past it the list is rebuilt, and a sweep that crossed it does not count as converged.
+          const double slack = 0.25 * step_bound;
+          double drift = 0.0, drift_at_build = 0.0;
+          auto threshold = [&](const PoseContact& c) {
+            return options.repulsion_range > 0.0 ? std::max(aim(c), c.repel) : aim(c);
+          };
+          live.clear();
+          auto rebuild_live = [&] {
+            const Eigen::Matrix3d r = pose.q.toRotationMatrix();
+            live.clear();
+            for (size_t k = 0; k < contacts.size(); ++k) {
+              const PoseContact& c = contacts[k];
+              const double value = c.h.value(anchor[b.begin + c.i], r * b.rest[c.i] + pose.c);
+              if (value <= threshold(c) + slack || c.lambda_n != 0.0 || c.lambda_r != 0.0 ||
+                  c.lambda_t.squaredNorm() != 0.0)
+                live.push_back(static_cast<Index>(k));
+            }
+            drift_at_build = drift;
+          };
+          auto moved_by = [&](const Vec3& dc, const Vec3& dtheta) { drift += dc.norm() + dtheta.norm() * b.extent; };
+          if (!converged) rebuild_live();
           for (int sweep = 0; sweep < kPoseSweeps && !converged; ++sweep) {
+            if (drift - drift_at_build > slack) rebuild_live();
             const Eigen::Matrix3d r = pose.q.toRotationMatrix();
             const Eigen::Matrix3d inv_inertia = r * b.inv_inertia * r.transpose();
             double worst = 0.0;
-            for (PoseContact& c : contacts) {
+            for (const Index k : live) {
+              PoseContact& c = contacts[static_cast<size_t>(k)];
               const Index v = b.begin + c.i;
               const Vec3 arm = pose.q * b.rest[c.i];
               const Vec3 at = arm + pose.c;
               const double value = c.h.value(anchor[v], at);
-              worst = std::min(worst, value - 0.5 * margin);
-              // Normal: C = n·(p - a) + d >= margin, with λ_n >= 0 accumulated over the sweeps.
+              worst = std::min(worst, value - accept(c));
+              // Normal: C = n·(p - a) + d >= aim, with λ_n >= 0 accumulated over the sweeps.
               const Vec3 rn = arm.cross(c.h.n);
               const double w = 1.0 / mass + rn.dot(inv_inertia * rn);
-              const double next = std::max(0.0, c.lambda_n + (margin - value) / w);
+              const double next = std::max(0.0, c.lambda_n + (aim(c) - value) / w);
               const double dl = next - c.lambda_n;
               if (dl != 0.0) {
                 c.lambda_n = next;
                 pose.c += (dl / mass) * c.h.n;
                 pose.q = rotated(pose.q, inv_inertia * rn * dl);
+                moved_by((dl / mass) * c.h.n, inv_inertia * rn * dl);
               }
               if (options.repulsion_range > 0.0) {
                 // XPBD repulsion of the pair's gap toward δ with compliance α̃, its multiplier kept >= 0.
@@ -266,51 +311,58 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
                   c.lambda_r = rep;
                   pose.c += (dr / mass) * c.h.n;
                   pose.q = rotated(pose.q, inv_inertia * rn * dr);
+                  moved_by((dr / mass) * c.h.n, inv_inertia * rn * dr);
                 }
               }
               const double pressed = c.lambda_n + c.lambda_r;
               if (!options.x_start || (b.mu_s <= 0.0 && b.mu_k <= 0.0)) continue;
               if (pressed <= 0.0 && c.lambda_t.squaredNorm() == 0.0) continue;
-              // Friction on the contact point's tangential motion over the substep (the other
-              // side taken at rest): static cancels it while |λ_t| <= μ_s λ_n, kinetic is bounded
-              // by μ_k λ_n (Müller et al. 2020, Sec. 3.5, with Coulomb's cone on the accumulated λ_t).
+              // Friction on the contact point's tangential motion over the substep relative to the
+              // other side's closest point: static cancels it while |λ_t| <= μ_s λ_n, kinetic is
+              // bounded by μ_k λ_n (Müller et al. 2020, Sec. 3.5, with Coulomb's cone on the
+              // accumulated λ_t); the other side takes its share, Δλ = -C / (w_body + w_other).
               const Vec3 now = pose.q * b.rest[c.i] + pose.c;
-              const Vec3 moved = now - (*options.x_start)[v];
+              const Vec3 moved = now - (*options.x_start)[v] - c.other_motion;
               const Vec3 slip = moved - c.h.n.dot(moved) * c.h.n;
               const double sl = slip.norm();
               Vec3 want = c.lambda_t;
               if (sl > 0.0) {
                 const Vec3 t = slip / sl;
                 const Vec3 rt = (now - pose.c).cross(t);
-                want -= (sl / (1.0 / mass + rt.dot(inv_inertia * rt))) * t;
+                want -= (sl / (1.0 / mass + rt.dot(inv_inertia * rt) + c.other_wt)) * t;
               }
               const double wl = want.norm();
               if (wl > b.mu_s * pressed) want *= b.mu_k * pressed / wl;
               const Vec3 dt = want - c.lambda_t;
               if (dt.squaredNorm() == 0.0) continue;
               c.lambda_t = want;
+              const Vec3 turn = inv_inertia * (now - pose.c).cross(dt);
               pose.c += dt / mass;
-              pose.q = rotated(pose.q, inv_inertia * (now - pose.c).cross(dt));
+              pose.q = rotated(pose.q, turn);
+              moved_by(dt / mass, turn);
             }
             // Friction and repulsion need a few sweeps to settle among the contacts even when the
             // hard constraints hold from the start.
             bool acting = false;
-            for (const PoseContact& c : contacts)
+            for (const Index k : live) {
+              const PoseContact& c = contacts[static_cast<size_t>(k)];
               acting = acting || c.lambda_n > 0.0 || c.lambda_r > 0.0 || c.lambda_t.squaredNorm() > 0.0;
-            converged = worst >= 0.0 && (!acting || sweep + 1 >= kMinPoseSweeps);
+            }
+            converged = worst >= 0.0 && drift - drift_at_build <= slack && (!acting || sweep + 1 >= kMinPoseSweeps);
           }
           // Redundant contacts (a face resting on four corners) leave the sweeps converging
           // slowly through the rotation's coupling: the last fraction of a violation is removed by
           // translation alone (w = 1/M), a residual of a fraction of a percent of g dt² that
           // would otherwise fail the exact check below and halt the body.
+          const Eigen::Matrix3d turned = pose.q.toRotationMatrix();
           for (int sweep = 0; sweep < kPoseSweeps && !converged; ++sweep) {
             double worst = 0.0;
             for (PoseContact& c : contacts) {
-              const double value = c.h.value(anchor[b.begin + c.i], pose.q * b.rest[c.i] + pose.c);
-              worst = std::min(worst, value - 0.5 * margin);
-              if (value < margin) {
-                c.lambda_n += (margin - value) * mass;
-                pose.c += (margin - value) * c.h.n;
+              const double value = c.h.value(anchor[b.begin + c.i], turned * b.rest[c.i] + pose.c);
+              worst = std::min(worst, value - accept(c));
+              if (value < aim(c)) {
+                c.lambda_n += (aim(c) - value) * mass;
+                pose.c += (aim(c) - value) * c.h.n;
               }
             }
             converged = worst >= 0.0;
@@ -363,6 +415,23 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
             p.q = from.q.slerp(a, target.q);
             p.c = from.c + a * (target.c - from.c);
             place(p, z);
+            if (!admissible(z) && longest_step(z) <= step_bound * (1.0 - 1e-3)) {
+              // The rigid path curves off the blend by O(α(1-α)θ²): a plane with d ~ 0 that the blend
+              // slides along is then crossed by that much at every α, and the body halted although
+              // both ends were admissible. Translation alone removes such a residual (as after the
+              // sweeps); the exact check below decides.
+              const Eigen::Matrix3d turned_p = p.q.toRotationMatrix();
+              bool clear = false;
+              for (int sweep = 0; sweep < kPoseSweeps && !clear; ++sweep) {
+                clear = true;
+                for (const PoseContact& c : contacts) {
+                  const double value = c.h.value(anchor[b.begin + c.i], turned_p * b.rest[c.i] + p.c);
+                  if (value < accept(c)) clear = false;
+                  if (value < aim(c)) p.c += (aim(c) - value) * c.h.n;
+                }
+              }
+              place(p, z);
+            }
             if (admissible(z)) {
               found = true;
               if (bound_limits) bound_limits = a * (1.0 + advance_tolerance) < 1.0;
@@ -391,6 +460,25 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
     total.vertices_violated += s.vertices_violated;
   }
   return total;
+}
+
+Index RigidBodies::body_of(Index v) const {
+  const auto it = std::upper_bound(bodies_.begin(), bodies_.end(), v, [](Index u, const Body& b) { return u < b.end; });
+  return it != bodies_.end() && v >= it->begin ? static_cast<Index>(it - bodies_.begin()) : -1;
+}
+
+std::vector<RigidFrame> RigidBodies::frames(const Positions& at) const {
+  std::vector<RigidFrame> out(bodies_.size());
+  for (size_t bi = 0; bi < bodies_.size(); ++bi) {
+    const Body& b = bodies_[bi];
+    if (b.pinned) continue;
+    const Pose p = fit(std::span<const Vec3>(at.data() + b.begin, b.rest.size()), b.rest, b.weight);
+    const Eigen::Matrix3d r = p.q.toRotationMatrix();
+    out[bi].centre = p.c;
+    out[bi].inv_inertia = r * b.inv_inertia * r.transpose();
+    out[bi].inv_mass = 1.0 / (b.mass + b.core);
+  }
+  return out;
 }
 
 Index RigidBodies::count_deformed(const Positions& x, double tolerance) const {

@@ -89,6 +89,8 @@ class RegionProjectionSolver final : public DetectingSolver {
   RigidBodies rigid_;                     ///< rigid bodies, whose correction is taken as a rigid motion
   std::vector<double> repulsion_target_;  ///< per plane: δ - (gap - d), the value its repulsion aims at
   std::vector<double> repulsion_other_;   ///< per plane: the inverse masses of its pair's other side
+  std::vector<Vec3> other_motion_;        ///< per plane: its pair's other side's motion over the substep
+  std::vector<double> friction_other_;    ///< per plane: the other side's inverse mass against friction
   std::vector<double> free_mask_;  ///< inverse masses with unpinned rigid bodies' vertices at 0 (not projected alone)
   std::vector<std::uint8_t> halted_;  ///< #V: halted during frame `halted_frame_`
   int halted_frame_ = -1;

@@ -47,6 +47,26 @@ struct RigidContactOptions {
   /// Per plane: Σ wₖ² m⁻¹ of the pair's other side, which takes its part of the repulsion's
   /// correction (XPBD: Δλ = -C / (w_body + w_other + α̃)). Empty: 0 (a fixed obstacle).
   std::span<const double> repulsion_other;
+  /// Per plane: how far the pair's other side moved at its closest point over the substep
+  /// (Σ |wₖ| (xₖ - xₖ_start) over its vertices). Friction acts on the slip relative to it: a body
+  /// on a moving belt or on another moving body is carried along. Empty: the other side at rest.
+  std::span<const Vec3> other_motion;
+  /// Per plane: the generalized inverse mass of the other side at its closest point against
+  /// tangential motion, which takes its part of the friction's correction. Empty: 0.
+  std::span<const double> friction_other;
+};
+
+/// Where an unpinned rigid body is, for the generalized inverse mass of one of its points.
+struct RigidFrame {
+  Vec3 centre = Vec3::Zero();
+  Eigen::Matrix3d inv_inertia = Eigen::Matrix3d::Zero();  ///< world inverse inertia
+  double inv_mass = 0.0;                                  ///< 1 / (vertices' mass + core); 0: pinned
+  /// w = 1/M + (r × n)ᵀ I⁻¹ (r × n), r = p - centre: the point's response to a unit impulse along n.
+  double inverse_mass_at(const Vec3& p, const Vec3& n) const {
+    if (inv_mass == 0.0) return 0.0;
+    const Vec3 rn = (p - centre).cross(n);
+    return inv_mass + rn.dot(inv_inertia * rn);
+  }
 };
 
 /// The rigid objects of a scene with their rest shapes about their centres of mass.
@@ -83,6 +103,11 @@ class RigidBodies {
   /// Where each body's core is before any contact acts in the substep: its centre of mass moved
   /// ballistically from `state` (x, v at the substep start) by dt under `gravity`, as the vertices are.
   std::vector<Vec3> predicted_cores(const SimState& state, double dt, const Vec3& gravity) const;
+
+  /// The body that vertex `v` belongs to, or -1.
+  Index body_of(Index v) const;
+  /// Every body's frame at positions `at` (its rigid fit there); pinned bodies get inv_mass 0.
+  std::vector<RigidFrame> frames(const Positions& at) const;
 
   /// Vertices of rigid bodies farther than `tolerance` from the best rigid fit of their body:
   /// a deformed rigid body, which detection cannot see (its pairs with itself are not tested).
