@@ -84,14 +84,17 @@ const std::vector<StressCase>& cases() {
        Expect::clean_or_error, Check::none, "", "", false},
       {"cloth_near_floor_held_back", "cloth_near_floor.yaml", 30, "--set time.continuation=held_back",
        Expect::clean_or_error, Check::above_floor, "cloth", "", true},
-      // Scanned meshes at full resolution (rigid: every body listed stays rigid in every frame).
-      {"scanned_rigid_pile", "rigid_pile.yaml", 40, "", Expect::clean_or_error, Check::rigid,
+      // Scanned meshes at full resolution (rigid: every body listed stays rigid in every frame). The
+      // windows cover first contact (the pile's bodies land from frame 6, the knot hits the cloth in
+      // frame 2, the elephant the top sheet in frame 1); the audit of 70k-vertex frames takes ~8 s
+      // each, so the full runs are measured in docs/performance.md, not here.
+      {"scanned_rigid_pile", "rigid_pile.yaml", 10, "", Expect::clean_or_error, Check::rigid,
        "armadillo,bunny,knot,elephant", "", false, 0.0, "scanned"},
-      {"scanned_solid_on_cloth", "solid_on_cloth.yaml", 20, "", Expect::clean_or_error, Check::none, "", "", false, 0.0,
+      {"scanned_solid_on_cloth", "solid_on_cloth.yaml", 5, "", Expect::clean_or_error, Check::none, "", "", false, 0.0,
        "scanned"},
-      {"scanned_rigid_into_cloth_stack", "rigid_into_cloth_stack.yaml", 20, "", Expect::clean_or_error, Check::rigid,
+      {"scanned_rigid_into_cloth_stack", "rigid_into_cloth_stack.yaml", 12, "", Expect::clean_or_error, Check::rigid,
        "elephant", "", false, 0.0, "scanned"},
-      {"scanned_cloth_on_spinning_mesh", "cloth_on_spinning_mesh.yaml", 30, "", Expect::clean_or_error, Check::none, "",
+      {"scanned_cloth_on_spinning_mesh", "cloth_on_spinning_mesh.yaml", 12, "", Expect::clean_or_error, Check::none, "",
        "", false, 0.0, "scanned"},
   };
   return v;
