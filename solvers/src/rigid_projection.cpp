@@ -275,7 +275,13 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
             }
             drift_at_build = drift;
           };
-          auto moved_by = [&](const Vec3& dc, const Vec3& dtheta) { drift += dc.norm() + dtheta.norm() * b.extent; };
+          // One impulse on the pose: the centre moves by dc, the body turns by dtheta; the drift bound
+          // of the live-contact pruning grows by the largest displacement that can cause.
+          auto apply = [&](const Vec3& dc, const Vec3& dtheta) {
+            pose.c += dc;
+            pose.q = rotated(pose.q, dtheta);
+            drift += dc.norm() + dtheta.norm() * b.extent;
+          };
           if (!converged) rebuild_live();
           for (int sweep = 0; sweep < kPoseSweeps && !converged; ++sweep) {
             if (drift - drift_at_build > slack) rebuild_live();
@@ -296,9 +302,7 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
               const double dl = next - c.lambda_n;
               if (dl != 0.0) {
                 c.lambda_n = next;
-                pose.c += (dl / mass) * c.h.n;
-                pose.q = rotated(pose.q, inv_inertia * rn * dl);
-                moved_by((dl / mass) * c.h.n, inv_inertia * rn * dl);
+                apply((dl / mass) * c.h.n, inv_inertia * rn * dl);
               }
               if (options.repulsion_range > 0.0) {
                 // XPBD repulsion of the pair's gap toward δ with compliance α̃, its multiplier kept >= 0.
@@ -309,9 +313,7 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
                 const double dr = rep - c.lambda_r;
                 if (dr != 0.0) {
                   c.lambda_r = rep;
-                  pose.c += (dr / mass) * c.h.n;
-                  pose.q = rotated(pose.q, inv_inertia * rn * dr);
-                  moved_by((dr / mass) * c.h.n, inv_inertia * rn * dr);
+                  apply((dr / mass) * c.h.n, inv_inertia * rn * dr);
                 }
               }
               const double pressed = c.lambda_n + c.lambda_r;
@@ -336,10 +338,7 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
               const Vec3 dt = want - c.lambda_t;
               if (dt.squaredNorm() == 0.0) continue;
               c.lambda_t = want;
-              const Vec3 turn = inv_inertia * (now - pose.c).cross(dt);
-              pose.c += dt / mass;
-              pose.q = rotated(pose.q, turn);
-              moved_by(dt / mass, turn);
+              apply(dt / mass, inv_inertia * (now - pose.c).cross(dt));
             }
             // Friction and repulsion need a few sweeps to settle among the contacts even when the
             // hard constraints hold from the start.

@@ -10,6 +10,7 @@
 #include "ccfr/core/error.hpp"
 #include "ccfr/io/frame_topology.hpp"
 #include "ccfr/io/obj.hpp"
+#include "cli_support.hpp"
 
 namespace fs = std::filesystem;
 using namespace ccfr;
@@ -21,24 +22,16 @@ fs::path write_obj(const std::string& name, const std::string& text) {
   return p;
 }
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
 }  // namespace
 
 TEST(FrameReader, StatementsCarryingGeometryItCannotReadAreRefused) {
   for (const char* tag : {"curv 0 1 1 2", "surf 0 1 0 1 1 2 3 4", "call other.obj", "cstype bspline", "pt 1"}) {
     const fs::path p = write_obj("freeform", std::string("o a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n") + tag + "\n");
-    const std::string e = error_of([&] { io::read_frame_obj(p); });
+    const std::string e = test::error_of([&] { io::read_frame_obj(p); });
     EXPECT_NE(e.find("ccfr_reader_freeform.obj:6: unsupported OBJ statement"), std::string::npos) << tag << ": " << e;
   }
   const fs::path empty_p = write_obj("emptyp", "o a\nv 0 0 0\np\n");
-  EXPECT_NE(error_of([&] { io::read_frame_obj(empty_p); }).find("ccfr_reader_emptyp.obj:3:"), std::string::npos);
+  EXPECT_NE(test::error_of([&] { io::read_frame_obj(empty_p); }).find("ccfr_reader_emptyp.obj:3:"), std::string::npos);
   // Display and texture statements are ignored, polygons fan-triangulated, negative indices relative.
   const auto fr = io::read_frame_obj(write_obj(
       "display", "mtllib m.mtl\no a\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\n  # note\ng side\n"));
@@ -54,17 +47,17 @@ TEST(FrameReader, MixedBlocksAndElementlessVerticesAreRefusedWithFileAndLine) {
   EXPECT_EQ(fp.objects.at(0).line, 1);
   EXPECT_EQ(fp.objects.at(0).first_point_line, 6);
   EXPECT_EQ(fp.objects.at(0).first_face_line, 7);
-  EXPECT_NE(error_of([&] {
+  EXPECT_NE(test::error_of([&] {
               io::topology_from_frame(fp, points);
             }).find("ccfr_reader_mixp.obj:7: object 'a' mixes faces (f) and points (p)"),
             std::string::npos);
   const fs::path lines = write_obj("mixl", "o h\nv 0 0 0\nv 1 0 0\nv 2 0 0\nl 1 2 3\np 1\n");
-  EXPECT_NE(error_of([&] {
+  EXPECT_NE(test::error_of([&] {
               io::topology_from_frame(io::read_frame_obj(lines), lines);
             }).find("ccfr_reader_mixl.obj:6: object 'h' mixes lines (l) and points (p)"),
             std::string::npos);
   const fs::path bare = write_obj("bare", "o a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\no cloud\nv 5 5 5\nv 6 6 6\n");
-  EXPECT_NE(error_of([&] {
+  EXPECT_NE(test::error_of([&] {
               io::topology_from_frame(io::read_frame_obj(bare), bare);
             }).find("ccfr_reader_bare.obj:6: object 'cloud' has 2 vertices but no f, l or p element"),
             std::string::npos);

@@ -41,20 +41,6 @@ const char* kCubeOff = R"(OFF
 4 3 0 4 7
 )";
 
-fs::path write(const fs::path& dir, const std::string& name, const std::string& text) {
-  std::ofstream(dir / name) << text;
-  return dir / name;
-}
-
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
-
 /// Signed enclosed volume by the divergence theorem (positive for outward winding).
 double enclosed_volume(const io::ObjMesh& m) {
   double v = 0;
@@ -80,7 +66,7 @@ bool closed_and_oriented(const io::ObjMesh& m) {
 
 TEST(Off, CubeQuadsGiveTheSameTrianglesAsObjAndItsVolume) {
   const fs::path d = test::scratch_dir("off_cube");
-  const auto m = io::read_off_mesh(write(d, "cube.off", kCubeOff));
+  const auto m = io::read_off_mesh(test::write_text(d, "cube.off", kCubeOff));
   ASSERT_EQ(m.v.size(), 8u);
   ASSERT_EQ(m.f.size(), 12u);
   EXPECT_NEAR(enclosed_volume(m), 8.0, 1e-12);
@@ -91,7 +77,7 @@ TEST(Off, CubeQuadsGiveTheSameTrianglesAsObjAndItsVolume) {
     obj += "v " + std::to_string(p.x()) + " " + std::to_string(p.y()) + " " + std::to_string(p.z()) + "\n";
   for (const char* q : {"1 4 3 2", "5 6 7 8", "1 2 6 5", "2 3 7 6", "3 4 8 7", "4 1 5 8"})
     obj += std::string("f ") + q + "\n";
-  const auto o = io::read_obj_mesh(write(d, "cube.obj", obj));
+  const auto o = io::read_obj_mesh(test::write_text(d, "cube.obj", obj));
   ASSERT_EQ(o.f.size(), m.f.size());
   for (size_t i = 0; i < m.f.size(); ++i) EXPECT_EQ(o.f[i], m.f[i]) << "triangle " << i;
   // Each triangle names the line of its face: the first quad is on line 13 (after a blank line).
@@ -102,21 +88,23 @@ TEST(Off, CubeQuadsGiveTheSameTrianglesAsObjAndItsVolume) {
 TEST(Off, HeaderVariantsColoursNormalsAndCountsOnTheHeaderLine) {
   const fs::path d = test::scratch_dir("off_variants");
   // Counts on the header's line, a triangle with a face colour, comments after data.
-  const auto a = io::read_off_mesh(write(d, "a.off", "OFF 3 1 0\n0 0 0 # origin\n1 0 0\n0 1 0\n3 0 1 2 255 0 0\n"));
+  const auto a =
+      io::read_off_mesh(test::write_text(d, "a.off", "OFF 3 1 0\n0 0 0 # origin\n1 0 0\n0 1 0\n3 0 1 2 255 0 0\n"));
   ASSERT_EQ(a.f.size(), 1u);
   EXPECT_EQ(a.f[0], Vec3i(0, 1, 2));
   EXPECT_EQ(a.v[1], Vec3(1, 0, 0));
   // COFF and NOFF carry colours and normals after the coordinates: ignored.
-  const auto c =
-      io::read_off_mesh(write(d, "c.off", "COFF\n3 1 3\n0 0 0 1 0 0 1\n2 0 0 1 0 0 1\n0 3 0 1 0 0 1\n3 0 1 2\n"));
+  const auto c = io::read_off_mesh(
+      test::write_text(d, "c.off", "COFF\n3 1 3\n0 0 0 1 0 0 1\n2 0 0 1 0 0 1\n0 3 0 1 0 0 1\n3 0 1 2\n"));
   EXPECT_EQ(c.v[2], Vec3(0, 3, 0));
-  const auto n = io::read_off_mesh(write(d, "n.off", "NOFF\n3 1 0\n0 0 1 0 0 1\n1 0 1 0 0 1\n0 1 1 0 0 1\n3 0 1 2\n"));
+  const auto n =
+      io::read_off_mesh(test::write_text(d, "n.off", "NOFF\n3 1 0\n0 0 1 0 0 1\n1 0 1 0 0 1\n0 1 1 0 0 1\n3 0 1 2\n"));
   EXPECT_EQ(n.v[0], Vec3(0, 0, 1));
   // No header keyword at all (some writers omit it): the first line is the counts.
-  const auto h = io::read_off_mesh(write(d, "h.off", "3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 2 1 0\n"));
+  const auto h = io::read_off_mesh(test::write_text(d, "h.off", "3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 2 1 0\n"));
   EXPECT_EQ(h.f[0], Vec3i(2, 1, 0));
   // A pentagon becomes a fan of three triangles from its first vertex.
-  const auto p = io::read_off_mesh(write(
+  const auto p = io::read_off_mesh(test::write_text(
       d, "p.off", "OFF\n5 1 0\n1 0 0\n0.309 0.951 0\n-0.809 0.588 0\n-0.809 -0.588 0\n0.309 -0.951 0\n5 0 1 2 3 4\n"));
   ASSERT_EQ(p.f.size(), 3u);
   EXPECT_EQ(p.f[1], Vec3i(0, 2, 3));
@@ -125,7 +113,7 @@ TEST(Off, HeaderVariantsColoursNormalsAndCountsOnTheHeaderLine) {
 TEST(Off, MalformedFilesNameTheFileAndLine) {
   const fs::path d = test::scratch_dir("off_bad");
   auto err = [&](const std::string& name, const std::string& text) {
-    return error_of([&] { io::read_off_mesh(write(d, name, text)); });
+    return test::error_of([&] { io::read_off_mesh(test::write_text(d, name, text)); });
   };
   auto has = [](const std::string& e, const std::string& what) { return e.find(what) != std::string::npos; };
   std::string e = err("empty.off", "# nothing\n\n");
@@ -165,13 +153,13 @@ TEST(Off, MalformedFilesNameTheFileAndLine) {
   EXPECT_TRUE(has(e, "trail.off:7: unexpected data after the 1 faces declared")) << e;
   e = err("novert.off", "OFF\n0 0 0\n");
   EXPECT_TRUE(has(e, "novert.off:2: no vertices")) << e;
-  EXPECT_TRUE(has(error_of([&] { io::read_off_mesh(d / "absent.off"); }), "absent.off' does not exist"));
-  EXPECT_TRUE(has(error_of([&] { io::read_off_mesh(d); }), "is not a regular file"));
+  EXPECT_TRUE(has(test::error_of([&] { io::read_off_mesh(d / "absent.off"); }), "absent.off' does not exist"));
+  EXPECT_TRUE(has(test::error_of([&] { io::read_off_mesh(d); }), "is not a regular file"));
 }
 
 TEST(Off, ScenesLoadOffSurfacesAsRigidBodiesAndTetSolids) {
   const fs::path d = test::scratch_dir("off_scene");
-  write(d, "cube.off", kCubeOff);
+  test::write_text(d, "cube.off", kCubeOff);
   auto scene = [](const std::string& kind, const std::string& shape) {
     return "scene: t\ntime: {frames: 1}\nobjects:\n  - name: body\n    kind: " + kind + "\n    shape: " + shape +
            "\n    transform: {scale: 0.05}\n";
@@ -180,7 +168,7 @@ TEST(Off, ScenesLoadOffSurfacesAsRigidBodiesAndTetSolids) {
   EXPECT_EQ(rigid.scene.topo.num_vertices(), 8);
   EXPECT_EQ(rigid.scene.topo.faces.size(), 12u);
   // A broken OFF file is a config error naming the key and the file's own line.
-  write(d, "bad.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n");
+  test::write_text(d, "bad.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n");
   try {
     io::load_scene_text(scene("obstacle", "{type: mesh, path: bad.off}"), "s.yaml", d);
     ADD_FAILURE() << "expected a ConfigError";

@@ -125,31 +125,18 @@ void expect_box(const io::TetMesh& m) {
   EXPECT_NEAR(total, 24.0, 1e-12);
 }
 
-fs::path write(const fs::path& dir, const std::string& name, const std::string& text) {
-  std::ofstream(dir / name) << text;
-  return dir / name;
-}
-
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
-
 TEST(TetMesh, TetgenNodeEleGiveTheBoxVolume) {
   const fs::path d = test::scratch_dir("tet_tetgen");
-  write(d, "box.node", kNode);
-  write(d, "box.ele", kEle);
+  test::write_text(d, "box.node", kNode);
+  test::write_text(d, "box.ele", kEle);
   expect_box(io::read_tetgen(d / "box.ele"));
   expect_box(io::read_tetgen(d / "box.node"));
 }
 
 TEST(TetMesh, GmshV2AndV4GiveTheSameBox) {
   const fs::path d = test::scratch_dir("tet_gmsh");
-  const auto a = io::read_gmsh(write(d, "a.msh", kMsh2)), b = io::read_gmsh(write(d, "b.msh", kMsh4));
+  const auto a = io::read_gmsh(test::write_text(d, "a.msh", kMsh2)),
+             b = io::read_gmsh(test::write_text(d, "b.msh", kMsh4));
   expect_box(a);
   expect_box(b);
   EXPECT_EQ(a.v, b.v);
@@ -158,27 +145,29 @@ TEST(TetMesh, GmshV2AndV4GiveTheSameBox) {
 
 TEST(TetMesh, MalformedFilesNameTheLine) {
   const fs::path d = test::scratch_dir("tet_bad");
-  write(d, "flat.node", "4 3 0 0\n0 0 0 0\n1 1 0 0\n2 0 1 0\n3 1 1 0\n");
-  write(d, "flat.ele", "1 4 0\n0 0 1 2 3\n");
-  EXPECT_NE(error_of([&] { io::read_tetgen(d / "flat.ele"); }).find("flat.ele:2: tetrahedron 1 has zero volume"),
+  test::write_text(d, "flat.node", "4 3 0 0\n0 0 0 0\n1 1 0 0\n2 0 1 0\n3 1 1 0\n");
+  test::write_text(d, "flat.ele", "1 4 0\n0 0 1 2 3\n");
+  EXPECT_NE(test::error_of([&] { io::read_tetgen(d / "flat.ele"); }).find("flat.ele:2: tetrahedron 1 has zero volume"),
             std::string::npos);
-  write(d, "far.node", kNode);
-  write(d, "far.ele", "1 4 0\n1 1 2 4 9\n");
-  EXPECT_NE(
-      error_of([&] { io::read_tetgen(d / "far.ele"); }).find("far.ele:2: node 9 out of range (far.node has 1..8)"),
-      std::string::npos);
-  write(d, "lonely.node", kNode);
-  EXPECT_NE(error_of([&] { io::read_tetgen(d / "lonely.node"); }).find("lonely.ele' does not exist"),
+  test::write_text(d, "far.node", kNode);
+  test::write_text(d, "far.ele", "1 4 0\n1 1 2 4 9\n");
+  EXPECT_NE(test::error_of([&] {
+              io::read_tetgen(d / "far.ele");
+            }).find("far.ele:2: node 9 out of range (far.node has 1..8)"),
             std::string::npos);
-  write(d, "bin.msh", "$MeshFormat\n4.1 1 8\n");
-  EXPECT_NE(error_of([&] { io::read_gmsh(d / "bin.msh"); }).find("bin.msh:2: binary .msh is not supported"),
+  test::write_text(d, "lonely.node", kNode);
+  EXPECT_NE(test::error_of([&] { io::read_tetgen(d / "lonely.node"); }).find("lonely.ele' does not exist"),
             std::string::npos);
-  write(d, "undef.msh",
-        "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n1\n1 0 0 0\n$EndNodes\n$Elements\n1\n1 4 0 1 2 3 4\n");
-  EXPECT_NE(error_of([&] { io::read_gmsh(d / "undef.msh"); }).find("undef.msh:10: element uses node 2"),
+  test::write_text(d, "bin.msh", "$MeshFormat\n4.1 1 8\n");
+  EXPECT_NE(test::error_of([&] { io::read_gmsh(d / "bin.msh"); }).find("bin.msh:2: binary .msh is not supported"),
             std::string::npos);
-  write(d, "none.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n1\n1 0 0 0\n$EndNodes\n");
-  EXPECT_NE(error_of([&] { io::read_gmsh(d / "none.msh"); }).find("no tetrahedra"), std::string::npos);
+  test::write_text(
+      d, "undef.msh",
+      "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n1\n1 0 0 0\n$EndNodes\n$Elements\n1\n1 4 0 1 2 3 4\n");
+  EXPECT_NE(test::error_of([&] { io::read_gmsh(d / "undef.msh"); }).find("undef.msh:10: element uses node 2"),
+            std::string::npos);
+  test::write_text(d, "none.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n1\n1 0 0 0\n$EndNodes\n");
+  EXPECT_NE(test::error_of([&] { io::read_gmsh(d / "none.msh"); }).find("no tetrahedra"), std::string::npos);
 }
 
 std::string scene(const std::string& kind, const std::string& shape) {
@@ -193,9 +182,9 @@ double scene_volume(const io::LoadedScene& s) {
 
 TEST(TetMesh, ScenesLoadTetFilesAndRefuseOtherFormats) {
   const fs::path d = test::scratch_dir("tet_scene");
-  write(d, "box.node", kNode);
-  write(d, "box.ele", kEle);
-  write(d, "box.msh", kMsh4);
+  test::write_text(d, "box.node", kNode);
+  test::write_text(d, "box.ele", kEle);
+  test::write_text(d, "box.msh", kMsh4);
   EXPECT_NEAR(scene_volume(io::load_scene_text(scene("tet_solid", "{type: mesh, path: box.ele}"), "s.yaml", d)), 24,
               1e-12);
   EXPECT_NEAR(scene_volume(io::load_scene_text(scene("tet_solid", "{type: mesh, path: box.msh}"), "s.yaml", d)), 24,

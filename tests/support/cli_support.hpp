@@ -11,9 +11,12 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include "ccfr/core/error.hpp"
 
 namespace ccfr::test {
 
@@ -96,6 +99,23 @@ inline std::string read_text(const std::filesystem::path& p) {
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
+}
+
+/// Writes `text` to dir/name and returns that path (input files for the readers' tests).
+inline std::filesystem::path write_text(const std::filesystem::path& dir, const std::string& name,
+                                        const std::string& text) {
+  std::ofstream(dir / name) << text;
+  return dir / name;
+}
+
+/// The message of the ccfr::Error that `f` throws, or "(no error)".
+inline std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "(no error)";
 }
 
 /// Starts `ccfr args...` with stdout + stderr into `log`; `fsize_limit` > 0 caps the size of any
