@@ -53,6 +53,31 @@ void readable_checks(CLI::App& app) {
   for (CLI::App* sub : app.get_subcommands({})) readable_checks(*sub);
 }
 
+/// Options whose value names something: given as "" they would silently mean their default
+/// (`--solver ""` the scene's solver, `ablate --solvers ""` all six). CLI11 skips validators on
+/// empty values, so this checks after each subcommand's parse.
+void refuse_empty_values(CLI::App& app) {
+  app.parse_complete_callback([&app] {
+    for (const char* name : {"--solver", "--solvers"}) {
+      const CLI::Option* opt = app.get_option_no_throw(name);
+      if (!opt) continue;
+      for (const std::string& value : opt->results())
+        if (value.empty())
+          throw CLI::ValidationError(name, "is empty: name a contact solver (`ccfr schema` lists them)");
+    }
+  });
+  for (CLI::App* sub : app.get_subcommands({})) refuse_empty_values(*sub);
+}
+
+/// Global options (-q, --log-level) go before or after any subcommand, nested ones included
+/// (`ccfr sweep status DIR -q`): unknown options fall through to the parent.
+void fall_through(CLI::App& app) {
+  for (CLI::App* sub : app.get_subcommands({})) {
+    sub->fallthrough();
+    fall_through(*sub);
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -82,13 +107,29 @@ int main(int argc, char** argv) {
          "No progress and no info logs (warnings and errors still on stderr); results still on stdout")
       ->trigger_on_parse();
   ccfr::app::register_commands(app);
-  for (CLI::App* sub : app.get_subcommands({})) sub->fallthrough();
+  fall_through(app);
+  for (CLI::App* sub : app.get_subcommands({})) refuse_empty_values(*sub);
   ccfr::app::set_invocation(argc, argv);  // run.json records the command line as typed
   readable_checks(app);
+  // CLI11 says only "A subcommand is required" for `ccfr frobnicate`: name the word and the commands.
+  if (argc > 1 && argv[1][0] != '-') {
+    bool known = false;
+    std::string names;
+    for (const CLI::App* sub : app.get_subcommands({})) {
+      known = known || sub->check_name(argv[1]);
+      names += (names.empty() ? "" : ", ") + sub->get_name();
+    }
+    if (!known) {
+      std::fprintf(stderr, "unknown command '%s'; the commands are %s (ccfr --help)\n", argv[1], names.c_str());
+      return 2;
+    }
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // app.exit prints the message (or the help); every command-line error then exits 2, the
+    // documented code for a user's mistake, not CLI11's own codes (104-109).
+    return app.exit(e) == 0 ? 0 : 2;
   }
   return ccfr::app::exit_code();
 }

@@ -34,6 +34,9 @@ struct RunMeta {
 
 /// True if DIR/run.json is a JSON object with the ccfr marker (`"ccfr": {"version": ...}`).
 bool is_ccfr_run(const std::filesystem::path& dir);
+/// Why DIR is not a ccfr run, for messages: "no run.json", "run.json is unreadable: ...
+/// (truncated or damaged)" or "run.json was not written by ccfr"; empty when is_ccfr_run(dir).
+std::string run_json_problem(const std::filesystem::path& dir);
 
 /// Writes a run directory (docs/output.md). Frames and run.json are written atomically (temporary
 /// file + rename, the temporary removed on failure); run.json is rewritten after every frame so
