@@ -1,10 +1,15 @@
 // Every command-line and input mistake ends in exit 2 with a message naming the path, key or
-// option (issue 37): paths that cannot be looked at (symlink loops, names too long) in every
-// subcommand, CLI11's parse errors, global options after nested subcommands, empty solver
-// names, damaged sweep.json and run.json, strict sweep specs checked before any cell runs,
-// and `ccfr plot` on a stats.csv ccfr did not write.
+// option (issue 37): paths that cannot be looked at (symlink loops, names too long, permission
+// denied) in every subcommand, CLI11's parse errors, global options after nested subcommands,
+// empty solver names, damaged sweep.json and run.json, strict sweep specs checked before any
+// cell runs, and `ccfr plot` on a stats.csv ccfr did not write.
 #include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <array>
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -29,6 +34,18 @@ fs::path scene(const fs::path& d) {
 }
 
 std::string q(const fs::path& p) { return "'" + p.string() + "'"; }
+
+/// Runs a whole shell command line and collects its output (run_ccfr prepends the executable).
+CliResult run_shell(const std::string& cmd) {
+  CliResult r;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return r;
+  std::array<char, 4096> buf;
+  while (size_t n = fread(buf.data(), 1, buf.size(), p)) r.out.append(buf.data(), n);
+  const int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
 
 }  // namespace
 
@@ -207,4 +224,28 @@ TEST(CliErrors, PlotRefusesAForeignStatsCsvAndPrintsTheFileItWrote) {
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(fs::exists(d / "base.png")) << r.out;
   EXPECT_TRUE(has(r, "plot: " + (d / "base.png").string() + "\n")) << r.out;
+}
+
+// Permission denied on a directory in the path (EACCES from stat). Root passes every permission
+// check, so the commands run as `nobody` through runuser; skipped where that is not possible.
+TEST(CliErrors, InaccessiblePathsAreExit2NamingThePath) {
+  if (::geteuid() != 0 || std::system("command -v runuser > /dev/null 2>&1") != 0)
+    GTEST_SKIP() << "needs root and runuser to run ccfr as nobody";
+  const fs::path d = ccfr::test::scratch_dir("cli_errors_eacces");
+  fs::permissions(d, fs::perms::owner_all | fs::perms::others_read | fs::perms::others_exec);
+  scene(d);
+  fs::create_directories(d / "closed");
+  fs::copy_file(d / "s.yaml", d / "closed" / "s.yaml");
+  fs::permissions(d / "closed", fs::perms::none);
+  for (const std::string& cmd : std::vector<std::string>{
+           "run " + q(d / "closed" / "s.yaml") + " --out /tmp/ccfr_eacces_never", "audit " + q(d / "closed" / "x"),
+           "plot " + q(d / "closed" / "x"), "render " + q(d / "closed" / "x"), "bench " + q(d / "closed" / "s.yaml")}) {
+    SCOPED_TRACE(cmd);
+    const CliResult r = run_shell("runuser -u nobody -- " + std::string(CCFR_EXE) + " " + cmd + " 2>&1");
+    EXPECT_EQ(r.code, 2) << r.out;
+    EXPECT_TRUE(has(r, "Permission denied")) << r.out;
+    EXPECT_TRUE(has(r, (d / "closed").string())) << r.out;
+    EXPECT_FALSE(has(r, "internal error")) << r.out;
+  }
+  fs::permissions(d / "closed", fs::perms::owner_all);
 }
