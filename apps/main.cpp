@@ -69,25 +69,9 @@ void refuse_empty_values(CLI::App& app) {
   for (CLI::App* sub : app.get_subcommands({})) refuse_empty_values(*sub);
 }
 
-/// Global options (-q, --log-level) go before or after any subcommand, nested ones included
-/// (`ccfr sweep status DIR -q`): unknown options fall through to the parent.
-void fall_through(CLI::App& app) {
-  for (CLI::App* sub : app.get_subcommands({})) {
-    sub->fallthrough();
-    fall_through(*sub);
-  }
-}
-
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app{"ccfr: penetration-free XPBD simulation with Convex Collision-Free Regions"};
-  app.require_subcommand(1);
-  app.set_version_flag("--version", std::string(ccfr::app::version_string()));
-  ccfr::init_logging("info");  // logs to stderr from the start, whatever a subcommand logs first
-  // Global options, accepted before or after the subcommand (fallthrough); they take effect while
-  // parsing, so a subcommand's own default level (warn for audit, bench, render) gives way to them.
-  auto explicit_level = std::make_shared<bool>(false);
+/// The global options -q and --log-level. They take effect while parsing, so a subcommand's own
+/// default level (warn for audit, bench, render) gives way to them.
+void add_global_options(CLI::App& app, const std::shared_ptr<bool>& explicit_level) {
   app.add_option_function<std::string>(
          "--log-level",
          [explicit_level](const std::string& level) {
@@ -106,8 +90,32 @@ int main(int argc, char** argv) {
          },
          "No progress and no info logs (warnings and errors still on stderr); results still on stdout")
       ->trigger_on_parse();
+}
+
+/// Global options go before or after any subcommand. A subcommand passes options it does not
+/// know to ccfr (fallthrough); a nested one (`ccfr sweep status DIR -q`) takes them itself, since
+/// falling through to `sweep` would also accept sweep's own options and positional there.
+void global_options_everywhere(CLI::App& app, const std::shared_ptr<bool>& explicit_level) {
+  for (CLI::App* sub : app.get_subcommands({})) {
+    sub->fallthrough();
+    for (CLI::App* nested : sub->get_subcommands({})) {
+      add_global_options(*nested, explicit_level);
+      global_options_everywhere(*nested, explicit_level);
+    }
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"ccfr: penetration-free XPBD simulation with Convex Collision-Free Regions"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", std::string(ccfr::app::version_string()));
+  ccfr::init_logging("info");  // logs to stderr from the start, whatever a subcommand logs first
+  auto explicit_level = std::make_shared<bool>(false);
+  add_global_options(app, explicit_level);
   ccfr::app::register_commands(app);
-  fall_through(app);
+  global_options_everywhere(app, explicit_level);
   for (CLI::App* sub : app.get_subcommands({})) refuse_empty_values(*sub);
   ccfr::app::set_invocation(argc, argv);  // run.json records the command line as typed
   readable_checks(app);

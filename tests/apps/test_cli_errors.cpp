@@ -120,6 +120,13 @@ TEST(CliErrors, GlobalOptionsAfterEverySubcommand) {
   }
   EXPECT_FALSE(fs::exists(d / "ab"));
   EXPECT_FALSE(fs::exists(d / "o"));
+  // Only the global options reach a nested subcommand: sweep's own options and positional do not.
+  for (const std::string& extra : std::vector<std::string>{"--backend slurm", "--out " + q(d / "x"), "spec.yaml"}) {
+    SCOPED_TRACE(extra);
+    const CliResult r = run_ccfr("sweep status " + q(d) + " " + extra);
+    EXPECT_EQ(r.code, 2) << r.out;
+    EXPECT_TRUE(has(r, "not expected")) << r.out;
+  }
   const CliResult ok = run_ccfr("run " + q(s) + " --out " + q(d / "o") + " -q --log-level error");
   EXPECT_EQ(ok.code, 0) << ok.out;
 }
