@@ -26,7 +26,8 @@ void guarded(const std::function<int()>& body, int user_error_code) {
   try {
     set_exit_code(body());
   } catch (const Error& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
+    // Messages quote file content and names: no byte of it may drive the terminal.
+    std::fprintf(stderr, "error: %s\n", io::printable(e.what(), true).c_str());
     set_exit_code(user_error_code);
   } catch (const std::filesystem::filesystem_error& e) {
     // A path the user gave that cannot be looked at (a symlink loop, a name longer than the file

@@ -149,14 +149,14 @@ std::string text_problem(const std::string& text) {
   return "";
 }
 
-std::string printable(const std::string& text) {
+std::string printable(const std::string& text, bool keep_newlines) {
   std::string out;
   out.reserve(text.size());
   char b[8];
   for (size_t i = 0; i < text.size();) {
     char32_t cp = 0;
     const size_t len = utf8_sequence(text, i, cp);
-    if (len == 0 || is_control(cp)) {
+    if (len == 0 || (is_control(cp) && !(keep_newlines && (cp == '\n' || cp == '\t')))) {
       for (size_t k = 0; k < std::max<size_t>(len, 1); ++k) {
         std::snprintf(b, sizeof b, "\\x%02x", static_cast<unsigned char>(text[i + k]));
         out += b;

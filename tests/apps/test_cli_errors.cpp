@@ -256,3 +256,17 @@ TEST(CliErrors, InaccessiblePathsAreExit2NamingThePath) {
   }
   fs::permissions(d / "closed", fs::perms::owner_all);
 }
+
+// A message quotes what the user wrote; YAML escapes ("\e", "\u009b") put terminal control
+// sequences into values, so every error is printed with its control characters as \xNN.
+TEST(CliErrors, MessagesNeverCarryTerminalControlSequences) {
+  const fs::path d = ccfr::test::scratch_dir("cli_errors_escape");
+  std::ofstream(d / "e.yaml") << "objects:\n  - {name: s, kind: \"\\e[31mred\\u009b2J\", shape: {type: grid, size: "
+                                 "[1, 1], resolution: [2, 2]}}\n";
+  const CliResult r = run_ccfr("run " + q(d / "e.yaml") + " --out " + q(d / "o"));
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(has(r, "objects[0].kind")) << r.out;
+  EXPECT_FALSE(has(r, "\x1b")) << r.out;
+  EXPECT_FALSE(has(r, "\xc2\x9b")) << r.out;
+  EXPECT_TRUE(has(r, "\\x1b[31mred\\xc2\\x9b2J")) << r.out;
+}

@@ -29,7 +29,8 @@ std::filesystem::file_status user_path_status(const std::filesystem::path& path,
 
 /// A copy of `text` fit to echo on a terminal: control characters (ESC, CR, ...) and bytes that
 /// are not UTF-8 become \xNN, so a file's content cannot drive the terminal.
-std::string printable(const std::string& text);
+/// `keep_newlines` keeps LF and tab (a multi-line message printed whole).
+std::string printable(const std::string& text, bool keep_newlines = false);
 
 /// Why `text` cannot be a name (empty when it can): not UTF-8, or a control character (C0, DEL,
 /// C1 such as U+0085 NEL, U+2028, U+2029) that would break the line it is written on.
