@@ -202,9 +202,8 @@ RunWriter::RunWriter(fs::path dir, const Topology& topo, std::string resolved_co
           (e.path().extension() == ".obj" || e.path().extension() == ".ply"))
         fs::remove(e.path(), ec);
   } else {
-    throw Error("output directory '" + final_.string() +
-                "' is not empty and is not a ccfr run (no run.json written by ccfr); choose another --out or pass "
-                "--force");
+    throw Error("output directory '" + final_.string() + "' is not empty and is not a ccfr run (" +
+                run_json_problem(final_) + "); choose another --out or pass --force");
   }
   create_dirs(dir_ / "frames");
   remove_stale_temporaries(dir_);

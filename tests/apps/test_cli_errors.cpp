@@ -204,6 +204,13 @@ TEST(CliErrors, TruncatedRunJsonIsCalledTruncated) {
   EXPECT_TRUE(has(r, "run.json is unreadable")) << r.out;
   EXPECT_TRUE(has(r, "truncated")) << r.out;
   EXPECT_FALSE(has(r, "no run.json")) << r.out;
+  // A new run into it says the same, rather than "no run.json".
+  std::ofstream(d / "s.yaml") << "time: {frames: 1, substeps: 1}\nobjects:\n  - {name: sheet, kind: cloth, shape: "
+                                 "{type: grid, size: [0.1, 0.1], resolution: [2, 2]}}\n";
+  const CliResult rerun = run_ccfr("run " + q(d / "s.yaml") + " --out " + q(d / "run"));
+  EXPECT_EQ(rerun.code, 2) << rerun.out;
+  EXPECT_TRUE(has(rerun, "run.json is unreadable")) << rerun.out;
+  EXPECT_FALSE(has(rerun, "no run.json")) << rerun.out;
   fs::remove(d / "run" / "run.json");
   EXPECT_TRUE(has(run_ccfr("run --resume " + q(d / "run")), "no run.json"));
 }
