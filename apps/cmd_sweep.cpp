@@ -386,7 +386,8 @@ int run_local(const SweepLayout& s, const std::vector<size_t>& indices, int jobs
     progress.clear();
     spdlog::info("{}: started {} ({} of {}, {} threads)", label, c.id, next, indices.size(), threads);
   };
-  while (next < indices.size() && static_cast<int>(running.size()) < jobs) start_one();
+  // A signal during the set-up above (loading every scene for the frame totals) starts no cell.
+  while (next < indices.size() && static_cast<int>(running.size()) < jobs && !g_sweep_signal) start_one();
   while (!running.empty()) {
     if (const int sig = g_sweep_signal.exchange(0)) {
       if (!stopping) {
@@ -431,6 +432,7 @@ int run_local(const SweepLayout& s, const std::vector<size_t>& indices, int jobs
     report(true);
   }
   progress.finish();
+  if (!stopping) stopping = g_sweep_signal.exchange(0);
   if (stopped_by) *stopped_by = stopping;
   return failed;
 }

@@ -279,6 +279,45 @@ TEST(RunDir, APreviousRunThatCannotBeRemovedAfterwardsIsReportedWithWhereItIs) {
   expect_nothing_beside(out);
 }
 
+// A rerun killed during the few renames that put it in place (assembled here from two real runs):
+// the next writer undoes it when the previous run was not all moved out yet, finishes it when it
+// was (the marker in DIR.ccfr-old), and says so; the user's files never move.
+TEST(RunDir, ARerunKilledWhilePuttingItselfInPlaceIsUndoneOrFinishedByTheNext) {
+  const fs::path d = ccfr::test::scratch_dir("rundir_killed_commit");
+  const fs::path sc = d / "scene.yaml";
+  write(sc, scene());
+  for (const char* name : {"prev", "next"})
+    ASSERT_EQ(
+        run({"run", sc.string(), "--out", (d / name).string(), "--frames", name[0] == 'p' ? "3" : "1", "-q"}, d / "log")
+            .code,
+        0);
+  for (const bool marker : {false, true}) {
+    const fs::path out = d / (marker ? "finish" : "undo");
+    const fs::path old = out.string() + ".ccfr-old", staged = out.string() + ".ccfr-new";
+    fs::copy(d / "prev", out, fs::copy_options::recursive);
+    fs::copy(d / "next", staged, fs::copy_options::recursive);
+    for (const auto& [name, text] : kUserFiles) write(out / name, text);
+    fs::create_directories(old);
+    fs::rename(out / "run.json", old / "run.json");  // the previous run half moved out
+    if (marker) {
+      // ... all of it moved out, and the new run's frames/ already in.
+      fs::rename(out / "frames", old / "frames");
+      fs::rename(out / "stats.csv", old / "stats.csv");
+      write(old / ".ccfr-commit", "");
+      fs::rename(staged / "frames", out / "frames");
+    }
+    const Result r = run({"run", sc.string(), "--out", out.string(), "--frames", "2"}, d / "log2");
+    EXPECT_EQ(r.code, 0) << r.out;
+    EXPECT_TRUE(contains(r.out, marker ? "finished replacing the run in '" + out.string() + "'"
+                                       : "restored the previous run in '" + out.string() + "'"))
+        << r.out;
+    expect_user_files(out);
+    EXPECT_EQ(run_json(out)["frames_written"], 3);
+    EXPECT_EQ(run_json(out)["status"], "completed");
+    expect_nothing_beside(out);
+  }
+}
+
 TEST(RunLock, ASecondWriterIsRefusedNamingTheFirst) {
   const fs::path d = ccfr::test::scratch_dir("runlock_second");
   const fs::path sc = d / "scene.yaml";
