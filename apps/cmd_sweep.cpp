@@ -171,8 +171,33 @@ int run_cell(const fs::path& dir, long index, int threads) {
   RunOptions ro;
   ro.threads = threads;
   ro.progress = true;
-  const bool completed = io::is_ccfr_run(out) && io::read_run_info(out).status == "completed";
-  if (io::is_ccfr_run(out) && !completed && io::latest_checkpoint(out)) {
+  // The cell's earlier run counts only if it ran this cell's configuration: an ablation or sweep
+  // rerun into the same directory with other --frames or --set starts the cell again instead of
+  // reusing (or resuming) a run of the old one.
+  std::string changed;
+  bool completed = io::is_ccfr_run(out) && io::read_run_info(out).status == "completed";
+  if (completed) {
+    const Json run = read_json(out / "run.json");
+    try {
+      changed =
+          io::json_difference(run.value("config", Json()).dump(), io::load_scene(c.config, c.overrides).resolved_json);
+    } catch (const Error&) {
+      changed = "its scene no longer loads";  // the run below reports why
+    }
+    completed = changed.empty();
+  } else if (const auto ck = io::is_ccfr_run(out) ? io::latest_checkpoint(out) : std::nullopt) {
+    try {
+      const io::Checkpoint k = io::read_checkpoint(*ck);
+      if (k.overrides != c.overrides || k.scene_file != fs::absolute(c.config).lexically_normal())
+        changed = "its checkpoint was written with other overrides or another scene file";
+    } catch (const Error&) {
+      // A damaged checkpoint: resuming reports it.
+    }
+  }
+  if (!changed.empty())
+    spdlog::info("sweep cell {} ({}): the run in {} is of another configuration ({}): running it again", index, c.id,
+                 out.string(), changed);
+  if (io::is_ccfr_run(out) && !completed && changed.empty() && io::latest_checkpoint(out)) {
     ro.resume = out;
   } else {
     ro.config = c.config;

@@ -399,6 +399,21 @@ TEST(Ablate, AFolderThatIsNotAnAblationIsRefusedAndItsTableKept) {
   EXPECT_EQ(r.code, 0) << r.out;
 }
 
+TEST(Ablate, ARerunWithOtherFramesRunsTheSolversAgainInsteadOfReusingTheirRuns) {
+  const fs::path d = ccfr::test::scratch_dir("ablate_rerun_frames");
+  write(d / "scene.yaml", scene());
+  const fs::path a = d / "a";
+  for (const char* frames : {"1", "2"}) {
+    const Result r = run({"ablate", (d / "scene.yaml").string(), "--solvers", "none", "--frames", frames, "--no-plot",
+                          "--out", a.string()},
+                         d / "log");
+    ASSERT_EQ(r.code, 0) << r.out;
+    EXPECT_TRUE(contains(read_text(a / "ablation.csv"), "\nnone," + std::string(frames) + ",completed,"))
+        << read_text(a / "ablation.csv");
+  }
+  EXPECT_EQ(run_json(a / "none")["frames_written"], 3);
+}
+
 TEST(Ablate, ASolverWhoseRunFailedFailsTheAblation) {
   const fs::path d = ccfr::test::scratch_dir("ablate_failed_cell");
   std::string text = scene();
