@@ -165,7 +165,7 @@ void register_ablate(CLI::App& app) {
   cmd->add_option("--out", o->run.out, "Output directory (one sub-directory per solver)")->required();
   cmd->add_option("--audit-stride", o->audit_stride, "Audit every K-th frame")->check(CLI::PositiveNumber);
   cmd->add_flag("!--no-plot", o->plot, "Do not draw ablation.png");
-  cmd->add_option("--log-level", *log_level, "trace, debug, info, warn, error or off");
+  // --log-level is the global option (main.cpp): checked there, and accepted after the subcommand.
   add_run_options(cmd, o->run);
   cmd->callback([o, log_level] {
     init_logging(*log_level);

@@ -1,13 +1,18 @@
 // `ccfr plot DIR`: draws a run's stats.csv (stats.png) or an ablation's ablation.csv
 // (ablation.png) with the plotting scripts shipped with ccfr. Exit codes: 0 drawn, 2 bad input
 // or no Python/matplotlib.
+#include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <memory>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
+#include "ccfr/io/user_file.hpp"
 #include "commands.hpp"
 #include "plot_script.hpp"
 
@@ -22,12 +27,58 @@ struct PlotOptions {
   std::string title;
 };
 
+/// A stats.csv as ccfr writes it: a header with a `frame` column, then rows of as many numeric (or
+/// empty) cells; only the last row may be cut short, by a run killed mid-write. Anything else
+/// is not a ccfr stats.csv, and plotting it would draw empty panels and exit 0.
+void check_stats_csv(const fs::path& csv) {
+  const std::string text = io::read_user_file(csv, "stats file", std::uintmax_t{1} << 30);
+  const std::string label = io::printable(csv.string());
+  std::vector<std::string> header;
+  size_t line_no = 0;
+  for (size_t at = 0; at < text.size();) {
+    const size_t nl = text.find('\n', at);
+    const bool last_cut = nl == std::string::npos;  // no newline: a row cut short
+    std::string line = text.substr(at, last_cut ? std::string::npos : nl - at);
+    at = last_cut ? text.size() : nl + 1;
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    std::vector<std::string> cells;
+    std::stringstream ss(line);
+    for (std::string c; std::getline(ss, c, ',');) cells.push_back(c);
+    if (!line.empty() && line.back() == ',') cells.emplace_back();
+    if (line_no == 1) {
+      header = cells;
+      if (std::find(header.begin(), header.end(), "frame") == header.end())
+        throw Error(label + ":1: not a ccfr stats.csv: the header has no `frame` column (got '" +
+                    io::printable(line.substr(0, 80)) + "')");
+      continue;
+    }
+    if (line.empty() && !last_cut) continue;
+    if (cells.size() > header.size() || (!last_cut && cells.size() != header.size()))
+      throw Error(label + ":" + std::to_string(line_no) + ": " + std::to_string(cells.size()) +
+                  " fields, the header has " + std::to_string(header.size()));
+    for (size_t k = 0; k < cells.size(); ++k) {
+      const std::string& c = cells[k];
+      if (c.empty()) continue;
+      char* end = nullptr;
+      std::strtod(c.c_str(), &end);
+      if (*end != '\0' && !(last_cut && k + 1 == cells.size()))
+        throw Error(label + ":" + std::to_string(line_no) + ": column '" + io::printable(header[k]) + "': '" +
+                    io::printable(c.substr(0, 40)) + "' is not a number");
+    }
+  }
+  if (header.empty()) throw Error(label + " is empty: not a ccfr stats.csv");
+}
+
 int run_plot(const PlotOptions& o) {
   if (!fs::is_directory(o.dir)) throw Error("'" + o.dir.string() + "' is not a directory");
   const bool ablation = fs::is_regular_file(o.dir / "ablation.csv");
   if (!ablation && !fs::is_regular_file(o.dir / "stats.csv"))
     throw Error("'" + o.dir.string() + "' holds neither stats.csv (a run) nor ablation.csv (an ablation)");
-  const fs::path png = o.out.empty() ? o.dir / (ablation ? "ablation.png" : "stats.png") : o.out;
+  if (!ablation) check_stats_csv(o.dir / "stats.csv");
+  fs::path png = o.out.empty() ? o.dir / (ablation ? "ablation.png" : "stats.png") : o.out;
+  // matplotlib adds .png to a name without an extension: print (and pass) the file it writes.
+  if (png.extension().empty()) png += ".png";
   std::vector<std::string> args{o.dir.string(), "--out", png.string()};
   if (!o.title.empty()) args.insert(args.end(), {"--title", o.title});
   std::string message;

@@ -132,21 +132,30 @@ SweepLayout read_sweep(const fs::path& dir) {
     throw Error("'" + dir.string() + "' is not a sweep directory (no sweep.json written by ccfr sweep)");
   SweepLayout s;
   s.dir = dir;
-  s.spec = j["spec"].is_string() ? fs::path(j["spec"].get<std::string>()) : fs::path();
-  s.parameter_keys = j["parameters"].get<std::vector<std::string>>();
-  s.audit_stride = j["audit_stride"].get<int>();
-  const Json& r = j["resources"];
-  s.resources = {r["cpus_per_task"].get<int>(), r["time"].get<std::string>(), r["memory"].get<std::string>(),
-                 r["partition"].get<std::string>(), r["account"].get<std::string>()};
-  for (const auto& c : j["cells"]) {
-    io::SweepCell cell;
-    cell.id = c["id"].get<std::string>();
-    cell.config = c["config"].get<std::string>();
-    cell.scene = c["scene"].get<std::string>();
-    cell.solver = c["solver"].get<std::string>();
-    for (const auto& [k, v] : c["params"].items()) cell.params.emplace_back(k, v.get<std::string>());
-    cell.overrides = c["overrides"].get<std::vector<std::string>>();
-    s.cells.push_back(std::move(cell));
+  // at(), not operator[]: a const Json's operator[] on a missing key is undefined behaviour, and a
+  // sweep.json edited by hand ({"cells": 5}) must be an error naming the file.
+  try {
+    s.spec = j.at("spec").is_string() ? fs::path(j.at("spec").get<std::string>()) : fs::path();
+    s.parameter_keys = j.at("parameters").get<std::vector<std::string>>();
+    s.audit_stride = j.at("audit_stride").get<int>();
+    const Json& r = j.at("resources");
+    s.resources = {r.at("cpus_per_task").get<int>(), r.at("time").get<std::string>(), r.at("memory").get<std::string>(),
+                   r.at("partition").get<std::string>(), r.at("account").get<std::string>()};
+    if (!j.at("cells").is_array()) throw Error("\"cells\" is not a list");
+    for (const auto& c : j.at("cells")) {
+      io::SweepCell cell;
+      cell.id = c.at("id").get<std::string>();
+      cell.config = c.at("config").get<std::string>();
+      cell.scene = c.at("scene").get<std::string>();
+      cell.solver = c.at("solver").get<std::string>();
+      for (const auto& [k, v] : c.at("params").items()) cell.params.emplace_back(k, v.get<std::string>());
+      cell.overrides = c.at("overrides").get<std::vector<std::string>>();
+      s.cells.push_back(std::move(cell));
+    }
+  } catch (const Json::exception& e) {
+    throw Error("'" + (dir / "sweep.json").string() + "' is damaged (not as ccfr sweep wrote it): " + e.what());
+  } catch (const Error& e) {
+    throw Error("'" + (dir / "sweep.json").string() + "' is damaged (not as ccfr sweep wrote it): " + e.what());
   }
   return s;
 }
@@ -518,9 +527,12 @@ std::string slurm_submit(const SweepLayout& s, const std::vector<size_t>& indice
 std::map<size_t, std::string> slurm_states(const fs::path& dir, bool* queue_known = nullptr) {
   std::map<size_t, std::string> st;
   const Json j = read_json(dir / "sweep.json");
-  if (!j.is_object() || !j.contains("slurm_jobs") || j["slurm_jobs"].empty()) return st;
+  if (!j.is_object() || !j.contains("slurm_jobs") || !j.at("slurm_jobs").is_array() || j.at("slurm_jobs").empty())
+    return st;
   std::string ids;
-  for (const auto& job : j["slurm_jobs"]) ids += (ids.empty() ? "" : ",") + job["job_id"].get<std::string>();
+  for (const auto& job : j.at("slurm_jobs"))
+    if (job.is_object() && job.contains("job_id") && job.at("job_id").is_string())
+      ids += (ids.empty() ? "" : ",") + job.at("job_id").get<std::string>();
   auto parse = [&](const std::string& text, char sep) {
     std::istringstream in(text);
     for (std::string line; std::getline(in, line);) {
@@ -849,7 +861,8 @@ int resume(SweepOptions& o) {
   const io::DirLock lock = io::DirLock::acquire(o.dir, invocation_string());
   apply_flags(s.resources, o.slurm);
   const Json j = read_json(o.dir / "sweep.json");
-  const bool slurm_sweep = o.backend == "slurm" || (o.backend.empty() && !j["slurm_jobs"].empty());
+  const bool slurm_sweep =
+      o.backend == "slurm" || (o.backend.empty() && j.contains("slurm_jobs") && !j.at("slurm_jobs").empty());
   bool queue_known = true;
   const auto states = slurm_states(o.dir, &queue_known);
   if (!queue_known)
@@ -897,7 +910,7 @@ void register_sweep(CLI::App& app) {
   cmd->add_option("--out", o->out, "Sweep directory (one run directory per cell)");
   cmd->add_option("--backend", o->backend, "local (default) or slurm")->check(CLI::IsMember({"local", "slurm"}));
   add_slurm_flags(cmd, *o);
-  cmd->add_option("--log-level", *log_level, "trace, debug, info, warn, error or off");
+  // --log-level is the global option (main.cpp): checked there, and accepted after the subcommand.
 
   auto* st = cmd->add_subcommand("status", "State of every cell (squeue/sacct and the cells' run.json)");
   st->add_option("dir", o->dir, "Sweep directory")->required();

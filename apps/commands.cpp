@@ -2,9 +2,11 @@
 
 #include <cstdio>
 #include <exception>
+#include <filesystem>
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/io/output.hpp"
+#include "ccfr/io/user_file.hpp"
 
 namespace ccfr::app {
 
@@ -24,7 +26,14 @@ void guarded(const std::function<int()>& body, int user_error_code) {
   try {
     set_exit_code(body());
   } catch (const Error& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
+    // Messages quote file content and names: no byte of it may drive the terminal.
+    std::fprintf(stderr, "error: %s\n", io::printable(e.what(), true).c_str());
+    set_exit_code(user_error_code);
+  } catch (const std::filesystem::filesystem_error& e) {
+    // A path the user gave that cannot be looked at (a symlink loop, a name longer than the file
+    // system allows, a directory without permission): theirs to fix, not ccfr's bug.
+    const std::string where = e.path1().empty() ? std::string() : " '" + io::printable(e.path1().string()) + "'";
+    std::fprintf(stderr, "error: cannot access%s: %s\n", where.c_str(), e.code().message().c_str());
     set_exit_code(user_error_code);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "internal error: %s\n", e.what());

@@ -53,16 +53,25 @@ void readable_checks(CLI::App& app) {
   for (CLI::App* sub : app.get_subcommands({})) readable_checks(*sub);
 }
 
-}  // namespace
+/// Options whose value names something: given as "" they would silently mean their default
+/// (`--solver ""` the scene's solver, `ablate --solvers ""` all six). CLI11 skips validators on
+/// empty values, so this checks after each subcommand's parse.
+void refuse_empty_values(CLI::App& app) {
+  app.parse_complete_callback([&app] {
+    for (const char* name : {"--solver", "--solvers"}) {
+      const CLI::Option* opt = app.get_option_no_throw(name);
+      if (!opt) continue;
+      for (const std::string& value : opt->results())
+        if (value.empty())
+          throw CLI::ValidationError(name, "is empty: name a contact solver (`ccfr schema` lists them)");
+    }
+  });
+  for (CLI::App* sub : app.get_subcommands({})) refuse_empty_values(*sub);
+}
 
-int main(int argc, char** argv) {
-  CLI::App app{"ccfr: penetration-free XPBD simulation with Convex Collision-Free Regions"};
-  app.require_subcommand(1);
-  app.set_version_flag("--version", std::string(ccfr::app::version_string()));
-  ccfr::init_logging("info");  // logs to stderr from the start, whatever a subcommand logs first
-  // Global options, accepted before or after the subcommand (fallthrough); they take effect while
-  // parsing, so a subcommand's own default level (warn for audit, bench, render) gives way to them.
-  auto explicit_level = std::make_shared<bool>(false);
+/// The global options -q and --log-level. They take effect while parsing, so a subcommand's own
+/// default level (warn for audit, bench, render) gives way to them.
+void add_global_options(CLI::App& app, const std::shared_ptr<bool>& explicit_level) {
   app.add_option_function<std::string>(
          "--log-level",
          [explicit_level](const std::string& level) {
@@ -81,14 +90,54 @@ int main(int argc, char** argv) {
          },
          "No progress and no info logs (warnings and errors still on stderr); results still on stdout")
       ->trigger_on_parse();
+}
+
+/// Global options go before or after any subcommand. A subcommand passes options it does not
+/// know to ccfr (fallthrough); a nested one (`ccfr sweep status DIR -q`) takes them itself, since
+/// falling through to `sweep` would also accept sweep's own options and positional there.
+void global_options_everywhere(CLI::App& app, const std::shared_ptr<bool>& explicit_level) {
+  for (CLI::App* sub : app.get_subcommands({})) {
+    sub->fallthrough();
+    for (CLI::App* nested : sub->get_subcommands({})) {
+      add_global_options(*nested, explicit_level);
+      global_options_everywhere(*nested, explicit_level);
+    }
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"ccfr: penetration-free XPBD simulation with Convex Collision-Free Regions"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", std::string(ccfr::app::version_string()));
+  ccfr::init_logging("info");  // logs to stderr from the start, whatever a subcommand logs first
+  auto explicit_level = std::make_shared<bool>(false);
+  add_global_options(app, explicit_level);
   ccfr::app::register_commands(app);
-  for (CLI::App* sub : app.get_subcommands({})) sub->fallthrough();
+  global_options_everywhere(app, explicit_level);
+  for (CLI::App* sub : app.get_subcommands({})) refuse_empty_values(*sub);
   ccfr::app::set_invocation(argc, argv);  // run.json records the command line as typed
   readable_checks(app);
+  // CLI11 says only "A subcommand is required" for `ccfr frobnicate`: name the word and the commands.
+  if (argc > 1 && argv[1][0] != '-') {
+    bool known = false;
+    std::string names;
+    for (const CLI::App* sub : app.get_subcommands({})) {
+      known = known || sub->check_name(argv[1]);
+      names += (names.empty() ? "" : ", ") + sub->get_name();
+    }
+    if (!known) {
+      std::fprintf(stderr, "unknown command '%s'; the commands are %s (ccfr --help)\n", argv[1], names.c_str());
+      return 2;
+    }
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // app.exit prints the message (or the help); every command-line error then exits 2, the
+    // documented code for a user's mistake, not CLI11's own codes (104-109).
+    return app.exit(e) == 0 ? 0 : 2;
   }
   return ccfr::app::exit_code();
 }

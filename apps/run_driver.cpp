@@ -108,7 +108,7 @@ struct Resume {
 
 Resume load_resume(const std::filesystem::path& dir) {
   if (!io::is_ccfr_run(dir))
-    throw Error("cannot resume '" + dir.string() + "': not a ccfr run directory (no run.json)");
+    throw Error("cannot resume '" + dir.string() + "': not a ccfr run directory (" + io::run_json_problem(dir) + ")");
   const auto latest = io::latest_checkpoint(dir);
   if (!latest)
     throw Error("cannot resume '" + dir.string() + "': no checkpoint in '" + (dir / "checkpoints").string() +

@@ -12,6 +12,7 @@
 #include <system_error>
 
 #include "ccfr/core/error.hpp"
+#include "ccfr/io/user_file.hpp"
 
 namespace ccfr::io {
 
@@ -80,7 +81,8 @@ void write_frame_obj(const fs::path& path, const Topology& topo, const Positions
 
 namespace {
 [[noreturn]] void fail(const fs::path& p, int line, const std::string& msg) {
-  throw Error(p.string() + ":" + std::to_string(line) + ": " + msg);
+  // `msg` may quote the file's bytes: escape sequences in them must not reach the terminal.
+  throw Error(printable(p.string()) + ":" + std::to_string(line) + ": " + printable(msg));
 }
 
 // Statements without geometry: texture / normal / parameter-space vertices, smoothing, materials
@@ -108,6 +110,7 @@ Index parse_index(const std::string& tok, Index nv, const fs::path& p, int line)
 
 template <class Sink>
 void parse_obj(const fs::path& path, Sink&& sink) {
+  check_user_file(path, "mesh file", kMaxMeshFileBytes);  // no FIFO, device or endless file
   std::ifstream in(path);
   if (!in) throw Error("cannot open '" + path.string() + "'");
   std::string line, tag, tok;
@@ -189,10 +192,18 @@ Frame read_frame_obj(const fs::path& path) {
 }
 
 ObjMesh read_obj_mesh(const fs::path& path) {
-  if (!fs::exists(path)) throw Error("mesh file '" + path.string() + "' does not exist");
+  check_user_file(path, "mesh file", kMaxMeshFileBytes);
   Frame fr = read_frame_obj(path);
   if (fr.v.empty()) throw Error("mesh file '" + path.string() + "' has no vertices");
-  return ObjMesh{std::move(fr.v), std::move(fr.faces), std::move(fr.lines), std::move(fr.face_lines)};
+  ObjMesh m{std::move(fr.v), std::move(fr.faces), std::move(fr.lines), std::move(fr.face_lines)};
+  auto first = [](int& at, int line) {
+    if (line > 0 && (at == 0 || line < at)) at = line;
+  };
+  for (const FrameObject& o : fr.objects) {
+    first(m.first_line_line, o.first_line_line);
+    first(m.first_point_line, o.first_point_line);
+  }
+  return m;
 }
 
 }  // namespace ccfr::io

@@ -8,6 +8,7 @@
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/io/obj.hpp"
+#include "ccfr/io/user_file.hpp"
 
 namespace ccfr::io {
 
@@ -16,7 +17,7 @@ namespace fs = std::filesystem;
 namespace {
 
 [[noreturn]] void fail(const fs::path& p, int line, const std::string& msg) {
-  throw Error(p.string() + (line > 0 ? ":" + std::to_string(line) : std::string()) + ": " + msg);
+  throw Error(printable(p.string()) + (line > 0 ? ":" + std::to_string(line) : std::string()) + ": " + printable(msg));
 }
 
 /// Tokens of a Geomview OFF file, line by line: `#` starts a comment anywhere on a line, blank
@@ -69,9 +70,7 @@ double parse_coordinate(const std::string& tok, const Tokens& t) {
 }  // namespace
 
 ObjMesh read_off_mesh(const fs::path& path) {
-  if (!fs::exists(path)) throw Error("mesh file '" + path.string() + "' does not exist");
-  if (!fs::is_regular_file(path)) throw Error("mesh file '" + path.string() + "' is not a regular file");
-  const auto bytes = fs::file_size(path);
+  const auto bytes = check_user_file(path, "mesh file", kMaxMeshFileBytes);
   Tokens t(path);
   std::vector<std::string> tok;
   if (!t.next_line(tok)) fail(path, 0, "empty OFF file");

@@ -234,6 +234,23 @@ bool is_ccfr_run(const fs::path& dir) {
   return j.is_object() && j.contains("ccfr") && j["ccfr"].is_object() && j["ccfr"].contains("version");
 }
 
+std::string run_json_problem(const fs::path& dir) {
+  const fs::path rj = dir / "run.json";
+  std::error_code ec;
+  const fs::file_status st = fs::status(rj, ec);
+  if (st.type() == fs::file_type::not_found) return "no run.json";
+  if (ec) return "run.json is unreadable: " + ec.message();
+  if (st.type() != fs::file_type::regular) return "run.json is not a regular file";
+  std::ifstream in(rj);
+  if (!in) return "run.json is unreadable: cannot open it";
+  const Json j = Json::parse(in, nullptr, /*allow_exceptions=*/false);
+  if (j.is_discarded())
+    return "run.json is unreadable: not valid JSON (truncated or damaged; " + std::to_string(fs::file_size(rj, ec)) +
+           " bytes)";
+  if (!is_ccfr_run(dir)) return "run.json was not written by ccfr (no \"ccfr\": {\"version\": ...})";
+  return "";
+}
+
 RunWriter::RunWriter(fs::path dir, const Topology& topo, std::string resolved_config_json, RunMeta meta, bool force)
     : final_(std::move(dir)),
       topo_(topo),
@@ -267,9 +284,9 @@ RunWriter::RunWriter(fs::path dir, const Topology& topo, std::string resolved_co
                   " would be overwritten by the run's own files; move them away or choose another --out");
     dir_ = final_;
   } else {
-    throw Error("output directory '" + final_.string() +
-                "' is not empty and is not a ccfr run (no run.json written by ccfr); choose another --out or pass "
-                "--force (to write the run's files beside the ones there)");
+    throw Error("output directory '" + final_.string() + "' is not empty and is not a ccfr run (" +
+                run_json_problem(final_) +
+                "); choose another --out or pass --force (to write the run's files beside the ones there)");
   }
   create_dirs(dir_ / "frames");
   remove_stale_temporaries(dir_);

@@ -7,11 +7,13 @@
 #include <array>
 #include <cctype>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <functional>
 #include <limits>
+#include <map>
 #include <memory>
 #include <numbers>
 #include <optional>
@@ -29,6 +31,7 @@
 #include "ccfr/geometry/mass_properties.hpp"
 #include "ccfr/io/obj.hpp"
 #include "ccfr/io/tet_mesh.hpp"
+#include "ccfr/io/user_file.hpp"
 #include "ccfr/solvers/contact_solver.hpp"
 #include "scene_schema.hpp"
 
@@ -127,8 +130,7 @@ std::string gigabytes(double b) {
 
 /// Why a name cannot be written as `o name` in the OBJ frames (empty when it can).
 std::string name_problem(const std::string& name, bool whitespace_matters) {
-  for (unsigned char c : name)
-    if (c < 0x20 || c == 0x7f) return "contains a control character (code " + std::to_string(int(c)) + ")";
+  if (std::string why = text_problem(name); !why.empty()) return why;  // run.json and the frames are UTF-8
   if (!whitespace_matters) return "";
   if (name.find_first_not_of(" ") == std::string::npos) return "is empty or only whitespace";
   if (name.front() == ' ' || name.back() == ' ') return "starts or ends with a space";
@@ -212,6 +214,7 @@ class Builder {
       } catch (const std::invalid_argument& e) {
         ctx_.fail(spath, in_node(spath), e.what());
       }
+      check_rotation(o["transform"], path + ".transform");
       place(g, o["transform"]);
       const Counts actual = counts(g, kind, p.contact.offset + p.contact.radius + p.contact.repulsion_range);
       check_size(total, actual, spath, name, kind);
@@ -242,6 +245,7 @@ class Builder {
       for (Index k = 0; k < info.num_vertices(); ++k) st.x[info.vertex_begin + k] = geoms[i].v[k];
       op.material = material(o["material"].as<std::string>(), path + ".material");
       op.motion = read_motion(o["motion"]);
+      check_motion(o["motion"], path + ".motion");
       op.initial_velocity = v3(o["velocity"]);
       op.shape = geoms[i].shape;
       if (o["animation"]) read_animation(o, info, st, op, path);
@@ -281,21 +285,6 @@ class Builder {
       }
     }
     return cur;
-  }
-
-  /// Shows control characters of a name as \xNN, so the message itself stays on one line.
-  static std::string printable(const std::string& s) {
-    std::string o;
-    for (unsigned char c : s) {
-      if (c < 0x20 || c == 0x7f) {
-        char b[8];
-        std::snprintf(b, sizeof b, "\\x%02x", c);
-        o += b;
-      } else {
-        o += static_cast<char>(c);
-      }
-    }
-    return o;
   }
 
   /// Element counts a generator will make, from the shape's keys (0 for a mesh, unknown until read).
@@ -616,7 +605,13 @@ class Builder {
                       : "unsupported mesh format '" + file.extension().string() + "' (supported: " + list + ")");
       }
       if (file.is_relative()) file = base_ / file;
-      if (!fs::exists(file) && ext != ".node" && ext != ".ele")
+      fs::file_status st;
+      try {
+        st = user_path_status(file, "mesh file");
+      } catch (const Error& e) {
+        ctx_.fail(ppath, in_node(ppath), e.what());
+      }
+      if (st.type() == fs::file_type::not_found && ext != ".node" && ext != ".ele")
         ctx_.fail(ppath, in_node(ppath), "mesh file '" + file.string() + "' does not exist");
       const bool surface_file = ext == ".obj" || ext == ".off";
       if (!surface_file) {
@@ -654,11 +649,22 @@ class Builder {
         return g;
       }
       g.v = std::move(m.v);
+      // Elements the object would not use are refused, naming their line, rather than dropped.
+      const auto unused = [&](int line, const std::string& what) {
+        if (line > 0)
+          ctx_.fail(ppath, in_node(ppath),
+                    "'" + printable(file.string()) + "' line " + std::to_string(line) + ": " + what + " (kind " +
+                        std::string(to_string(kind)) + " would drop them); remove them from the mesh",
+                    {path + ".kind"});
+      };
+      unused(m.first_point_line, "`p` points are not read from mesh files");
       if (kind == ObjectKind::strand) {
         if (m.lines.empty())
           ctx_.fail(ppath, in_node(ppath), "a strand mesh needs `l` lines; '" + file.string() + "' has none");
+        if (!m.face_lines.empty()) unused(m.face_lines.front(), "`f` faces make no strands");
         g.lines = std::move(m.lines);
       } else {
+        unused(m.first_line_line, "`l` lines are strands, not part of a surface");
         require(surface_kind, "meshes make cloth, shell, obstacle, rigid or strand objects");
         if (m.f.empty()) ctx_.fail(ppath, in_node(ppath), "mesh '" + file.string() + "' has no faces");
         check_faces(g.v, m.f, kind, "mesh '" + file.string() + "'", &m.face_lines, ppath, {path + ".kind"});
@@ -774,6 +780,29 @@ class Builder {
       spdlog::info("{}: {}: {}: faces wound inward; taken as the solid they enclose", ctx_.file, path, what);
   }
 
+  /// A rotation by a non-zero angle about the zero vector has no axis: it used to be skipped.
+  void check_rotation(const YAML::Node& t, const std::string& tpath) const {
+    if (t["rotate_deg"].as<double>() != 0.0 && v3(t["rotate_axis"]).norm() == 0.0)
+      ctx_.fail(tpath + ".rotate_axis", in_node(tpath + ".rotate_axis"),
+                "rotate_axis [0, 0, 0] has no direction, but rotate_deg is " + t["rotate_deg"].as<std::string>() +
+                    "; give the axis to rotate about",
+                {tpath + ".rotate_deg"});
+  }
+
+  /// Scripted motion moves from `start` to `end`: an end before the start would never move.
+  void check_motion(const YAML::Node& m, const std::string& mpath) const {
+    if (!m) return;
+    if (m["end"].as<double>() < m["start"].as<double>())
+      ctx_.fail(mpath + ".end", in_node(mpath + ".end"),
+                "the motion ends (" + m["end"].as<std::string>() + " s) before it starts (" +
+                    m["start"].as<std::string>() + " s)",
+                {mpath + ".start"});
+    if (v3(m["axis"]).norm() == 0.0 && m["angular_velocity"].as<double>() != 0.0)
+      ctx_.fail(mpath + ".axis", in_node(mpath + ".axis"),
+                "axis [0, 0, 0] has no direction, but angular_velocity is " + m["angular_velocity"].as<std::string>(),
+                {mpath + ".angular_velocity"});
+  }
+
   void place(RawGeometry& g, const YAML::Node& t) {
     const double scale = t["scale"].as<double>();
     const Vec3 axis = v3(t["rotate_axis"]);
@@ -840,6 +869,8 @@ class Builder {
       ctx_.fail(kpath, in_node(kpath), "an object has one of `motion`, `animation` and `keyframes`");
     if (keys.size() == 0) ctx_.fail(kpath, in_node(kpath), "list at least one key");
     auto anim = std::make_shared<VertexAnimation>();
+    Vec3 prev_axis = Vec3::Zero();
+    double prev_deg = 0;
     for (size_t k = 0; k < keys.size(); ++k) {
       const YAML::Node key = keys[k];
       const std::string p = kpath + "[" + std::to_string(k) + "]";
@@ -849,6 +880,28 @@ class Builder {
                   {kpath + "[" + std::to_string(k - 1) + "].time"});
       const Vec3 axis = v3(key["rotate_axis"]), c = v3(key["center"]);
       const double ang = key["rotate_deg"].as<double>() * std::numbers::pi / 180.0;
+      check_rotation(key, p);
+      // Keys are slerped, which takes the shorter way round (at most 180°): a turn of 180° or more
+      // between two keys about one axis would run backwards (270°) or not at all (360°).
+      // A key at 0° has no axis of its own (the identity): it pairs with any axis.
+      const double deg = key["rotate_deg"].as<double>();
+      if (k > 0 && (deg == 0.0 || prev_deg == 0.0 || (axis.norm() > 0 && prev_axis.norm() > 0))) {
+        const Vec3 a = deg == 0.0 ? Vec3::UnitY() : axis.normalized();
+        const Vec3 b = prev_deg == 0.0 ? a : prev_axis.normalized();
+        const double sign = a.dot(b) > 0 ? 1.0 : -1.0;  // [0,-1,0] at -90° is [0,1,0] at 90°
+        if (deg == 0.0 || (a - sign * b).norm() < 1e-12) {
+          const double turn = deg - sign * prev_deg;
+          if (std::abs(turn) >= 180.0)
+            ctx_.fail(p + ".rotate_deg", in_node(p + ".rotate_deg"),
+                      "turns " + fmt::format("{:g}", turn) +
+                          "° from the key before; keys are interpolated the "
+                          "shorter way round (slerp, at most 180°), so this turn would not happen: split it into keys "
+                          "less than 180° apart",
+                      {kpath + "[" + std::to_string(k - 1) + "].rotate_deg"});
+        }
+      }
+      prev_axis = axis;
+      prev_deg = deg;
       if (k > 0 && (c - anim->center).norm() > 0)
         ctx_.fail(p + ".center", in_node(p + ".center"), "every key rotates about the same center",
                   {kpath + "[0].center"});
@@ -873,6 +926,7 @@ class Builder {
       const std::string pp = path + ".pins[" + std::to_string(k) + "]";
       PinGroup grp;
       grp.motion = read_motion(pn["motion"]);
+      check_motion(pn["motion"], pp + ".motion");
       if (pn["indices"])
         for (size_t j = 0; j < pn["indices"].size(); ++j) {
           const Index li = pn["indices"][j].as<Index>();
@@ -1082,9 +1136,18 @@ void check_quotes(const YAML::Node& n, const std::string& text, const std::strin
   }
 }
 
+/// Deepest nesting of collections in a scene file: the schema's deepest key path is a few levels;
+/// yaml-cpp itself stops at 2000 with "bad file", and walks that deep recurse for every reader.
+constexpr int kMaxYamlDepth = 64;
+/// Most nodes a scene may expand to, counting each alias as the nodes it stands for: a 4 MiB
+/// file holds at most about 2 million nodes written out, so only an alias bomb (nine levels of
+/// ten aliases each: 10^9 nodes from 500 bytes) goes beyond, and every reader would walk them all.
+constexpr std::uint64_t kMaxYamlNodes = std::uint64_t{1} << 21;
+
 /// Walks the documents of a YAML stream without building nodes. yaml-cpp 0.7's `LoadAll` loops
 /// forever (allocating an empty document per turn) on a token its parser cannot start a node with,
 /// e.g. a leading ',': each document then starts at the same mark. This counter stops there.
+/// It also bounds the nesting depth and the node count with aliases expanded (see above).
 class DocumentScan : public YAML::EventHandler {
  public:
   /// Start mark of each document seen, and where its first non-null node starts (if any).
@@ -1095,36 +1158,94 @@ class DocumentScan : public YAML::EventHandler {
   };
   std::vector<Doc> docs;
 
-  void OnDocumentStart(const YAML::Mark& mark) override { docs.push_back({mark, false, mark}); }
+  explicit DocumentScan(std::string label) : label_(std::move(label)) {}
+
+  void OnDocumentStart(const YAML::Mark& mark) override {
+    docs.push_back({mark, false, mark});
+    open_.clear();
+    expanded_ = 0;
+  }
   void OnDocumentEnd() override {}
-  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
-  void OnAlias(const YAML::Mark& m, YAML::anchor_t) override { seen(m); }
-  void OnScalar(const YAML::Mark& m, const std::string&, YAML::anchor_t, const std::string&) override { seen(m); }
-  void OnSequenceStart(const YAML::Mark& m, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {
+  void OnNull(const YAML::Mark& m, YAML::anchor_t anchor) override { leaf(m, anchor, 1); }
+  void OnAlias(const YAML::Mark& m, YAML::anchor_t anchor) override {
     seen(m);
+    // yaml-cpp links an alias inside its own anchor's node into a cycle: every walk of the tree
+    // would recurse until the stack overflows.
+    for (const Open& o : open_)
+      if (o.anchor == anchor)
+        throw ConfigError(label_, "", m.line + 1,
+                          "an alias refers to the list or map it is inside (opened on line " +
+                              std::to_string(o.mark.line + 1) + "): the node would contain itself");
+    const auto it = size_of_.find(anchor);
+    leaf(m, 0, it == size_of_.end() ? 1 : it->second);
   }
-  void OnSequenceEnd() override {}
-  void OnMapStart(const YAML::Mark& m, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {
+  void OnScalar(const YAML::Mark& m, const std::string&, YAML::anchor_t anchor, const std::string&) override {
     seen(m);
+    leaf(m, anchor, 1);
   }
-  void OnMapEnd() override {}
+  void OnSequenceStart(const YAML::Mark& m, const std::string&, YAML::anchor_t anchor,
+                       YAML::EmitterStyle::value) override {
+    seen(m);
+    start(m, anchor);
+  }
+  void OnSequenceEnd() override { end(); }
+  void OnMapStart(const YAML::Mark& m, const std::string&, YAML::anchor_t anchor, YAML::EmitterStyle::value) override {
+    seen(m);
+    start(m, anchor);
+  }
+  void OnMapEnd() override { end(); }
 
  private:
+  struct Open {
+    YAML::anchor_t anchor;
+    std::uint64_t size;
+    YAML::Mark mark;
+  };
+
   void seen(const YAML::Mark& m) {
     if (!docs.back().content) docs.back().first = m;
     docs.back().content = true;
   }
+  void start(const YAML::Mark& m, YAML::anchor_t anchor) {
+    if (open_.size() >= static_cast<size_t>(kMaxYamlDepth))
+      throw ConfigError(label_, "", m.line + 1,
+                        "YAML nesting too deep: more than " + std::to_string(kMaxYamlDepth) +
+                            " levels of lists and maps (a scene needs a few)");
+    open_.push_back({anchor, 1, m});
+    count(m, 1);
+  }
+  void end() {
+    const Open o = open_.back();
+    open_.pop_back();
+    if (o.anchor) size_of_[o.anchor] = o.size;
+    if (!open_.empty()) open_.back().size += o.size;
+  }
+  /// A node of `size` expanded nodes (1, or an alias's target).
+  void leaf(const YAML::Mark& m, YAML::anchor_t anchor, std::uint64_t size) {
+    if (anchor) size_of_[anchor] = size;
+    if (!open_.empty()) open_.back().size += size;
+    count(m, size);
+  }
+  void count(const YAML::Mark& m, std::uint64_t size) {
+    expanded_ += size;
+    if (expanded_ > kMaxYamlNodes)
+      throw ConfigError(label_, "", m.line + 1,
+                        "the scene expands to more than " + std::to_string(kMaxYamlNodes) +
+                            " YAML nodes (aliases counted as the nodes they repeat); is this an alias bomb?");
+  }
+
+  std::string label_;
+  std::vector<Open> open_;
+  std::map<YAML::anchor_t, std::uint64_t> size_of_;
+  std::uint64_t expanded_ = 0;
 };
 
-/// Largest scene file read: scene files hold parameters, meshes live in their own files.
-constexpr size_t kMaxSceneBytes = size_t{4} << 20;
-
 /// Parses the text of a scene file: printable text, one YAML document, every quoted string closed.
-YAML::Node parse_yaml(const std::string& text, const std::string& label) {
-  if (text.size() > kMaxSceneBytes)
+YAML::Node parse_yaml(const std::string& text, const std::string& label, const std::string& what = "scene file") {
+  if (text.size() > kMaxSceneFileBytes)
     throw ConfigError(label, "", 0,
-                      "the scene file has " + std::to_string(text.size()) + " bytes; scene files are limited to " +
-                          std::to_string(kMaxSceneBytes >> 20) +
+                      "the " + what + " has " + std::to_string(text.size()) + " bytes; it is limited to " +
+                          std::to_string(kMaxSceneFileBytes >> 20) +
                           " MiB (put meshes in .obj files and reference them with shape.path)");
   // YAML allows no C0 control character but tab, LF and CR; yaml-cpp reads NUL as end of input.
   int line = 1;
@@ -1134,12 +1255,12 @@ YAML::Node parse_yaml(const std::string& text, const std::string& label) {
     if ((c < 0x20 && c != '\t' && c != '\n' && c != '\r') || c == 0x7f) {
       char hex[8];
       std::snprintf(hex, sizeof hex, "0x%02x", c);
-      throw ConfigError(label, "", line,
-                        std::string("the scene file is not text: control byte ") + hex +
-                            " (YAML allows only tab, newline and carriage return)");
+      throw ConfigError(
+          label, "", line,
+          "the " + what + " is not text: control byte " + hex + " (YAML allows only tab, newline and carriage return)");
     }
   }
-  DocumentScan scan;
+  DocumentScan scan(label);
   try {
     std::istringstream in(text);
     YAML::Parser parser(in);
@@ -1148,15 +1269,16 @@ YAML::Node parse_yaml(const std::string& text, const std::string& label) {
       if (n >= 2 && scan.docs[n - 1].start.pos == scan.docs[n - 2].start.pos) {
         const YAML::Mark& m = scan.docs[n - 1].start;
         const size_t pos = m.pos >= 0 ? static_cast<size_t>(m.pos) : 0;
-        const std::string what = pos < text.size() ? std::string("'") + text[pos] + "'" : "end of input";
+        const std::string token = pos < text.size() ? std::string("'") + text[pos] + "'" : "end of input";
         throw ConfigError(label, "", m.line + 1,
-                          "YAML syntax error: unexpected " + what + " at column " + std::to_string(m.column + 1) +
+                          "YAML syntax error: unexpected " + token + " at column " + std::to_string(m.column + 1) +
                               " (no YAML node starts with it)");
       }
       if (n >= 2 && scan.docs[n - 1].content)
         throw ConfigError(label, "", scan.docs[n - 1].first.line + 1,
-                          "a scene file holds one YAML document, but a second one starts here (after '---'); merge "
-                          "them or remove it");
+                          "a " + what +
+                              " holds one YAML document, but a second one starts here (after '---'); merge "
+                              "them or remove it");
     }
   } catch (const YAML::ParserException& e) {
     throw ConfigError(label, "", e.mark.line + 1, "YAML syntax error: " + e.msg);
@@ -1216,16 +1338,36 @@ LoadedScene load(YAML::Node root, const std::string& label, const fs::path& base
 }  // namespace
 
 LoadedScene load_scene(const fs::path& file, const std::vector<std::string>& overrides) {
-  if (!fs::exists(file)) throw Error("scene file '" + file.string() + "' does not exist");
-  if (fs::is_directory(file)) throw Error("'" + file.string() + "' is a directory, not a scene file");
-  std::ifstream in(file, std::ios::binary);
-  if (!in) throw Error("cannot read scene file '" + file.string() + "'");
-  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw Error("cannot read scene file '" + file.string() + "'");
+  const std::string text = read_user_file(file, "scene file", kMaxSceneFileBytes);
   const YAML::Node root = parse_yaml(text, file.string());
   LoadedScene s = load(root, file.string(), file.parent_path(), overrides, file.stem().string());
   s.source = file;
   return s;
+}
+
+YAML::Node parse_bounded_yaml(const std::string& text, const std::string& label, const std::string& what) {
+  return parse_yaml(text, label, what);
+}
+
+void check_scene_keys(const fs::path& file, const std::vector<std::string>& overrides) {
+  const std::string text = read_user_file(file, "scene file", kMaxSceneFileBytes);
+  YAML::Node root = parse_yaml(text, file.string());
+  Context ctx;
+  ctx.file = file.string();
+  if (!root.IsDefined() || root.IsNull()) root = YAML::Node(YAML::NodeType::Map);
+  if (!root.IsMap()) ctx.fail("", root, "a scene file must be a map of keys (scene, time, contact, objects, ...)");
+  for (const auto& o : overrides) {
+    std::string path;
+    try {
+      path = schema::apply_override(root, o, scene_schema(), file.string());
+    } catch (const YAML::Exception& e) {
+      throw Error("--set '" + o + "': cannot parse the value: " + e.msg);
+    }
+    ctx.overrides.emplace_back(path, "--set " + o);
+  }
+  if (!root["scene"]) root["scene"] = file.stem().string();
+  check_moved_keys(root, ctx);
+  schema::resolve(root, scene_schema(), ctx);
 }
 
 LoadedScene load_scene_text(const std::string& yaml, const std::string& file_label, const fs::path& base_dir,

@@ -25,10 +25,25 @@ constexpr double kMaxScale = 1e4;     ///< uniform scale
 constexpr double kMaxAngleDeg = 1e6;  ///< degrees
 constexpr double kMaxDensity = 1e6;   ///< kg/m³ (and the per-area, per-length, per-particle variants)
 constexpr double kMaxFps = 1e6;
+/// XPBD compliances (m/N, 1/(N m), 1/Pa): 1e6 is softer than any material (the defaults are 0 to
+/// 1e-3); 1e308 overflowed α / Δt² to inf and the run stopped on a non-finite position.
+constexpr double kMaxCompliance = 1e6;
+/// Repulsion stiffness k (its compliance is 1/k): both ends kept where 1/k and k Δt² stay finite.
+constexpr double kMinStiffness = 1e-6, kMaxStiffness = 1e12;
+/// Friction coefficients: a Coulomb coefficient of 100 already sticks every contact.
+constexpr double kMaxFriction = 100;
 
 NodePtr required_choice(std::function<std::vector<std::string>()> choices, std::string doc) {
   auto n = choice("", std::move(choices), std::move(doc));
   n->default_yaml.reset();
+  n->required = true;
+  return n;
+}
+
+/// A vec3 the user must give (vec3 without a default is optional: `rotate_axis` and the like).
+NodePtr required_vec3(std::string doc, Range r) {
+  auto n = vec3(std::nullopt, std::move(doc), r);
+  n->optional_absent = false;
   n->required = true;
   return n;
 }
@@ -74,7 +89,7 @@ NodePtr shape_schema() {
                             {{"counts", ivec3(std::nullopt, "particles per axis [x, y, z]", one)},
                              {"spacing", number(0.01, "lattice spacing (m)", pos)}})},
           {"tet_box", map("a tetrahedralised box (6 tets per cell)",
-                          {{"size", vec3(std::nullopt, "box size [x, y, z] (m)", pos)},
+                          {{"size", required_vec3("box size [x, y, z] (m)", pos)},
                            {"resolution", ivec3(std::array<long long, 3>{2, 2, 2}, "cells per axis", one)}})},
           {"sphere", map("icosphere", {{"radius", number(0.5, "radius (m)", pos)},
                                        {"subdivisions", integer(3, "icosahedron subdivisions", Range{0, 7})}})},
@@ -82,9 +97,9 @@ NodePtr shape_schema() {
                                                 {"height", number(1.0, "height (m)", pos)},
                                                 {"segments", integer(32, "segments around", Range::at_least(3))},
                                                 {"capped", boolean(true, "close the ends")}})},
-          {"box", map("closed box, outward normals", {{"size", vec3(std::nullopt, "size [x, y, z] (m)", pos)}})},
+          {"box", map("closed box, outward normals", {{"size", required_vec3("size [x, y, z] (m)", pos)}})},
           {"open_box", map("floor and four walls, open at the top, normals inward",
-                           {{"size", vec3(std::nullopt, "size [x, y, z] (m)", pos)}})},
+                           {{"size", required_vec3("size [x, y, z] (m)", pos)}})},
           {"plane",
            map("square plane in the x-z plane, normal +y",
                {{"size", number(10.0, "side length (m)", pos)}, {"resolution", integer(1, "cells per side", one)}})},
@@ -153,7 +168,6 @@ void add_component_sections(std::vector<Field>& fields, const R& registry, const
 
 std::vector<Field> contact_fields() {
   const ContactParams d;  // defaults have one owner: the struct
-  const Range pos = Range::positive();
   std::vector<Field> f = {
       {"solver", choice(d.solver, registered_contact_solvers,
                         "contact solver: one of the registered methods (table of contact solvers below)")},
@@ -162,13 +176,15 @@ std::vector<Field> contact_fields() {
       {"offset", number(d.offset, "ξ: minimum separation between primitives (m)", Range::up_to(kMaxLength))},
       {"repulsion_range",
        number(d.repulsion_range, "δ: repulsion acts while the gap beyond ξ is below δ (m)", Range::up_to(kMaxLength))},
-      {"stiffness", number(d.stiffness, "k: repulsion stiffness; XPBD compliance 1/k", pos)},
+      {"stiffness", number(d.stiffness, "k: repulsion stiffness; XPBD compliance 1/k",
+                           Range{kMinStiffness, kMaxStiffness, false, false})},
       {"visibility_width",
        number(d.visibility_width, "δ_v: occlusion smoothstep width of the visibility weights (m); 0 means δ",
               Range::up_to(kMaxLength))},
-      {"friction", map("friction on active contacts (Macklin et al. 2014)",
-                       {{"static", number(d.friction_static, "static coefficient μ_s", Range::non_negative())},
-                        {"kinetic", number(d.friction_kinetic, "kinetic coefficient μ_k", Range::non_negative())}})},
+      {"friction",
+       map("friction on active contacts (Macklin et al. 2014)",
+           {{"static", number(d.friction_static, "static coefficient μ_s", Range::up_to(kMaxFriction))},
+            {"kinetic", number(d.friction_kinetic, "kinetic coefficient μ_k", Range::up_to(kMaxFriction))}})},
       {"epsilon", number(d.epsilon,
                          "ε: retraction of a projected point toward its anchor, relative to ξ (the region-projection "
                          "solvers use ε ξ; 1e-4 gives 1e-6 m at ξ = 0.01 as in the paper, and stays below the "
@@ -212,7 +228,7 @@ NodePtr build_scene_schema() {
   const DebugParams dd;
   const OutputParams od;
   const MaterialParams md;
-  const Range nonneg = Range::non_negative(), one = Range::at_least(1);
+  const Range nonneg = Range::non_negative(), one = Range::at_least(1), compliance = Range::up_to(kMaxCompliance);
   auto material = map(
       "a material",
       {
@@ -221,14 +237,15 @@ NodePtr build_scene_schema() {
                   "kg/m² for cloth and shells, kg/m for strands, kg/m³ for solids and rigids, kg per particle",
                   Range::positive_up_to(kMaxDensity))},
           {"stretch_compliance",
-           number(md.stretch_compliance, "XPBD compliance of edge lengths (m/N); 0 is inextensible", nonneg)},
+           number(md.stretch_compliance, "XPBD compliance of edge lengths (m/N); 0 is inextensible", compliance)},
           {"bend_compliance",
-           number(md.bend_compliance, "XPBD compliance of bending (1/(N m)); cloth, shells and strands", nonneg)},
+           number(md.bend_compliance, "XPBD compliance of bending (1/(N m)); cloth, shells and strands", compliance)},
           {"volume_compliance",
-           number(md.volume_compliance, "tet solids: compliance of volume preservation, 1/λ (1/Pa)", nonneg)},
-          {"shear_compliance",
-           number(md.shear_compliance, "tet solids: compliance of the deviatoric (shape) term, 1/μ (1/Pa)", nonneg)},
-          {"friction", number(md.friction, "friction coefficient of this material; < 0 uses contact.friction")},
+           number(md.volume_compliance, "tet solids: compliance of volume preservation, 1/λ (1/Pa)", compliance)},
+          {"shear_compliance", number(md.shear_compliance,
+                                      "tet solids: compliance of the deviatoric (shape) term, 1/μ (1/Pa)", compliance)},
+          {"friction", number(md.friction, "friction coefficient of this material; < 0 uses contact.friction",
+                              Range::within(kMaxFriction))},
       });
   auto pin = map(
       "a group of pinned vertices, optionally moved by a script",

@@ -6,6 +6,9 @@
 #include <cstdint>
 #include <sstream>
 
+#include <yaml-cpp/eventhandler.h>
+#include <yaml-cpp/parser.h>
+
 #include "ccfr/core/error.hpp"
 
 namespace ccfr::io::schema {
@@ -477,6 +480,43 @@ YAML::Node resolve(const YAML::Node& in, const NodePtr& sch, const Context& ctx,
   ctx.fail(path, in, "internal: unhandled schema kind");
 }
 
+namespace {
+/// Counts the documents of a YAML stream; stops at a document that starts where the last one did
+/// (yaml-cpp 0.7 then loops forever, see scene_loader.cpp).
+class DocumentCount : public YAML::EventHandler {
+ public:
+  int count = 0;
+  int last_pos = -1;
+  bool stuck = false;
+  void OnDocumentStart(const YAML::Mark& m) override {
+    stuck = m.pos == last_pos;
+    last_pos = m.pos;
+    ++count;
+  }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t, const std::string&) override {}
+  void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
+  void OnMapEnd() override {}
+};
+
+/// The value of a --set: one YAML document. YAML::Load keeps the first document of several
+/// and drops the rest without a word ("1\n---\n2" would set 1).
+YAML::Node load_override_value(const std::string& value, const std::string& assignment) {
+  std::istringstream in(value);
+  YAML::Parser parser(in);
+  DocumentCount docs;
+  while (parser.HandleNextDocument(docs) && !docs.stuck)
+    if (docs.count > 1)
+      throw Error("--set '" + assignment +
+                  "': the value holds a second YAML document (after '---' or '...'); give one value");
+  return YAML::Load(value);
+}
+}  // namespace
+
 std::string apply_override(YAML::Node& root, const std::string& assignment, const NodePtr& sch,
                            const std::string& file) {
   const auto eq = assignment.find('=');
@@ -536,7 +576,7 @@ std::string apply_override(YAML::Node& root, const std::string& assignment, cons
       norm += "[" + std::to_string(idx) + "]";
       descend(seg);
       if (last) {
-        cur[static_cast<size_t>(idx)] = YAML::Load(value);
+        cur[static_cast<size_t>(idx)] = load_override_value(value, assignment);
       } else {
         YAML::Node next = cur[static_cast<size_t>(idx)];
         cur.reset(next);
@@ -546,7 +586,7 @@ std::string apply_override(YAML::Node& root, const std::string& assignment, cons
       norm = join(norm, seg);
       descend(seg);
       if (last) {
-        cur[seg] = YAML::Load(value);
+        cur[seg] = load_override_value(value, assignment);
       } else {
         YAML::Node next = cur[seg];
         cur.reset(next);

@@ -3,7 +3,11 @@
 #include <set>
 
 #include "ccfr/core/error.hpp"
+#include "ccfr/io/scene_loader.hpp"
 #include "ccfr/io/sweep.hpp"
+#include "ccfr/io/user_file.hpp"
+#include "ccfr/solvers/contact_solver.hpp"
+#include "scene_schema.hpp"
 
 namespace ccfr::io {
 
@@ -41,6 +45,21 @@ class SpecReader {
     std::vector<std::string> out;
     for (size_t i = 0; i < n.size(); ++i) out.push_back(scalar(n[i], key + "[" + std::to_string(i) + "]"));
     return out;
+  }
+  /// yaml-cpp keeps both entries of a key given twice and `n[key]` finds the first: one of them
+  /// would be ignored without a word.
+  void no_duplicate_keys(const YAML::Node& n, const std::string& key) const {
+    if (n.IsSequence())
+      for (size_t i = 0; i < n.size(); ++i) no_duplicate_keys(n[i], key + "[" + std::to_string(i) + "]");
+    if (!n.IsMap()) return;
+    std::set<std::string> seen;
+    for (const auto& kv : n) {
+      const std::string k = kv.first.IsScalar() ? kv.first.Scalar() : std::string();
+      const std::string path = key.empty() ? k : key + "." + k;
+      if (!seen.insert(k).second)
+        fail(kv.first, path, "duplicate key '" + k + "' (given twice in one map: one would be ignored)");
+      no_duplicate_keys(kv.second, path);
+    }
   }
   void only(const YAML::Node& n, const std::string& key, const std::set<std::string>& known) const {
     if (!n.IsMap()) fail(n, key, "expected a map");
@@ -108,14 +127,9 @@ SweepSpec load_sweep_spec(const fs::path& file) {
   SweepSpec s;
   s.file = fs::absolute(file).lexically_normal();
   const SpecReader r(s.file);
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(s.file.string());
-  } catch (const YAML::BadFile&) {
-    throw Error("cannot read sweep spec '" + file.string() + "'");
-  } catch (const YAML::ParserException& e) {
-    throw ConfigError(file.string(), "", e.mark.line + 1, "YAML syntax error: " + e.msg);
-  }
+  const YAML::Node root =
+      parse_bounded_yaml(read_user_file(s.file, "sweep spec", kMaxSceneFileBytes), s.file.string(), "sweep spec");
+  r.no_duplicate_keys(root, "");
   r.only(root, "",
          {"configs", "solvers", "parameters", "combine", "cases", "set", "frames", "audit_stride", "resources"});
   if (!root["configs"]) r.fail(root, "configs", "is required: the scene files of the sweep");
@@ -125,7 +139,16 @@ SweepSpec load_sweep_spec(const fs::path& file) {
     if (!fs::is_regular_file(p)) r.fail(root["configs"], "configs", "scene file '" + p.string() + "' does not exist");
     s.configs.push_back(p);
   }
-  if (root["solvers"]) s.solvers = r.list(root["solvers"], "solvers");
+  if (root["solvers"]) {
+    s.solvers = r.list(root["solvers"], "solvers");
+    for (size_t i = 0; i < s.solvers.size(); ++i)
+      if (!contact_solvers().find(s.solvers[i])) {
+        std::string known;
+        for (const auto& n : registered_contact_solvers()) known += (known.empty() ? "" : ", ") + n;
+        r.fail(root["solvers"][i], "solvers[" + std::to_string(i) + "]",
+               "unknown contact solver '" + s.solvers[i] + "'; registered: " + known);
+      }
+  }
   std::string combine = "product";
   if (root["combine"]) {
     combine = r.scalar(root["combine"], "combine");
@@ -195,6 +218,35 @@ SweepSpec load_sweep_spec(const fs::path& file) {
     if (res["account"]) s.resources.account = r.scalar(res["account"], "resources.account");
   }
   s.cells = expand_sweep(s.configs, s.solvers, s.parameter_keys, s.cases, s.set, s.frames);
+  // Every cell's scene with its overrides goes through the schema now (keys, types, ranges), so a
+  // bad `parameters` or `set` key stops the sweep before any cell runs, not when each cell starts.
+  for (const SweepCell& c : s.cells) {
+    try {
+      check_scene_keys(c.config, c.overrides);
+    } catch (const Error& e) {
+      // Blame the spec entry whose override the message names, else the cell's scene.
+      const std::string msg = e.what();
+      const auto* ce = dynamic_cast<const ConfigError*>(&e);
+      // An override's error reads "command line (--set k=v): 'k': ..."; in a spec there is no command line.
+      const std::string shown =
+          ce && ce->file().rfind("command line", 0) == 0 ? "'" + ce->key_path() + "': " + ce->detail() : msg;
+      // An override is to blame when the message quotes it, or when the failing key is the
+      // override's key or a section above it (contact.exact_projection for
+      // contact.exact_projection.anything, a section the chosen solver does not have).
+      const std::string kp = ce ? ce->key_path() : std::string();
+      auto blamed = [&](const std::string& k) {
+        return msg.find(k + "=") != std::string::npos ||
+               (!kp.empty() && (k == kp || k.rfind(kp + ".", 0) == 0 || kp.rfind(k + ".", 0) == 0));
+      };
+      YAML::Node at = root["configs"];
+      std::string key = "configs";
+      for (const auto& [k, v] : c.params)
+        if (blamed(k)) at = root["parameters"] ? root["parameters"][k] : root["cases"], key = "parameters." + k;
+      for (const auto& kv : root["set"] ? root["set"] : YAML::Node())
+        if (blamed(kv.first.Scalar())) at = kv.first, key = "set." + kv.first.Scalar();
+      r.fail(at, key, "cell '" + c.id + "': " + shown);
+    }
+  }
   return s;
 }
 

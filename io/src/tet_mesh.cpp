@@ -10,6 +10,7 @@
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/process.hpp"
+#include "ccfr/io/user_file.hpp"
 
 namespace ccfr::io {
 
@@ -23,17 +24,19 @@ const std::vector<std::string>& mesh_extensions() {
 namespace {
 
 [[noreturn]] void fail(const fs::path& p, int line, const std::string& msg) {
-  throw Error(p.string() + (line > 0 ? ":" + std::to_string(line) : std::string()) + ": " + msg);
+  throw Error(printable(p.string()) + (line > 0 ? ":" + std::to_string(line) : std::string()) + ": " + printable(msg));
 }
 
 /// Reads a whitespace-separated file line by line, skipping blank lines and `#` comments
 /// (TetGen's convention; Gmsh has none inside sections).
 class Lines {
  public:
-  explicit Lines(const fs::path& p) : path_(p), in_(p) {
-    if (!fs::exists(p)) throw Error("mesh file '" + p.string() + "' does not exist");
-    if (!in_) throw Error("cannot open '" + p.string() + "'");
+  // The stat check runs before the stream opens the file: a FIFO would block in the open.
+  explicit Lines(const fs::path& p) : path_(p), bytes_(check_user_file(p, "mesh file", kMaxMeshFileBytes)), in_(p) {
+    if (!in_) throw Error("cannot open '" + printable(p.string()) + "'");
   }
+  /// The file's size: a count in a header larger than the file can hold is refused before allocating.
+  std::uintmax_t bytes() const { return bytes_; }
   /// The next non-empty line's tokens; false at the end of the file.
   bool next(std::istringstream& ls) {
     std::string s;
@@ -58,6 +61,7 @@ class Lines {
 
  private:
   fs::path path_;
+  std::uintmax_t bytes_ = 0;
   std::ifstream in_;
   std::istringstream ls_;
   int line_ = 0;
@@ -118,6 +122,10 @@ TetMesh read_tetgen(const fs::path& path) {
   h >> attrs >> markers;
   if (dim != 3) fail(node, nf.line(), "dimension " + std::to_string(dim) + ", expected 3");
   if (n <= 0) fail(node, nf.line(), "no nodes");
+  // A node line "<id> <x> <y> <z>" takes at least 8 bytes.
+  if (static_cast<std::uintmax_t>(n) > nf.bytes() / 8)
+    fail(node, nf.line(),
+         std::to_string(n) + " nodes exceed what a " + std::to_string(nf.bytes()) + "-byte file can hold");
   Positions nodes(static_cast<size_t>(n));
   long first = 0;
   for (long k = 0; k < n; ++k) {
@@ -192,6 +200,13 @@ TetMesh read_gmsh(const fs::path& path) {
     tets.push_back(t);
     lines.push_back(f.line());
   };
+  // A section's count covers its lines; a missing end marker means the counts and the file disagree.
+  auto end_section = [&](const char* marker) {
+    std::string end;
+    f.need(marker) >> end;
+    if (end != marker)
+      fail(path, f.line(), std::string("expected ") + marker + " after the section's last entry, found '" + end + "'");
+  };
   std::istringstream s;
   while (f.next(s)) {
     s >> tok;
@@ -223,6 +238,7 @@ TetMesh read_gmsh(const fs::path& path) {
           }
         }
       }
+      end_section("$EndNodes");
     } else if (tok == "$Elements") {
       auto& h = f.need("the $Elements header");
       if (!v4) {
@@ -250,6 +266,7 @@ TetMesh read_gmsh(const fs::path& path) {
           }
         }
       }
+      end_section("$EndElements");
     }
     // Other sections ($Entities, $PhysicalNames, ...) carry no geometry ccfr uses: skipped line by line.
   }

@@ -49,6 +49,9 @@ struct ObjMesh {
   std::vector<Vec3i> f;
   std::vector<std::vector<Index>> lines;
   std::vector<int> face_lines;  ///< #F: source line of each face, for messages
+  /// Source line of the first `l` and `p` statement (0: none): objects that do not use them name
+  /// the line instead of dropping them.
+  int first_line_line = 0, first_point_line = 0;
 };
 ObjMesh read_obj_mesh(const std::filesystem::path& path);
 /// A triangle mesh imported from a Geomview OFF file (the format of CGAL's, Princeton's and many

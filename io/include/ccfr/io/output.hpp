@@ -35,6 +35,9 @@ struct RunMeta {
 
 /// True if DIR/run.json is a JSON object with the ccfr marker (`"ccfr": {"version": ...}`).
 bool is_ccfr_run(const std::filesystem::path& dir);
+/// Why DIR is not a ccfr run, for messages: "no run.json", "run.json is unreadable: ...
+/// (truncated or damaged)" or "run.json was not written by ccfr"; empty when is_ccfr_run(dir).
+std::string run_json_problem(const std::filesystem::path& dir);
 
 /// True if `name` is an entry ccfr writes into a run directory (run.json, stats.csv, frames/,
 /// checkpoints/, audit.json, render/, vtk/, blender/, usd/, stats.png, their temporaries) or the

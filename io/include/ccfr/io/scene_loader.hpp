@@ -39,6 +39,9 @@ struct MeshArrays {
 LoadedScene load_scene_arrays(const std::string& yaml, const std::string& file_label,
                               const std::map<std::string, MeshArrays>& arrays,
                               const std::vector<std::string>& overrides = {});
+/// Checks `file` with `overrides` against the schema (keys, types, ranges, choices) without
+/// building the scene: what a sweep validates for each cell before any cell runs.
+void check_scene_keys(const std::filesystem::path& file, const std::vector<std::string>& overrides);
 /// Markdown table of every scene key (type, default, range, meaning), generated from the schema.
 std::string config_reference_markdown();
 
