@@ -115,7 +115,8 @@ void visibility_weights(std::span<const ContactPair> contacts, double width, std
 }
 
 void visibility_weights(std::span<const ContactPair> contacts, std::span<const Index> offsets,
-                        std::span<const Index> slots, double width, std::vector<double>& vis, VisibilityWorkspace& ws) {
+                        std::span<const Index> slots, double width, std::vector<double>& vis, VisibilityWorkspace& ws,
+                        std::span<const double> movable) {
   const Index n = static_cast<Index>(contacts.size());
   vis.assign(static_cast<size_t>(n), 1.0);
   if (width <= 0.0 || n == 0) return;
@@ -133,9 +134,14 @@ void visibility_weights(std::span<const ContactPair> contacts, std::span<const I
         std::vector<Index> group;
         for (Index v = vb; v < ve; ++v) {
           group.clear();
+          bool moves = movable.empty();
           for (Index q = offsets[v]; q < offsets[v + 1]; ++q)
-            if (slots[q] % 4 == 0) group.push_back(slots[q] / 4);
-          weigh_group(group, contacts, width, vis, scratch);
+            if (slots[q] % 4 == 0) {
+              const Index ci = slots[q] / 4;
+              group.push_back(ci);
+              for (int k = 0; k < contacts[ci].size() && !moves; ++k) moves = movable[contacts[ci].v[k]] > 0.0;
+            }
+          if (moves) weigh_group(group, contacts, width, vis, scratch);
         }
       },
       256);
@@ -163,7 +169,8 @@ void visibility_weights(std::span<const ContactPair> contacts, std::span<const I
 }
 
 void ContactResponse::prepare_common(std::span<const ContactPair> contacts, const ContactParams& params,
-                                     std::span<const Index> offsets, std::span<const Index> slots) {
+                                     std::span<const Index> offsets, std::span<const Index> slots,
+                                     std::span<const double> movable) {
   contacts_ = contacts;
   prepared_repulsion_ = params.repulsion_range > 0.0;
   if (!prepared_repulsion_) return;  // apply() does nothing without a repulsion range
@@ -171,7 +178,7 @@ void ContactResponse::prepare_common(std::span<const ContactPair> contacts, cons
   if (offsets.empty())
     visibility_weights(contacts, width, visibility_, visibility_ws_);
   else
-    visibility_weights(contacts, offsets, slots, width, visibility_, visibility_ws_);
+    visibility_weights(contacts, offsets, slots, width, visibility_, visibility_ws_, movable);
   // No zeroing: apply() writes every used slot of an active contact, and its gather reads only
   // the slots of active contacts.
   corr_.resize(contacts.size() * 4);
@@ -193,12 +200,13 @@ void ContactResponse::prepare(std::span<const ContactPair> contacts, Index num_v
 }
 
 void ContactResponse::prepare(std::span<const ContactPair> contacts, std::span<const Index> offsets,
-                              std::span<const Index> slots, const ContactParams& params) {
+                              std::span<const Index> slots, const ContactParams& params,
+                              std::span<const double> movable) {
   if (offsets.empty() || static_cast<size_t>(offsets.back()) != slots.size())
     throw Error("ContactResponse::prepare: the incidence has " + std::to_string(slots.size()) +
                 " slots, its offsets end at " +
                 (offsets.empty() ? std::string("nothing") : std::to_string(offsets.back())));
-  prepare_common(contacts, params, offsets, slots);
+  prepare_common(contacts, params, offsets, slots, movable);
   offsets_ = offsets;
   slots_ = slots;
 }
