@@ -212,7 +212,8 @@ void ContactResponse::prepare(std::span<const ContactPair> contacts, std::span<c
 }
 
 void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<const double> inv_mass,
-                            const ContactParams& p, double dt, std::span<const double> friction_override) {
+                            const ContactParams& p, double dt, std::span<const double> friction_override,
+                            std::span<const double> other_inverse_mass) {
   const Index n = static_cast<Index>(contacts_.size());
   if (n == 0 || p.repulsion_range <= 0.0) {
     active_ = 0;
@@ -235,6 +236,9 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
           double wsum = 0.0;
           for (int k = 0; k < c.size(); ++k) wsum += c.w[k] * c.w[k] * inv_mass[c.v[k]];
           if (wsum <= 0.0) continue;
+          // A rigid body on the other side takes its share of Δλ in its pose solve: both sides'
+          // inverse masses divide the correction, or the pair is pushed apart about twice.
+          if (!other_inverse_mass.empty()) wsum += other_inverse_mass[static_cast<size_t>(ci)];
           // Only active contacts write corrections, each of its c.size() slots below (the only
           // ones the gather can name); the gather skips the others by is_active, so the (many)
           // contacts beyond δ cost no 96-byte zero fill and no read-back.

@@ -203,7 +203,26 @@ void RegionProjectionSolver::respond(Positions& x, const Positions& anchor, cons
   // here they count as fixed (a vertex's own mass gave a rigid body a far too weak impulse).
   free_mask_.assign(state.inv_mass.begin(), state.inv_mass.end());
   rigid_.mask_free(free_mask_);
-  response_.apply(x, state.x_prev, free_mask_, ctx.params.contact, ctx.dt, friction_override_);
+  // A contact between a movable side and an unpinned rigid body: the body's generalized inverse
+  // mass at its closest point (frame at the anchor, where the contacts were found) joins the
+  // response's, as the pose solve counts the movable side's in its share.
+  other_inverse_mass_.assign(contacts_.size(), 0.0);
+  std::vector<RigidFrame> frames;
+  for (size_t ci = 0; ci < contacts_.size(); ++ci) {
+    const ContactPair& c = contacts_[ci];
+    const int na = c.side_a();
+    bool moves_a = false, moves_b = false;
+    for (int k = 0; k < c.size(); ++k) (k < na ? moves_a : moves_b) |= free_mask_[c.v[k]] > 0.0;
+    if (moves_a == moves_b) continue;  // both sides movable, or neither
+    const int lo = moves_a ? na : 0, hi = moves_a ? c.size() : na;
+    const Index body = rigid_.body_of(c.v[lo]);
+    if (body < 0) continue;
+    if (frames.empty()) frames = rigid_.frames(anchor);
+    Vec3 point = Vec3::Zero();
+    for (int j = lo; j < hi; ++j) point += std::abs(c.w[j]) * anchor[c.v[j]];
+    other_inverse_mass_[ci] = frames[static_cast<size_t>(body)].inverse_mass_at(point, c.n);
+  }
+  response_.apply(x, state.x_prev, free_mask_, ctx.params.contact, ctx.dt, friction_override_, other_inverse_mass_);
 }
 
 RegionProjectionSolver::RegionProjectionSolver(std::string solver_name, std::string projector_name, ParamValues params)
@@ -282,9 +301,11 @@ SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& ancho
       }
       const Vec3 n = regions_.planes[static_cast<size_t>(q)].n;
       pc.other_wt = pc.other_w;
+      pc.responds_w = pc.other_w;
       const Index ob = rigid_.body_of(c.v[lo]);
       if (ob >= 0 && frames[static_cast<size_t>(ob)].inv_mass > 0.0) {
         const RigidFrame& f = frames[static_cast<size_t>(ob)];
+        pc.responds_w = 0.0;  // answered by its own pose solve
         pc.other_w = f.inverse_mass_at(point, n);
         // Against the tangential correction: the mean over the tangent plane's two axes.
         const Vec3 t1 = n.unitOrthogonal(), t2 = n.cross(t1);
@@ -294,8 +315,10 @@ SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& ancho
       pc.repel = delta - std::max(0.0, gap - regions_.planes[static_cast<size_t>(q)].d);
       return pc;
     };
-    RigidContactOptions options{&state.x_prev, ctx.params.contact.repulsion_range,
-                                1.0 / (ctx.params.contact.stiffness * ctx.dt * ctx.dt)};
+    RigidContactOptions options;
+    options.x_start = &state.x_prev;
+    options.repulsion_range = ctx.params.contact.repulsion_range;
+    options.repulsion_compliance = 1.0 / (ctx.params.contact.stiffness * ctx.dt * ctx.dt);
     options.plane_contact = plane_contact;
     const RigidEnforceStats rs =
         rigid_.enforce(x, anchor, regions_, *projector_, ctx.params.contact.radius, ctx.params.time.advance_tolerance,

@@ -330,8 +330,13 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
               }
               if (options.repulsion_range > 0.0) {
                 // XPBD repulsion of the pair's gap toward δ with compliance α̃, its multiplier kept >= 0.
+                // A movable other side (cloth) answers the same λ_r in the per-vertex response and
+                // so moves away by other_w λ_r: counted here, the sweeps converge to the pair's
+                // impulse λ_r = -C / (w + other_w + α̃), and not to the whole correction as if that
+                // side were fixed (momentum grew by the body's part).
                 const double alpha = options.repulsion_compliance;
-                const double now_value = c.h.value(anchor[v], pose.q * b.rest[c.i] + pose.c);
+                const double now_value =
+                    c.h.value(anchor[v], pose.q * b.rest[c.i] + pose.c) + c.pair.responds_w * c.lambda_r;
                 const double rep = std::max(
                     0.0, c.lambda_r + (c.pair.repel - now_value - alpha * c.lambda_r) / (w + c.pair.other_w + alpha));
                 const double dr = rep - c.lambda_r;

@@ -62,8 +62,12 @@ class ContactResponse {
   /// One Jacobi pass of repulsion then friction on candidate positions `x`; `x_start` are the
   /// positions at the start of the substep (friction acts on the substep's tangential motion).
   /// `friction_of(vertex)` gives (μ_s, μ_k) for a contact by its query vertex.
+  /// `other_inverse_mass` (per contact, or empty): the generalized inverse mass of a side that
+  /// answers outside this response (an unpinned rigid body, whose vertices `inv_mass` masks and
+  /// whose pose solve takes its share of the same Δλ): it joins Σ wₖ² mₖ⁻¹, so that the movable
+  /// side moves by its share only.
   void apply(Positions& x, const Positions& x_start, std::span<const double> inv_mass, const ContactParams& params,
-             double dt, std::span<const double> friction_override);
+             double dt, std::span<const double> friction_override, std::span<const double> other_inverse_mass = {});
   Index active() const { return active_; }
 
  private:

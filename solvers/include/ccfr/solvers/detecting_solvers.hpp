@@ -93,8 +93,9 @@ class RegionProjectionSolver final : public DetectingSolver {
   std::string name_, projector_name_;
   ParamValues projector_params_;
   std::unique_ptr<Projector> projector_;
-  RigidBodies rigid_;              ///< rigid bodies, whose correction is taken as a rigid motion
-  Positions candidates_;           ///< the candidates before the pose solves (the other sides' motion)
+  RigidBodies rigid_;                       ///< rigid bodies, whose correction is taken as a rigid motion
+  Positions candidates_;                    ///< the candidates before the pose solves (the other sides' motion)
+  std::vector<double> other_inverse_mass_;  ///< per contact: a rigid other side's generalized inverse mass
   std::vector<double> free_mask_;  ///< inverse masses with unpinned rigid bodies' vertices at 0 (not projected alone)
   std::vector<std::uint8_t> halted_;  ///< #V: halted during frame `halted_frame_`
   int halted_frame_ = -1;

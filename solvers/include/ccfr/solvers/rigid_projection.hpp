@@ -39,6 +39,9 @@ struct RigidPlaneContact {
   double other_w = 0.0;              ///< Σ wₖ² m⁻¹ of the pair's other side
   Vec3 other_motion = Vec3::Zero();  ///< the other side's motion over the substep
   double other_wt = 0.0;             ///< its inverse mass against the friction's correction
+  /// other_w when the other side is movable and answers the same repulsion in the per-vertex
+  /// response (cloth, tets, strands); 0 for an obstacle or a rigid body.
+  double responds_w = 0.0;
 };
 
 /// The contact response of the pose solve (the per-vertex response skips unpinned rigid bodies).
