@@ -125,6 +125,8 @@ void visibility_weights(std::span<const ContactPair> contacts, std::span<const I
                 " slots, its offsets end at " +
                 (offsets.empty() ? std::string("nothing") : std::to_string(offsets.back())));
   const Index nv = static_cast<Index>(offsets.size()) - 1;
+  // Nothing movable (a pile of rigid bodies on an obstacle): apply() uses no weight.
+  if (!movable.empty() && std::none_of(movable.begin(), movable.end(), [](double w) { return w > 0.0; })) return;
   // A listed vertex's slots of k = 0 are exactly its contacts as query vertex, in contact order:
   // its group, read without the three passes over the 96-byte records the grouping needs.
   parallel_for(
@@ -215,7 +217,9 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
                             const ContactParams& p, double dt, std::span<const double> friction_override,
                             std::span<const double> other_inverse_mass) {
   const Index n = static_cast<Index>(contacts_.size());
-  if (n == 0 || p.repulsion_range <= 0.0) {
+  // With every inverse mass 0 no contact moves anything (each is skipped at Σ wₖ² mₖ⁻¹ = 0).
+  if (n == 0 || p.repulsion_range <= 0.0 ||
+      std::none_of(inv_mass.begin(), inv_mass.end(), [](double w) { return w > 0.0; })) {
     active_ = 0;
     return;
   }

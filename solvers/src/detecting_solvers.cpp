@@ -208,7 +208,8 @@ void RegionProjectionSolver::respond(Positions& x, const Positions& anchor, cons
   // response's, as the pose solve counts the movable side's in its share.
   other_inverse_mass_.assign(contacts_.size(), 0.0);
   std::vector<RigidFrame> frames;
-  for (size_t ci = 0; ci < contacts_.size(); ++ci) {
+  const bool any_movable = std::any_of(free_mask_.begin(), free_mask_.end(), [](double w) { return w > 0.0; });
+  for (size_t ci = 0; any_movable && ci < contacts_.size(); ++ci) {
     const ContactPair& c = contacts_[ci];
     const int na = c.side_a();
     bool moves_a = false, moves_b = false;
