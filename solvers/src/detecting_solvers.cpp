@@ -316,11 +316,17 @@ SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& ancho
       pc.repel = delta - std::max(0.0, gap - regions_.planes[static_cast<size_t>(q)].d);
       return pc;
     };
+    auto plane_repel = [&](Index q) {
+      if (sources.size() != regions_.planes.size()) return delta;
+      const ContactPair& c = contacts_[static_cast<size_t>(sources[q] / 4)];
+      return delta - std::max(0.0, c.distance - c.offset - regions_.planes[static_cast<size_t>(q)].d);
+    };
     RigidContactOptions options;
     options.x_start = &state.x_prev;
     options.repulsion_range = ctx.params.contact.repulsion_range;
     options.repulsion_compliance = 1.0 / (ctx.params.contact.stiffness * ctx.dt * ctx.dt);
     options.plane_contact = plane_contact;
+    options.plane_repel = plane_repel;
     const RigidEnforceStats rs =
         rigid_.enforce(x, anchor, regions_, *projector_, ctx.params.contact.radius, ctx.params.time.advance_tolerance,
                        rigid_.predicted_cores(state, ctx.dt, ctx.params.time.gravity), options);

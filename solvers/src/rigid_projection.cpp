@@ -287,8 +287,12 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
                 const HalfSpace& h = regions.planes[static_cast<size_t>(q)];
                 Index& s = ws.slot[static_cast<size_t>(q - q_begin)];
                 const double value = h.value(anchor[v], at);
-                // δ bounds every repulsion target: a plane beyond it needs no pair data.
+                // δ bounds every repulsion target: a plane beyond it needs no pair data; nor does
+                // one beyond its own target (cheap to ask), which most of those within δ are.
                 if (s < 0 && value > reach_of(h) + slack) continue;
+                if (s < 0 && options.plane_repel && options.repulsion_range > 0.0 &&
+                    value > std::max(aim_of(h), options.plane_repel(q)) + slack)
+                  continue;
                 if (s < 0) {
                   s = static_cast<Index>(contacts.size());
                   contacts.push_back({static_cast<Index>(i), q, h, pair_of(q)});

@@ -70,6 +70,9 @@ struct RigidContactOptions {
   /// solve can act on (every plane of a body in a pile costs a pass over the pairs otherwise).
   /// Called concurrently for different bodies; its `repel` must not exceed repulsion_range.
   std::function<RigidPlaneContact(Index plane)> plane_contact;
+  /// With plane_contact: its `repel` alone, cheaper (no inverse masses, no motion); asked first,
+  /// so that only planes within reach of their own target get the whole pair data.
+  std::function<double(Index plane)> plane_repel;
 };
 
 /// Where an unpinned rigid body is, for the generalized inverse mass of one of its points.
