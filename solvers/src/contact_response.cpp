@@ -115,7 +115,8 @@ void visibility_weights(std::span<const ContactPair> contacts, double width, std
 }
 
 void visibility_weights(std::span<const ContactPair> contacts, std::span<const Index> offsets,
-                        std::span<const Index> slots, double width, std::vector<double>& vis, VisibilityWorkspace& ws) {
+                        std::span<const Index> slots, double width, std::vector<double>& vis, VisibilityWorkspace& ws,
+                        std::span<const double> movable) {
   const Index n = static_cast<Index>(contacts.size());
   vis.assign(static_cast<size_t>(n), 1.0);
   if (width <= 0.0 || n == 0) return;
@@ -124,6 +125,8 @@ void visibility_weights(std::span<const ContactPair> contacts, std::span<const I
                 " slots, its offsets end at " +
                 (offsets.empty() ? std::string("nothing") : std::to_string(offsets.back())));
   const Index nv = static_cast<Index>(offsets.size()) - 1;
+  // Nothing movable (a pile of rigid bodies on an obstacle): apply() uses no weight.
+  if (!movable.empty() && std::none_of(movable.begin(), movable.end(), [](double w) { return w > 0.0; })) return;
   // A listed vertex's slots of k = 0 are exactly its contacts as query vertex, in contact order:
   // its group, read without the three passes over the 96-byte records the grouping needs.
   parallel_for(
@@ -133,9 +136,14 @@ void visibility_weights(std::span<const ContactPair> contacts, std::span<const I
         std::vector<Index> group;
         for (Index v = vb; v < ve; ++v) {
           group.clear();
+          bool moves = movable.empty();
           for (Index q = offsets[v]; q < offsets[v + 1]; ++q)
-            if (slots[q] % 4 == 0) group.push_back(slots[q] / 4);
-          weigh_group(group, contacts, width, vis, scratch);
+            if (slots[q] % 4 == 0) {
+              const Index ci = slots[q] / 4;
+              group.push_back(ci);
+              for (int k = 0; k < contacts[ci].size() && !moves; ++k) moves = movable[contacts[ci].v[k]] > 0.0;
+            }
+          if (moves) weigh_group(group, contacts, width, vis, scratch);
         }
       },
       256);
@@ -163,7 +171,8 @@ void visibility_weights(std::span<const ContactPair> contacts, std::span<const I
 }
 
 void ContactResponse::prepare_common(std::span<const ContactPair> contacts, const ContactParams& params,
-                                     std::span<const Index> offsets, std::span<const Index> slots) {
+                                     std::span<const Index> offsets, std::span<const Index> slots,
+                                     std::span<const double> movable) {
   contacts_ = contacts;
   prepared_repulsion_ = params.repulsion_range > 0.0;
   if (!prepared_repulsion_) return;  // apply() does nothing without a repulsion range
@@ -171,7 +180,7 @@ void ContactResponse::prepare_common(std::span<const ContactPair> contacts, cons
   if (offsets.empty())
     visibility_weights(contacts, width, visibility_, visibility_ws_);
   else
-    visibility_weights(contacts, offsets, slots, width, visibility_, visibility_ws_);
+    visibility_weights(contacts, offsets, slots, width, visibility_, visibility_ws_, movable);
   // No zeroing: apply() writes every used slot of an active contact, and its gather reads only
   // the slots of active contacts.
   corr_.resize(contacts.size() * 4);
@@ -193,20 +202,24 @@ void ContactResponse::prepare(std::span<const ContactPair> contacts, Index num_v
 }
 
 void ContactResponse::prepare(std::span<const ContactPair> contacts, std::span<const Index> offsets,
-                              std::span<const Index> slots, const ContactParams& params) {
+                              std::span<const Index> slots, const ContactParams& params,
+                              std::span<const double> movable) {
   if (offsets.empty() || static_cast<size_t>(offsets.back()) != slots.size())
     throw Error("ContactResponse::prepare: the incidence has " + std::to_string(slots.size()) +
                 " slots, its offsets end at " +
                 (offsets.empty() ? std::string("nothing") : std::to_string(offsets.back())));
-  prepare_common(contacts, params, offsets, slots);
+  prepare_common(contacts, params, offsets, slots, movable);
   offsets_ = offsets;
   slots_ = slots;
 }
 
 void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<const double> inv_mass,
-                            const ContactParams& p, double dt, std::span<const double> friction_override) {
+                            const ContactParams& p, double dt, std::span<const double> friction_override,
+                            std::span<const double> other_inverse_mass) {
   const Index n = static_cast<Index>(contacts_.size());
-  if (n == 0 || p.repulsion_range <= 0.0) {
+  // With every inverse mass 0 no contact moves anything (each is skipped at Σ wₖ² mₖ⁻¹ = 0).
+  if (n == 0 || p.repulsion_range <= 0.0 ||
+      std::none_of(inv_mass.begin(), inv_mass.end(), [](double w) { return w > 0.0; })) {
     active_ = 0;
     return;
   }
@@ -227,6 +240,9 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
           double wsum = 0.0;
           for (int k = 0; k < c.size(); ++k) wsum += c.w[k] * c.w[k] * inv_mass[c.v[k]];
           if (wsum <= 0.0) continue;
+          // A rigid body on the other side takes its share of Δλ in its pose solve: both sides'
+          // inverse masses divide the correction, or the pair is pushed apart about twice.
+          if (!other_inverse_mass.empty()) wsum += other_inverse_mass[static_cast<size_t>(ci)];
           // Only active contacts write corrections, each of its c.size() slots below (the only
           // ones the gather can name); the gather skips the others by is_active, so the (many)
           // contacts beyond δ cost no 96-byte zero fill and no read-back.

@@ -65,7 +65,8 @@ DetectResult DetectingSolver::detect(const Positions& anchor, const SimState& st
   ctx.times.narrow += ds.narrow_s;
   {
     ScopedTimer t(ctx.times.narrow);  // contact bookkeeping for the response belongs to the narrow phase
-    response_.prepare(contacts_, regions_.offsets, detector_->plane_sources(), ctx.params.contact);
+    response_.prepare(contacts_, regions_.offsets, detector_->plane_sources(), ctx.params.contact,
+                      response_mass(state));
   }
   DetectResult s;
   s.candidates = ds.candidates;
@@ -189,13 +190,40 @@ void DetectingSolver::respond(Positions& x, const Positions& anchor, const SimSt
   response_.apply(x, state.x_prev, state.inv_mass, ctx.params.contact, ctx.dt, friction_override_);
 }
 
+std::span<const double> RegionProjectionSolver::response_mass(const SimState& state) {
+  if (rigid_.empty()) return {};
+  free_mask_.assign(state.inv_mass.begin(), state.inv_mass.end());
+  rigid_.mask_free(free_mask_);
+  return free_mask_;
+}
+
 void RegionProjectionSolver::respond(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) {
   if (rigid_.empty()) return DetectingSolver::respond(x, anchor, state, ctx);
   // Unpinned rigid bodies respond in their pose solve (enforce), with their generalized masses:
   // here they count as fixed (a vertex's own mass gave a rigid body a far too weak impulse).
   free_mask_.assign(state.inv_mass.begin(), state.inv_mass.end());
   rigid_.mask_free(free_mask_);
-  response_.apply(x, state.x_prev, free_mask_, ctx.params.contact, ctx.dt, friction_override_);
+  // A contact between a movable side and an unpinned rigid body: the body's generalized inverse
+  // mass at its closest point (frame at the anchor, where the contacts were found) joins the
+  // response's, as the pose solve counts the movable side's in its share.
+  other_inverse_mass_.assign(contacts_.size(), 0.0);
+  std::vector<RigidFrame> frames;
+  const bool any_movable = std::any_of(free_mask_.begin(), free_mask_.end(), [](double w) { return w > 0.0; });
+  for (size_t ci = 0; any_movable && ci < contacts_.size(); ++ci) {
+    const ContactPair& c = contacts_[ci];
+    const int na = c.side_a();
+    bool moves_a = false, moves_b = false;
+    for (int k = 0; k < c.size(); ++k) (k < na ? moves_a : moves_b) |= free_mask_[c.v[k]] > 0.0;
+    if (moves_a == moves_b) continue;  // both sides movable, or neither
+    const int lo = moves_a ? na : 0, hi = moves_a ? c.size() : na;
+    const Index body = rigid_.body_of(c.v[lo]);
+    if (body < 0) continue;
+    if (frames.empty()) frames = rigid_.frames(anchor);
+    Vec3 point = Vec3::Zero();
+    for (int j = lo; j < hi; ++j) point += std::abs(c.w[j]) * anchor[c.v[j]];
+    other_inverse_mass_[ci] = frames[static_cast<size_t>(body)].inverse_mass_at(point, c.n);
+  }
+  response_.apply(x, state.x_prev, free_mask_, ctx.params.contact, ctx.dt, friction_override_, other_inverse_mass_);
 }
 
 RegionProjectionSolver::RegionProjectionSolver(std::string solver_name, std::string projector_name, ParamValues params)
@@ -246,56 +274,62 @@ SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& ancho
     // the pair's XPBD repulsion has it, instead of bouncing off a stiff spring.
     const auto sources = detector_->plane_sources();
     const double delta = ctx.params.contact.repulsion_range;
-    repulsion_target_.assign(regions_.planes.size(), delta);
-    repulsion_other_.assign(regions_.planes.size(), 0.0);
-    other_motion_.assign(regions_.planes.size(), Vec3::Zero());
-    friction_other_.assign(regions_.planes.size(), 0.0);
     // An unpinned rigid body on the other side answers with its generalized inverse mass at the
     // closest point (its vertices' own masses would make it a light cloth). Its frame is taken at
     // the anchor, where the regions were built.
     const std::vector<RigidFrame> frames = rigid_.frames(anchor);
-    if (sources.size() == regions_.planes.size())
-      for (const auto& o : ctx.topo.objects) {
-        if (o.kind != ObjectKind::rigid) continue;
-        for (Index q = regions_.offsets[o.vertex_begin]; q < regions_.offsets[o.vertex_end]; ++q) {
-          const ContactPair& c = contacts_[static_cast<size_t>(sources[q] / 4)];
-          const int k = static_cast<int>(sources[q] % 4), na = c.side_a();
-          const int lo = k < na ? na : 0, hi = k < na ? c.size() : na;
-          double other = 0.0;
-          Vec3 moved = Vec3::Zero(), point = Vec3::Zero();
-          // The other side's closest point and its motion over the substep (x is every other
-          // body's candidate: a cloth's projected, an obstacle's scripted target, a rigid body's
-          // predicted position), for the friction on the relative slip.
-          for (int j = lo; j < hi; ++j) {
-            const Index u = c.v[j];
-            other += c.w[j] * c.w[j] * state.inv_mass[u];
-            moved += std::abs(c.w[j]) * (x[u] - state.x_prev[u]);
-            point += std::abs(c.w[j]) * anchor[u];
-          }
-          const Vec3 n = regions_.planes[static_cast<size_t>(q)].n;
-          double tangential = other;
-          const Index ob = rigid_.body_of(c.v[lo]);
-          if (ob >= 0 && frames[static_cast<size_t>(ob)].inv_mass > 0.0) {
-            const RigidFrame& f = frames[static_cast<size_t>(ob)];
-            other = f.inverse_mass_at(point, n);
-            // Against the tangential correction: the mean over the tangent plane's two axes.
-            const Vec3 t1 = n.unitOrthogonal(), t2 = n.cross(t1);
-            tangential = 0.5 * (f.inverse_mass_at(point, t1) + f.inverse_mass_at(point, t2));
-          }
-          repulsion_other_[static_cast<size_t>(q)] = other;
-          other_motion_[static_cast<size_t>(q)] = moved;
-          friction_other_[static_cast<size_t>(q)] = tangential;
-          const double gap = c.distance - c.offset;
-          repulsion_target_[static_cast<size_t>(q)] =
-              delta - std::max(0.0, gap - regions_.planes[static_cast<size_t>(q)].d);
-        }
+    // The candidates as they are before enforce() overwrites the bodies' vertices (concurrently,
+    // while other bodies' solves ask for their planes' pairs).
+    candidates_.assign(x.begin(), x.end());
+    // Asked by the pose solve only for the planes that come within reach of acting (a pass over
+    // every plane of a pile's bodies cost a tenth of a landing frame).
+    auto plane_contact = [&](Index q) {
+      RigidPlaneContact pc;
+      pc.repel = delta;
+      if (sources.size() != regions_.planes.size()) return pc;
+      const ContactPair& c = contacts_[static_cast<size_t>(sources[q] / 4)];
+      const int k = static_cast<int>(sources[q] % 4), na = c.side_a();
+      const int lo = k < na ? na : 0, hi = k < na ? c.size() : na;
+      Vec3 point = Vec3::Zero();
+      // The other side's closest point and its motion over the substep (x is every other
+      // body's candidate: a cloth's projected, an obstacle's scripted target, a rigid body's
+      // predicted position), for the friction on the relative slip.
+      for (int j = lo; j < hi; ++j) {
+        const Index u = c.v[j];
+        pc.other_w += c.w[j] * c.w[j] * state.inv_mass[u];
+        pc.other_motion += std::abs(c.w[j]) * (candidates_[u] - state.x_prev[u]);
+        point += std::abs(c.w[j]) * anchor[u];
       }
+      const Vec3 n = regions_.planes[static_cast<size_t>(q)].n;
+      pc.other_wt = pc.other_w;
+      pc.responds_w = pc.other_w;
+      const Index ob = rigid_.body_of(c.v[lo]);
+      if (ob >= 0 && frames[static_cast<size_t>(ob)].inv_mass > 0.0) {
+        const RigidFrame& f = frames[static_cast<size_t>(ob)];
+        pc.responds_w = 0.0;  // answered by its own pose solve
+        pc.other_w = f.inverse_mass_at(point, n);
+        // Against the tangential correction: the mean over the tangent plane's two axes.
+        const Vec3 t1 = n.unitOrthogonal(), t2 = n.cross(t1);
+        pc.other_wt = 0.5 * (f.inverse_mass_at(point, t1) + f.inverse_mass_at(point, t2));
+      }
+      const double gap = c.distance - c.offset;
+      pc.repel = delta - std::max(0.0, gap - regions_.planes[static_cast<size_t>(q)].d);
+      return pc;
+    };
+    auto plane_repel = [&](Index q) {
+      if (sources.size() != regions_.planes.size()) return delta;
+      const ContactPair& c = contacts_[static_cast<size_t>(sources[q] / 4)];
+      return delta - std::max(0.0, c.distance - c.offset - regions_.planes[static_cast<size_t>(q)].d);
+    };
+    RigidContactOptions options;
+    options.x_start = &state.x_prev;
+    options.repulsion_range = ctx.params.contact.repulsion_range;
+    options.repulsion_compliance = 1.0 / (ctx.params.contact.stiffness * ctx.dt * ctx.dt);
+    options.plane_contact = plane_contact;
+    options.plane_repel = plane_repel;
     const RigidEnforceStats rs =
         rigid_.enforce(x, anchor, regions_, *projector_, ctx.params.contact.radius, ctx.params.time.advance_tolerance,
-                       rigid_.predicted_cores(state, ctx.dt, ctx.params.time.gravity),
-                       RigidContactOptions{&state.x_prev, ctx.params.contact.repulsion_range,
-                                           1.0 / (ctx.params.contact.stiffness * ctx.dt * ctx.dt), repulsion_target_,
-                                           repulsion_other_, other_motion_, friction_other_});
+                       rigid_.predicted_cores(state, ctx.dt, ctx.params.time.gravity), options);
     r.violations_detected += rs.vertices_violated;
     r.halted_vertices += rs.vertices_halted;
     r.bounded_vertices += rs.bodies_bounded;

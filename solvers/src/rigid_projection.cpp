@@ -24,6 +24,10 @@ constexpr int kMinPoseSweeps = 4;
 /// The pose solve aims this fraction of r inside every half-space, so that the exact check of the
 /// rigid pose (rotation no longer linearized) passes.
 constexpr double kMarginOfBound = 1e-4;
+/// How far (a fraction of r) beyond acting a plane joins a pose solve's live contacts. A sweep
+/// costs the live contacts, a rebuild every plane of the body: a bunny in a pile has ~300k planes,
+/// and at 0.25 r 140k of them were live.
+constexpr double kLiveSlack = 0.05;
 /// Halvings of the line search after the linear-blend bound.
 constexpr int kLineSearchHalvings = 12;
 
@@ -141,20 +145,6 @@ void RigidBodies::mask_free(std::vector<double>& inv_mass) const {
 
 namespace {
 
-/// One contact of a body in the pose solve: a half-space of one of its vertices, with the
-/// accumulated normal and tangential multipliers (positional impulses, kg·m) of the sweeps.
-struct PoseContact {
-  Index i = 0;  ///< vertex within the body
-  HalfSpace h;
-  double repel = 0.0;                ///< the value the repulsion aims at
-  double other_w = 0.0;              ///< inverse mass of the pair's other side
-  Vec3 other_motion = Vec3::Zero();  ///< the other side's motion over the substep
-  double other_wt = 0.0;             ///< its inverse mass against the friction's correction
-  double lambda_n = 0.0;             ///< hard: C >= aim
-  double lambda_r = 0.0;             ///< repulsion: C >= δ, compliant
-  Vec3 lambda_t = Vec3::Zero();
-};
-
 Eigen::Quaterniond rotated(const Eigen::Quaterniond& q, const Vec3& dtheta) {
   // q + ½ (Δθ, 0) q, normalized (Müller et al. 2020, Eq. 8-9).
   Eigen::Quaterniond d(0.0, dtheta.x(), dtheta.y(), dtheta.z());
@@ -164,23 +154,45 @@ Eigen::Quaterniond rotated(const Eigen::Quaterniond& q, const Vec3& dtheta) {
   return out;
 }
 
+/// The angle of the rotation taking `from` to `to`: no point at distance ρ from the centre moves
+/// by more than ρ times it.
+double angle_between(const Eigen::Quaterniond& from, const Eigen::Quaterniond& to) {
+  const Eigen::Quaterniond d = to * from.conjugate();
+  return 2.0 * std::atan2(d.vec().norm(), std::abs(d.w()));
+}
+
 }  // namespace
 
 RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, const RegionSet& regions,
                                        const Projector&, double step_bound, double advance_tolerance,
                                        std::span<const Vec3> cores, const RigidContactOptions& options) const {
   std::vector<RigidEnforceStats> per(bodies_.size());
+  work_.resize(bodies_.size());
+  // The pair data of plane q: asked of the caller, or read from its per-plane spans.
+  auto pair_of = [&](Index q) {
+    if (options.plane_contact) return options.plane_contact(q);
+    const size_t s = static_cast<size_t>(q);
+    RigidPlaneContact p;
+    p.repel = options.repulsion_target.empty() ? options.repulsion_range : options.repulsion_target[s];
+    p.other_w = options.repulsion_other.empty() ? 0.0 : options.repulsion_other[s];
+    p.other_motion = options.other_motion.empty() ? Vec3::Zero() : options.other_motion[s];
+    p.other_wt = options.friction_other.empty() ? 0.0 : options.friction_other[s];
+    return p;
+  };
   parallel_for(
       size(),
       [&](Index lo, Index hi) {
-        std::vector<Vec3> y;
-        std::vector<PoseContact> contacts;
-        std::vector<Index> live;
         for (Index bi = lo; bi < hi; ++bi) {
           const Body& b = bodies_[bi];
+          Workspace& ws = work_[static_cast<size_t>(bi)];
+          std::vector<Vec3>& y = ws.y;
+          std::vector<PoseContact>& contacts = ws.contacts;
+          std::vector<Index>& live = ws.live;
           RigidEnforceStats& st = per[bi];
           const size_t n = b.rest.size();
           const std::span<const Vec3> rest(b.rest);
+          // The body's planes are one contiguous range of the RegionSet.
+          const Index q_begin = regions.offsets[b.begin], q_end = regions.offsets[b.end];
           auto place = [&](const Pose& p, std::vector<Vec3>& out) {
             const Eigen::Matrix3d r = p.q.toRotationMatrix();
             out.resize(n);
@@ -213,20 +225,12 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
             continue;
           }
           ++st.bodies_refitted;
-          // The contacts: every half-space of the body's vertices. Only those the sweeps find
-          // violated act (λ_n > 0), but any may become violated as the body turns.
+          // The contacts: the half-spaces of the body's vertices, recorded (with their pair data
+          // and multipliers) only once they come within reach of acting: in a pile most of a
+          // body's planes never do, and copying them all each pass cost more than the sweeps.
           contacts.clear();
-          for (size_t i = 0; i < n; ++i) {
-            const Index v = b.begin + static_cast<Index>(i);
-            for (Index q = regions.offsets[v]; q < regions.offsets[v + 1]; ++q)
-              contacts.push_back(
-                  {static_cast<Index>(i), regions.planes[static_cast<size_t>(q)],
-                   options.repulsion_target.empty() ? options.repulsion_range
-                                                    : options.repulsion_target[static_cast<size_t>(q)],
-                   options.repulsion_other.empty() ? 0.0 : options.repulsion_other[static_cast<size_t>(q)],
-                   options.other_motion.empty() ? Vec3::Zero() : options.other_motion[static_cast<size_t>(q)],
-                   options.friction_other.empty() ? 0.0 : options.friction_other[static_cast<size_t>(q)]});
-          }
+          if (ws.slot.size() < static_cast<size_t>(q_end - q_begin))
+            ws.slot.resize(static_cast<size_t>(q_end - q_begin), -1);
           place(target, y);
           for (size_t i = 0; i < n; ++i) {
             const Index v = b.begin + static_cast<Index>(i);
@@ -244,47 +248,71 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
           // failed the solve and halted the body, although sliding along both planes (value d) or
           // staying put is admissible. Accepted once every value is within half its aim (or, for an
           // aim <= 0, a tenth of the recount's tolerance below it); the exact check follows anyway.
-          auto aim = [&](const PoseContact& c) { return std::min(margin, c.h.d); };
-          auto accept = [&](const PoseContact& c) {
-            const double a = aim(c);
+          auto aim_of = [&](const HalfSpace& h) { return std::min(margin, h.d); };
+          auto accept_of = [&](const HalfSpace& h) {
+            const double a = aim_of(h);
             return a > 0.0 ? 0.5 * a : a + 0.1 * kOutside;
           };
+          auto aim = [&](const PoseContact& c) { return aim_of(c.h); };
+          auto accept = [&](const PoseContact& c) { return accept_of(c.h); };
           Pose pose = target;
-          bool converged = contacts.empty();
+          bool converged = q_end == q_begin;
           // Most half-spaces of a resting body are far from acting: a contact does nothing in a
           // sweep while its value clears both the margin and its repulsion target and it carries no
           // multiplier. The sweeps visit only the live ones: those within `slack` of acting when the
-          // list was built. The pose has since moved every point by at most `drift` (Σ |Δc| +
-          // |Δθ| extent of the corrections), so while drift stays below slack the others cannot act;
-          // past it the list is rebuilt, and a sweep that crossed it does not count as converged.
-          const double slack = 0.25 * step_bound;
-          double drift = 0.0, drift_at_build = 0.0;
-          auto threshold = [&](const PoseContact& c) {
-            return options.repulsion_range > 0.0 ? std::max(aim(c), c.repel) : aim(c);
+          // list was built (against δ, which bounds every repulsion target). While the pose has
+          // moved no point by more than slack since (the centre's move plus the turn's angle times
+          // the extent), the others cannot act; past it the list is rebuilt, and a sweep that
+          // crossed it does not count as converged.
+          const double slack = kLiveSlack * step_bound;
+          Pose built;
+          auto reach_of = [&](const HalfSpace& h) {
+            return options.repulsion_range > 0.0 ? std::max(aim_of(h), options.repulsion_range) : aim_of(h);
           };
-          live.clear();
+          auto threshold = [&](const PoseContact& c) {
+            return options.repulsion_range > 0.0 ? std::max(aim(c), c.pair.repel) : aim(c);
+          };
+          auto moved_since_build = [&] {
+            return (pose.c - built.c).norm() + angle_between(built.q, pose.q) * b.extent;
+          };
           auto rebuild_live = [&] {
             const Eigen::Matrix3d r = pose.q.toRotationMatrix();
             live.clear();
-            for (size_t k = 0; k < contacts.size(); ++k) {
-              const PoseContact& c = contacts[k];
-              const double value = c.h.value(anchor[b.begin + c.i], r * b.rest[c.i] + pose.c);
-              if (value <= threshold(c) + slack || c.lambda_n != 0.0 || c.lambda_r != 0.0 ||
-                  c.lambda_t.squaredNorm() != 0.0)
-                live.push_back(static_cast<Index>(k));
+            for (size_t i = 0; i < n; ++i) {
+              const Index v = b.begin + static_cast<Index>(i);
+              const Index q0 = regions.offsets[v], q1 = regions.offsets[v + 1];
+              if (q0 == q1) continue;
+              const Vec3 at = r * b.rest[i] + pose.c;
+              for (Index q = q0; q < q1; ++q) {
+                const HalfSpace& h = regions.planes[static_cast<size_t>(q)];
+                Index& s = ws.slot[static_cast<size_t>(q - q_begin)];
+                const double value = h.value(anchor[v], at);
+                // δ bounds every repulsion target: a plane beyond it needs no pair data; nor does
+                // one beyond its own target (cheap to ask), which most of those within δ are.
+                if (s < 0 && value > reach_of(h) + slack) continue;
+                if (s < 0 && options.plane_repel && options.repulsion_range > 0.0 &&
+                    value > std::max(aim_of(h), options.plane_repel(q)) + slack)
+                  continue;
+                if (s < 0) {
+                  s = static_cast<Index>(contacts.size());
+                  contacts.push_back({static_cast<Index>(i), q, h, pair_of(q)});
+                }
+                const PoseContact& c = contacts[static_cast<size_t>(s)];
+                if (value <= threshold(c) + slack || c.lambda_n != 0.0 || c.lambda_r != 0.0 ||
+                    c.lambda_t.squaredNorm() != 0.0)
+                  live.push_back(s);
+              }
             }
-            drift_at_build = drift;
+            built = pose;
           };
-          // One impulse on the pose: the centre moves by dc, the body turns by dtheta; the drift bound
-          // of the live-contact pruning grows by the largest displacement that can cause.
+          // One impulse on the pose: the centre moves by dc, the body turns by dtheta.
           auto apply = [&](const Vec3& dc, const Vec3& dtheta) {
             pose.c += dc;
             pose.q = rotated(pose.q, dtheta);
-            drift += dc.norm() + dtheta.norm() * b.extent;
           };
           if (!converged) rebuild_live();
           for (int sweep = 0; sweep < kPoseSweeps && !converged; ++sweep) {
-            if (drift - drift_at_build > slack) rebuild_live();
+            if (sweep > 0 && moved_since_build() > slack) rebuild_live();
             const Eigen::Matrix3d r = pose.q.toRotationMatrix();
             const Eigen::Matrix3d inv_inertia = r * b.inv_inertia * r.transpose();
             double worst = 0.0;
@@ -306,10 +334,15 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
               }
               if (options.repulsion_range > 0.0) {
                 // XPBD repulsion of the pair's gap toward δ with compliance α̃, its multiplier kept >= 0.
+                // A movable other side (cloth) answers the same λ_r in the per-vertex response and
+                // so moves away by other_w λ_r: counted here, the sweeps converge to the pair's
+                // impulse λ_r = -C / (w + other_w + α̃), and not to the whole correction as if that
+                // side were fixed (momentum grew by the body's part).
                 const double alpha = options.repulsion_compliance;
-                const double now_value = c.h.value(anchor[v], pose.q * b.rest[c.i] + pose.c);
-                const double rep =
-                    std::max(0.0, c.lambda_r + (c.repel - now_value - alpha * c.lambda_r) / (w + c.other_w + alpha));
+                const double now_value =
+                    c.h.value(anchor[v], pose.q * b.rest[c.i] + pose.c) + c.pair.responds_w * c.lambda_r;
+                const double rep = std::max(
+                    0.0, c.lambda_r + (c.pair.repel - now_value - alpha * c.lambda_r) / (w + c.pair.other_w + alpha));
                 const double dr = rep - c.lambda_r;
                 if (dr != 0.0) {
                   c.lambda_r = rep;
@@ -324,14 +357,14 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
               // bounded by μ_k λ_n (Müller et al. 2020, Sec. 3.5, with Coulomb's cone on the
               // accumulated λ_t); the other side takes its share, Δλ = -C / (w_body + w_other).
               const Vec3 now = pose.q * b.rest[c.i] + pose.c;
-              const Vec3 moved = now - (*options.x_start)[v] - c.other_motion;
+              const Vec3 moved = now - (*options.x_start)[v] - c.pair.other_motion;
               const Vec3 slip = moved - c.h.n.dot(moved) * c.h.n;
               const double sl = slip.norm();
               Vec3 want = c.lambda_t;
               if (sl > 0.0) {
                 const Vec3 t = slip / sl;
                 const Vec3 rt = (now - pose.c).cross(t);
-                want -= (sl / (1.0 / mass + rt.dot(inv_inertia * rt) + c.other_wt)) * t;
+                want -= (sl / (1.0 / mass + rt.dot(inv_inertia * rt) + c.pair.other_wt)) * t;
               }
               const double wl = want.norm();
               if (wl > b.mu_s * pressed) want *= b.mu_k * pressed / wl;
@@ -347,16 +380,19 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
               const PoseContact& c = contacts[static_cast<size_t>(k)];
               acting = acting || c.lambda_n > 0.0 || c.lambda_r > 0.0 || c.lambda_t.squaredNorm() > 0.0;
             }
-            converged = worst >= 0.0 && drift - drift_at_build <= slack && (!acting || sweep + 1 >= kMinPoseSweeps);
+            converged = worst >= 0.0 && moved_since_build() <= slack && (!acting || sweep + 1 >= kMinPoseSweeps);
           }
           // Redundant contacts (a face resting on four corners) leave the sweeps converging
           // slowly through the rotation's coupling: the last fraction of a violation is removed by
           // translation alone (w = 1/M), a residual of a fraction of a percent of g dt² that
-          // would otherwise fail the exact check below and halt the body.
+          // would otherwise fail the exact check below and halt the body. Over the live contacts,
+          // rebuilt when the centre has moved past the slack (the others cannot be reached before).
           const Eigen::Matrix3d turned = pose.q.toRotationMatrix();
           for (int sweep = 0; sweep < kPoseSweeps && !converged; ++sweep) {
+            if (moved_since_build() > slack) rebuild_live();
             double worst = 0.0;
-            for (PoseContact& c : contacts) {
+            for (const Index k : live) {
+              PoseContact& c = contacts[static_cast<size_t>(k)];
               const double value = c.h.value(anchor[b.begin + c.i], turned * b.rest[c.i] + pose.c);
               worst = std::min(worst, value - accept(c));
               if (value < aim(c)) {
@@ -364,8 +400,9 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
                 pose.c += (aim(c) - value) * c.h.n;
               }
             }
-            converged = worst >= 0.0;
+            converged = worst >= 0.0 && moved_since_build() <= slack;
           }
+          for (const PoseContact& c : contacts) ws.slot[static_cast<size_t>(c.q - q_begin)] = -1;
           place(pose, y);
           const bool regions_ok = regions_hold(y);
           if (regions_ok && longest_step(y) <= step_bound * (1.0 + 1e-12)) {
@@ -402,7 +439,7 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
               }
             }
           }
-          std::vector<Vec3> z;
+          std::vector<Vec3>& z = ws.z;
           bool found = false;
           // Small cuts first (the rigid pose leaves the blend by a second-order amount), then halvings.
           static constexpr double kShrink[] = {1.0, 1.0 - 1e-6, 1.0 - 1e-4, 0.99, 0.9};
@@ -418,15 +455,18 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
               // The rigid path curves off the blend by O(α(1-α)θ²): a plane with d ~ 0 that the blend
               // slides along is then crossed by that much at every α, and the body halted although
               // both ends were admissible. Translation alone removes such a residual (as after the
-              // sweeps); the exact check below decides.
+              // sweeps), over every plane of the body in order; the exact check below decides.
               const Eigen::Matrix3d turned_p = p.q.toRotationMatrix();
               bool clear = false;
               for (int sweep = 0; sweep < kPoseSweeps && !clear; ++sweep) {
                 clear = true;
-                for (const PoseContact& c : contacts) {
-                  const double value = c.h.value(anchor[b.begin + c.i], turned_p * b.rest[c.i] + p.c);
-                  if (value < accept(c)) clear = false;
-                  if (value < aim(c)) p.c += (aim(c) - value) * c.h.n;
+                for (size_t i = 0; i < n; ++i) {
+                  const Index v = b.begin + static_cast<Index>(i);
+                  for (const HalfSpace& h : regions.of(v)) {
+                    const double value = h.value(anchor[v], turned_p * b.rest[i] + p.c);
+                    if (value < accept_of(h)) clear = false;
+                    if (value < aim_of(h)) p.c += (aim_of(h) - value) * h.n;
+                  }
                 }
               }
               place(p, z);

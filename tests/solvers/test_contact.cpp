@@ -251,6 +251,59 @@ TEST(ContactResponse, VisibilityWeightsFromTheIncidenceEqualTheGroupedOnes) {
   EXPECT_THROW(visibility_weights(cs, short_offsets, slots, width, w, ws), Error);
 }
 
+TEST(ContactResponse, VisibilityWeightsSkipOnlyGroupsTheResponseCannotMove) {
+  // The same contacts with the response's inverse masses given: a third of the vertices listed but
+  // masked (an unpinned rigid body's, resolved by its pose solve). A group (a listed query vertex's
+  // contacts) in which some contact has a vertex of inverse mass > 0 keeps its exact weights (those
+  // of the definition); the others, which apply() skips, weigh 1. With every inverse mass 0, every
+  // weight is 1.
+  std::vector<ContactPair> cs = random_contacts(29, 900, true);
+  // Vertices 600-899 are masked, and the contacts of their queries stay among them (a body's own
+  // contacts with another body): those groups are the ones the response cannot move.
+  for (auto& c : cs)
+    if (c.v[0] >= 600)
+      for (int k = 1; k < 4; ++k) c.v[k] = 600 + (c.v[0] - 600 + 7 * k) % 300;
+  std::vector<Index> offsets(901, 0), slots;
+  for (const auto& c : cs)
+    for (int k = 0; k < 4; ++k) ++offsets[c.v[k] + 1];
+  for (size_t v = 0; v < 900; ++v) offsets[v + 1] += offsets[v];
+  slots.resize(static_cast<size_t>(offsets.back()));
+  std::vector<Index> at(offsets.begin(), offsets.end() - 1);
+  for (size_t i = 0; i < cs.size(); ++i)
+    for (int k = 0; k < 4; ++k) slots[at[cs[i].v[k]]++] = static_cast<Index>(4 * i + k);
+  std::vector<double> inv_mass(900);
+  for (Index v = 0; v < 900; ++v) inv_mass[v] = v >= 600 ? 0.0 : 2.0;
+  const double width = 0.002;
+  const auto expect = visibility_weights(cs, width);
+  std::vector<std::uint8_t> group_moves(900, 0);
+  for (const auto& c : cs)
+    for (int k = 0; k < 4; ++k) group_moves[c.v[0]] |= inv_mass[c.v[k]] > 0.0;
+  std::vector<double> w;
+  VisibilityWorkspace ws;
+  visibility_weights(cs, offsets, slots, width, w, ws, inv_mass);
+  ASSERT_EQ(w.size(), cs.size());
+  size_t skipped = 0;
+  for (size_t c = 0; c < cs.size(); ++c) {
+    if (group_moves[cs[c].v[0]]) {
+      ASSERT_EQ(w[c], expect[c]) << "contact " << c;
+    } else {
+      ++skipped;
+      ASSERT_EQ(w[c], 1.0) << "contact " << c;
+    }
+  }
+  EXPECT_GT(skipped, 5000u);
+  size_t partial = 0;
+  for (size_t c = 0; c < cs.size(); ++c) partial += group_moves[cs[c].v[0]] && expect[c] > 0.0 && expect[c] < 1.0;
+  EXPECT_GT(partial, 500u) << "the test wants many exact weights strictly between 0 and 1";
+  const std::vector<double> none(900, 0.0);
+  visibility_weights(cs, offsets, slots, width, w, ws, none);
+  for (size_t c = 0; c < cs.size(); ++c) ASSERT_EQ(w[c], 1.0) << "contact " << c;
+  std::fill(inv_mass.begin(), inv_mass.end(), 0.0);
+  inv_mass[cs[0].v[1]] = 1.0;  // one movable vertex: only groups with a contact on it are weighed
+  visibility_weights(cs, offsets, slots, width, w, ws, inv_mass);
+  EXPECT_EQ(w[0], expect[0]);
+}
+
 TEST(ContactResponse, DetectorIncidenceGivesTheResponseOfItsOwnIndex) {
   // Three stacked sheets 8 mm apart (r = 5 mm, ξ = 6 mm), jittered, the bottom one pinned: the
   // incidence the detector records beside its half-spaces must name, for every plane, a contact

@@ -7,12 +7,14 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <memory>
 #include <numbers>
 #include <string>
 #include <vector>
 
 #include "ccfr/geometry/generators.hpp"
 #include "ccfr/geometry/mass_properties.hpp"
+#include "ccfr/solvers/kinematics.hpp"
 #include "ccfr/solvers/materials.hpp"
 #include "ccfr/solvers/simulation.hpp"
 
@@ -344,6 +346,119 @@ TEST(RigidContact, BoxOnAConveyorSlipsUnderKineticFrictionOnTheRelativeSlip) {
   }
   ASSERT_LT(t.back(), belt / (mu * g));
   EXPECT_NEAR(fitted_acceleration(t, along), mu * g, 0.1 * mu * g);
+}
+
+/// A box resting on a belt that accelerates along x at `a_belt` from rest (keyframed every 1/480 s,
+/// s = a t²/2), friction μ; returns the box's centre x at 1/60 s steps over `frames` frames.
+std::vector<double> box_on_accelerating_belt(double a_belt, double mu, int frames) {
+  Scene s =
+      floor_and_body(gen::box(Vec3(0.2, 0.1, 0.2)), Eigen::Matrix3d::Identity(), Vec3(-0.8, 0.0555, 0), "ccfr", mu);
+  auto anim = std::make_shared<VertexAnimation>();
+  const Index nf = s.topo.objects[0].num_vertices();
+  anim->rest.assign(s.state.x.begin(), s.state.x.begin() + nf);
+  for (int k = 0; k <= frames * 8 + 8; ++k) {
+    const double t = k / 480.0;
+    anim->times.push_back(t);
+    anim->rotations.push_back(Eigen::Quaterniond::Identity());
+    anim->translations.push_back(Vec3(0.5 * a_belt * t * t, 0, 0));
+  }
+  s.params.objects[0].motion.animation = anim;
+  Simulation sim(std::move(s));
+  std::vector<double> out{centre_of(sim, 1).x()};
+  for (int f = 1; f <= frames; ++f) {
+    sim.step_frame();
+    out.push_back(centre_of(sim, 1).x());
+  }
+  return out;
+}
+
+TEST(RigidContact, BoxOnABeltSticksWhileStaticFrictionCanCarryItAndSlidesAtMuGBeyond) {
+  // Coulomb: a box on a belt accelerating at a sticks to it while μ g >= a (static friction
+  // supplies m a) and otherwise slides, accelerated by kinetic friction at μ g. Belt at 3 m/s²:
+  // μ = 0.6 (μ g = 5.9) carries the box with the belt, its displacement a t²/2 (within 3 %, and
+  // within 1 mm of the belt's); μ = 0.15 (μ g = 1.47) lets it slide, its acceleration μ g (10 %).
+  const double g = 9.81, a = 3.0;
+  const int frames = 18;
+  const std::vector<double> stuck = box_on_accelerating_belt(a, 0.6, frames);
+  const double t_end = frames / 60.0, belt_end = 0.5 * a * t_end * t_end;
+  EXPECT_NEAR(stuck.back() - stuck.front(), belt_end, 0.03 * belt_end);
+  EXPECT_NEAR(stuck.back() - stuck.front(), belt_end, 1e-3);
+  const std::vector<double> sliding = box_on_accelerating_belt(a, 0.15, frames);
+  std::vector<double> t, along;
+  for (int f = 2; f <= frames; ++f) {
+    t.push_back(f / 60.0);
+    along.push_back(sliding[static_cast<size_t>(f)] - sliding.front());
+  }
+  EXPECT_NEAR(fitted_acceleration(t, along), 0.15 * g, 0.1 * 0.15 * g);
+}
+
+TEST(RigidContact, BoxOnAConstantBeltIsCarriedAtTheBeltSpeedOnceItSticks) {
+  // A box at rest on a belt at 0.5 m/s, μ = 0.8: kinetic friction brings it to the belt's speed by
+  // t* = v / (μ g) = 0.064 s; from then on static friction holds it there: its speed over frames
+  // 12-30 is the belt's (within 2 %; 0.73 of it before the fix).
+  const double belt = 0.5;
+  Scene s =
+      floor_and_body(gen::box(Vec3(0.2, 0.1, 0.2)), Eigen::Matrix3d::Identity(), Vec3(-0.8, 0.0555, 0), "ccfr", 0.8);
+  s.params.objects[0].motion.velocity = Vec3(belt, 0, 0);
+  Simulation sim(std::move(s));
+  double x12 = 0.0;
+  for (int f = 1; f <= 30; ++f) {
+    sim.step_frame();
+    if (f == 12) x12 = centre_of(sim, 1).x();
+  }
+  const double speed = (centre_of(sim, 1).x() - x12) / (18.0 / 60.0);
+  EXPECT_NEAR(speed / belt, 1.0, 0.02);
+}
+
+TEST(RigidContact, RepulsionBetweenARigidBodyAndClothConservesMomentum) {
+  // A small rigid tetrahedron, apex down and centred over it (a rigid particle: the impulse there
+  // turns it not), at rest 1 mm beyond the offset above a free cloth triangle (0.05 kg per
+  // vertex), no gravity. Only the apex is within the repulsion range, so the repulsion pushes the
+  // two apart with one impulse split by their inverse masses (XPBD: Δλ = -C / (w_cloth + w_body +
+  // α̃)), and the total momentum stays 0 (within 5 % of either side's: the body's solve sees the
+  // cloth at its anchor, the response at its prediction). The cloth's response took the whole
+  // correction as if the body were fixed, and the pose solve converged to the whole correction
+  // too: the pair was pushed apart about twice, momentum off by 11 % (heavy body) to 350 %.
+  const std::vector<Vec3> tri = {Vec3(-0.2, 0, -0.1), Vec3(0.2, 0, -0.1), Vec3(0, 0, 0.25)};
+  const Vec3 apex(0, 0.006, 0.01);
+  const std::vector<Vec3> tet = {apex, apex + Vec3(0.006, 0.012, 0), apex + Vec3(-0.003, 0.012, 0.0052),
+                                 apex + Vec3(-0.003, 0.012, -0.0052)};
+  for (const double vertex_mass : {0.05, 0.005}) {
+    TopologyBuilder tb;
+    tb.add_object("cloth", ObjectKind::cloth, 3, {Vec3i(0, 1, 2)});
+    tb.add_object("body", ObjectKind::rigid, 4, {Vec3i(0, 2, 1), Vec3i(0, 3, 2), Vec3i(0, 1, 3), Vec3i(1, 2, 3)});
+    Scene s;
+    s.topo = tb.finish();
+    s.state.resize(s.topo.num_vertices());
+    for (Index i = 0; i < 3; ++i) {
+      s.state.x[i] = tri[static_cast<size_t>(i)];
+      s.state.mass[i] = 0.05;
+      s.state.inv_mass[i] = 20.0;
+    }
+    for (Index i = 0; i < 4; ++i) {
+      s.state.x[3 + i] = tet[static_cast<size_t>(i)];
+      s.state.mass[3 + i] = vertex_mass;
+      s.state.inv_mass[3 + i] = 1.0 / vertex_mass;
+    }
+    s.state.rest = s.state.x_prev = s.state.x;
+    s.params.objects.resize(2);
+    s.params.objects[1].material.density = 1e-6;  // no core: the vertices carry the body's mass
+    s.params.contact.radius = 0.005;
+    s.params.contact.offset = 0.005;
+    s.params.contact.repulsion_range = 0.002;
+    s.params.time.gravity = Vec3::Zero();
+    s.params.time.substeps = 4;
+    s.params.time.damping = 0.0;
+    Simulation sim(std::move(s));
+    sim.step_frame();
+    const auto& st = sim.scene().state;
+    Vec3 cloth = Vec3::Zero(), body = Vec3::Zero();
+    for (Index i = 0; i < 3; ++i) cloth += st.mass[i] * st.v[i];
+    for (Index i = 3; i < 7; ++i) body += st.mass[i] * st.v[i];
+    ASSERT_GT(cloth.norm(), 1e-6) << "the repulsion never acted";
+    EXPECT_LT((cloth + body).norm(), 0.05 * std::max(cloth.norm(), body.norm()))
+        << "vertex mass " << vertex_mass << ": cloth " << cloth.transpose() << ", body " << body.transpose();
+  }
 }
 
 /// A floor and rigid boxes (density 1000) of the given sizes, each placed by its centre.

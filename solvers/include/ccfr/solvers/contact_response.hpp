@@ -40,9 +40,13 @@ void visibility_weights(std::span<const ContactPair> contacts, double width, std
 /// lists every contact (slot 4·c + k) under each of its movable vertices in contact order, as
 /// CollisionDetector::plane_sources() does: vertex v's group is its slots with k = 0. Contacts whose
 /// query vertex lists nothing (an immovable one) are grouped by a scan. Throws ccfr::Error if the
-/// offsets do not end at the slot count.
+/// offsets do not end at the slot count. With `movable` (#V inverse masses, those apply() will
+/// be given), a listed vertex's group none of whose contacts has a vertex with inverse mass > 0
+/// keeps weight 1: apply() skips those contacts, and in a pile of rigid bodies (all masked) they
+/// are every group.
 void visibility_weights(std::span<const ContactPair> contacts, std::span<const Index> offsets,
-                        std::span<const Index> slots, double width, std::vector<double>& out, VisibilityWorkspace& ws);
+                        std::span<const Index> slots, double width, std::vector<double>& out, VisibilityWorkspace& ws,
+                        std::span<const double> movable = {});
 
 class ContactResponse {
  public:
@@ -52,20 +56,26 @@ class ContactResponse {
   /// slots `slots[offsets[v], offsets[v+1])` (4·c + k for vertex contacts[c].v[k]), in contact
   /// order, as CollisionDetector::plane_sources() lists them beside its RegionSet's offsets. Only
   /// listed vertices are moved (the detector lists the movable ones). The spans must outlive apply().
+  /// `movable`: the inverse masses apply() will get (see visibility_weights); empty: any.
   void prepare(std::span<const ContactPair> contacts, std::span<const Index> offsets, std::span<const Index> slots,
-               const ContactParams& params);
+               const ContactParams& params, std::span<const double> movable = {});
   /// One Jacobi pass of repulsion then friction on candidate positions `x`; `x_start` are the
   /// positions at the start of the substep (friction acts on the substep's tangential motion).
   /// `friction_of(vertex)` gives (μ_s, μ_k) for a contact by its query vertex.
+  /// `other_inverse_mass` (per contact, or empty): the generalized inverse mass of a side that
+  /// answers outside this response (an unpinned rigid body, whose vertices `inv_mass` masks and
+  /// whose pose solve takes its share of the same Δλ): it joins Σ wₖ² mₖ⁻¹, so that the movable
+  /// side moves by its share only.
   void apply(Positions& x, const Positions& x_start, std::span<const double> inv_mass, const ContactParams& params,
-             double dt, std::span<const double> friction_override);
+             double dt, std::span<const double> friction_override, std::span<const double> other_inverse_mass = {});
   Index active() const { return active_; }
 
  private:
   /// Keeps the contacts and computes their visibility weights (grouped through `offsets`/`slots`
   /// when given).
   void prepare_common(std::span<const ContactPair> contacts, const ContactParams& params,
-                      std::span<const Index> offsets, std::span<const Index> slots);
+                      std::span<const Index> offsets, std::span<const Index> slots,
+                      std::span<const double> movable = {});
 
   std::span<const ContactPair> contacts_;
   std::vector<double> visibility_;

@@ -47,6 +47,9 @@ class DetectingSolver : public ContactSolver {
   /// (the marks restart when the frame changes). Returns {vertices in contact in this pass,
   /// distinct vertices in contact in the frame so far}.
   std::pair<Index, Index> mark_contact_vertices(int frame, std::span<const double> inv_mass);
+  /// The inverse masses respond() will pass to the response, for its visibility weights; empty:
+  /// weigh every contact.
+  virtual std::span<const double> response_mass(const SimState&) { return {}; }
 
   std::unique_ptr<CollisionDetector> detector_;
   int reuse_frame_ = -1;    ///< frame whose start restarted the detector's kept list
@@ -82,15 +85,17 @@ class RegionProjectionSolver final : public DetectingSolver {
   std::optional<Index> count_outside(const Positions& x, const Positions& anchor, const SimState& state,
                                      StepContext& ctx) const override;
 
+ protected:
+  /// The scene's inverse masses with unpinned rigid bodies masked, as respond() passes them.
+  std::span<const double> response_mass(const SimState& state) override;
+
  private:
   std::string name_, projector_name_;
   ParamValues projector_params_;
   std::unique_ptr<Projector> projector_;
-  RigidBodies rigid_;                     ///< rigid bodies, whose correction is taken as a rigid motion
-  std::vector<double> repulsion_target_;  ///< per plane: δ - (gap - d), the value its repulsion aims at
-  std::vector<double> repulsion_other_;   ///< per plane: the inverse masses of its pair's other side
-  std::vector<Vec3> other_motion_;        ///< per plane: its pair's other side's motion over the substep
-  std::vector<double> friction_other_;    ///< per plane: the other side's inverse mass against friction
+  RigidBodies rigid_;                       ///< rigid bodies, whose correction is taken as a rigid motion
+  Positions candidates_;                    ///< the candidates before the pose solves (the other sides' motion)
+  std::vector<double> other_inverse_mass_;  ///< per contact: a rigid other side's generalized inverse mass
   std::vector<double> free_mask_;  ///< inverse masses with unpinned rigid bodies' vertices at 0 (not projected alone)
   std::vector<std::uint8_t> halted_;  ///< #V: halted during frame `halted_frame_`
   int halted_frame_ = -1;

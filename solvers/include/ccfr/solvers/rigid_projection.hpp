@@ -10,6 +10,7 @@
 /// halts as a whole at its anchor pose.
 #include <Eigen/Core>
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -30,6 +31,17 @@ struct RigidEnforceStats {
   Index vertices_halted = 0;    ///< vertices of the halted bodies
   Index bodies_bounded = 0;     ///< bodies whose step was shortened by the step bound r alone
   Index vertices_violated = 0;  ///< vertices outside their region at the body's unconstrained pose
+};
+
+/// What the pose solve needs of one half-space's pair beyond the plane (see RigidContactOptions).
+struct RigidPlaneContact {
+  double repel = 0.0;                ///< the value its repulsion aims at
+  double other_w = 0.0;              ///< Σ wₖ² m⁻¹ of the pair's other side
+  Vec3 other_motion = Vec3::Zero();  ///< the other side's motion over the substep
+  double other_wt = 0.0;             ///< its inverse mass against the friction's correction
+  /// other_w when the other side is movable and answers the same repulsion in the per-vertex
+  /// response (cloth, tets, strands); 0 for an obstacle or a rigid body.
+  double responds_w = 0.0;
 };
 
 /// The contact response of the pose solve (the per-vertex response skips unpinned rigid bodies).
@@ -54,6 +66,13 @@ struct RigidContactOptions {
   /// Per plane: the generalized inverse mass of the other side at its closest point against
   /// tangential motion, which takes its part of the friction's correction. Empty: 0.
   std::span<const double> friction_other;
+  /// Instead of the four spans above: the same per plane, asked only for the few planes a pose
+  /// solve can act on (every plane of a body in a pile costs a pass over the pairs otherwise).
+  /// Called concurrently for different bodies; its `repel` must not exceed repulsion_range.
+  std::function<RigidPlaneContact(Index plane)> plane_contact;
+  /// With plane_contact: its `repel` alone, cheaper (no inverse masses, no motion); asked first,
+  /// so that only planes within reach of their own target get the whole pair data.
+  std::function<double(Index plane)> plane_repel;
 };
 
 /// Where an unpinned rigid body is, for the generalized inverse mass of one of its points.
@@ -126,7 +145,27 @@ class RigidBodies {
     Eigen::Matrix3d inv_inertia = Eigen::Matrix3d::Zero();  ///< inverse of the rest inertia about the centre
     double mu_s = 0.0, mu_k = 0.0;                          ///< the body's static and kinetic friction
   };
+  /// One contact of a body in the pose solve: a half-space of one of its vertices, with the
+  /// accumulated normal and tangential multipliers (positional impulses, kg·m) of the sweeps.
+  struct PoseContact {
+    Index i = 0;  ///< vertex within the body
+    Index q = 0;  ///< the plane in the RegionSet
+    HalfSpace h;
+    RigidPlaneContact pair;
+    double lambda_n = 0.0;  ///< hard: C >= aim
+    double lambda_r = 0.0;  ///< repulsion: C >= δ, compliant
+    Vec3 lambda_t = Vec3::Zero();
+  };
+  /// A body's buffers, kept between passes (allocating them anew each pass was a fifth of a
+  /// landing frame, in page faults).
+  struct Workspace {
+    std::vector<Vec3> y, z;
+    std::vector<PoseContact> contacts;  ///< only the planes that came within reach of acting
+    std::vector<Index> live;            ///< indices into contacts, in plane order
+    std::vector<Index> slot;            ///< per plane of the body: its index in contacts, or -1
+  };
   std::vector<Body> bodies_;
+  mutable std::vector<Workspace> work_;
 };
 
 }  // namespace ccfr
