@@ -190,7 +190,8 @@ int run_cell(const fs::path& dir, long index, int threads) {
     ao.stride = s.audit_stride;
     const auto a = io::audit_run(out, ao);
     verdict = !a.clean() ? "fail" : a.completed() ? "pass" : "incomplete";
-    const int acode = verdict == "fail" ? 1 : verdict == "pass" ? 0 : 4;
+    // As `ccfr audit`: 5 when the method passed but the scene drives scripted objects together.
+    const int acode = verdict == "fail" ? 1 : verdict == "pass" ? (a.scene_error() ? 5 : 0) : 4;
     io::write_file_atomic(out / "audit.json", io::audit_report_json(a, verdict, acode, verdict == "incomplete"));
   } catch (const Error& e) {
     spdlog::error("sweep cell {}: audit failed: {}", c.id, e.what());
