@@ -21,7 +21,7 @@ namespace ccfr::app {
 
 namespace {
 
-constexpr int kExitClean = 0, kExitPenetrations = 1, kExitBadInput = 2, kExitIncomplete = 4, kExitSceneError = 5;
+constexpr int kExitBadInput = 2;  // the others come from io::audit_exit_code
 
 struct AuditCliOptions {
   std::filesystem::path dir;
@@ -107,14 +107,13 @@ int run_audit(const AuditCliOptions& o) {
     std::string scope = coverage(res);
     if (unfinished) scope = "partial run, status '" + status_text(res) + "'; " + scope;
     const std::string verdict = io::audit_verdict(res, o.partial);
-    int code = kExitClean;
+    // 0, 1, 4, or 5 for a pass whose scene drives scripted objects into each other.
+    const int code = io::audit_exit_code(res, verdict);
     if (verdict == "fail") {
-      code = kExitPenetrations;
       std::printf("FAIL (%s): %d violations in %zu frames; first at frame %ld%s%s\n", scope.c_str(), res.violations,
                   res.bad_frames, res.first_bad_frame, res.first_example.empty() ? "" : ": ",
                   res.first_example.c_str());
     } else if (verdict == "incomplete") {
-      code = kExitIncomplete;
       std::printf(
           "INCOMPLETE (%s): the frames checked are clean, but the run did not complete; pass --partial to accept "
           "the frames present\n",
@@ -134,7 +133,6 @@ int run_audit(const AuditCliOptions& o) {
           "in %zu frames; first at frame %ld%s%s\n",
           res.scene_pairs, res.scene_frames, res.first_scene_frame, res.first_scene_example.empty() ? "" : ": ",
           res.first_scene_example.c_str());
-      if (code == kExitClean) code = kExitSceneError;
     }
     std::fflush(stdout);
     io::write_file_atomic(json, io::audit_report_json(res, verdict, code, unfinished && o.partial));

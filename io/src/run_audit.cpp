@@ -303,6 +303,12 @@ std::string audit_error_json(const std::string& message, int exit_code) {
          ",\n  \"error\": " + jstr(message) + "\n}\n";
 }
 
+int audit_exit_code(const RunAuditResult& result, const std::string& verdict) {
+  if (verdict == "fail") return 1;
+  if (verdict == "incomplete") return 4;
+  return result.scene_error() ? 5 : 0;
+}
+
 std::string audit_verdict(const RunAuditResult& result, bool partial) {
   if (!result.clean()) return "fail";
   if (result.has_run_json && !result.completed() && !partial) return "incomplete";

@@ -86,6 +86,9 @@ RunAuditResult audit_run(const std::filesystem::path& dir, const RunAuditOptions
 /// The verdict of an audit (docs/audit.md): "fail" when a checked frame is not clean; "incomplete"
 /// when clean but run.json says the run did not complete and `partial` is off; else "pass".
 std::string audit_verdict(const RunAuditResult& result, bool partial);
+/// The exit code of `ccfr audit` for a verdict (docs/audit.md): 1 fail, 4 incomplete, 5 pass with
+/// a scene error (scripted objects driven into each other), 0 pass.
+int audit_exit_code(const RunAuditResult& result, const std::string& verdict);
 
 /// The audit report written to DIR/audit.json (docs/audit.md): `verdict` ("pass", "fail",
 /// "incomplete"), `exit_code`, `partial` and the fields of `result`.
