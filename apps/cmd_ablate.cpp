@@ -8,10 +8,12 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
+#include "ccfr/io/dir_lock.hpp"
 #include "ccfr/io/obj.hpp"
 #include "ccfr/io/run_audit.hpp"
 #include "ccfr/solvers/contact_solver.hpp"
@@ -42,6 +44,15 @@ std::vector<std::string> split(const std::string& s) {
   return out;
 }
 
+// True if DIR/sweep.json is an ablation's (ccfr's marker, cells, no spec file).
+bool is_ablation_dir(const fs::path& dir) {
+  std::ifstream in(dir / "sweep.json");
+  if (!in) return false;
+  const auto j = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
+  return j.is_object() && j.contains("ccfr") && j["ccfr"].is_object() && j.contains("cells") && j["cells"].is_array() &&
+         j.contains("spec") && j["spec"].is_null();
+}
+
 // The solvers-only case of a sweep: one cell per solver, in DIR/<solver>, run one after another
 // here with the given threads, collected into ablation.csv / ablation.md / ablation_frames.csv.
 int run_ablation(AblateOptions& o) {
@@ -57,6 +68,15 @@ int run_ablation(AblateOptions& o) {
   bool policy_set = false;
   for (const auto& s : o.run.overrides) policy_set = policy_set || s.rfind("contact.on_violation=", 0) == 0;
   if (!policy_set) o.run.overrides.push_back("contact.on_violation=warn");
+  if (o.run.out.empty()) throw Error("--out is empty: give the ablation's output directory");
+  // One ablation per directory at a time; and only into an empty folder or an earlier ablation, so
+  // that no ablation.csv, sweep.json or logs/ of someone else's is overwritten.
+  const io::DirLock lock = io::DirLock::acquire(o.run.out, invocation_string());
+  if (!io::dir_is_empty(o.run.out) && !is_ablation_dir(o.run.out))
+    throw Error("output directory '" + o.run.out.string() +
+                "' is not empty and is not a ccfr ablation (no sweep.json written by ccfr ablate); its files "
+                "(ablation.csv, ablation.md, sweep.json, logs/, one folder per solver) would be overwritten: choose "
+                "another --out");
   SweepLayout s;
   s.dir = o.run.out;
   s.audit_stride = o.audit_stride;
@@ -67,8 +87,17 @@ int run_ablation(AblateOptions& o) {
   std::vector<size_t> all(s.cells.size());
   for (size_t i = 0; i < all.size(); ++i) all[i] = i;
   const auto t0 = std::chrono::steady_clock::now();
-  const int failed = run_local(s, all, 1, o.run.threads, "ablate");
+  int stopped_by = 0;
+  const int failed = run_local(s, all, 1, o.run.threads, "ablate", &stopped_by);
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (stopped_by) {
+    // No tables from cells cut short: the same command again continues them from their checkpoints.
+    std::printf(
+        "ablate: stopped by %s after %s: the running solver wrote its checkpoint, no table was written; "
+        "the same command again continues\n",
+        signal_name(stopped_by).c_str(), format_duration(secs).c_str());
+    return interrupted_exit_code(stopped_by);
+  }
   const auto rows = collect_rows(s);
 
   std::string frames_csv =
@@ -119,7 +148,8 @@ int run_ablation(AblateOptions& o) {
       rows.size(), frames, format_duration(secs).c_str(),
       format_duration(frames ? secs / static_cast<double>(frames) : NAN).c_str(), failed, passed, rows.size(),
       (root / "ablation.md").string().c_str());
-  return all_ran ? 0 : 1;
+  // A solver whose run failed (a bad override, a folder in the way, a stop) fails the ablation.
+  return all_ran && failed == 0 ? 0 : 1;
 }
 }  // namespace
 

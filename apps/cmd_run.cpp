@@ -61,9 +61,13 @@ void register_run(CLI::App& app) {
   cmd->add_option("--resume", opts->resume,
                   "Continue the run in this directory from its latest checkpoint (output.checkpoint_every); only "
                   "--threads and --log-level may be given with it");
-  cmd->callback([opts] {
+  cmd->callback([opts, cmd] {
     init_logging("info");
     guarded([&] {
+      // `--out ""` (an unset shell variable) must not fall back to the default folder and replace the run there.
+      if (cmd->count("--out") > 0 && opts->out.empty()) throw Error("--out is empty: give the output directory");
+      if (cmd->count("--resume") > 0 && opts->resume.empty())
+        throw Error("--resume is empty: give the run directory to continue");
       if (!opts->resume.empty()) {
         // The checkpoint carries the configuration: anything that would change it is refused.
         if (!opts->config.empty() || !opts->out.empty() || opts->frames >= 0 || !opts->solver.empty() ||
@@ -84,7 +88,8 @@ void register_run(CLI::App& app) {
         return 0;
       }
       print_summary(s);
-      if (s.failed) return 1;
+      if (!s.cleanup_error.empty()) std::fprintf(stderr, "error: %s\n", s.cleanup_error.c_str());
+      if (s.failed || !s.cleanup_error.empty()) return 1;
       if (s.violated_frames > 0 && !s.violations_opted_out) {
         // A baseline without the guarantee ran to the end (contact.on_violation: auto); its
         // frames are kept for comparison, but the run is not a clean one.

@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -21,6 +22,7 @@
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
 #include "ccfr/io/checkpoint.hpp"
+#include "ccfr/io/dir_lock.hpp"
 #include "ccfr/io/obj.hpp"
 #include "ccfr/io/output.hpp"
 #include "ccfr/io/run_audit.hpp"
@@ -161,20 +163,50 @@ int run_cell(const fs::path& dir, long index, int threads) {
                 " cells");
   const io::SweepCell& c = s.cells[static_cast<size_t>(index)];
   const fs::path out = dir / c.id;
+  const std::string command =
+      "ccfr sweep run-cell " + dir.string() + " " + std::to_string(index) + " (cell " + c.id + ")";
+  // One writer per cell for the run, its audit and its record: a cell still running (its sweep
+  // was killed, or a resume raced it) is refused here, naming the process that runs it.
+  const io::DirLock lock = io::DirLock::acquire(out, command);
   RunOptions ro;
   ro.threads = threads;
   ro.progress = true;
-  const bool completed = io::is_ccfr_run(out) && io::read_run_info(out).status == "completed";
-  if (io::is_ccfr_run(out) && !completed && io::latest_checkpoint(out)) {
+  // The cell's earlier run counts only if it ran this cell's configuration: an ablation or sweep
+  // rerun into the same directory with other --frames or --set starts the cell again instead of
+  // reusing (or resuming) a run of the old one.
+  std::string changed;
+  bool completed = io::is_ccfr_run(out) && io::read_run_info(out).status == "completed";
+  if (completed) {
+    const Json run = read_json(out / "run.json");
+    try {
+      changed =
+          io::json_difference(run.value("config", Json()).dump(), io::load_scene(c.config, c.overrides).resolved_json);
+    } catch (const Error&) {
+      changed = "its scene no longer loads";  // the run below reports why
+    }
+    completed = changed.empty();
+  } else if (const auto ck = io::is_ccfr_run(out) ? io::latest_checkpoint(out) : std::nullopt) {
+    try {
+      const io::Checkpoint k = io::read_checkpoint(*ck);
+      if (k.overrides != c.overrides || k.scene_file != fs::absolute(c.config).lexically_normal())
+        changed = "its checkpoint was written with other overrides or another scene file";
+    } catch (const Error&) {
+      // A damaged checkpoint: resuming reports it.
+    }
+  }
+  if (!changed.empty())
+    spdlog::info("sweep cell {} ({}): the run in {} is of another configuration ({}): running it again", index, c.id,
+                 out.string(), changed);
+  if (io::is_ccfr_run(out) && !completed && changed.empty() && io::latest_checkpoint(out)) {
     ro.resume = out;
   } else {
     ro.config = c.config;
     ro.overrides = c.overrides;
     ro.out = out;
   }
-  ro.command_line = "ccfr sweep run-cell " + dir.string() + " " + std::to_string(index) + " (cell " + c.id + ")";
+  ro.command_line = command;
   spdlog::info("sweep cell {} ({}): {}", index, c.id, ro.resume.empty() ? "from the start" : "resuming");
-  int code = 0;
+  int code = 0, stop_signal = 0;
   std::string status;
   if (completed) {
     status = "completed";
@@ -182,18 +214,23 @@ int run_cell(const fs::path& dir, long index, int threads) {
     const RunSummary r = run_scene(ro);
     code = run_exit_code(r);
     status = r.status;
+    stop_signal = r.stop_signal;
   }
   // The audit of the frames written: pass, fail, or incomplete (clean frames of an unfinished run).
-  std::string verdict = "error";
-  try {
-    io::RunAuditOptions ao;
-    ao.stride = s.audit_stride;
-    const auto a = io::audit_run(out, ao);
-    verdict = !a.clean() ? "fail" : a.completed() ? "pass" : "incomplete";
-    const int acode = io::audit_exit_code(a, verdict);
-    io::write_file_atomic(out / "audit.json", io::audit_report_json(a, verdict, acode, verdict == "incomplete"));
-  } catch (const Error& e) {
-    spdlog::error("sweep cell {}: audit failed: {}", c.id, e.what());
+  // A cell stopped by a signal is not audited now: whoever stopped it wants it to end; `sweep
+  // collect` audits it later.
+  std::string verdict = stop_signal ? "not audited (stopped)" : "error";
+  if (!stop_signal) {
+    try {
+      io::RunAuditOptions ao;
+      ao.stride = s.audit_stride;
+      const auto a = io::audit_run(out, ao);
+      verdict = !a.clean() ? "fail" : a.completed() ? "pass" : "incomplete";
+      const int acode = io::audit_exit_code(a, verdict);
+      io::write_file_atomic(out / "audit.json", io::audit_report_json(a, verdict, acode, verdict == "incomplete"));
+    } catch (const Error& e) {
+      spdlog::error("sweep cell {}: audit failed: {}", c.id, e.what());
+    }
   }
   Json rec = {{"cell", c.id},
               {"index", index},
@@ -257,8 +294,44 @@ std::vector<long> cell_frame_totals(const SweepLayout& s, const std::vector<size
   return totals;
 }
 
-int run_local(const SweepLayout& s, const std::vector<size_t>& indices, int jobs, int threads,
-              const std::string& label) {
+namespace {
+// The signal that asked a sweep or ablation to stop (0 while none did); run_local passes it on.
+std::atomic<int> g_sweep_signal{0};
+extern "C" void on_sweep_signal(int sig) { g_sweep_signal = sig; }
+
+// SIGINT and SIGTERM set g_sweep_signal while the cells run; the previous handlers come back after.
+class SweepSignals {
+ public:
+  SweepSignals() {
+    g_sweep_signal = 0;
+    struct sigaction sa {};
+    sa.sa_handler = on_sweep_signal;
+    sigemptyset(&sa.sa_mask);
+    ::sigaction(SIGINT, &sa, &int_);
+    ::sigaction(SIGTERM, &sa, &term_);
+  }
+  ~SweepSignals() {
+    ::sigaction(SIGINT, &int_, nullptr);
+    ::sigaction(SIGTERM, &term_, nullptr);
+  }
+  SweepSignals(const SweepSignals&) = delete;
+  SweepSignals& operator=(const SweepSignals&) = delete;
+
+ private:
+  struct sigaction int_ {
+  }, term_{};
+};
+}  // namespace
+
+std::string signal_name(int sig) {
+  return sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "signal " + std::to_string(sig);
+}
+
+int run_local(const SweepLayout& s, const std::vector<size_t>& indices, int jobs, int threads, const std::string& label,
+              int* stopped_by) {
+  SweepSignals signals;
+  int stopping = 0;
+  if (stopped_by) *stopped_by = 0;
   jobs = std::max(1, std::min<int>(jobs, static_cast<int>(indices.size())));
   if (threads <= 0) threads = std::max(1, hardware_threads() / jobs);
   const std::string exe = self_exe().string();
@@ -305,14 +378,26 @@ int run_local(const SweepLayout& s, const std::vector<size_t>& indices, int jobs
     if (!cells.empty()) detail += "; " + cells;
     progress.update(sum, detail);
   };
-  // Ctrl-C reaches every cell (one process group): each writes its checkpoint and stops.
+  // A signal to this process reaches every running cell (passed on below; Ctrl-C on a terminal
+  // reaches them directly too): each writes its checkpoint and status and stops.
   auto start_one = [&] {
     const size_t k = next++;
     const size_t i = indices[k];
     const io::SweepCell& c = s.cells[i];
     const fs::path log = s.dir / "logs" / (c.id + ".log");
+    // Blocked around fork so that a signal cannot reach the child before its exec (where this
+    // process's handler would take it and exec would forget it): it stays pending until the child
+    // has its default handling back, or is passed on once the child is in `running`.
+    sigset_t stop_set, previous;
+    sigemptyset(&stop_set);
+    sigaddset(&stop_set, SIGINT);
+    sigaddset(&stop_set, SIGTERM);
+    ::sigprocmask(SIG_BLOCK, &stop_set, &previous);
     const pid_t pid = fork();
     if (pid == 0) {
+      ::signal(SIGINT, SIG_DFL);
+      ::signal(SIGTERM, SIG_DFL);
+      ::sigprocmask(SIG_SETMASK, &previous, nullptr);
       const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
       if (fd >= 0) ::dup2(fd, 1), ::dup2(fd, 2);
       const std::string dir = s.dir.string(), idx = std::to_string(i), th = std::to_string(threads);
@@ -320,13 +405,26 @@ int run_local(const SweepLayout& s, const std::vector<size_t>& indices, int jobs
               static_cast<char*>(nullptr));
       ::_exit(127);
     }
+    if (pid > 0) running[pid] = {k, std::chrono::steady_clock::now()};
+    ::sigprocmask(SIG_SETMASK, &previous, nullptr);
     if (pid < 0) throw Error("cannot start a process for cell " + c.id);
-    running[pid] = {k, std::chrono::steady_clock::now()};
     progress.clear();
     spdlog::info("{}: started {} ({} of {}, {} threads)", label, c.id, next, indices.size(), threads);
   };
-  while (next < indices.size() && static_cast<int>(running.size()) < jobs) start_one();
+  // A signal during the set-up above (loading every scene for the frame totals) starts no cell.
+  while (next < indices.size() && static_cast<int>(running.size()) < jobs && !g_sweep_signal) start_one();
   while (!running.empty()) {
+    if (const int sig = g_sweep_signal.exchange(0)) {
+      if (!stopping) {
+        progress.clear();
+        spdlog::warn(
+            "{}: {} received: stopping the {} running cell(s) after their current frame (each writes its "
+            "checkpoint); no further cell starts",
+            label, signal_name(sig), running.size());
+      }
+      stopping = sig;
+      for (const auto& [pid, r] : running) ::kill(pid, sig);
+    }
     int st = 0;
     const pid_t pid = ::waitpid(-1, &st, WNOHANG);
     if (pid < 0) break;
@@ -355,10 +453,12 @@ int run_local(const SweepLayout& s, const std::vector<size_t>& indices, int jobs
     else
       spdlog::info("{}: [{}/{}] {}: {} (exit {}) in {}", label, done, indices.size(), s.cells[i].id, status, code,
                    format_duration(secs));
-    if (next < indices.size()) start_one();
+    if (next < indices.size() && !stopping) start_one();
     report(true);
   }
   progress.finish();
+  if (!stopping) stopping = g_sweep_signal.exchange(0);
+  if (stopped_by) *stopped_by = stopping;
   return failed;
 }
 
@@ -452,6 +552,8 @@ std::string cell_state(const SweepLayout& s, size_t i, const std::map<size_t, st
                             it->second == "COMPLETING" || it->second == "REQUEUED"))
     return it->second == "PENDING" ? "queued" : "running";
   const fs::path out = s.dir / s.cells[i].id;
+  // A live process holds the cell's lock: it runs, whatever run.json says (its sweep may be gone).
+  if (io::lock_holder(out)) return "running";
   if (!io::is_ccfr_run(out)) return it != slurm.end() ? "lost (" + it->second + ", no run)" : "not started";
   const std::string status = io::read_run_info(out).status;
   if (status == "completed") return "completed";
@@ -665,10 +767,18 @@ struct SweepOptions {
 // Runs the cells here, then the closing summary on stdout: cells by outcome, frames, time.
 int run_and_summarize(const SweepLayout& s, const std::vector<size_t>& indices, int jobs, int threads) {
   const auto t0 = std::chrono::steady_clock::now();
-  const int failed = run_local(s, indices, jobs, threads);
+  int stopped_by = 0;
+  const int failed = run_local(s, indices, jobs, threads, "sweep", &stopped_by);
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   long frames = 0;
   for (size_t i : indices) frames += frames_in_stats(s.dir / s.cells[i].id);
+  if (stopped_by) {
+    std::printf(
+        "sweep: stopped by %s after %s (%ld frames in all): the running cells wrote their checkpoints; "
+        "next: ccfr sweep resume %s\n",
+        signal_name(stopped_by).c_str(), format_duration(secs).c_str(), frames, s.dir.string().c_str());
+    return interrupted_exit_code(stopped_by);
+  }
   std::printf("sweep: %zu cells run, %d failed, in %s (%ld frames in all); next: ccfr sweep collect %s\n",
               indices.size(), failed, format_duration(secs).c_str(), frames, s.dir.string().c_str());
   return failed ? 1 : 0;
@@ -678,6 +788,8 @@ int start_sweep(SweepOptions& o) {
   io::SweepSpec spec = io::load_sweep_spec(o.spec);
   SweepLayout s{o.out, spec.cells, spec.parameter_keys, spec.audit_stride, spec.resources, spec.file};
   apply_flags(s.resources, o.slurm);
+  // One sweep process per sweep directory (its cells are locked apart by their run-cell).
+  const io::DirLock lock = io::DirLock::acquire(o.out, invocation_string());
   if (fs::exists(o.out / "sweep.json")) {
     const SweepLayout old = read_sweep(o.out);
     std::vector<std::string> a, b;
@@ -687,7 +799,7 @@ int start_sweep(SweepOptions& o) {
       throw Error("'" + o.out.string() +
                   "' holds another sweep (its cells differ); choose another --out, or use `ccfr "
                   "sweep resume`");
-  } else if (fs::exists(o.out) && !fs::is_empty(o.out)) {
+  } else if (!io::dir_is_empty(o.out)) {
     throw Error("output directory '" + o.out.string() + "' is not empty and is not a sweep; choose another --out");
   }
   write_sweep(s);
@@ -731,6 +843,7 @@ int sweep_status(const fs::path& dir) {
 
 int resume(SweepOptions& o) {
   SweepLayout s = read_sweep(o.dir);
+  const io::DirLock lock = io::DirLock::acquire(o.dir, invocation_string());
   apply_flags(s.resources, o.slurm);
   const Json j = read_json(o.dir / "sweep.json");
   const bool slurm_sweep = o.backend == "slurm" || (o.backend.empty() && !j["slurm_jobs"].empty());
@@ -822,7 +935,8 @@ void register_sweep(CLI::App& app) {
   cmd->callback([o, log_level, cmd] {
     if (!cmd->get_subcommands().empty()) return;
     init_logging(*log_level);
-    guarded([o] {
+    guarded([o, cmd] {
+      if (cmd->count("--out") > 0 && o->out.empty()) throw Error("--out is empty: give the sweep directory");
       if (o->spec.empty() || o->out.empty())
         throw Error("usage: ccfr sweep SPEC.yaml --out DIR (or status/resume/collect DIR)");
       return start_sweep(*o);

@@ -15,6 +15,7 @@
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/geometry_exact/audit.hpp"
 #include "ccfr/io/checkpoint.hpp"
+#include "ccfr/io/dir_lock.hpp"
 #include "ccfr/io/obj.hpp"
 #include "ccfr/io/run_info.hpp"
 #include "ccfr/io/run_recorder.hpp"
@@ -72,7 +73,7 @@ class SignalScope {
 
 int run_exit_code(const RunSummary& s) {
   if (s.nothing_to_resume) return 0;
-  if (s.failed) return 1;
+  if (s.failed || !s.cleanup_error.empty()) return 1;
   if (s.violated_frames > 0 && !s.violations_opted_out) return 3;
   return 0;
 }
@@ -189,6 +190,10 @@ void check_frames_before(const std::filesystem::path& dir, const Resume& r, cons
 }  // namespace
 
 RunSummary run_scene(const RunOptions& opts) {
+  // One writer per run directory, from before the checkpoint is read to the last byte written.
+  io::DirLock lock;
+  if (!opts.resume.empty() || !opts.out.empty())
+    lock = io::DirLock::acquire(opts.resume.empty() ? opts.out : opts.resume, opts.command_line);
   std::optional<Resume> resume;
   if (!opts.resume.empty()) resume = load_resume(opts.resume);
   std::vector<std::string> overrides = resume ? resume->ckpt.overrides : opts.overrides;
@@ -325,6 +330,7 @@ RunSummary run_scene(const RunOptions& opts) {
           (sig == SIGTERM ? "terminated after frame " : "interrupted after frame ") + std::to_string(f - 1);
       if (sig == SIGTERM) summary.status += " (SIGTERM)";
       summary.failed = true;
+      summary.stop_signal = sig;
       spdlog::warn("{}", summary.status);
       break;
     }
@@ -375,6 +381,7 @@ RunSummary run_scene(const RunOptions& opts) {
       output_failed(e);
     }
     summary.previous_kept = writer->writer().discarded();
+    summary.cleanup_error = writer->writer().cleanup_error();
   }
   return summary;
 }

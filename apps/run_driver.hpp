@@ -49,6 +49,10 @@ struct RunSummary {
   int resumed_after = -1;          ///< --resume: the checkpoint's frame; -1 for a fresh run
   bool nothing_to_resume = false;  ///< --resume of a run that had already completed
   int last_checkpoint = -1;        ///< frame of the last checkpoint written (-1: none)
+  int stop_signal = 0;             ///< SIGINT or SIGTERM when a signal stopped the run, else 0
+  /// The run is in place but the previous run's files could not all be removed (where they are
+  /// and why); the exit code is then non-zero.
+  std::string cleanup_error;
 };
 
 /// Loads, simulates and (if opts.out is set) writes the run. Numerical failures end the run with
@@ -56,7 +60,8 @@ struct RunSummary {
 RunSummary run_scene(const RunOptions& opts);
 
 /// The exit code of `ccfr run` for a run that ended this way (docs/output.md): 0, 1 (stopped
-/// early), 3 (completed with violations under a solver without the guarantee).
+/// early, or the previous run's files could not be removed), 3 (completed with violations under a
+/// solver without the guarantee).
 int run_exit_code(const RunSummary& s);
 
 /// Records the process's arguments (from main) for run.json: argv[0] is recorded as "ccfr".

@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "ccfr/core/error.hpp"
+#include "ccfr/core/log.hpp"
 #include "ccfr/io/obj.hpp"
 
 namespace ccfr::io {
@@ -108,17 +109,91 @@ void remove_stale_temporaries(const fs::path& dir) {
   }
 }
 
-// A directory named DIR.ccfr-new / DIR.ccfr-old left by a killed run (possibly half deleted).
+// The previous run's entries are all out of DIR (in DIR.ccfr-old): a commit killed after this
+// point is finished by the next writer, one killed before it is undone (recover_commit).
+constexpr const char* kCommitMarker = ".ccfr-commit";
+
+fs::path sibling(const fs::path& dir, const char* suffix) {
+  const fs::path base = normalized(dir);
+  return base.parent_path() / (base.filename().string() + suffix);
+}
+
+// The entries of `dir` that are ccfr's (is_run_entry) and not its lock, run.json first.
+std::vector<std::string> own_entries(const fs::path& dir) {
+  std::vector<std::string> out;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    const std::string n = e.path().filename().string();
+    if (is_run_entry(n) && n != kLockFileName) out.push_back(n);
+  }
+  std::sort(out.begin(), out.end(), [](const std::string& a, const std::string& b) {
+    return (a == "run.json") != (b == "run.json") ? a == "run.json" : a < b;
+  });
+  return out;
+}
+
+// A directory DIR.ccfr-new / DIR.ccfr-old left by a killed run: nothing in it but run entries.
 bool is_leftover_run(const fs::path& d) {
   std::error_code ec;
-  if (is_ccfr_run(d)) return true;
   for (const auto& e : fs::directory_iterator(d, ec)) {
     const std::string n = e.path().filename().string();
-    if (n != "frames" && n != "stats.csv" && n != "audit.json" && n != "render" && n != "vtk" && n != "blender" &&
-        n != "usd" && n.rfind("run.json", 0) != 0)
-      return false;
+    if (!is_run_entry(n) && n != kCommitMarker) return false;
   }
   return !ec;
+}
+
+int rename_error(const fs::path& from, const fs::path& to) {
+  return ::rename(from.c_str(), to.c_str()) == 0 ? 0 : errno;
+}
+
+// Finishes or undoes the replacement of a run that a killed ccfr left half done, and removes a
+// staged run it never put in place (DIR.ccfr-new). Called with DIR's lock held.
+void recover_commit(const fs::path& dir) {
+  const fs::path staged = sibling(dir, ".ccfr-new"), old = sibling(dir, ".ccfr-old");
+  std::error_code ec;
+  for (const fs::path& p : {staged, old})
+    if (fs::exists(p, ec) && (!fs::is_directory(p, ec) || !is_leftover_run(p)))
+      throw Error("'" + p.string() + "' is in the way of the run in '" + dir.string() +
+                  "' and does not hold ccfr's run files only; move it away");
+  if (fs::exists(old, ec)) {
+    if (fs::exists(old / kCommitMarker, ec) && fs::exists(staged, ec)) {
+      // Killed while moving the new run in: the previous one is all out, finish moving.
+      std::vector<std::string> names = own_entries(staged);
+      std::rotate(names.begin(), names.begin() + (names.empty() || names[0] != "run.json" ? 0 : 1), names.end());
+      for (const auto& n : names)
+        if (const int err = rename_error(staged / n, dir / n))
+          throw Error("cannot finish replacing the run in '" + dir.string() + "' that a killed ccfr left half done: " +
+                      "cannot move '" + (staged / n).string() + "' into it: " + std::strerror(err));
+      spdlog::warn("finished replacing the run in '{}' that a killed ccfr left half done", dir.string());
+    } else if (!fs::exists(old / kCommitMarker, ec)) {
+      // Killed while moving the previous run out: put it back.
+      for (const auto& n : own_entries(old))
+        if (!fs::exists(dir / n, ec))
+          if (const int err = rename_error(old / n, dir / n))
+            throw Error("cannot restore '" + (dir / n).string() + "' from '" + (old / n).string() +
+                        "' (a killed ccfr left it there): " + std::strerror(err));
+      spdlog::warn("restored the previous run in '{}' that a killed ccfr had begun to replace", dir.string());
+    }
+    fs::remove_all(old, ec);
+    if (ec) throw Error("cannot remove '" + old.string() + "' (left by a killed ccfr): " + ec.message());
+  }
+  if (fs::exists(staged, ec)) {
+    fs::remove_all(staged, ec);  // a run killed before it replaced its predecessor
+    if (ec) throw Error("cannot remove '" + staged.string() + "' (left by a killed ccfr): " + ec.message());
+  }
+}
+
+// Every directory under `p` (p included) must be writable for its entries to be moved and removed.
+void check_replaceable(const fs::path& run, const fs::path& p) {
+  std::error_code ec;
+  if (fs::is_symlink(p, ec) || !fs::is_directory(p, ec)) return;
+  if (::access(p.c_str(), W_OK | X_OK) != 0) {
+    const int err = errno;
+    throw Error("cannot rerun into '" + run.string() + "': the previous run's '" + p.string() + "' is not writable (" +
+                std::strerror(err) + "), so it could not be replaced; make it writable (chmod -R u+w '" + p.string() +
+                "') or choose another --out. Nothing was changed");
+  }
+  for (const auto& e : fs::directory_iterator(p, ec)) check_replaceable(run, e.path());
 }
 
 void create_dirs(const fs::path& d) {
@@ -143,6 +218,15 @@ int write_all(int fd, const std::string& data) {
 }
 }  // namespace
 
+bool is_run_entry(const std::string& n) {
+  static const char* const kNames[] = {"run.json", "stats.csv", "frames",  "checkpoints", "audit.json",
+                                       "render",   "vtk",       "blender", "usd",         "stats.png"};
+  if (n == kLockFileName) return true;
+  for (const char* k : kNames)
+    if (n == k || (n.rfind(std::string(k) + ".tmp", 0) == 0 && n.size() > std::strlen(k) + 4)) return true;
+  return false;
+}
+
 bool is_ccfr_run(const fs::path& dir) {
   std::ifstream in(dir / "run.json");
   if (!in) return false;
@@ -156,38 +240,36 @@ RunWriter::RunWriter(fs::path dir, const Topology& topo, std::string resolved_co
       config_json_(std::move(resolved_config_json)),
       meta_(std::move(meta)),
       start_time_(utc_now()) {
+  lock_ = DirLock::acquire(final_, meta_.command_line);
+  recover_commit(final_);
   std::error_code ec;
-  if (fs::exists(final_, ec) && !fs::is_directory(final_, ec))
-    throw Error("output directory '" + final_.string() + "' exists and is not a directory");
-  const bool non_empty = fs::is_directory(final_, ec) && !fs::is_empty(final_, ec);
-  if (!non_empty) {
+  if (dir_is_empty(final_)) {
     dir_ = final_;
   } else if (is_ccfr_run(final_)) {
-    // A rerun: the previous run stays whole until the new one has a simulated frame to show.
+    // A rerun: the previous run stays whole until the new one has a simulated frame to show, and
+    // then only ccfr's own entries are replaced.
     remove_stale_temporaries(final_);
-    const fs::path base = normalized(final_);
-    staging_ = base.parent_path() / (base.filename().string() + ".ccfr-new");
-    for (const fs::path& stale : {staging_, fs::path(base.parent_path() / (base.filename().string() + ".ccfr-old"))}) {
-      if (!fs::exists(stale, ec)) continue;
-      if (!fs::is_directory(stale, ec) || !is_leftover_run(stale))
-        throw Error("'" + stale.string() + "' is in the way of the rerun into '" + final_.string() +
-                    "' and is not a ccfr run; remove it");
-      fs::remove_all(stale, ec);  // left by a run killed before it replaced its predecessor
-      if (ec) throw Error("cannot remove stale '" + stale.string() + "': " + ec.message());
-    }
+    if (::access(final_.c_str(), W_OK | X_OK) != 0)
+      throw Error("cannot rerun into '" + final_.string() + "': it is not writable (" + std::strerror(errno) + ")");
+    for (const auto& n : own_entries(final_)) check_replaceable(final_, final_ / n);
+    staging_ = sibling(final_, ".ccfr-new");
     staged_ = true;
     dir_ = staging_;
   } else if (force) {
+    // --force: ccfr's files go in beside the user's; an entry of ccfr's name that ccfr did not
+    // write (there is no run here) is the user's, and is not overwritten.
+    remove_stale_temporaries(final_);
+    std::string clash;
+    for (const auto& n : own_entries(final_))
+      if (n.find(".tmp") == std::string::npos) clash += (clash.empty() ? "'" : ", '") + (final_ / n).string() + "'";
+    if (!clash.empty())
+      throw Error("output directory '" + final_.string() + "' is not a ccfr run, and " + clash +
+                  " would be overwritten by the run's own files; move them away or choose another --out");
     dir_ = final_;
-    // --force: the directory is reused as it is, except for frames of whatever wrote it before.
-    for (const auto& e : fs::directory_iterator(final_ / "frames", ec))
-      if (e.path().filename().string().rfind("frame_", 0) == 0 &&
-          (e.path().extension() == ".obj" || e.path().extension() == ".ply"))
-        fs::remove(e.path(), ec);
   } else {
     throw Error("output directory '" + final_.string() +
                 "' is not empty and is not a ccfr run (no run.json written by ccfr); choose another --out or pass "
-                "--force");
+                "--force (to write the run's files beside the ones there)");
   }
   create_dirs(dir_ / "frames");
   remove_stale_temporaries(dir_);
@@ -203,6 +285,8 @@ RunWriter::RunWriter(fs::path dir, const Topology& topo, std::string resolved_co
       config_json_(std::move(resolved_config_json)),
       meta_(std::move(meta)),
       resume_frame_(resume.frame) {
+  lock_ = DirLock::acquire(final_, meta_.command_line);
+  recover_commit(final_);
   // PC2, USDA and the VTU collection (.pvd) hold every frame in one file; only OBJ and PLY
   // frames continue cleanly. The others are rebuilt from the OBJ frames by `ccfr export`.
   for (const OutputFormat f : meta_.formats)
@@ -265,6 +349,10 @@ RunWriter::~RunWriter() {
   if (staged_ && !discarded_ && dir_ == staging_) {
     std::error_code ec;
     fs::remove_all(staging_, ec);
+    if (ec)
+      spdlog::error(
+          "cannot remove the unfinished run in '{}': {}; the previous run in '{}' is kept, remove it yourself",
+          staging_.string(), ec.message(), final_.string());
   }
 }
 
@@ -314,25 +402,54 @@ void RunWriter::write_stats_line(const std::string& row) {
 }
 
 void RunWriter::commit() {
-  // Swap the staged run and the previous one in one step, then delete the previous one.
-  const fs::path old = normalized(final_).parent_path() / (normalized(final_).filename().string() + ".ccfr-old");
-  if (::renameat2(AT_FDCWD, staging_.c_str(), AT_FDCWD, final_.c_str(), RENAME_EXCHANGE) == 0) {
-    std::error_code ec;
-    fs::remove_all(staging_, ec);  // now the previous run
-  } else if (errno == EINVAL || errno == ENOSYS || errno == ENOTSUP) {
-    // A filesystem without RENAME_EXCHANGE: move the previous run aside first.
-    if (::rename(final_.c_str(), old.c_str()) != 0) io_error("cannot move the previous run aside:", final_, errno);
-    if (::rename(staging_.c_str(), final_.c_str()) != 0) {
-      const int err = errno;
-      ::rename(old.c_str(), final_.c_str());
-      io_error("cannot move '" + staging_.string() + "' to", final_, err);
+  // The previous run's own entries out to DIR.ccfr-old (run.json first: DIR is no run meanwhile),
+  // then the new run's in (run.json last); every other entry of DIR stays in place. A failure puts
+  // back what was moved; a kill half-way is finished or undone by the next writer (recover_commit).
+  const fs::path old = sibling(final_, ".ccfr-old");
+  std::error_code ec;
+  if (!fs::create_directory(old, ec))
+    throw Error("cannot create '" + old.string() + "' to replace the previous run in '" + final_.string() +
+                "': " + (ec ? ec.message() : std::string("it exists")));
+  std::vector<std::string> out_names, in_names;
+  auto undo = [&](const std::string& why) {
+    std::string stuck;
+    for (auto it = in_names.rbegin(); it != in_names.rend(); ++it)
+      if (rename_error(final_ / *it, staging_ / *it)) stuck += " '" + (final_ / *it).string() + "'";
+    fs::remove(old / kCommitMarker, ec);
+    for (auto it = out_names.rbegin(); it != out_names.rend(); ++it)
+      if (rename_error(old / *it, final_ / *it)) stuck += " '" + (old / *it).string() + "'";
+    if (stuck.empty()) {
+      fs::remove(old, ec);
+      throw Error(why + "; the previous run in '" + final_.string() + "' is kept");
     }
-    std::error_code ec;
-    fs::remove_all(old, ec);
-  } else {
-    io_error("cannot replace the previous run with '" + staging_.string() + "':", final_, errno);
+    throw Error(why + "; putting the previous run back failed too: it is in '" + old.string() + "', this run in '" +
+                staging_.string() + "', and these could not be moved back:" + stuck);
+  };
+  for (const auto& n : own_entries(final_)) {
+    if (const int err = rename_error(final_ / n, old / n))
+      undo("cannot move the previous run's '" + (final_ / n).string() + "' aside to '" + old.string() +
+           "': " + std::strerror(err));
+    out_names.push_back(n);
+  }
+  if (const int fd = ::open((old / kCommitMarker).c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0644); fd >= 0)
+    ::close(fd);
+  else
+    undo("cannot write '" + (old / kCommitMarker).string() + "': " + std::strerror(errno));
+  std::vector<std::string> names = own_entries(staging_);
+  std::rotate(names.begin(), names.begin() + (names.empty() || names[0] != "run.json" ? 0 : 1), names.end());
+  for (const auto& n : names) {
+    if (const int err = rename_error(staging_ / n, final_ / n))
+      undo("cannot move '" + (staging_ / n).string() + "' into '" + final_.string() + "': " + std::strerror(err));
+    in_names.push_back(n);
   }
   dir_ = final_;
+  fs::remove(staging_, ec);
+  fs::remove_all(old, ec);
+  if (ec) {
+    cleanup_error_ = "the run is in '" + final_.string() + "', but the previous run's files could not be removed (" +
+                     ec.message() + "): they are in '" + old.string() + "'; remove it yourself";
+    spdlog::error("{}", cleanup_error_);
+  }
 }
 
 void RunWriter::discard() {
@@ -341,6 +458,11 @@ void RunWriter::discard() {
   std::error_code ec;
   fs::remove_all(staging_, ec);
   discarded_ = true;
+  if (ec) {
+    cleanup_error_ = "the unfinished run in '" + staging_.string() + "' could not be removed (" + ec.message() +
+                     "); the previous run in '" + final_.string() + "' is kept; remove it yourself";
+    spdlog::error("{}", cleanup_error_);
+  }
 }
 
 void RunWriter::finish(const std::string& status) {

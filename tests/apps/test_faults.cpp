@@ -233,7 +233,13 @@ TEST(Faults, OutOntoADirectoryThatIsNotARunIsRefusedWithoutForce) {
   EXPECT_EQ(read(out / "frames" / "frame_00000.obj"), "o mine\nv 0 0 0\n");
   EXPECT_FALSE(fs::exists(out / "run.json"));
 
-  const Result forced = run({"run", sc.string(), "--out", out.string(), "--frames", "1", "--force"}, d / "log2");
+  // --force writes beside the user's files, never over one of ccfr's names that ccfr did not write.
+  const Result clash = run({"run", sc.string(), "--out", out.string(), "--frames", "1", "--force"}, d / "log2");
+  EXPECT_EQ(clash.code, 2) << clash.out;
+  EXPECT_NE(clash.out.find("'" + (out / "frames").string() + "' would be overwritten"), std::string::npos) << clash.out;
+  EXPECT_EQ(read(out / "frames" / "frame_00000.obj"), "o mine\nv 0 0 0\n");
+  fs::rename(out / "frames", d / "my_frames");
+  const Result forced = run({"run", sc.string(), "--out", out.string(), "--frames", "1", "--force"}, d / "log3");
   EXPECT_EQ(forced.code, 0) << forced.out;
   EXPECT_EQ(read(out / "notes.txt"), "keep me");
   EXPECT_EQ(run_json(out)["status"], "completed");

@@ -10,6 +10,7 @@
 
 #include "ccfr/collision/narrow_phase.hpp"
 #include "ccfr/core/topology.hpp"
+#include "ccfr/io/dir_lock.hpp"
 #include "ccfr/io/formats.hpp"
 #include "ccfr/solvers/simulation.hpp"
 
@@ -39,16 +40,24 @@ struct RunMeta {
 /// True if DIR/run.json is a JSON object with the ccfr marker (`"ccfr": {"version": ...}`).
 bool is_ccfr_run(const std::filesystem::path& dir);
 
+/// True if `name` is an entry ccfr writes into a run directory (run.json, stats.csv, frames/,
+/// checkpoints/, audit.json, render/, vtk/, blender/, usd/, stats.png, their temporaries) or the
+/// directory's lock file: what a rerun replaces. Anything else in a run directory is the user's.
+bool is_run_entry(const std::string& name);
+
 /// Writes a run directory (docs/output.md). Frames and run.json are written atomically (temporary
 /// file + rename, the temporary removed on failure); run.json is rewritten after every frame so
 /// that `frames_written` is right even after SIGKILL; stats rows are written whole or not at all.
-/// Any failed write throws ccfr::Error naming the file and the system's reason.
+/// Any failed write throws ccfr::Error naming the file and the system's reason. The directory's
+/// lock (DirLock) is held from the constructor to the destructor: a second writer is refused.
 ///
 /// Where it writes: a missing or empty DIR is written directly. A non-empty DIR that is a ccfr run
-/// is left untouched while the new run writes into the sibling `DIR.ccfr-new`, which replaces it
-/// once the first simulated frame is written (or a run of 0 frames completes); a run that stops
-/// before that is discarded and the previous run stays. Any other non-empty DIR is refused unless
-/// `force` (then it is written into directly, its old frames/frame_*.obj removed).
+/// is left untouched while the new run writes into the sibling `DIR.ccfr-new`; once the first
+/// simulated frame is written (or a run of 0 frames completes) the previous run's own entries
+/// (is_run_entry) are moved out and the new ones in, entry by entry; every other file of DIR (the
+/// user's notes, the scene file, analyses) stays where it is. A run that stops before that is
+/// discarded and the previous run stays. Any other non-empty DIR is refused unless `force`, and
+/// even then if it holds an entry of ccfr's name (frames/, stats.csv, ...) that ccfr did not write.
 class RunWriter {
  public:
   /// Checks and prepares DIR; throws ccfr::Error if it cannot be used (exit code 2 in `ccfr run`).
@@ -82,6 +91,9 @@ class RunWriter {
   int frames_written() const { return frames_written_; }
   /// True once finish() discarded a staged run (the previous run in DIR was kept).
   bool discarded() const { return discarded_; }
+  /// What could not be cleaned up after the run was in place (the previous run's files that could
+  /// not be removed, and where they are now), empty if nothing: the run then exits non-zero.
+  const std::string& cleanup_error() const { return cleanup_error_; }
 
  private:
   void write_run_json(const std::string& status, bool finished);
@@ -89,6 +101,7 @@ class RunWriter {
   void commit();
   void discard();
 
+  DirLock lock_;
   std::filesystem::path dir_, final_, staging_;
   const Topology& topo_;
   std::string config_json_;
@@ -102,6 +115,7 @@ class RunWriter {
   int resume_frame_ = -1;            ///< frame resumed after; -1: a fresh run
   long long resume_stats_size_ = 0;  ///< bytes of stats.csv kept (header and rows up to resume_frame_)
   std::string resumed_json_;         ///< run.json `resumed` (JSON array), empty for a fresh run
+  std::string cleanup_error_;
 };
 
 /// ISO-8601 UTC timestamp of now.
