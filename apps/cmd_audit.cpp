@@ -1,6 +1,7 @@
 // `ccfr audit DIR`: certifies a run directory frame by frame with the exact penetration audit
 // (geometry_exact) and writes DIR/audit.json. Exit codes (docs/audit.md): 0 clean, 1 penetrations
-// found, 2 bad input, 3 internal error, 4 clean but the run did not complete (without --partial).
+// found, 2 bad input, 3 internal error, 4 clean but the run did not complete (without --partial),
+// 5 clean for the method but the scene drives two scripted objects into each other.
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -20,7 +21,7 @@ namespace ccfr::app {
 
 namespace {
 
-constexpr int kExitClean = 0, kExitPenetrations = 1, kExitBadInput = 2, kExitIncomplete = 4;
+constexpr int kExitBadInput = 2;  // the others come from io::audit_exit_code
 
 struct AuditCliOptions {
   std::filesystem::path dir;
@@ -70,6 +71,11 @@ int run_audit(const AuditCliOptions& o) {
           "initial proximity from %s: %d adjacent sub-pairs closer than xi and %d intersecting pairs excluded; "
           "%d sub-pairs closer than xi checked against a reduced offset\n",
           r.reference.string().c_str(), r.excluded_close_pairs, r.excluded_intersections, r.reduced_offset_pairs);
+      if (r.rigid_objects + r.scripted_objects > 0)
+        std::printf(
+            "%d rigid objects (pairs inside one are skipped while it moves rigidly), %d scripted objects (pairs "
+            "between two are a scene error, not a violation)\n",
+            r.rigid_objects, r.scripted_objects);
       std::printf("%8s %12s %12s %12s %16s %12s\n", "frame", "tri_isect", "seg_cross", "close", "min_dist", "min/xi");
     };
     double xi = 0.0;
@@ -82,6 +88,9 @@ int run_audit(const AuditCliOptions& o) {
                   r.close_pairs, r.min_distance,
                   std::isfinite(r.min_distance) && xi > 0 ? r.min_distance / xi : INFINITY);
       for (const exact::AuditExample& e : r.examples) std::printf("         %s\n", e.describe().c_str());
+      if (r.scene_pairs > 0)
+        std::printf("         scene error: %d pairs between scripted objects, e.g. %s\n", r.scene_pairs,
+                    r.scene_examples.empty() ? "?" : r.scene_examples.front().describe().c_str());
       std::fflush(stdout);
       if (progress) progress->update(++audited, "frame " + std::to_string(n));
     };
@@ -98,14 +107,13 @@ int run_audit(const AuditCliOptions& o) {
     std::string scope = coverage(res);
     if (unfinished) scope = "partial run, status '" + status_text(res) + "'; " + scope;
     const std::string verdict = io::audit_verdict(res, o.partial);
-    int code = kExitClean;
+    // 0, 1, 4, or 5 for a pass whose scene drives scripted objects into each other.
+    const int code = io::audit_exit_code(res, verdict);
     if (verdict == "fail") {
-      code = kExitPenetrations;
       std::printf("FAIL (%s): %d violations in %zu frames; first at frame %ld%s%s\n", scope.c_str(), res.violations,
                   res.bad_frames, res.first_bad_frame, res.first_example.empty() ? "" : ": ",
                   res.first_example.c_str());
     } else if (verdict == "incomplete") {
-      code = kExitIncomplete;
       std::printf(
           "INCOMPLETE (%s): the frames checked are clean, but the run did not complete; pass --partial to accept "
           "the frames present\n",
@@ -116,6 +124,15 @@ int run_audit(const AuditCliOptions& o) {
           "%.2f s\n",
           scope.c_str(), res.min_distance, std::isfinite(res.min_distance) ? res.min_distance / res.offset : INFINITY,
           res.seconds);
+    }
+    // Scripted objects driven into each other: no solver can move them, so the method's verdict
+    // stands, and the scene is flagged with its own line and exit code.
+    if (res.scene_error()) {
+      std::printf(
+          "SCENE ERROR: the scene drives scripted objects into each other (not the method's failure): %d pairs "
+          "in %zu frames; first at frame %ld%s%s\n",
+          res.scene_pairs, res.scene_frames, res.first_scene_frame, res.first_scene_example.empty() ? "" : ": ",
+          res.first_scene_example.c_str());
     }
     std::fflush(stdout);
     io::write_file_atomic(json, io::audit_report_json(res, verdict, code, unfinished && o.partial));

@@ -235,7 +235,7 @@ int run_cell(const fs::path& dir, long index, int threads) {
       ao.stride = s.audit_stride;
       const auto a = io::audit_run(out, ao);
       verdict = !a.clean() ? "fail" : a.completed() ? "pass" : "incomplete";
-      const int acode = verdict == "fail" ? 1 : verdict == "pass" ? 0 : 4;
+      const int acode = io::audit_exit_code(a, verdict);
       io::write_file_atomic(out / "audit.json", io::audit_report_json(a, verdict, acode, verdict == "incomplete"));
     } catch (const Error& e) {
       spdlog::error("sweep cell {}: audit failed: {}", c.id, e.what());
@@ -663,11 +663,8 @@ std::vector<CellRow> collect_rows(const SweepLayout& s) {
         ao.stride = s.audit_stride;
         const auto a = io::audit_run(out, ao);
         const std::string verdict = !a.clean() ? "fail" : a.completed() ? "pass" : "incomplete";
-        const std::string text = io::audit_report_json(a, verdict,
-                                                       verdict == "fail"   ? 1
-                                                       : verdict == "pass" ? 0
-                                                                           : 4,
-                                                       verdict == "incomplete");
+        const std::string text =
+            io::audit_report_json(a, verdict, io::audit_exit_code(a, verdict), verdict == "incomplete");
         io::write_file_atomic(out / "audit.json", text);
         audit = Json::parse(text);
       } catch (const Error& e) {

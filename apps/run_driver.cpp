@@ -1,10 +1,14 @@
 #include "run_driver.hpp"
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <fstream>
 #include <optional>
+
+#include <nlohmann/json.hpp>
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
@@ -12,6 +16,7 @@
 #include "ccfr/geometry_exact/audit.hpp"
 #include "ccfr/io/checkpoint.hpp"
 #include "ccfr/io/dir_lock.hpp"
+#include "ccfr/io/obj.hpp"
 #include "ccfr/io/run_info.hpp"
 #include "ccfr/io/run_recorder.hpp"
 #include "ccfr/io/scene_loader.hpp"
@@ -118,7 +123,69 @@ Resume load_resume(const std::filesystem::path& dir) {
     throw Error("checkpoint '" + latest->string() + "' was written by ccfr " + r.ckpt.ccfr_version + " (commit " +
                 r.ckpt.git_commit + "), this is ccfr " + io::version() + " (commit " + io::git_commit() +
                 "): the resumed run would not match an uninterrupted one; resume with that build or run again");
+  // The checkpoint must be this run's: a checkpoint copied from another run names its own scene
+  // and matches it, so it is checked against what DIR/run.json says this run is.
+  std::ifstream in(dir / "run.json");
+  const nlohmann::json run = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
+  const std::string foreign = "checkpoint '" + latest->string() + "' does not belong to the run in '" + dir.string() +
+                              "' (copied from another run?): ";
+  if (run.is_object() && run.contains("scene_fingerprint") && run["scene_fingerprint"].is_string()) {
+    const std::string mine = run["scene_fingerprint"].get<std::string>();
+    const std::string theirs = fmt::format("{:016x}", r.ckpt.scene_fingerprint);
+    if (mine != theirs) throw Error(foreign + "its scene fingerprint is " + theirs + ", run.json records " + mine);
+  }
+  if (run.is_object() && run.contains("config")) {
+    const std::string diff = io::json_difference(run["config"].dump(), r.ckpt.resolved_config);
+    if (!diff.empty()) throw Error(foreign + "run.json's config and the checkpoint's differ at " + diff);
+  }
   return r;
+}
+
+// Every frame the run wrote up to the checkpoint must be on disk and readable, and the checkpoint's
+// own frame must hold its positions: a resumed run continues the frames on disk, so a missing or
+// foreign frame there would be a gap in the finished sequence that no one notices.
+void check_frames_before(const std::filesystem::path& dir, const Resume& r, const OutputParams& out) {
+  if (!out.frames) return;
+  if (!out.formats.empty() && std::find(out.formats.begin(), out.formats.end(), "obj") == out.formats.end()) return;
+  const int every = std::max(1, out.every);
+  std::vector<int> missing;
+  std::string unreadable;
+  for (int f = 0; f <= r.ckpt.sim.frame; f += every) {
+    const std::filesystem::path p = dir / "frames" / fmt::format("frame_{:05d}.obj", f);
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(p, ec)) {
+      missing.push_back(f);
+      continue;
+    }
+    std::ifstream fin(p);
+    std::string header;
+    if (unreadable.empty() && (!fin || !std::getline(fin, header) || header != "# ccfr frame")) unreadable = p.string();
+  }
+  const std::string why = "cannot resume '" + dir.string() + "' from '" + r.file.string() + "' (frame " +
+                          std::to_string(r.ckpt.sim.frame) + "): ";
+  if (!missing.empty()) {
+    std::string list;
+    for (size_t i = 0; i < missing.size() && i < 20; ++i) list += (i ? ", " : "") + std::to_string(missing[i]);
+    if (missing.size() > 20) list += " and " + std::to_string(missing.size() - 20) + " more";
+    throw Error(why + std::to_string(missing.size()) + " of the frames it follows " +
+                (missing.size() == 1 ? "is" : "are") + " missing from '" + (dir / "frames").string() + "' (" + list +
+                "); the finished run would have a gap: restore them or run again");
+  }
+  if (!unreadable.empty())
+    throw Error(why + "'" + unreadable + "' cannot be read as a ccfr frame; restore it or run again");
+  if (r.ckpt.sim.frame % every == 0) {
+    const std::filesystem::path p = dir / "frames" / fmt::format("frame_{:05d}.obj", r.ckpt.sim.frame);
+    io::Frame fr;
+    try {
+      fr = io::read_frame_obj(p);
+    } catch (const Error& e) {
+      throw Error(why + e.what());
+    }
+    if (fr.v != r.ckpt.sim.x)
+      throw Error(why + "'" + p.string() + "' does not hold the checkpoint's positions (" +
+                  std::to_string(fr.v.size()) + " vertices on disk, " + std::to_string(r.ckpt.sim.x.size()) +
+                  " in the checkpoint): frame and checkpoint come from different runs");
+  }
 }
 }  // namespace
 
@@ -158,6 +225,8 @@ RunSummary run_scene(const RunOptions& opts) {
   const std::uint64_t fingerprint = io::scene_fingerprint(loaded.scene.topo, loaded.scene.state);
   if (opts.advise && !resume)
     for (const std::string& advice : scene_advice(loaded.scene)) spdlog::warn("{}", advice);
+  if (opts.advise && !resume)
+    for (const std::string& clash : scripted_contacts(loaded.scene)) spdlog::warn("{}", clash);
   const SimulationParams params = loaded.scene.params;
   RunSummary summary;
   summary.out = resume ? opts.resume : opts.out;
@@ -175,6 +244,7 @@ RunSummary run_scene(const RunOptions& opts) {
       summary.resumed_after = resume->ckpt.sim.frame;
       return summary;
     }
+    check_frames_before(opts.resume, *resume, params.output);
   }
 
   Simulation sim(std::move(loaded.scene));
@@ -229,6 +299,7 @@ RunSummary run_scene(const RunOptions& opts) {
   };
   if (!opts.out.empty() || resume) {
     io::RunMeta meta = io::make_run_meta(sim, opts.command_line, opts.argv);
+    meta.scene_fingerprint = fingerprint;
     writer = resume ? std::make_unique<io::RunRecorder>(opts.resume, sim, loaded.resolved_json, std::move(meta),
                                                         params.time.frames, io::RunWriter::ResumeAt{first_frame - 1})
                     : std::make_unique<io::RunRecorder>(opts.out, sim, loaded.resolved_json, std::move(meta),

@@ -1,10 +1,15 @@
 #include "scene_advice.hpp"
 
 #include "ccfr/core/log.hpp"
+#include "ccfr/geometry/aabb.hpp"
+#include "ccfr/geometry/bvh.hpp"
+#include "ccfr/geometry/distance.hpp"
+#include "ccfr/geometry_exact/predicates.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 namespace ccfr::app {
 
@@ -80,6 +85,114 @@ std::vector<std::string> scene_advice(const Scene& scene) {
     if (!o.kinematic())
       too_fast(o.name, "initial velocity", op.initial_velocity.norm(),
                "the step bound makes extra outer iterations or holds the object back");
+  }
+  return out;
+}
+
+namespace {
+
+/// The first pair of faces of objects a and b (positions x) that intersect or lie within xi:
+/// {face of a, face of b, intersecting}; exact intersection, double distances.
+struct FaceContact {
+  Index fa = -1, fb = -1;
+  bool intersect = false;
+};
+
+std::optional<FaceContact> face_contact(const Topology& topo, const Positions& x, const ObjectInfo& a,
+                                        const ObjectInfo& b, double xi) {
+  // Boxes grown by xi/2: faces within xi of each other have overlapping boxes.
+  auto box = [&](Index f) {
+    const Vec3i& t = topo.faces[f];
+    AABB bx = AABB::of(x[t[0]], x[t[1]], x[t[2]]);
+    bx.inflate(0.5 * xi);
+    return bx;
+  };
+  // The BVH over the object with more faces, queried with the other's.
+  const bool swap = (a.face_end - a.face_begin) < (b.face_end - b.face_begin);
+  const ObjectInfo &big = swap ? b : a, &small = swap ? a : b;
+  std::vector<AABB> boxes;
+  for (Index f = big.face_begin; f < big.face_end; ++f) boxes.push_back(box(f));
+  if (boxes.empty() || small.face_end == small.face_begin) return std::nullopt;
+  Bvh bvh;
+  bvh.build(boxes, 4);
+  std::vector<Index> hits;
+  const double xi_sq = xi * xi;
+  std::optional<FaceContact> within;
+  for (Index g = small.face_begin; g < small.face_end; ++g) {
+    hits.clear();
+    bvh.query(box(g), hits);
+    const Vec3i& tg = topo.faces[g];
+    for (const Index h : hits) {
+      const Index f = big.face_begin + h;
+      const Vec3i& tf = topo.faces[f];
+      const FaceContact c{swap ? g : f, swap ? f : g, false};
+      if (exact::triangles_intersect(x[tf[0]], x[tf[1]], x[tf[2]], x[tg[0]], x[tg[1]], x[tg[2]]))
+        return FaceContact{c.fa, c.fb, true};
+      if (within) continue;
+      // Distance of two disjoint triangles: attained at a vertex-face or an edge-edge pair.
+      double d2 = std::numeric_limits<double>::infinity();
+      for (int k = 0; k < 3; ++k) {
+        d2 = std::min(d2, point_triangle(x[tf[k]], x[tg[0]], x[tg[1]], x[tg[2]]).distance_sq);
+        d2 = std::min(d2, point_triangle(x[tg[k]], x[tf[0]], x[tf[1]], x[tf[2]]).distance_sq);
+        for (int l = 0; l < 3; ++l)
+          d2 = std::min(d2, edge_edge(x[tf[k]], x[tf[(k + 1) % 3]], x[tg[l]], x[tg[(l + 1) % 3]]).distance_sq);
+      }
+      if (d2 < xi_sq) within = c;
+    }
+  }
+  return within;
+}
+
+}  // namespace
+
+std::vector<std::string> scripted_contacts(const Scene& scene, int max_samples) {
+  std::vector<std::string> out;
+  const Topology& topo = scene.topo;
+  const SimulationParams& p = scene.params;
+  const double xi = p.contact.offset;
+  std::vector<Index> scripted;  // obstacles with faces: their motion is known in advance
+  for (size_t o = 0; o < topo.objects.size() && o < p.objects.size(); ++o)
+    if (topo.objects[o].kind == ObjectKind::obstacle && topo.objects[o].face_end > topo.objects[o].face_begin)
+      scripted.push_back(static_cast<Index>(o));
+  if (scripted.size() < 2 || !(xi > 0.0)) return out;
+  bool any_moves = false;
+  for (const Index o : scripted) any_moves = any_moves || p.objects[o].motion.moves();
+
+  const int frames = std::max(0, p.time.frames);
+  const int samples = any_moves ? std::max(2, std::min(max_samples, frames + 1)) : 1;
+  Positions x = scene.state.x;
+  std::vector<std::uint8_t> reported(scripted.size() * scripted.size(), 0);
+  for (int s = 0; s < samples; ++s) {
+    const int frame =
+        samples == 1 ? 0 : static_cast<int>(std::llround(static_cast<double>(s) * frames / (samples - 1)));
+    const double t = p.time.fps > 0 ? frame / p.time.fps : 0.0;
+    std::vector<AABB> box(scripted.size());
+    for (size_t k = 0; k < scripted.size(); ++k) {
+      const ObjectInfo& o = topo.objects[scripted[k]];
+      const Motion& m = p.objects[scripted[k]].motion;
+      for (Index v = o.vertex_begin; v < o.vertex_end; ++v) {
+        if (s > 0 && m.moves())
+          x[v] = m.animation ? m.animation->at(v - o.vertex_begin, t) : m.apply(scene.state.rest[v], t);
+        box[k].expand(x[v]);
+      }
+      box[k].inflate(0.5 * xi);
+    }
+    for (size_t i = 0; i < scripted.size(); ++i)
+      for (size_t j = i + 1; j < scripted.size(); ++j) {
+        // Two static obstacles keep their frame-0 relation, which the audit's frame-0 rules decide.
+        if (!p.objects[scripted[i]].motion.moves() && !p.objects[scripted[j]].motion.moves()) continue;
+        if (reported[i * scripted.size() + j] || !box[i].overlaps(box[j])) continue;
+        const ObjectInfo &a = topo.objects[scripted[i]], &b = topo.objects[scripted[j]];
+        const auto c = face_contact(topo, x, a, b, xi);
+        if (!c) continue;
+        reported[i * scripted.size() + j] = 1;
+        out.push_back(fmt::format(
+            "obstacles '{}' and '{}' {} at frame {} (t = {:.4g} s; face {} of '{}' and face {} of '{}', {}): both are "
+            "scripted, so no solver can keep them apart, and `ccfr audit` reports their pairs as a scene error, not "
+            "as the method's failure. Move them apart or change their motion",
+            a.name, b.name, c->intersect ? "intersect" : "come closer than xi", frame, t, c->fa - a.face_begin, a.name,
+            c->fb - b.face_begin, b.name, c->intersect ? "intersecting" : fmt::format("closer than xi = {:.4g}", xi)));
+      }
   }
   return out;
 }

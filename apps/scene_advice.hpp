@@ -17,4 +17,11 @@ constexpr double kMaxOffsetOverEdge = 0.5;
 /// an initial velocity that covers more than r per substep. Empty when the scene is in range.
 std::vector<std::string> scene_advice(const Scene& scene);
 
+/// Scripted objects (obstacles, at least one of the two moving) that touch or come within ξ of each
+/// other at some time of the run,
+/// sampled at up to `max_samples` evenly spaced frames (always the first and the last): no solver
+/// can move them apart, so `ccfr audit` reports their pairs as a scene error. One line per pair of
+/// objects, naming the first sampled frame and the faces. Empty when none do.
+std::vector<std::string> scripted_contacts(const Scene& scene, int max_samples = 61);
+
 }  // namespace ccfr::app

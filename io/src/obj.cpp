@@ -152,7 +152,10 @@ Frame read_frame_obj(const fs::path& path) {
         char* end = nullptr;
         ci = std::strtod(tok.c_str(), &end);
         if (*end != '\0') fail(path, ln, "bad coordinate '" + tok + "'");
-        if (!std::isfinite(ci)) fail(path, ln, "non-finite coordinate '" + tok + "' (NaN or inf)");
+        const std::string vertex = "vertex " + std::to_string(nv + 1) + ": ";
+        if (!std::isfinite(ci)) fail(path, ln, vertex + "non-finite coordinate '" + tok + "' (NaN or inf)");
+        if (std::abs(ci) > kMaxCoordinate)
+          fail(path, ln, vertex + "coordinate '" + tok + "' is beyond +-1e6, ccfr's bound on coordinates");
       }
       fr.v.emplace_back(c[0], c[1], c[2]);
       current().vertex_end = static_cast<Index>(fr.v.size());

@@ -64,6 +64,8 @@ double parse_coordinate(const std::string& tok, const Tokens& t) {
   const double v = std::strtod(tok.c_str(), &end);
   if (tok.empty() || *end != '\0') fail(t.path(), t.line(), "bad coordinate '" + tok + "'");
   if (!std::isfinite(v)) fail(t.path(), t.line(), "non-finite coordinate '" + tok + "' (NaN or inf)");
+  if (std::abs(v) > kMaxCoordinate)
+    fail(t.path(), t.line(), "coordinate '" + tok + "' is beyond +-1e6, ccfr's bound on coordinates");
   return v;
 }
 

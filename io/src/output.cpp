@@ -515,6 +515,11 @@ void RunWriter::write_run_json(const std::string& status, bool finished) {
   j["frames_written"] = frames_written_;
   if (!resumed_json_.empty()) j["resumed"] = Json::parse(resumed_json_);
   j["vertices"] = topo_.num_vertices();
+  if (meta_.scene_fingerprint != 0) {
+    char fp[24];
+    std::snprintf(fp, sizeof fp, "%016llx", static_cast<unsigned long long>(meta_.scene_fingerprint));
+    j["scene_fingerprint"] = fp;
+  }
   if (const auto& ip = meta_.initial_proximity) {
     j["initial_proximity"] = {{"adjacent_excluded", ip->adjacent_excluded},
                               {"adjacent_kept", ip->adjacent_kept},

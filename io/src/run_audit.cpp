@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -49,6 +50,32 @@ std::vector<FrameFile> frame_files(const fs::path& dir) {
       throw Error("'" + out[i - 1].path.string() + "' and '" + out[i].path.string() + "' are both frame " +
                   std::to_string(out[i].number));
   return out;
+}
+
+constexpr size_t kMaxListedMissing = 1000000;
+
+// The frame numbers missing from a sequence: a run writes frames 0, every, 2 every, ... and its
+// last one (docs/output.md), so every multiple of `every` from `first` up to the last frame on
+// disk must be there. Without run.json the step is the smallest gap between two frames present.
+std::vector<long> missing_frames(const std::vector<FrameFile>& frames, long first, std::optional<long> every) {
+  std::vector<long> missing;
+  if (frames.empty()) return missing;
+  long step = every.value_or(0);
+  if (step <= 0) {
+    step = 0;
+    for (size_t i = 1; i < frames.size(); ++i)
+      if (step == 0 || frames[i].number - frames[i - 1].number < step) step = frames[i].number - frames[i - 1].number;
+    if (step <= 0) return missing;
+  }
+  size_t k = 0;
+  const long last = frames.back().number;
+  for (long n = first; n <= last; n += step) {
+    while (k < frames.size() && frames[k].number < n) ++k;
+    if (k == frames.size() || frames[k].number != n) missing.push_back(n);
+    // Bounds on the list's cost (frame numbers may be huge), not on the check: one is enough.
+    if (missing.size() >= kMaxListedMissing || n > last - step) break;
+  }
+  return missing;
 }
 
 std::string jstr(const std::string& s) {
@@ -116,6 +143,23 @@ RunAuditResult audit_run(const fs::path& dir, const RunAuditOptions& o, const Fr
     res.reference = o.reference;
   }
 
+  // A sequence with a hole certifies nothing about the hole: refuse it, naming what is missing.
+  {
+    const long first = o.reference.empty() ? 0 : frames.front().number;
+    const std::vector<long> missing = missing_frames(
+        frames, first, info.has_run_json ? std::optional<long>(info.output_every) : std::optional<long>());
+    if (!missing.empty()) {
+      std::string list;
+      for (size_t i = 0; i < missing.size() && i < 20; ++i) list += (i ? ", " : "") + std::to_string(missing[i]);
+      if (missing.size() > 20) list += " and " + std::to_string(missing.size() - 20) + " more";
+      throw Error(
+          "'" + (dir / "frames").string() + "' has a gap: " + (missing.size() >= kMaxListedMissing ? "at least " : "") +
+          std::to_string(missing.size()) + " frame" + (missing.size() == 1 ? " is" : "s are") +
+          " missing between frame " + std::to_string(first) + " and frame " + std::to_string(frames.back().number) +
+          " (" + list + "); the audit certifies a whole sequence only: restore the frames or run again");
+    }
+  }
+
   // Frames 0, K, 2K, ... (by position on disk) and always the last one.
   const size_t stride = static_cast<size_t>(res.stride);
   std::vector<size_t> picks;
@@ -129,7 +173,19 @@ RunAuditResult audit_run(const fs::path& dir, const RunAuditOptions& o, const Fr
   exact::AuditOptions opt;
   opt.offset = res.offset;
   opt.tolerance = o.tolerance;
-  exact::PenetrationAudit audit(topology_from_frame(reference, res.reference), reference.v, opt);
+  Topology topo = topology_from_frame(reference, res.reference);
+  if (!info.objects.empty()) {
+    opt.object_roles.assign(topo.objects.size(), 0);
+    for (const RunInfo::RigidObject& ro : info.objects)
+      for (size_t k = 0; k < topo.objects.size(); ++k)
+        if (topo.objects[k].name == ro.name) {
+          opt.object_roles[k] = static_cast<std::uint8_t>((ro.rigid ? exact::kRigidObject : 0) |
+                                                          (ro.scripted ? exact::kScriptedObject : 0));
+          res.rigid_objects += ro.rigid;
+          res.scripted_objects += ro.scripted;
+        }
+  }
+  exact::PenetrationAudit audit(std::move(topo), reference.v, opt);
   res.excluded_close_pairs = audit.excluded_close_pairs();
   res.reduced_offset_pairs = audit.reduced_offset_pairs();
   res.excluded_intersections = audit.excluded_intersections();
@@ -155,8 +211,20 @@ RunAuditResult audit_run(const fs::path& dir, const RunAuditOptions& o, const Fr
     row.triangle_intersections = r.triangle_intersections;
     row.segment_crossings = r.segment_crossings;
     row.close_pairs = r.close_pairs;
+    row.rigid_deformations = r.rigid_deformations;
+    row.scene_pairs = r.scene_pairs;
     row.min_distance = r.min_distance;
     for (const exact::AuditExample& e : r.examples) row.examples.push_back(e.describe());
+    for (const exact::AuditExample& e : r.scene_examples) row.scene_examples.push_back(e.describe());
+    if (res.rigid_objects > 0 && r.rigid_deformations == 0) ++res.rigid_frames;
+    if (r.scene_pairs > 0) {
+      res.scene_pairs += r.scene_pairs;
+      ++res.scene_frames;
+      if (res.first_scene_frame < 0) {
+        res.first_scene_frame = n;
+        if (!r.scene_examples.empty()) res.first_scene_example = r.scene_examples.front().describe();
+      }
+    }
     res.rows.push_back(std::move(row));
     res.min_distance = std::min(res.min_distance, r.min_distance);
     res.violations += r.penetrations();
@@ -194,6 +262,13 @@ std::string audit_report_json(const RunAuditResult& r, const std::string& verdic
   field("excluded_close_pairs", std::to_string(r.excluded_close_pairs));
   field("excluded_intersections", std::to_string(r.excluded_intersections));
   field("reduced_offset_pairs", std::to_string(r.reduced_offset_pairs));
+  field("rigid_objects", std::to_string(r.rigid_objects));
+  field("scripted_objects", std::to_string(r.scripted_objects));
+  field("rigid_frames", std::to_string(r.rigid_frames));
+  field("scene_error", r.scene_error() ? "true" : "false");
+  field("scene_pairs", std::to_string(r.scene_pairs));
+  field("scene_frames", std::to_string(r.scene_frames));
+  field("first_scene_frame", r.first_scene_frame >= 0 ? std::to_string(r.first_scene_frame) : "null");
   field("violations", std::to_string(r.violations));
   field("bad_frames", std::to_string(r.bad_frames));
   field("first_bad_frame", r.first_bad_frame >= 0 ? std::to_string(r.first_bad_frame) : "null");
@@ -209,7 +284,15 @@ std::string audit_report_json(const RunAuditResult& r, const std::string& verdic
          ", \"close_pairs\": " + std::to_string(f.close_pairs) + ", \"min_distance\": " + jnum(f.min_distance) +
          ", \"examples\": [";
     for (size_t k = 0; k < f.examples.size(); ++k) s += (k ? ", " : "") + jstr(f.examples[k]);
-    s += "]}";
+    s += "]";
+    // Only where they are not zero, so the rows of a scene without rigid or scripted objects read as before.
+    if (f.rigid_deformations > 0) s += ", \"rigid_deformations\": " + std::to_string(f.rigid_deformations);
+    if (f.scene_pairs > 0) {
+      s += ", \"scene_pairs\": " + std::to_string(f.scene_pairs) + ", \"scene_examples\": [";
+      for (size_t k = 0; k < f.scene_examples.size(); ++k) s += (k ? ", " : "") + jstr(f.scene_examples[k]);
+      s += "]";
+    }
+    s += "}";
   }
   s += r.rows.empty() ? "]\n}\n" : "\n  ]\n}\n";
   return s;
@@ -218,6 +301,12 @@ std::string audit_report_json(const RunAuditResult& r, const std::string& verdic
 std::string audit_error_json(const std::string& message, int exit_code) {
   return "{\n  \"verdict\": \"error\",\n  \"exit_code\": " + std::to_string(exit_code) +
          ",\n  \"error\": " + jstr(message) + "\n}\n";
+}
+
+int audit_exit_code(const RunAuditResult& result, const std::string& verdict) {
+  if (verdict == "fail") return 1;
+  if (verdict == "incomplete") return 4;
+  return result.scene_error() ? 5 : 0;
 }
 
 std::string audit_verdict(const RunAuditResult& result, bool partial) {

@@ -50,10 +50,20 @@ RunInfo read_run_info(const fs::path& dir, bool require_run_json) {
     if (n["frames_written"] && n["frames_written"].IsScalar()) info.frames_written = n["frames_written"].as<long>();
     // The resolved scene (run.json `config`): the renderer frames its pictures on what is not an obstacle.
     if (n["config"] && n["config"].IsMap() && n["config"]["objects"] && n["config"]["objects"].IsSequence())
-      for (const YAML::Node& o : n["config"]["objects"])
-        if (o.IsMap() && o["kind"] && o["kind"].IsScalar() && o["kind"].as<std::string>() == "obstacle" && o["name"] &&
-            o["name"].IsScalar())
-          info.obstacles.push_back(o["name"].as<std::string>());
+      for (const YAML::Node& o : n["config"]["objects"]) {
+        if (!o.IsMap() || !o["kind"] || !o["kind"].IsScalar() || !o["name"] || !o["name"].IsScalar()) continue;
+        const std::string kind = o["kind"].as<std::string>(), name = o["name"].as<std::string>();
+        if (kind == "obstacle") info.obstacles.push_back(name);
+        // An obstacle read from an OBJ sequence (`animation`) may deform; every other obstacle is
+        // its frame-0 shape moved rigidly. A rigid body with pins follows them: scripted.
+        const bool animated = o["animation"] && !o["animation"].IsNull();
+        const bool pinned = o["pins"] && o["pins"].IsSequence() && o["pins"].size() > 0;
+        if (kind == "obstacle") info.objects.push_back({name, !animated, true});
+        if (kind == "rigid") info.objects.push_back({name, true, pinned});
+      }
+    if (n["config"] && n["config"].IsMap() && n["config"]["output"] && n["config"]["output"].IsMap() &&
+        n["config"]["output"]["every"] && n["config"]["output"]["every"].IsScalar())
+      info.output_every = std::max(1L, n["config"]["output"]["every"].as<long>());
   } catch (const YAML::Exception& e) {
     throw Error("'" + rj.string() + "' is not valid JSON: " + e.msg);
   }

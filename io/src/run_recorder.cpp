@@ -22,11 +22,27 @@ RunMeta make_run_meta(const Simulation& sim, std::string command_line, std::vect
   return meta;
 }
 
+std::vector<std::uint8_t> audit_object_roles(const Topology& topo, const SimulationParams& params) {
+  std::vector<std::uint8_t> roles(topo.objects.size(), 0);
+  for (size_t o = 0; o < topo.objects.size() && o < params.objects.size(); ++o) {
+    const ObjectParams& op = params.objects[o];
+    if (topo.objects[o].kind == ObjectKind::obstacle) {
+      // An OBJ sequence (`animation` keys) may deform; keyframes are rigid transforms.
+      const bool animated = op.motion.animation && op.motion.animation->rotations.empty();
+      roles[o] = static_cast<std::uint8_t>(exact::kScriptedObject | (animated ? 0 : exact::kRigidObject));
+    } else if (topo.objects[o].kind == ObjectKind::rigid) {
+      roles[o] = static_cast<std::uint8_t>(exact::kRigidObject | (op.pins.empty() ? 0 : exact::kScriptedObject));
+    }
+  }
+  return roles;
+}
+
 AuditHook make_audit_hook(const Topology& topo, const Positions& initial, const SimulationParams& params,
                           std::shared_ptr<exact::PenetrationAudit>* audit_out) {
   exact::AuditOptions opt;
   opt.offset = params.contact.offset;
   opt.tolerance = params.debug.audit_tolerance;
+  opt.object_roles = audit_object_roles(topo, params);
   if (opt.offset <= 0.0) {
     spdlog::warn("debug.audit needs contact.offset > 0; the audit is off for this run");
     return {};

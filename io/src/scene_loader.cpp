@@ -216,6 +216,7 @@ class Builder {
       }
       check_rotation(o["transform"], path + ".transform");
       place(g, o["transform"]);
+      check_placed(g.v, path, name);
       const Counts actual = counts(g, kind, p.contact.offset + p.contact.radius + p.contact.repulsion_range);
       check_size(total, actual, spath, name, kind);
       total += actual;
@@ -803,6 +804,18 @@ class Builder {
                 {mpath + ".angular_velocity"});
   }
 
+  /// Placed coordinates beyond kMaxCoordinate (a mesh in the wrong unit, a huge scale): refused
+  /// here, naming the vertex, rather than found by the renderer or the export.
+  void check_placed(const Positions& v, const std::string& path, const std::string& name) const {
+    for (size_t i = 0; i < v.size(); ++i)
+      if (!(v[i].cwiseAbs().maxCoeff() <= kMaxCoordinate))
+        ctx_.fail(path + ".transform", in_node(path),
+                  "object '" + name + "': vertex " + std::to_string(i + 1) + " lies at (" +
+                      fmt::format("{:g}, {:g}, {:g}", v[i].x(), v[i].y(), v[i].z()) +
+                      ") once placed, beyond +-1e6 m, ccfr's bound on coordinates (check the mesh's unit and "
+                      "transform.scale)");
+  }
+
   void place(RawGeometry& g, const YAML::Node& t) {
     const double scale = t["scale"].as<double>();
     const Vec3 axis = v3(t["rotate_axis"]);
@@ -850,6 +863,7 @@ class Builder {
                   "'" + file.string() + "' has " + std::to_string(g.v.size()) + " vertices, the object " +
                       std::to_string(info.num_vertices()));
       place(g, o["transform"]);
+      check_placed(g.v, apath + ".path", info.name + "' (file " + std::to_string(number) + ")");
       anim->times.push_back(static_cast<double>(k) / fps);
       anim->keys.push_back(std::move(g.v));
     }

@@ -10,6 +10,7 @@
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/process.hpp"
+#include "ccfr/io/obj.hpp"
 #include "ccfr/io/user_file.hpp"
 
 namespace ccfr::io {
@@ -77,6 +78,8 @@ T get(std::istringstream& ls, Lines& f, const char* what) {
 double coord(std::istringstream& ls, Lines& f) {
   const double c = get<double>(ls, f, "a coordinate");
   if (!std::isfinite(c)) fail(f.path(), f.line(), "non-finite coordinate");
+  if (std::abs(c) > kMaxCoordinate)
+    fail(f.path(), f.line(), "coordinate " + std::to_string(c) + " is beyond +-1e6, ccfr's bound on coordinates");
   return c;
 }
 

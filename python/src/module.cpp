@@ -537,7 +537,7 @@ PYBIND11_MODULE(_core, m) {
         }
         a.verdict = io::audit_verdict(a.r, partial);
         if (write_report) {
-          const int code = a.verdict == "fail" ? 1 : a.verdict == "incomplete" ? 4 : 0;
+          const int code = io::audit_exit_code(a.r, a.verdict);
           io::write_file_atomic(
               dir / "audit.json",
               io::audit_report_json(a.r, a.verdict, code, partial && a.r.has_run_json && !a.r.completed()));

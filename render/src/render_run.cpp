@@ -20,6 +20,7 @@
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
+#include "ccfr/io/obj.hpp"
 
 extern char** environ;
 
@@ -53,6 +54,7 @@ Bounds scan_obj_bounds(const fs::path& path, const std::vector<std::string>& exc
   // skipped line by line.
   bool skipping = false;
   std::array<std::vector<double>, 3> coords;  // only with trim > 0
+  long line = 0, vertex = 0;
   while (s < end) {
     const void* nl = std::memchr(s, '\n', static_cast<size_t>(end - s));
     const char* line_end = nl ? static_cast<const char*>(nl) : end;
@@ -62,17 +64,28 @@ Bounds scan_obj_bounds(const fs::path& path, const std::vector<std::string>& exc
       while (!name.empty() && std::isspace(static_cast<unsigned char>(name.front()))) name.erase(name.begin());
       skipping = std::find(exclude.begin(), exclude.end(), name) != exclude.end();
     }
-    if (!skipping && s[0] == 'v' && s + 1 < end && (s[1] == ' ' || s[1] == '\t')) {
+    ++line;
+    if (s[0] == 'v' && s + 1 < end && (s[1] == ' ' || s[1] == '\t')) {
+      ++vertex;
       const char* q = s + 2;
       Vec3 p = Vec3::Zero();
       bool ok = true;
       for (int c = 0; c < 3 && ok; ++c) {
         char* next = nullptr;
         p[c] = std::strtod(q, &next);
-        ok = next != q && std::isfinite(p[c]);
+        ok = next != q;
+        // A coordinate the reader would refuse must not reach the camera fit (a camera at 1e200
+        // makes rays Embree asserts on): the same message as read_frame_obj's.
+        if (ok && !(std::abs(p[c]) <= kMaxCoordinate)) {
+          while (q < next && std::isspace(static_cast<unsigned char>(*q))) ++q;
+          const std::string tok(q, static_cast<const char*>(next));
+          throw Error(path.string() + ":" + std::to_string(line) + ": vertex " + std::to_string(vertex) + ": " +
+                      (std::isfinite(p[c]) ? "coordinate '" + tok + "' is beyond +-1e6, ccfr's bound on coordinates"
+                                           : "non-finite coordinate '" + tok + "' (NaN or inf)"));
+        }
         q = next;
       }
-      if (ok) {
+      if (ok && !skipping) {
         b.extend(p);
         if (trim > 0)
           for (int c = 0; c < 3; ++c) coords[c].push_back(p[c]);

@@ -10,6 +10,7 @@
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
 #include "ccfr/core/parallel.hpp"
+#include "ccfr/io/obj.hpp"
 
 namespace ccfr::render {
 
@@ -494,6 +495,17 @@ RenderResult Renderer::render(const io::Frame& frame, const View& view, const Re
             static_cast<size_t>(frame.faces[static_cast<size_t>(f)][k]) >= frame.v.size())
           throw Error("face " + std::to_string(f) + " of object '" + obj.name + "' indexes a missing vertex");
   }
+  // Embree asserts on rays and boxes that are not finite in float: refuse such a frame with the
+  // vertex named instead (frames read from disk are already checked by read_frame_obj).
+  for (size_t i = 0; i < frame.v.size(); ++i)
+    if (!(frame.v[i].cwiseAbs().maxCoeff() <= kMaxCoordinate)) {
+      std::string object;
+      for (const auto& o : frame.objects)
+        if (static_cast<Index>(i) >= o.vertex_begin && static_cast<Index>(i) < o.vertex_end) object = o.name;
+      throw Error(
+          "vertex " + std::to_string(i + 1) + (object.empty() ? "" : " (object '" + object + "')") +
+          " has a coordinate that is not finite or beyond +-1e6, ccfr's bound on coordinates: cannot render it");
+    }
   const FrameScene scene(impl_->device, frame, view);
   const Shader shader(scene, frame, view, options);
 

@@ -5,6 +5,7 @@
 #include <atomic>
 #include <cmath>
 
+#include "ccfr/core/bounds.hpp"
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
 #include "ccfr/core/parallel.hpp"
@@ -150,7 +151,9 @@ void Simulation::check_finite(const Positions& x, const char* stage) const {
       static_cast<Index>(x.size()),
       [&](Index b, Index e) {
         for (Index i = b; i < e; ++i)
-          if (!x[i].allFinite()) {
+          // Beyond the bound is refused like non-finite: frames must stay readable by render,
+          // export and the audit, which refuse such coordinates.
+          if (!(x[i].cwiseAbs().maxCoeff() <= kMaxCoordinate)) {
             Index cur = first.load();
             while (i < cur && !first.compare_exchange_weak(cur, i)) {
             }
@@ -162,6 +165,10 @@ void Simulation::check_finite(const Positions& x, const char* stage) const {
   if (v == std::numeric_limits<Index>::max()) return;
   // The last line of defence: the stage, the object and the vertex, global and within its object.
   const auto& o = scene_.topo.object_of_vertex(v);
+  if (x[v].allFinite())
+    throw Error("position beyond +-1e6 (ccfr's bound on coordinates) at frame " + std::to_string(frame_ + 1) +
+                ", vertex " + std::to_string(v) + " (object '" + o.name + "', vertex " +
+                std::to_string(v - o.vertex_begin) + " of the object), after stage '" + stage + "'");
   throw NumericalError(frame_ + 1, v, stage, o.name, v - o.vertex_begin);
 }
 

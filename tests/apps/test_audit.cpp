@@ -235,3 +235,261 @@ TEST(Audit, OffsetAloneAuditsForeignFramesAndStrideIsStated) {
   EXPECT_EQ(run("audit " + d.string() + " --offset 0.01 --stride 4").code, 0);
   EXPECT_EQ(run("audit " + d.string() + " --offset 0.01").code, 1);
 }
+
+namespace {
+
+// run.json of a completed run whose config names the objects' kinds (the audit reads `kind`,
+// `animation` and `pins` of config.objects) and output.every.
+void write_run_json_with_objects(const fs::path& d, int frames_written, const std::string& objects, int every = 1) {
+  std::ofstream(d / "run.json")
+      << R"({"scene": "x", "solver": "ccfr", "radius": 0.02, "offset": 0.01, "repulsion_range": 0, "fps": 60, )"
+      << R"("status": "completed", "frames_written": )" << frames_written << R"(, "config": {"output": {"every": )"
+      << every << R"(}, "objects": [)" << objects << "]}}\n";
+}
+
+// One object of two triangles: f in the plane z = z0 and g standing on it with its lowest vertex
+// `gap` above f's interior (a tooth over a spine). Vertices 1-3 are f, 4-6 are g.
+// `base`: vertices before this object in the frame (OBJ indices are global).
+std::string two_part(const std::string& name, double z0, double gap, int base = 0) {
+  char b[512];
+  std::snprintf(b, sizeof b,
+                "o %s\nv 0 0 %.17g\nv 1 0 %.17g\nv 0 1 %.17g\nv 0.3 0.3 %.17g\nv 0.4 0.3 %.17g\n"
+                "v 0.2 0.3 %.17g\nf %d %d %d\nf %d %d %d\n",
+                name.c_str(), z0, z0, z0, z0 + gap, z0 + 1, z0 + 1, base + 1, base + 2, base + 3, base + 4, base + 5,
+                base + 6);
+  return b;
+}
+
+}  // namespace
+
+// A frame missing from the middle of a sequence is refused with the frame named, never "all N
+// frames checked"; a run written with output.every K has only every K-th frame, and that is no gap.
+TEST(Audit, ASequenceWithAGapIsRefused) {
+  const fs::path d = scratch("gap");
+  write_run_json(d, "completed", 4);
+  for (int f : {0, 1, 2, 4}) write_frame(d, f, kClean);
+  auto r = run("audit " + d.string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("has a gap: 1 frame is missing between frame 0 and frame 4 (3)"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("all 4 frames"), std::string::npos) << r.out;
+  EXPECT_NE(read(d / "audit.json").find("\"verdict\": \"error\""), std::string::npos);
+  // --partial accepts an unfinished run, not a hole in it.
+  write_run_json(d, "running", 4);
+  EXPECT_EQ(run("audit " + d.string() + " --partial").code, 2);
+  write_frame(d, 3, kClean);
+  write_run_json(d, "completed", 5);
+  r = run("audit " + d.string());
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(last_line(r.out).rfind("PASS (all 5 frames checked)", 0), 0u) << r.out;
+
+  // output.every 2: frames 0, 2, 4 and the last (5) are the whole run; 0, 4, 5 miss frame 2.
+  const fs::path e = scratch("gap_every");
+  for (int f : {0, 2, 4, 5}) write_frame(e, f, kClean);
+  write_run_json_with_objects(e, 4, "", 2);
+  r = run("audit " + e.string());
+  EXPECT_EQ(r.code, 0) << r.out;
+  fs::remove(e / "frames" / "frame_00002.obj");
+  write_run_json_with_objects(e, 3, "", 2);
+  r = run("audit " + e.string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("missing between frame 0 and frame 5 (2)"), std::string::npos) << r.out;
+
+  // Without run.json the step is the smallest one present: 0, 10, 20, 40 miss 30.
+  const fs::path g = scratch("gap_foreign");
+  for (int f : {0, 10, 20, 40}) write_frame(g, f, kClean);
+  r = run("audit " + g.string() + " --offset 0.01");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("(30)"), std::string::npos) << r.out;
+  // Many missing frames are listed in part, with the count.
+  for (int f : {0, 1}) write_frame(g, f, kClean);
+  r = run("audit " + g.string() + " --offset 0.01");
+  EXPECT_NE(r.out.find("36 frames are missing"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("and 16 more"), std::string::npos) << r.out;
+}
+
+// A rigid object whose parts nearly touch (a comb's teeth on its spine): translated rigidly, the
+// rounding of its coordinates turns the near contact into a touching pair. Distances inside a rigid
+// motion do not change, so that is no failure of the method; the same change in a deforming object
+// is one, and a rigid object that deformed is caught as such.
+TEST(Audit, PairsInsideARigidObjectThatMovedRigidlyAreNotViolations) {
+  const fs::path d = scratch("rigid");
+  // Frame 0: g's lowest vertex 1e-300 above f (no contact in exact arithmetic); frame 1: both
+  // moved up by 0.1, where 0.1 + 1e-300 rounds to 0.1: g touches f.
+  write_frame(d, 0, two_part("comb", 0.0, 1e-300) + two_part("other", 5.0, 0.5, 6));
+  write_frame(d, 1, two_part("comb", 0.1, 1e-300) + two_part("other", 5.0, 0.5, 6));
+  const std::string other = R"({"name": "other", "kind": "cloth"})";
+  for (const char* kind : {"obstacle", "rigid"}) {
+    write_run_json_with_objects(d, 2, std::string(R"({"name": "comb", "kind": ")") + kind + "\"}, " + other);
+    const auto r = run("audit " + d.string());
+    EXPECT_EQ(r.code, 0) << kind << "\n" << r.out;
+    EXPECT_EQ(last_line(r.out).rfind("PASS (all 2 frames checked)", 0), 0u) << r.out;
+    EXPECT_NE(r.out.find("1 rigid objects"), std::string::npos) << r.out;
+    EXPECT_NE(read(d / "audit.json").find("\"rigid_objects\": 1"), std::string::npos);
+  }
+  // The same frames as a deforming object: a contact, the method's failure.
+  write_run_json_with_objects(d, 2, R"({"name": "comb", "kind": "shell"}, )" + other);
+  auto r = run("audit " + d.string());
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("triangle-triangle intersection: face 0 - face 1"), std::string::npos) << r.out;
+  // An obstacle animated by a sequence may deform, so its pairs are tested; no solver moves it,
+  // so what they find is the scene's.
+  write_run_json_with_objects(d, 2,
+                              R"({"name": "comb", "kind": "obstacle", "animation": {"path": "a%d.obj"}}, )" + other);
+  r = run("audit " + d.string());
+  EXPECT_EQ(r.code, 5) << r.out;
+  EXPECT_NE(r.out.find("face 0 - face 1 (objects 'comb' and 'comb')"), std::string::npos) << r.out;
+
+  // A rigid body bent: its tooth pushed 0.05 through the spine. The deformation is a violation and
+  // the pairs inside it are tested again.
+  write_frame(d, 1, two_part("comb", 0.0, -0.05) + two_part("other", 5.0, 0.5, 6));
+  write_run_json_with_objects(d, 2, R"({"name": "comb", "kind": "rigid"}, )" + other);
+  r = run("audit " + d.string());
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("rigid deformation: object 'comb' is no rigid transform of its reference shape: vertex 3"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("triangle-triangle intersection: face 0 - face 1"), std::string::npos) << r.out;
+  EXPECT_NE(last_line(r.out).find("2 violations in 1 frames"), std::string::npos) << r.out;
+
+  // A rotation by 90 degrees about z (exact in double) is rigid: nothing inside is tested.
+  std::string turned = "o comb\n";
+  for (const auto& p : std::vector<std::array<double, 3>>{
+           {0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0.3, 0.3, 1e-300}, {0.4, 0.3, 1}, {0.2, 0.3, 1}}) {
+    char b[128];
+    std::snprintf(b, sizeof b, "v %.17g %.17g %.17g\n", -p[1], p[0], p[2] + 0.1);
+    turned += b;
+  }
+  write_frame(d, 1, turned + "f 1 2 3\nf 4 5 6\n" + two_part("other", 5.0, 0.5, 6));
+  r = run("audit " + d.string());
+  EXPECT_EQ(r.code, 0) << r.out;
+}
+
+// Two scripted objects driven into each other (an obstacle spun through the floor): no solver can
+// move either, so the method passes and the scene is flagged apart, with exit code 5. A cloth
+// through the same floor is still the method's failure.
+TEST(Audit, PairsBetweenScriptedObjectsAreASceneErrorNotAViolation) {
+  const fs::path d = scratch("scene_error");
+  const std::string floor = "o floor\nv -1 0 -1\nv 1 0 -1\nv 0 0 1\nf 1 2 3\n";
+  auto arm = [](double y) {
+    char b[256];
+    std::snprintf(b, sizeof b, "o arm\nv 0 %.17g 0\nv 0.2 %.17g 0\nv 0 %.17g 0.2\nf 4 5 6\n", y, y + 1, y + 1);
+    return std::string(b);
+  };
+  write_frame(d, 0, floor + arm(0.5));
+  write_frame(d, 1, floor + arm(-0.5));  // through the floor
+  write_frame(d, 2, floor + arm(0.5));
+  write_run_json_with_objects(d, 3,
+                              R"({"name": "floor", "kind": "obstacle"}, {"name": "arm", "kind": "obstacle", )"
+                              R"("keyframes": [{"time": 0}]})");
+  auto r = run("audit " + d.string());
+  EXPECT_EQ(r.code, 5) << r.out;
+  EXPECT_NE(r.out.find("PASS (all 3 frames checked)"), std::string::npos) << r.out;
+  EXPECT_EQ(last_line(r.out).rfind("SCENE ERROR: the scene drives scripted objects into each other (not the method's "
+                                   "failure): 1 pairs in 1 frames; first at frame 1: triangle-triangle intersection: "
+                                   "face 0 - face 1 (objects 'floor' and 'arm')",
+                                   0),
+            0u)
+      << r.out;
+  const std::string j = read(d / "audit.json");
+  for (const char* key : {"\"verdict\": \"pass\"", "\"exit_code\": 5", "\"scene_error\": true", "\"scene_pairs\": 1",
+                          "\"first_scene_frame\": 1", "\"violations\": 0", "\"scripted_objects\": 2"})
+    EXPECT_NE(j.find(key), std::string::npos) << key << "\n" << j;
+
+  // A rigid body driven by pins is scripted too; a free rigid body is not.
+  write_run_json_with_objects(d, 3,
+                              R"({"name": "floor", "kind": "obstacle"}, {"name": "arm", "kind": "rigid", )"
+                              R"("pins": [{"indices": [0]}]})");
+  EXPECT_EQ(run("audit " + d.string()).code, 5);
+  write_run_json_with_objects(d, 3, R"({"name": "floor", "kind": "obstacle"}, {"name": "arm", "kind": "rigid"})");
+  EXPECT_EQ(run("audit " + d.string()).code, 1);
+  write_run_json_with_objects(d, 3, R"({"name": "floor", "kind": "obstacle"}, {"name": "arm", "kind": "cloth"})");
+  r = run("audit " + d.string());
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_EQ(r.out.find("SCENE ERROR"), std::string::npos) << r.out;
+}
+
+// A frame with a coordinate beyond ccfr's bound (1e6) or beyond double range is refused naming the
+// frame file, line and vertex, by the audit, `export` and `render` alike (render used to abort in
+// Embree; export wrote `inf` into float formats).
+TEST(Audit, FramesWithCoordinatesBeyondTheBoundAreRefusedEverywhere) {
+  const fs::path d = scratch("huge");
+  write_run_json(d, "completed", 2);
+  write_frame(d, 0, kClean);
+  for (const char* bad : {"1e200", "-2e6", "1e39", "inf"}) {
+    write_frame(d, 1,
+                std::string("o a\nv 0 0 0\nv ") + bad + " 0 0\nv 0 1 0\nf 1 2 3\n" +
+                    "o b\nv 0.2 0.2 1\nv 0.3 0.2 1\nv 0.2 0.3 1\nf 4 5 6\n");
+    const std::string where = (d / "frames" / "frame_00001.obj").string() + ":3: vertex 2: ";
+    for (const std::string cmd : {"audit " + d.string(), "export " + d.string() + " --format ply",
+                                  "render " + d.string() + " --width 32 --height 24 --samples 1 --ao 0"}) {
+      const auto r = run(cmd);
+      EXPECT_EQ(r.code, 2) << bad << ": " << cmd << "\n" << r.out;
+      EXPECT_NE(r.out.find(where), std::string::npos) << bad << ": " << cmd << "\n" << r.out;
+      EXPECT_EQ(r.out.find("internal error"), std::string::npos) << r.out;
+    }
+  }
+}
+
+// `ccfr run` warns before simulating when the scene drives two obstacles into each other, at the
+// first sampled frame where they come within xi: a block 0.5 above the floor falling at 0.9 m/s
+// comes within xi = 0.01 when 0.5 - 0.9 t < 0.01, first at frame 33 of 60 fps (t = 0.55 s); the
+// audit of that run passes the method and flags the scene.
+TEST(Audit, RunWarnsWhenTheSceneDrivesObstaclesIntoEachOther) {
+  const fs::path d = scratch("scripted_warning");
+  auto scene = [&](const std::string& motion) {
+    std::ofstream(d / "scene.yaml")
+        << "scene: s\ntime: {fps: 60, frames: 40, substeps: 1}\ncontact: {radius: 0.02, offset: 0.01}\nobjects:\n"
+           "  - name: floor\n    kind: obstacle\n    shape: {type: plane, size: 1, resolution: 2}\n"
+           "  - name: block\n    kind: obstacle\n    shape: {type: box, size: [0.2, 0.2, 0.2]}\n"
+           "    transform: {translate: [0, 0.6, 0]}\n"
+        << motion
+        << "  - name: sheet\n    kind: cloth\n    shape: {type: grid, size: [0.1, 0.1], resolution: [2, 2]}\n"
+           "    transform: {translate: [5, 2, 0]}\n";
+    // The whole run: the warning samples the frames the scene will simulate.
+    return run("run " + (d / "scene.yaml").string() + " -q --out " + (d / "o").string() + " --force");
+  };
+  auto r = scene("    motion: {velocity: [0, -0.9, 0]}\n");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("obstacles 'floor' and 'block' come closer than xi at frame 33 (t = 0.55 s; face "),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("`ccfr audit` reports their pairs as a scene error"), std::string::npos) << r.out;
+  r = run("audit " + (d / "o").string());
+  EXPECT_EQ(r.code, 5) << r.out;
+  EXPECT_NE(r.out.find("first at frame 33: "), std::string::npos) << r.out;
+  // Moving away, or both static (touching or not), draws no warning.
+  r = scene("    motion: {velocity: [0, 0.9, 0]}\n");
+  EXPECT_EQ(r.out.find("obstacles '"), std::string::npos) << r.out;
+  r = scene("");
+  EXPECT_EQ(r.out.find("obstacles '"), std::string::npos) << r.out;
+}
+
+// The comb generator's teeth rest on its spine; moved by `motion`, the rounding of the translation
+// turns near contacts inside it into touching pairs. Neither `ccfr audit` nor the in-simulation
+// audit (debug.audit, which stopped this run at frame 1 with "9 penetration(s)") may count them.
+TEST(Audit, AMovingCombIsCleanForTheRunAndTheAudit) {
+  const fs::path d = scratch("comb");
+  std::ofstream(d / "scene.yaml")
+      << "scene: comb\ntime: {fps: 60, frames: 6, substeps: 4, iterations: 2}\n"
+         "contact: {solver: ccfr, radius: 0.1, offset: 0.04, repulsion_range: 0.02}\n"
+         "debug: {audit: every_frame}\nobjects:\n"
+         "  - name: comb\n    kind: obstacle\n"
+         "    shape: {type: comb, length: 2.0, width: 0.2, spine_height: 0.3, teeth: 16, tooth_length: 1.0, "
+         "tooth_width: 0.06}\n"
+         "    transform: {rotate_axis: [0, 0, 1], rotate_deg: 180, translate: [0, 0.5, -1]}\n"
+         "    motion: {velocity: [0, 0, 1.3]}\n"
+         "  - name: curtain\n    kind: strand\n"
+         "    shape: {type: strands, count: 4, vertices: 10, length: 1, spread: 2.5, layout: row}\n"
+         "    transform: {translate: [0, 4, 0]}\n    pins: [{box_min: [-3, 3.99, -1], box_max: [3, 4.01, 1]}]\n";
+  auto r = run("run " + (d / "scene.yaml").string() + " -q --out " + (d / "out").string() + " --force");
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (const std::string& p : ccfr::test::csv_column(d / "out" / "stats.csv", "penetrations")) EXPECT_EQ(p, "0");
+  r = run("audit " + (d / "out").string());
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(last_line(r.out).rfind("PASS (all 7 frames checked)", 0), 0u) << r.out;
+  // Without the roles (an audit of the bare frames with --offset) the same frames fail: the test
+  // would prove nothing if the comb's own pairs did not flip.
+  fs::rename(d / "out" / "run.json", d / "run.json.saved");
+  r = run("audit " + (d / "out").string() + " --offset 0.04");
+  EXPECT_EQ(r.code, 1) << r.out;
+}

@@ -276,3 +276,76 @@ TEST(Checkpoint, DamagedOrMismatchedCheckpointsAreRefused) {
 TEST(Checkpoint, ResumeIsIdenticalUnderTheFclBroadPhase) {
   check_resume_is_identical({"fcl", "two_sheets.yaml", {"collision.broad_phase=fcl"}, 16, 4, 8, SIGKILL});
 }
+
+// A checkpoint is resumed only in the run that wrote it, and only after every frame before it:
+// a checkpoint copied from another scene's run matches its own scene and used to be accepted (the
+// frames after it were then the other scene's), and a frame deleted before the resume left a gap
+// that the finished run and its audit did not show.
+TEST(Checkpoint, ResumeRefusesAForeignCheckpointAndMissingFrames) {
+  const fs::path root = ccfr::test::scratch_dir("checkpoint_belongs");
+  const fs::path scene_a = root / "a.yaml", scene_b = root / "b.yaml";
+  const std::string text = read(config("two_sheets.yaml"));
+  write(scene_a, text);
+  const size_t at = text.find("resolution: [26, 26]");
+  ASSERT_NE(at, std::string::npos);
+  write(scene_b, text.substr(0, at) + "resolution: [20, 20]" + text.substr(at + 20));  // another vertex count
+  const fs::path a = root / "a", b = root / "b";
+  for (const auto& [scene, dir] : {std::pair{scene_a, a}, std::pair{scene_b, b}}) {
+    const auto r = run_ccfr("run '" + scene.string() + "' --frames 5 --set output.checkpoint_every=2 --out '" +
+                            dir.string() + "' --log-level warn");
+    ASSERT_EQ(r.code, 0) << r.out;
+  }
+  auto rj = nlohmann::json::parse(read(a / "run.json"));
+  ASSERT_TRUE(rj.contains("scene_fingerprint")) << rj.dump();
+  EXPECT_EQ(rj["scene_fingerprint"].get<std::string>().size(), 16u);
+  rj["status"] = "running";  // pretend it was cut short after its checkpoint of frame 4
+  write(a / "run.json", rj.dump());
+  const fs::path ck = ccfr::io::checkpoint_path(a, 4);
+  const std::string own = read(ck), frame5 = read(a / "frames" / "frame_00005.obj");
+  const std::string resume = "run --resume '" + a.string() + "' --log-level warn";
+
+  // B's checkpoint copied into A: another fingerprint than A's run.json records.
+  write(ck, read(ccfr::io::checkpoint_path(b, 4)));
+  auto r = run_ccfr(resume);
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("does not belong to the run in '" + a.string() + "'"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("its scene fingerprint is"), std::string::npos) << r.out;
+  EXPECT_EQ(read(a / "frames" / "frame_00005.obj"), frame5) << "a refused resume changes nothing";
+  // A run.json without the fingerprint (an older ccfr): its config tells the runs apart.
+  auto old = rj;
+  old.erase("scene_fingerprint");
+  write(a / "run.json", old.dump());
+  r = run_ccfr(resume);
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("run.json's config and the checkpoint's differ at objects"), std::string::npos) << r.out;
+  write(a / "run.json", rj.dump());
+  write(ck, own);
+
+  // A frame before the checkpoint deleted, or not a frame, or another run's frame 4.
+  const fs::path f2 = a / "frames" / "frame_00002.obj", f4 = a / "frames" / "frame_00004.obj";
+  const std::string frame2 = read(f2), frame4 = read(f4);
+  fs::remove(f2);
+  r = run_ccfr(resume);
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("1 of the frames it follows is missing from '" + (a / "frames").string() + "' (2)"),
+            std::string::npos)
+      << r.out;
+  write(f2, "garbage\n");
+  r = run_ccfr(resume);
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("'" + f2.string() + "' cannot be read as a ccfr frame"), std::string::npos) << r.out;
+  write(f2, frame2);
+  write(f4, read(a / "frames" / "frame_00003.obj"));
+  r = run_ccfr(resume);
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("does not hold the checkpoint's positions"), std::string::npos) << r.out;
+  write(f4, frame4);
+
+  // Everything in place: the resume completes and the audit certifies the whole sequence.
+  r = run_ccfr(resume);
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(read(a / "frames" / "frame_00005.obj"), frame5);
+  r = run_ccfr("audit '" + a.string() + "'");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("PASS (all 6 frames checked)"), std::string::npos) << r.out;
+}

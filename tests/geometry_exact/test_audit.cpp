@@ -278,3 +278,83 @@ TEST(Audit, RejectsBadInput) {
 
 }  // namespace
 }  // namespace ccfr::exact
+
+namespace ccfr::exact {
+namespace {
+
+// Two sheets folded onto each other 0.5 xi apart in one object: closer than xi at the reference, so
+// checked against a reduced offset of 0.45 xi. Rigid motion keeps that; squeezing does not.
+struct FoldedObject {
+  Topology topo;
+  Positions x;
+  FoldedObject() {
+    TopologyBuilder b;
+    std::vector<Vec3i> faces{{0, 1, 2}, {3, 4, 5}};
+    x = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0.2, 0.2, 0.5 * kXi}, {1.2, 0.2, 0.5 * kXi}, {0.2, 1.2, 0.5 * kXi}};
+    b.add_object("folded", ObjectKind::cloth, 6, faces);
+    b.add_object("other", ObjectKind::cloth, 3, {{0, 1, 2}});
+    for (const Vec3& p : {Vec3(5, 0, 0), Vec3(6, 0, 0), Vec3(5, 1, 0)}) x.push_back(p);
+    topo = b.finish();
+  }
+};
+
+// The rigidity test is a best rigid fit: any rotation (here 37 degrees about (1, 2, 3)) and
+// translation is accepted; the same with one vertex moved by 1e-6 of the object's extent is a
+// deformation, found and reported, and the pairs inside are then tested again (the squeeze to
+// 0.2 xi breaks the reduced offset of 0.45 xi).
+TEST(Audit, RigidRolesSkipPairsInsideARigidTransformAndCatchADeformation) {
+  FoldedObject f;
+  AuditOptions o;
+  o.offset = kXi;
+  o.object_roles = {kRigidObject, 0};
+  const PenetrationAudit audit(f.topo, f.x, o);
+  const Eigen::Matrix3d r = Eigen::AngleAxisd(37.0 * M_PI / 180.0, Vec3(1, 2, 3).normalized()).toRotationMatrix();
+  Positions moved = f.x;
+  for (Index v = 0; v < 6; ++v) moved[v] = r * f.x[v] + Vec3(0.3, -2, 7);
+  EXPECT_TRUE(audit.audit(moved).clean());
+
+  Positions bent = moved;
+  bent[4] += Vec3(0, 0, 1e-6 * std::sqrt(2.0) * 1.2);  // 1e-6 of the extent (diagonal 1.2 sqrt(2))
+  FrameAudit a = audit.audit(bent);
+  EXPECT_EQ(a.rigid_deformations, 1);
+  ASSERT_FALSE(a.examples.empty());
+  EXPECT_EQ(a.examples.front().kind, AuditExample::Kind::rigid_deformation);
+  EXPECT_EQ(a.examples.front().object, "folded");
+
+  Positions squeezed = f.x;
+  for (Index v = 3; v < 6; ++v) squeezed[v].z() = 0.2 * kXi;
+  a = audit.audit(squeezed);
+  EXPECT_EQ(a.rigid_deformations, 1);
+  EXPECT_GT(a.close_pairs, 0);
+  EXPECT_EQ(a.penetrations(), a.close_pairs + 1);
+  // Without roles the squeeze is the same close pairs, and no deformation.
+  AuditOptions plain = o;
+  plain.object_roles.clear();
+  EXPECT_EQ(PenetrationAudit(f.topo, f.x, plain).audit(squeezed).penetrations(), a.close_pairs);
+}
+
+// Pairs between two scripted objects are a scene error, not a penetration; between a scripted and a
+// free object they are penetrations as before.
+TEST(Audit, PairsBetweenScriptedObjectsAreCountedApart) {
+  FoldedObject f;
+  Positions through = f.x;
+  for (Index v = 6; v < 9; ++v) through[v] = f.x[v - 6] + Vec3(0.1, 0.1, -0.5 * kXi);  // 'other' under 'folded'
+  through[8].z() += kXi;                                                               // tilted through it
+  AuditOptions o;
+  o.offset = kXi;
+  o.object_roles = {kScriptedObject | kRigidObject, kScriptedObject};
+  const FrameAudit scene = PenetrationAudit(f.topo, f.x, o).audit(through);
+  EXPECT_EQ(scene.penetrations(), 0);
+  EXPECT_GT(scene.scene_pairs, 0);
+  ASSERT_FALSE(scene.scene_examples.empty());
+  EXPECT_NE(scene.scene_examples.front().describe().find("(objects '"), std::string::npos);
+  o.object_roles = {kScriptedObject | kRigidObject, 0};
+  const FrameAudit method = PenetrationAudit(f.topo, f.x, o).audit(through);
+  EXPECT_EQ(method.scene_pairs, 0);
+  EXPECT_EQ(method.penetrations(), scene.scene_pairs);
+  o.object_roles = {kRigidObject};  // one role for two objects
+  EXPECT_THROW(PenetrationAudit(f.topo, f.x, o), Error);
+}
+
+}  // namespace
+}  // namespace ccfr::exact

@@ -10,6 +10,7 @@
 #include "ccfr/core/error.hpp"
 #include "ccfr/io/frame_topology.hpp"
 #include "ccfr/io/obj.hpp"
+#include "ccfr/io/scene_loader.hpp"
 #include "cli_support.hpp"
 
 namespace fs = std::filesystem;
@@ -71,4 +72,40 @@ TEST(FrameReader, MixedBlocksAndElementlessVerticesAreRefusedWithFileAndLine) {
   EXPECT_EQ(t.objects[1].kind, ObjectKind::strand);
   EXPECT_EQ(t.objects[2].kind, ObjectKind::particles);
   EXPECT_EQ(io::unreferenced_vertices(t), 1);
+}
+
+// Coordinates beyond ccfr's bound (|x| <= 1e6) or beyond double range are refused where they are
+// read, naming the file, line and vertex: an OBJ obstacle at 1e200 used to pass the loader (or be
+// called "zero area"), run, and abort the renderer in Embree.
+TEST(FrameReader, CoordinatesBeyondTheBoundAreRefusedWithFileLineAndVertex) {
+  for (const char* bad : {"1e200", "-1e200", "1000000.5", "1e39", "1e309"}) {
+    const fs::path p = write_obj("huge", std::string("o a\nv 0 0 0\nv 1 0 0\nv 0 ") + bad + " 0\nf 1 2 3\n");
+    const std::string e = test::error_of([&] { io::read_frame_obj(p); });
+    EXPECT_NE(e.find("ccfr_reader_huge.obj:4: vertex 3: "), std::string::npos) << bad << ": " << e;
+    EXPECT_NE(e.find(std::string(bad) == "1e309" ? "non-finite" : "beyond +-1e6"), std::string::npos) << e;
+  }
+  // The bound itself is accepted.
+  EXPECT_EQ(io::read_frame_obj(write_obj("bound", "o a\nv 0 0 0\nv 1e6 0 0\nv 0 -1e6 0\nf 1 2 3\n")).v[1].x(), 1e6);
+
+  const fs::path d = test::scratch_dir("reader_bounds");
+  test::write_text(d, "far.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1e200 0\n3 0 1 2\n");
+  const std::string off = test::error_of([&] { io::read_off_mesh(d / "far.off"); });
+  EXPECT_NE(off.find("far.off:5: coordinate '1e200' is beyond +-1e6"), std::string::npos) << off;
+
+  // In a scene: the OBJ obstacle's own line, not "zero area".
+  test::write_text(d, "far.obj", "v 0 0 0\nv 1 0 0\nv 0 1e200 0\nf 1 2 3\n");
+  auto scene = [](const std::string& path, double scale) {
+    return "scene: t\ntime: {frames: 1}\nobjects:\n  - name: wall\n    kind: obstacle\n    shape: {type: mesh, path: " +
+           path + "}\n    transform: {scale: " + std::to_string(scale) + "}\n";
+  };
+  std::string e = test::error_of([&] { io::load_scene_text(scene("far.obj", 1.0), "s.yaml", d); });
+  EXPECT_NE(e.find("far.obj:3: vertex 3: coordinate '1e200' is beyond +-1e6"), std::string::npos) << e;
+  EXPECT_EQ(e.find("zero area"), std::string::npos) << e;
+  // Within the bound in the file, beyond it once placed: the vertex and the transform are named.
+  test::write_text(d, "km.obj", "v 0 0 0\nv 1000 0 0\nv 0 1000 0\nf 1 2 3\n");
+  e = test::error_of([&] { io::load_scene_text(scene("km.obj", 5000.0), "s.yaml", d); });
+  EXPECT_NE(e.find("objects[0].transform"), std::string::npos) << e;
+  EXPECT_NE(e.find("object 'wall': vertex 2 lies at (5e+06, 0, 0) once placed, beyond +-1e6 m"), std::string::npos)
+      << e;
+  EXPECT_NO_THROW(io::load_scene_text(scene("km.obj", 1000.0), "s.yaml", d));
 }

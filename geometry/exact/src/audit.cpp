@@ -5,6 +5,8 @@
 #include <sstream>
 #include <utility>
 
+#include <Eigen/SVD>
+
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/geometry/aabb.hpp"
@@ -65,6 +67,8 @@ const char* to_string(AuditExample::Kind kind) {
       return "vertex-edge";
     case AuditExample::Kind::vertex_vertex:
       return "vertex-vertex";
+    case AuditExample::Kind::rigid_deformation:
+      return "rigid deformation";
   }
   return "?";
 }
@@ -74,8 +78,14 @@ std::string AuditExample::describe() const {
                                    {"edge", "edge"}, {"vertex", "edge"}, {"vertex", "vertex"}};
   const auto k = static_cast<int>(kind);
   std::ostringstream s;
+  if (kind == Kind::rigid_deformation) {
+    s << to_string(kind) << ": object '" << object << "' is no rigid transform of its reference shape: vertex " << a
+      << " is " << distance << " from its best rigid fit";
+    return s.str();
+  }
   s << to_string(kind) << ": " << names[k][0] << ' ' << a << " - " << names[k][1] << ' ' << b;
   if (kind != Kind::triangle_triangle && kind != Kind::segment_triangle) s << " at distance " << distance;
+  if (!object.empty()) s << " (objects '" << object << "')";
   return s.str();
 }
 
@@ -86,6 +96,12 @@ PenetrationAudit::PenetrationAudit(Topology topology, const Positions& reference
   if (!(opt_.tolerance >= 0.0 && opt_.tolerance < 1.0))
     throw Error("audit: the tolerance must lie in [0, 1) (got " + std::to_string(opt_.tolerance) + ")");
   check_finite(topo_, reference, "the reference configuration");
+  if (!opt_.object_roles.empty() && opt_.object_roles.size() != topo_.objects.size())
+    throw Error("audit: " + std::to_string(opt_.object_roles.size()) + " object roles given, the topology has " +
+                std::to_string(topo_.objects.size()) + " objects");
+  if (std::any_of(opt_.object_roles.begin(), opt_.object_roles.end(),
+                  [](std::uint8_t r) { return (r & kRigidObject) != 0; }))
+    reference_ = reference;
 
   vertex_role_.assign(static_cast<size_t>(topo_.num_vertices()), 0);
   for (const Vec3i& f : topo_.faces)
@@ -218,6 +234,50 @@ double PenetrationAudit::pair_offset(std::uint64_t k) const {
                                               : opt_.offset;
 }
 
+std::vector<std::uint8_t> PenetrationAudit::rigid_now(const Positions& x, FrameAudit* report) const {
+  std::vector<std::uint8_t> rigid(topo_.objects.size(), 0);
+  if (reference_.empty()) return rigid;
+  for (size_t o = 0; o < topo_.objects.size(); ++o) {
+    if (!(opt_.object_roles[o] & kRigidObject)) continue;
+    const ObjectInfo& obj = topo_.objects[o];
+    const Index n = obj.vertex_end - obj.vertex_begin;
+    if (n == 0) continue;
+    // The best rigid fit of the reference onto x (Kabsch: centroids, then the rotation from the
+    // SVD of the cross-covariance, a reflection turned into a rotation).
+    Vec3 cp = Vec3::Zero(), cq = Vec3::Zero();
+    AABB box;
+    for (Index v = obj.vertex_begin; v < obj.vertex_end; ++v) {
+      cp += reference_[v];
+      cq += x[v];
+      box.expand(reference_[v]);
+    }
+    cp /= static_cast<double>(n);
+    cq /= static_cast<double>(n);
+    Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
+    for (Index v = obj.vertex_begin; v < obj.vertex_end; ++v) h += (reference_[v] - cp) * (x[v] - cq).transpose();
+    const Eigen::JacobiSVD<Eigen::Matrix3d> svd(h, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
+    d(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1.0 : 1.0;
+    const Eigen::Matrix3d r = svd.matrixV() * d * svd.matrixU().transpose();
+    double worst = 0.0;
+    Index worst_v = obj.vertex_begin;
+    for (Index v = obj.vertex_begin; v < obj.vertex_end; ++v) {
+      const double dev = (r * (reference_[v] - cp) + cq - x[v]).norm();
+      if (dev > worst) worst = dev, worst_v = v;
+    }
+    const double extent = (box.hi - box.lo).norm();
+    if (worst <= opt_.rigid_tolerance * extent) {
+      rigid[o] = 1;
+    } else if (report) {
+      ++report->rigid_deformations;
+      if (report->examples.size() < static_cast<size_t>(std::max(opt_.max_examples, 0)))
+        report->examples.push_back(
+            AuditExample{AuditExample::Kind::rigid_deformation, worst_v, static_cast<Index>(o), worst, obj.name});
+    }
+  }
+  return rigid;
+}
+
 FrameAudit PenetrationAudit::audit(const Positions& x) const {
   check_finite(topo_, x, "the configuration");
   return run(x, false, nullptr, nullptr, nullptr);
@@ -295,10 +355,33 @@ FrameAudit PenetrationAudit::run(const Positions& x, bool reference_pass, std::v
       boxes[i] = b;
     }
   });
+  // Rigid objects that moved rigidly: their pairs with themselves are skipped (unchanged but for
+  // round-off since the reference); scripted objects: their pairs with each other are a scene error.
+  FrameAudit rigid_report;
+  const std::vector<std::uint8_t> rigid =
+      reference_pass ? std::vector<std::uint8_t>(topo_.objects.size(), 0) : rigid_now(x, &rigid_report);
+  const bool roles = !opt_.object_roles.empty();
+  auto object_of = [&](Index i) {
+    return i < nv ? topo_.vertex_object[i] : i < nv + ne ? topo_.edge_object[i - nv] : topo_.face_object[i - nv - ne];
+  };
+
   Bvh bvh;
   bvh.build(boxes, 4);
   std::vector<std::pair<Index, Index>> pairs;
-  bvh.self_pairs(pairs);
+  // The pairs inside a rigid object that moved rigidly are never enumerated: a rigid pile of
+  // scanned meshes costs only its pairs between objects.
+  std::vector<std::uint32_t> groups;
+  if (std::find(rigid.begin(), rigid.end(), 1) != rigid.end()) {
+    groups.assign(boxes.size(), 0);
+    for (Index i = 0; i < nv + ne + nf; ++i) {
+      const Index o = object_of(i);
+      if (rigid[o]) groups[i] = static_cast<std::uint32_t>(o + 1);
+    }
+  }
+  if (groups.empty())
+    bvh.self_pairs(pairs);
+  else
+    bvh.self_pairs(pairs, {}, groups);
 
   const Index num_pairs = static_cast<Index>(pairs.size());
   const Index chunks = default_chunk_count(std::max<Index>(num_pairs, 1));
@@ -308,9 +391,15 @@ FrameAudit PenetrationAudit::run(const Positions& x, bool reference_pass, std::v
   parallel_chunks(num_pairs, chunks, [&](Index c, Index begin, Index end) {
     Scan& sc = scans[c];
     FrameAudit& r = sc.result;
+    bool scene = false;  // the pair being tested joins two scripted objects
+    Index scene_a = 0, scene_b = 0;
     auto example = [&](AuditExample::Kind kind, Index a, Index b, double d) {
-      if (r.examples.size() < max_examples) r.examples.push_back(AuditExample{kind, a, b, d});
+      auto& list = scene ? r.scene_examples : r.examples;
+      if (list.size() >= max_examples) return;
+      list.push_back(AuditExample{kind, a, b, d, {}});
+      if (scene) list.back().object = topo_.objects[scene_a].name + "' and '" + topo_.objects[scene_b].name;
     };
+    auto count = [&](Index& counter) { ++(scene ? r.scene_pairs : counter); };
     // A distance sub-pair: range filter in double, exclusions, then the exact verdict.
     auto distance_pair = [&](std::uint64_t k, double d2, AuditExample::Kind kind, Index a, Index b, auto&& exact_cmp) {
       if (!(d2 < (reference_pass ? xi_range_sq : range_sq))) return;
@@ -320,9 +409,11 @@ FrameAudit PenetrationAudit::run(const Positions& x, bool reference_pass, std::v
         return;
       }
       if (contains(excluded_close_, k)) return;
-      ++r.checked_pairs;
       const double d = std::sqrt(d2);
-      r.min_distance = std::min(r.min_distance, d);
+      if (!scene) {  // the margin the method kept, not the scene's
+        ++r.checked_pairs;
+        r.min_distance = std::min(r.min_distance, d);
+      }
       // A pair that started closer than xi is checked against its own (reduced) offset.
       double pair_limit_sq = limit_sq, pair_range_sq = xi_range_sq;
       if (!reduced_key_.empty()) {
@@ -334,13 +425,19 @@ FrameAudit PenetrationAudit::run(const Positions& x, bool reference_pass, std::v
         }
       }
       if (d2 < pair_range_sq && exact_cmp(pair_limit_sq) < 0) {
-        ++r.close_pairs;
+        count(r.close_pairs);
         example(kind, a, b, d);
       }
     };
 
     for (Index p = begin; p < end; ++p) {
       const auto [i, j] = pairs[p];  // i < j, so i's element type comes first: V < E < F
+      if (roles && !reference_pass) {
+        const Index oi = object_of(i), oj = object_of(j);
+        if (oi == oj && rigid[oi]) continue;  // not enumerated by the BVH; kept for clarity
+        scene = (opt_.object_roles[oi] & kScriptedObject) && (opt_.object_roles[oj] & kScriptedObject);
+        scene_a = oi, scene_b = oj;
+      }
       if (j < nv) {
         // vertex-vertex: only between particles (meshes and strands: covered by VF / EE)
         if (vertex_role_[i] != 2 || vertex_role_[j] != 2) continue;
@@ -379,7 +476,7 @@ FrameAudit PenetrationAudit::run(const Positions& x, bool reference_pass, std::v
         if (reference_pass) {
           sc.st.push_back(k);
         } else if (!contains(excluded_st_, k)) {
-          ++r.segment_crossings;
+          count(r.segment_crossings);
           example(AuditExample::Kind::segment_triangle, e, f, 0.0);
         }
       } else {
@@ -391,7 +488,7 @@ FrameAudit PenetrationAudit::run(const Positions& x, bool reference_pass, std::v
         if (reference_pass) {
           sc.tt.push_back(k);
         } else if (!contains(excluded_tt_, k)) {
-          ++r.triangle_intersections;
+          count(r.triangle_intersections);
           example(AuditExample::Kind::triangle_triangle, f, g, 0.0);
         }
       }
@@ -399,12 +496,17 @@ FrameAudit PenetrationAudit::run(const Positions& x, bool reference_pass, std::v
   });
 
   FrameAudit out;
+  out.rigid_deformations = rigid_report.rigid_deformations;
+  out.examples = std::move(rigid_report.examples);
   for (Scan& sc : scans) {
     const FrameAudit& r = sc.result;
     out.triangle_intersections += r.triangle_intersections;
     out.segment_crossings += r.segment_crossings;
     out.close_pairs += r.close_pairs;
     out.checked_pairs += r.checked_pairs;
+    out.scene_pairs += r.scene_pairs;
+    for (const AuditExample& ex : r.scene_examples)
+      if (out.scene_examples.size() < max_examples) out.scene_examples.push_back(ex);
     out.min_distance = std::min(out.min_distance, r.min_distance);
     for (const AuditExample& ex : r.examples)
       if (out.examples.size() < max_examples) out.examples.push_back(ex);

@@ -6,10 +6,13 @@
 #include <string>
 #include <vector>
 
+#include "ccfr/core/bounds.hpp"
 #include "ccfr/core/topology.hpp"
 #include "ccfr/core/types.hpp"
 
 namespace ccfr::io {
+
+// Coordinates beyond ccfr::kMaxCoordinate (core/types.hpp) are refused by every reader here.
 
 /// One object block of a frame file. Ranges index the frame's global arrays.
 struct FrameObject {

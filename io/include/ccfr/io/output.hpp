@@ -1,6 +1,7 @@
 #pragma once
 /// @file output.hpp
 /// The output directory contract: run.json, frames/frame_NNNNN.obj, stats.csv (docs/output.md).
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -31,6 +32,9 @@ struct RunMeta {
   /// output.formats (docs/interop.md); obj writes frames/frame_NNNNN.obj.
   std::vector<OutputFormat> formats{OutputFormat::obj};
   int every = 1;  ///< output.every (the PC2 sample rate)
+  /// scene_fingerprint() of the run's initial scene, written to run.json so that a resume can tell
+  /// a checkpoint of this run from one copied from another (0: not recorded).
+  std::uint64_t scene_fingerprint = 0;
 };
 
 /// True if DIR/run.json is a JSON object with the ccfr marker (`"ccfr": {"version": ...}`).

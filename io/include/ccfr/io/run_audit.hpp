@@ -27,9 +27,11 @@ struct FrameAuditRow {
   long frame = 0;
   std::string file;  ///< file name in DIR/frames
   Index triangle_intersections = 0, segment_crossings = 0, close_pairs = 0;
+  Index rigid_deformations = 0;  ///< rigid objects no longer a rigid transform of frame 0 (violations)
+  Index scene_pairs = 0;         ///< pairs between two scripted objects (a scene error, not violations)
   double min_distance = std::numeric_limits<double>::infinity();
-  std::vector<std::string> examples;
-  bool clean() const { return triangle_intersections + segment_crossings + close_pairs == 0; }
+  std::vector<std::string> examples, scene_examples;
+  bool clean() const { return triangle_intersections + segment_crossings + close_pairs + rigid_deformations == 0; }
 };
 
 struct RunAuditResult {
@@ -51,11 +53,23 @@ struct RunAuditResult {
   Index excluded_close_pairs = 0, excluded_intersections = 0, reduced_offset_pairs = 0;
   Index vertices = 0, faces = 0, edges = 0;
   Index unreferenced_vertices = 0;  ///< vertices in no face, segment or particle object: not audited
+  /// Objects run.json names as rigid (rigid bodies, obstacles moved rigidly) and as scripted
+  /// (obstacles, rigid bodies driven by pins); docs/audit.md, "Rigid and scripted objects".
+  Index rigid_objects = 0, scripted_objects = 0;
+  /// Audited frames in which every rigid object moved rigidly (its inner pairs not tested).
+  size_t rigid_frames = 0;
+  /// Pairs between two scripted objects over the checked frames: the scene drives them into each
+  /// other. Not violations: the method passes, the scene is flagged (exit code 5).
+  Index scene_pairs = 0;
+  size_t scene_frames = 0;
+  long first_scene_frame = -1;
+  std::string first_scene_example;
   double seconds = 0.0;
   std::vector<FrameAuditRow> rows;  ///< the audited frames, in frame order
   bool clean() const { return bad_frames == 0; }
   /// run.json says the run completed. A directory without run.json has no status to check.
   bool completed() const { return status == "completed"; }
+  bool scene_error() const { return scene_pairs > 0; }
 };
 
 /// Called after each audited frame with its number and result (for progress tables).
@@ -72,6 +86,9 @@ RunAuditResult audit_run(const std::filesystem::path& dir, const RunAuditOptions
 /// The verdict of an audit (docs/audit.md): "fail" when a checked frame is not clean; "incomplete"
 /// when clean but run.json says the run did not complete and `partial` is off; else "pass".
 std::string audit_verdict(const RunAuditResult& result, bool partial);
+/// The exit code of `ccfr audit` for a verdict (docs/audit.md): 1 fail, 4 incomplete, 5 pass with
+/// a scene error (scripted objects driven into each other), 0 pass.
+int audit_exit_code(const RunAuditResult& result, const std::string& verdict);
 
 /// The audit report written to DIR/audit.json (docs/audit.md): `verdict` ("pass", "fail",
 /// "incomplete"), `exit_code`, `partial` and the fields of `result`.

@@ -20,6 +20,18 @@ struct RunInfo {
   long frames_written = -1;  ///< `frames_written` of run.json; -1 if absent
   std::vector<std::filesystem::path> frames;  ///< frames/frame_*.obj present on disk, in order
   std::vector<std::string> obstacles;         ///< names of the objects of kind obstacle (config.objects)
+  /// config.output.every: the run writes frames 0, every, 2 every, ... and its last (1 if absent).
+  long output_every = 1;
+  /// config.objects: what the audit needs to know of each object that is not moved by the contact
+  /// solver as a deformable: a rigid body or an obstacle moved rigidly (static, `motion`,
+  /// `keyframes`; not `animation`), and whether it is scripted (an obstacle, or a rigid body
+  /// driven by its pins) so that no solver can move it.
+  struct RigidObject {
+    std::string name;
+    bool rigid = false;     ///< its shape must stay a rigid transform of frame 0
+    bool scripted = false;  ///< moved by the scene, not by the solver
+  };
+  std::vector<RigidObject> objects;  ///< the objects of config.objects that are rigid or scripted
 };
 
 /// Reads DIR/run.json and lists DIR/frames/frame_*.obj. Throws ccfr::Error if DIR or run.json

@@ -2,6 +2,7 @@
 /// @file run_recorder.hpp
 /// Recording a Simulation into a run directory the way `ccfr run` does, shared by the CLI's run
 /// driver and the Python module, so that both write the same bytes.
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -20,10 +21,14 @@ namespace ccfr::io {
 /// the current thread count and the command as given.
 RunMeta make_run_meta(const Simulation& sim, std::string command_line, std::vector<std::string> argv);
 
+/// The audit roles of the scene's objects (exact::AuditOptions::object_roles, docs/audit.md):
+/// rigid bodies and obstacles moved rigidly (static, `motion`, `keyframes`) are rigid; obstacles
+/// and rigid bodies with pins are scripted. The same as `ccfr audit` reads from run.json.
+std::vector<std::uint8_t> audit_object_roles(const Topology& topo, const SimulationParams& params);
+
 /// The in-simulation audit of debug.audit: the exact penetration audit of geometry_exact,
-/// referenced to `initial`, returning stats.csv's `penetrations`. Empty (with a warning) when
-/// contact.offset is 0.
-/// `audit_out` (optional) receives the audit behind the hook, whose state a checkpoint saves.
+/// referenced to `initial`, with audit_object_roles(), returning stats.csv's `penetrations`. Empty (with a warning)
+/// when contact.offset is 0. `audit_out` (optional) receives the audit behind the hook, whose state a checkpoint saves.
 AuditHook make_audit_hook(const Topology& topo, const Positions& initial, const SimulationParams& params,
                           std::shared_ptr<exact::PenetrationAudit>* audit_out = nullptr);
 

@@ -38,14 +38,39 @@ struct AuditOptions {
   /// The minimum distance is reported over sub-pairs within report_range xi (>= 1); larger values
   /// widen the candidate search (boxes grow by report_range xi / 2) and cost time.
   double report_range = 1.5;
+  /// Per object of the topology (empty: every object deformable): a combination of kRigidObject
+  /// and kScriptedObject (docs/audit.md, "Rigid and scripted objects").
+  std::vector<std::uint8_t> object_roles;
+  /// A rigid object counts as rigid in a configuration while every vertex lies within this
+  /// fraction of its reference extent (bounding-box diagonal) of the best rigid fit.
+  double rigid_tolerance = 1e-9;
 };
+
+/// The object's shape must stay a rigid transform of the reference (a rigid body, an obstacle
+/// moved rigidly): while it does, its pairs with itself are unchanged but for round-off and are not
+/// tested; when it does not, the deformation is a violation and its pairs are tested.
+inline constexpr std::uint8_t kRigidObject = 1;
+/// The object is moved by the scene, not by the solver (an obstacle, a rigid body driven by pins):
+/// pairs between two such objects are a scene error, reported apart and never a violation.
+inline constexpr std::uint8_t kScriptedObject = 2;
 
 /// One offending pair, for messages.
 struct AuditExample {
-  enum class Kind { triangle_triangle, segment_triangle, vertex_face, edge_edge, vertex_edge, vertex_vertex };
+  enum class Kind {
+    triangle_triangle,
+    segment_triangle,
+    vertex_face,
+    edge_edge,
+    vertex_edge,
+    vertex_vertex,
+    rigid_deformation
+  };
   Kind kind = Kind::triangle_triangle;
-  Index a = -1, b = -1;          ///< face / edge / vertex ids in the Topology, by kind (first, second)
-  double distance = 0.0;         ///< distance (double kernels); 0 for intersections
+  /// Face / edge / vertex ids in the Topology, by kind (first, second); rigid_deformation: the
+  /// vertex farthest from the rigid fit and its object.
+  Index a = -1, b = -1;
+  double distance = 0.0;         ///< distance (double kernels); 0 for intersections; the deviation
+  std::string object;            ///< rigid_deformation: the object's name
   std::string describe() const;  ///< e.g. "vertex 12 - face 340 at distance 0.00091"
 };
 
@@ -55,6 +80,13 @@ struct FrameAudit {
   Index triangle_intersections = 0;  ///< intersecting triangle pairs sharing no vertex
   Index segment_crossings = 0;       ///< strand segments through triangles
   Index close_pairs = 0;             ///< sub-pairs closer than (1 - tol) xi
+  /// Rigid objects (AuditOptions::object_roles) whose shape is no longer a rigid transform of the
+  /// reference: violations.
+  Index rigid_deformations = 0;
+  /// Intersections, crossings and close pairs between two scripted objects: a scene error, not a
+  /// violation (no solver moves either side).
+  Index scene_pairs = 0;
+  std::vector<AuditExample> scene_examples;  ///< up to max_examples of them
   /// Minimum distance (double kernels) over the checked, non-excluded sub-pairs within
   /// report_range xi of each other; +infinity if there is none.
   double min_distance = std::numeric_limits<double>::infinity();
@@ -62,7 +94,7 @@ struct FrameAudit {
   std::vector<AuditExample> examples;  ///< up to max_examples offending pairs, in a deterministic order
 
   /// Intersections + crossings + close pairs: the `penetrations` stats column.
-  Index penetrations() const { return triangle_intersections + segment_crossings + close_pairs; }
+  Index penetrations() const { return triangle_intersections + segment_crossings + close_pairs + rigid_deformations; }
   bool clean() const { return penetrations() == 0; }
 };
 
@@ -115,6 +147,7 @@ class PenetrationAudit {
 
   Topology topo_;
   AuditOptions opt_;
+  Positions reference_;                    ///< kept only when some object is rigid (its rigid fits start from it)
   std::vector<std::uint8_t> vertex_role_;  ///< #V: 0 no primitive, 1 mesh/strand vertex, 2 particle
   std::vector<std::uint8_t> strand_edge_;  ///< #E: 1 if the edge is a strand segment
   /// Sorted keys of excluded pairs: (type << 62) | (first << 31) | second, with a canonical
@@ -122,6 +155,8 @@ class PenetrationAudit {
   std::vector<std::uint64_t> excluded_close_;  ///< adjacent close sub-pairs and sub-pairs of crossing pairs
   std::vector<std::uint64_t> excluded_tt_, excluded_st_;
   /// Sub-pairs closer than xi in the reference, not adjacent: sorted keys and current offsets.
+  /// Per object: 1 if rigid and still a rigid transform of the reference in `x`, else 0.
+  std::vector<std::uint8_t> rigid_now(const Positions& x, FrameAudit* report) const;
   std::vector<std::uint64_t> reduced_key_;
   std::vector<double> reduced_offset_;
   Index adjacent_excluded_ = 0;
