@@ -20,6 +20,7 @@
 namespace fs = std::filesystem;
 using ccfr::test::CliResult;
 using ccfr::test::run_ccfr;
+using ccfr::test::run_shell;
 
 namespace {
 
@@ -34,18 +35,6 @@ fs::path scene(const fs::path& d) {
 }
 
 std::string q(const fs::path& p) { return "'" + p.string() + "'"; }
-
-/// Runs a whole shell command line and collects its output (run_ccfr prepends the executable).
-CliResult run_shell(const std::string& cmd) {
-  CliResult r;
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return r;
-  std::array<char, 4096> buf;
-  while (size_t n = fread(buf.data(), 1, buf.size(), p)) r.out.append(buf.data(), n);
-  const int status = pclose(p);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
 
 }  // namespace
 

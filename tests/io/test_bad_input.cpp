@@ -8,9 +8,11 @@
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/io/scene_loader.hpp"
+#include "config_support.hpp"
 #include "test_support.hpp"
 
 using namespace ccfr;
+using ccfr::test::config_error;
 namespace fs = std::filesystem;
 
 namespace {
@@ -25,21 +27,6 @@ objects:
     kind: cloth
     shape: {type: grid, size: [1, 1], resolution: [4, 4]}
 )";
-
-/// The ConfigError that loading `yaml` raises (fails the test if none, or another error).
-ConfigError config_error(const std::string& yaml, const std::vector<std::string>& sets = {},
-                         const fs::path& dir = ".") {
-  try {
-    io::load_scene_text(yaml, "scene.yaml", dir, sets);
-  } catch (const ConfigError& e) {
-    return e;
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << "expected a ConfigError, got: " << e.what() << "\nfor:\n" << yaml;
-    return ConfigError("", "", 0, "");
-  }
-  ADD_FAILURE() << "expected a ConfigError for:\n" << yaml;
-  return ConfigError("", "", 0, "");
-}
 
 std::string with(std::string y, const std::string& from, const std::string& to) {
   const auto pos = y.find(from);

@@ -18,8 +18,10 @@
 #include "ccfr/io/scene_loader.hpp"
 #include "ccfr/io/tet_mesh.hpp"
 #include "ccfr/io/user_file.hpp"
+#include "config_support.hpp"
 
 using namespace ccfr;
+using ccfr::test::config_error;
 namespace fs = std::filesystem;
 
 namespace {
@@ -55,21 +57,6 @@ std::string error_of(F&& f) {
     return e.what();
   }
   return "(no error)";
-}
-
-/// The ConfigError of loading `yaml` (from `base` for relative mesh paths).
-ConfigError config_error(const std::string& yaml, const std::vector<std::string>& sets = {},
-                         const fs::path& base = ".") {
-  try {
-    io::load_scene_text(yaml, "scene.yaml", base, sets);
-  } catch (const ConfigError& e) {
-    return e;
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << "expected a ConfigError, got: " << e.what() << "\nfor:\n" << yaml;
-    return ConfigError("", "", 0, "");
-  }
-  ADD_FAILURE() << "expected a ConfigError for:\n" << yaml;
-  return ConfigError("", "", 0, "");
 }
 
 bool has(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }

@@ -7,9 +7,11 @@
 #include "ccfr/core/error.hpp"
 #include "ccfr/io/obj.hpp"
 #include "ccfr/io/scene_loader.hpp"
+#include "config_support.hpp"
 #include "test_support.hpp"
 
 using namespace ccfr;
+using ccfr::test::config_error;
 namespace fs = std::filesystem;
 
 namespace {
@@ -25,16 +27,6 @@ objects:
     shape: {type: grid, size: [1, 1], resolution: [4, 4]}
 )";
 
-/// Loads YAML text and returns the ConfigError it raises (fails the test if none).
-ConfigError config_error(const std::string& yaml, const std::vector<std::string>& sets = {}) {
-  try {
-    io::load_scene_text(yaml, "scene.yaml", ".", sets);
-  } catch (const ConfigError& e) {
-    return e;
-  }
-  ADD_FAILURE() << "expected a ConfigError for:\n" << yaml;
-  return ConfigError("", "", 0, "");
-}
 }  // namespace
 
 TEST(SceneLoader, MinimalSceneFillsDefaults) {

@@ -25,9 +25,8 @@ struct CliResult {
   std::string out;  ///< stdout and stderr, interleaved
 };
 
-/// Runs `CCFR_EXE args` through the shell and collects its output.
-inline CliResult run_ccfr(const std::string& args) {
-  const std::string cmd = std::string(CCFR_EXE) + " " + args + " 2>&1";
+/// Runs a whole shell command line and collects its stdout (redirect stderr in `cmd` to get it).
+inline CliResult run_shell(const std::string& cmd) {
   CliResult r;
   FILE* p = popen(cmd.c_str(), "r");
   if (!p) return {-1, "popen failed"};
@@ -37,6 +36,9 @@ inline CliResult run_ccfr(const std::string& args) {
   r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return r;
 }
+
+/// Runs `CCFR_EXE args` through the shell and collects its output.
+inline CliResult run_ccfr(const std::string& args) { return run_shell(std::string(CCFR_EXE) + " " + args + " 2>&1"); }
 
 /// A sheet over a floor, 3 frames (edges 0.05, ξ = 0.005): the smallest scene with contact.
 inline std::string sheet_on_floor_scene(const std::string& name) {
