@@ -467,7 +467,7 @@ StopReport Simulation::diagnose_stop(Index remaining, int substep_index, int ite
 namespace {
 std::string describe_side(const std::vector<StopReport::Vertex>& side) {
   if (side.empty()) return "?";
-  std::string s = "'" + side.front().object + "' vertex" + (side.size() > 1 ? "ices " : " ");
+  std::string s = "'" + side.front().object + "' vert" + (side.size() > 1 ? "ices " : "ex ");
   for (size_t k = 0; k < side.size(); ++k) s += (k ? ", " : "") + std::to_string(side[k].local);
   std::vector<std::string> notes;
   const auto& f = side.front();
