@@ -514,6 +514,7 @@ void RunWriter::write_run_json(const std::string& status, bool finished) {
   j["status"] = status;
   j["frames_written"] = frames_written_;
   if (!resumed_json_.empty()) j["resumed"] = Json::parse(resumed_json_);
+  if (!stop_json_.empty()) j["stop"] = Json::parse(stop_json_);
   j["vertices"] = topo_.num_vertices();
   if (meta_.scene_fingerprint != 0) {
     char fp[24];

@@ -1,5 +1,7 @@
 #include "ccfr/io/run_recorder.hpp"
 
+#include <nlohmann/json.hpp>
+
 #include <algorithm>
 
 #include "ccfr/core/log.hpp"
@@ -97,6 +99,49 @@ VertexFields RunRecorder::fields() const {
   return f;
 }
 
-void RunRecorder::finish(const std::string& status) { writer_.finish(status); }
+namespace {
+/// run.json's `stop` (docs/output.md).
+std::string stop_json(const StopReport& r) {
+  using Json = nlohmann::ordered_json;
+  auto vertices = [](const std::vector<StopReport::Vertex>& side) {
+    Json a = Json::array();
+    for (const auto& x : side) {
+      Json v = {{"object", x.object}, {"kind", x.kind},     {"vertex", x.local},
+                {"fixed", x.fixed},   {"halted", x.halted}, {"held_back", x.held_back}};
+      if (x.scripted_step > 0.0) v["scripted_step"] = x.scripted_step;
+      v["region_empty"] = x.region_empty ? Json(*x.region_empty) : Json(nullptr);
+      a.push_back(std::move(v));
+    }
+    return a;
+  };
+  Json pairs = Json::array();
+  for (const auto& p : r.pairs)
+    pairs.push_back(
+        {{"kind", p.kind}, {"a", vertices(p.a)}, {"b", vertices(p.b)}, {"distance", p.distance}, {"offset", p.offset}});
+  Json j = {{"reason", "violations remain"},
+            {"frame", r.frame},
+            {"substep", r.substep},
+            {"remaining", r.remaining},
+            {"solver", r.solver},
+            {"cause", r.cause},
+            {"outer_iterations", r.iterations},
+            {"iteration_bound", r.iteration_bound},
+            {"held_back", r.held_back},
+            {"pairs", std::move(pairs)},
+            {"held_by", r.held_by},
+            {"suggestions", r.suggestions}};
+  return j.dump(-1, ' ', false, nlohmann::ordered_json::error_handler_t::replace);
+}
+}  // namespace
+
+void RunRecorder::finish(const std::string& status) {
+  if (const auto& stop = sim_.stop_report(); stop && status != "completed") {
+    // The stopped frame's row (its frame is not on disk), unless no frame was simulated before:
+    // a staged run that stops then is discarded whole.
+    if (!writer_.staged()) writer_.write_stats(stop->stats);
+    writer_.set_stop(stop_json(*stop));
+  }
+  writer_.finish(status);
+}
 
 }  // namespace ccfr::io

@@ -57,9 +57,13 @@ struct RawGeometry {
 struct Counts {
   double v = 0, f = 0, t = 0, e = 0;  ///< vertices, surface faces, tets, strand segments
   double bv = 0, bf = 0;              ///< of those, the vertices and faces of rigid bodies and obstacles
-  double crowd = 0;  ///< sum over vertices of ((ξ + r + δ) / mean edge length)² (strands: to the power 1)
+  double crowd = 0;    ///< sum over vertices of ((ξ + r + δ) / mean edge length)² (strands: to the power 1)
+  double contact = 0;  ///< bodies: io::MemoryEstimate's contact units (see memory_model)
+  double h = 0;        ///< mean edge length of one object (not summed)
+  double rho = 0;      ///< bodies: 3 volume / area of a closed surface (a sphere's radius); 0 if open
   Counts& operator+=(const Counts& o) {
-    v += o.v, f += o.f, t += o.t, e += o.e, bv += o.bv, bf += o.bf, crowd += o.crowd;
+    v += o.v, f += o.f, t += o.t, e += o.e, bv += o.bv, bf += o.bf, crowd += o.crowd, contact += o.contact;
+    h = 0, rho = 0;  // per object only
     return *this;
   }
 };
@@ -71,32 +75,31 @@ Counts as_kind(Counts c, ObjectKind kind) {
   return c;
 }
 
-// A rough estimate of the peak memory of a run, from the geometry as loaded. Per element of a
-// deformable object: positions, velocities, masses, rest state, BVHs, constraints, adjacency and
-// frame text. Per crowded vertex: the contact pairs and regions, which grow with the number of
-// primitives within the contact range ξ + r + δ, i.e. with (range / edge length)²; calibrated on
-// peak resident sizes of a 200 x 200 cloth grid (40401 vertices) alone: 62 MB at edge 0.1 m, 230 MB
-// at 20 mm, 1.6 GB at 10 mm, 5.5 GB at 5 mm (range 15 mm), rounded up. A rigid body or an obstacle
-// adds no crowding (its own pairs are never enumerated; its pairs with others are counted on their
-// side) and a quarter of the per-vertex bytes (measured: a 37,706-vertex bunny, 29-35 MB above the
-// base); the base is the process itself (16-17 MB for a 379-vertex scene). Checked against the peak
-// RSS of eleven scenes of every kind (docs/performance.md, "Memory estimate"): 1.1-2x above it,
-// except self-contact that develops during a run (the twisting cloth wrapping into a rope), which
-// the geometry as loaded cannot tell, and contact between rigid bodies, charged to neither side
-// (configs/scanned/rigid_pile.yaml: 2.2x the estimate by frame 30; a contact-area term is to do).
-constexpr double kBaseBytes = 26e6;
-constexpr double kBytesPerVertex = 4096;          ///< 2048 before the check below (codimensional.yaml: 0.89x)
-constexpr double kBytesPerCrowdedVertex = 16384;  ///< times ((ξ + r + δ) / mean edge length)²
-constexpr double kBytesPerFace = 512;
-constexpr double kBytesPerTet = 1024;
-constexpr double kBytesPerSegment = 512;
-constexpr double kBytesPerBodyVertex = 1024;  ///< rigid bodies and obstacles
-constexpr double kBytesPerBodyFace = 256;
+bool is_body(ObjectKind k) { return k == ObjectKind::rigid || k == ObjectKind::obstacle; }
+
+// A rough estimate of the peak memory of a run, from the geometry as loaded (formula and constants:
+// io::memory_model). Per element of a deformable object: positions, velocities, masses, rest state,
+// BVHs, constraints, adjacency and frame text. Per crowded vertex: the contact pairs and regions of
+// its self-contact, which grow with the primitives within the contact range ξ + r + δ, i.e. with
+// (range / edge length)²; calibrated on peak resident sizes of a 200 x 200 cloth grid (40401
+// vertices) alone: 62 MB at edge 0.1 m, 230 MB at 20 mm, 1.6 GB at 10 mm, 5.5 GB at 5 mm. A rigid
+// body or an obstacle has no self pairs (never enumerated) and a quarter of the per-vertex bytes
+// (a 37,706-vertex bunny: 29-35 MB above the base). Its contact with other objects is charged on
+// its side: a vertex within reach D = 2r + ξ + δ of another surface holds a half-space per
+// primitive of that surface there, about 24 (D / h)² of them (measured from stats.csv: 1,240 per
+// contact vertex in the scanned pile at h = 2 mm, 184 in a knot-on-elephant drop at h = 4-6 mm),
+// and the peak comes when a share of about D / (2ρ) of a curved body's surface is within reach
+// (the pile: 3 %, the tube-like knot on the elephant: 13 %). Each half-space costs 460-640 bytes
+// of peak RSS (the pose solve's copy, the region, the contact pair, the response; massif). So a
+// body vertex costs kBytesPerContactUnit min(1, D / 2ρ) (2 + D / h_p)², h_p the finest surface
+// it can touch (docs/performance.md, "the memory estimate (issue 39)").
+using namespace memory_model;
 
 /// What the elements of one object (or of several: the sum is linear) add to the estimate.
 double object_bytes(const Counts& c) {
   return kBytesPerVertex * (c.v - c.bv) + kBytesPerBodyVertex * c.bv + kBytesPerCrowdedVertex * c.crowd +
-         kBytesPerFace * (c.f - c.bf) + kBytesPerBodyFace * c.bf + kBytesPerTet * c.t + kBytesPerSegment * c.e;
+         kBytesPerFace * (c.f - c.bf) + kBytesPerBodyFace * c.bf + kBytesPerTet * c.t + kBytesPerSegment * c.e +
+         kBytesPerContactUnit * c.contact;
 }
 
 double estimate_bytes(const Counts& c) { return kBaseBytes + object_bytes(c); }
@@ -178,6 +181,14 @@ std::optional<std::string> sequence_name(const std::string& pattern, long number
   return out;
 }
 
+/// The objects placed so far, with their element counts (the refusal message lists them).
+struct ObjectCost {
+  std::string name;
+  ObjectKind kind;
+  Counts counts;
+  double partner_h = 0;  ///< bodies: the finest mean edge it can touch (0: none; infinity: no edges)
+};
+
 class Builder {
  public:
   Builder(const YAML::Node& input, const YAML::Node& resolved, const Context& ctx, fs::path base_dir,
@@ -220,19 +231,24 @@ class Builder {
       const Counts actual = counts(g, kind, p.contact.offset + p.contact.radius + p.contact.repulsion_range);
       check_size(total, actual, spath, name, kind);
       total += actual;
-      costs_.push_back({name, kind, actual});
+      costs_.push_back({name, kind, actual, 0.0});
       tb.add_object(name, kind, static_cast<Index>(g.v.size()), g.faces, g.tets, g.lines);
       geoms.push_back(std::move(g));
     }
+    charge_contact(total, 2 * p.contact.radius + p.contact.offset + p.contact.repulsion_range);
     if (spdlog::should_log(spdlog::level::debug)) {
       std::string detail;
       for (const ObjectCost& c : costs_)
-        detail +=
-            fmt::format("; '{}' {} v={} f={} t={} e={} crowd={:.0f}: {:.1f} MB", printable(c.name), to_string(c.kind),
-                        c.counts.v, c.counts.f, c.counts.t, c.counts.e, c.counts.crowd, object_bytes(c.counts) / 1e6);
+        detail += fmt::format(
+            "; '{}' {} v={} f={} t={} e={} h={:.4g} crowd={:.0f} rho={:.4g} h_p={:.4g} contact={:.0f}: "
+            "{:.1f} MB",
+            printable(c.name), to_string(c.kind), c.counts.v, c.counts.f, c.counts.t, c.counts.e, c.counts.h,
+            c.counts.crowd, c.counts.rho, c.partner_h, c.counts.contact, object_bytes(c.counts) / 1e6);
       spdlog::debug("{}: estimated memory {:.1f} MB ({} vertices{}), limit {}", ctx_.file, estimate_bytes(total) / 1e6,
                     count_str(total.v), detail, gigabytes(memory_limit_()));
     }
+    // The contact term needs every object: the whole scene is held to the limit once more.
+    check_total(total);
     scene.topo = tb.finish();
 
     auto& st = scene.state;
@@ -327,15 +343,34 @@ class Builder {
     for (const auto& t : g.tets) edge(t[0], t[1]), edge(t[0], t[2]), edge(t[0], t[3]);
     for (const auto& l : g.lines)
       for (size_t k = 1; k < l.size(); ++k) edge(l[k - 1], l[k]);
+    if (n > 0 && sum > 0) c.h = sum / n;
     if (n > 0 && sum > 0) {
       // Neighbours within the range grow with s² on a surface or solid, with s along a strand
       // (hair.yaml: 33094 strand vertices, 1.1 GB measured, 1.7 GB estimated).
       const double s = range / (sum / n);
       c.crowd = c.v * (kind == ObjectKind::strand ? s : s * s);
     }
+    if (is_body(kind)) c.rho = body_radius(g);
     // A rigid body or an obstacle moves as a whole: its own primitives never form a contact pair
     // (the broad phase does not even enumerate them), so as_kind drops its crowding.
     return as_kind(c, kind);
+  }
+
+  /// 3 V / A of a closed triangle surface (every edge in exactly two faces): the radius of a
+  /// sphere, 1.5 times a long tube's. 0 when the surface is open (it can be touched all over).
+  static double body_radius(const RawGeometry& g) {
+    std::map<std::pair<Index, Index>, int> uses;
+    double area = 0, six_volume = 0;
+    for (const auto& f : g.faces) {
+      const Vec3 &a = g.v[f[0]], &b = g.v[f[1]], &c = g.v[f[2]];
+      area += 0.5 * (b - a).cross(c - a).norm();
+      six_volume += a.dot(b.cross(c));
+      for (int k = 0; k < 3; ++k) ++uses[std::minmax(f[k], f[(k + 1) % 3])];
+    }
+    for (const auto& [e, n] : uses)
+      if (n != 2) return 0.0;
+    const double r = 3.0 * std::abs(six_volume / 6.0) / area;
+    return std::isfinite(r) && r > 0 ? r : 0.0;
   }
 
   /// Fails when `add` (object `name`) does not fit 32-bit indices or the scene would need more
@@ -356,10 +391,42 @@ class Builder {
       ctx_.fail(spath, in_node(spath),
                 "the scene would have " + count_str(all.v) + " vertices, more than the " + count_str(kMax) +
                     " that 32-bit indices address");
+    std::vector<ObjectCost> costs = costs_;
+    costs.push_back({name, kind, add, 0.0});
+    refuse_if_too_large(all, costs, spath);
+  }
+
+  /// Charges every rigid body and obstacle that can touch another object for that contact
+  /// (memory_model::kBytesPerContactUnit): its vertices times (1 + reach / h_p)², h_p the finest
+  /// mean edge among the objects it can touch. Two obstacles never pair; particles have no edges
+  /// (a vertex of a body touches one particle at a time within a particle's spacing).
+  void charge_contact(Counts& total, double reach) {
+    for (size_t i = 0; i < costs_.size(); ++i) {
+      ObjectCost& c = costs_[i];
+      if (!is_body(c.kind)) continue;
+      bool partner = false;
+      double finest = std::numeric_limits<double>::infinity();
+      for (size_t j = 0; j < costs_.size(); ++j) {
+        if (j == i || (c.kind == ObjectKind::obstacle && costs_[j].kind == ObjectKind::obstacle)) continue;
+        if (costs_[j].counts.v <= 0) continue;
+        partner = true;
+        if (costs_[j].counts.h > 0) finest = std::min(finest, costs_[j].counts.h);
+      }
+      c.partner_h = partner ? finest : 0.0;
+      if (!partner) continue;
+      const double s = std::isfinite(finest) ? 2.0 + reach / finest : 1.0;
+      const double share = c.counts.rho > 0 ? std::min(1.0, reach / (2.0 * c.counts.rho)) : 1.0;
+      c.counts.contact = c.counts.v * share * s * s;
+      total.contact += c.counts.contact;
+    }
+  }
+
+  /// The whole scene against the limit, once every object and its contact term are known.
+  void check_total(const Counts& total) const { refuse_if_too_large(total, costs_, "objects"); }
+
+  void refuse_if_too_large(const Counts& all, const std::vector<ObjectCost>& costs, const std::string& spath) const {
     const double need = estimate_bytes(all), have = memory_limit_();
     if (have > 0 && need > have) {
-      std::vector<ObjectCost> costs = costs_;
-      costs.push_back({name, kind, add});
       ctx_.fail(spath, in_node(spath),
                 "the scene would need about " + gigabytes(need) + " of memory (" + cost_list(costs) + "; " +
                     count_str(all.v) + " vertices" + (all.f > 0 ? ", " + count_str(all.f) + " faces" : "") +
@@ -367,7 +434,9 @@ class Builder {
                     (all.e > 0 ? ", " + count_str(all.e) + " strand segments" : "") + "), more than the " +
                     gigabytes(have) + (max_memory_gb_ > 0 ? " of max_memory" : " available (MemAvailable)") +
                     ". Contact pairs grow with ((offset + radius + repulsion_range) / mean edge length)^2 per "
-                    "vertex of a deformable object: reduce the resolution, or the contact offset and radius; or, "
+                    "vertex of a deformable object, and with (1 + (2 radius + offset + repulsion_range) / the "
+                    "finest mean edge it can touch)^2 per vertex of a rigid body or obstacle: reduce the "
+                    "resolution, or the contact offset and radius; or, "
                     "if the machine has the memory, raise the limit with max_memory (GB) or `ccfr run "
                     "--max-memory GB` (docs/choosing-parameters.md)");
     }
@@ -1097,12 +1166,26 @@ class Builder {
     return g;
   }
 
-  /// The objects placed so far, with their element counts (the refusal message lists them).
-  struct ObjectCost {
-    std::string name;
-    ObjectKind kind;
-    Counts counts;
-  };
+ public:
+  /// The estimate the scene was admitted with, per object (after build()).
+  MemoryEstimate memory_estimate() const {
+    MemoryEstimate m;
+    Counts total;
+    for (const ObjectCost& c : costs_) {
+      total += c.counts;
+      ObjectMemory o;
+      o.name = c.name;
+      o.vertices = c.counts.v, o.faces = c.counts.f, o.tets = c.counts.t, o.segments = c.counts.e;
+      o.mean_edge = c.counts.h, o.crowd = c.counts.crowd, o.partner_edge = c.partner_h, o.contact = c.counts.contact;
+      o.body_radius = c.counts.rho;
+      o.bytes = object_bytes(c.counts);
+      m.objects.push_back(std::move(o));
+    }
+    m.total_bytes = estimate_bytes(total);
+    return m;
+  }
+
+ private:
   static std::string cost_list(const std::vector<ObjectCost>& costs) {
     std::string out;
     for (const ObjectCost& c : costs)
@@ -1345,6 +1428,7 @@ LoadedScene load(YAML::Node root, const std::string& label, const fs::path& base
   Builder b(root, resolved, ctx, base_dir, arrays);
   LoadedScene out;
   out.scene = b.build();
+  out.memory = b.memory_estimate();
   out.resolved_json = schema::to_json(resolved, scene_schema(), 2);
   return out;
 }

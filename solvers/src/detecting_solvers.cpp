@@ -186,6 +186,34 @@ std::optional<Index> DetectingSolver::count_outside(const Positions& x, const Po
   return close.load();
 }
 
+std::vector<ContactSolver::ClosePair> DetectingSolver::close_pairs(const Positions& x, double keep, size_t max) const {
+  std::vector<ClosePair> out;
+  for (const ContactPair& c : contacts_) {
+    if (out.size() >= max) break;
+    const double d = pair_distance(c, x);
+    if (d >= keep * c.offset) continue;  // NaN counts, as in count_outside
+    ClosePair p;
+    p.kind = static_cast<int>(c.kind);
+    p.size = c.size();
+    p.side_a = c.side_a();
+    for (int k = 0; k < c.size(); ++k) p.v[static_cast<size_t>(k)] = c.v[k];
+    p.distance = d;
+    p.offset = c.offset;
+    out.push_back(p);
+  }
+  return out;
+}
+
+std::optional<bool> DetectingSolver::region_empty(Index v, const Positions& anchor) const {
+  if (v < 0 || static_cast<size_t>(v) + 1 >= regions_.offsets.size() || regions_.count(v) == 0) return std::nullopt;
+  const auto planes = regions_.of(v);
+  if (!falls_below(anchor[v], anchor[v], planes, 0.0)) return false;  // the anchor is a feasible point
+  // The anchor left its own region (a scripted step or a reduced offset moved a plane past it):
+  // the exact projection decides, and reports an empty region as infeasible.
+  const std::unique_ptr<Projector> exact = make_projector("exact", ProjectorParams{});
+  return exact->project(anchor[v], anchor[v], planes).status == ProjectStatus::infeasible;
+}
+
 void DetectingSolver::respond(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) {
   response_.apply(x, state.x_prev, state.inv_mass, ctx.params.contact, ctx.dt, friction_override_);
 }

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <map>
 
 #include "ccfr/core/bounds.hpp"
 #include "ccfr/core/error.hpp"
@@ -334,25 +335,229 @@ void Simulation::report_capped_speed(Index vertex, double advance, double dt) {
       n * p.contact.radius / dt);
 }
 
-void Simulation::check_violations(Index remaining, int substep_index) {
+StopReport Simulation::diagnose_stop(Index remaining, int substep_index, int iterations, Index held_back,
+                                     const FrameStats& fs) const {
+  const auto& p = scene_.params;
+  const auto& topo = scene_.topo;
+  const auto& st = scene_.state;
+  StopReport rep;
+  rep.frame = frame_ + 1;
+  rep.substep = substep_index + 1;
+  rep.remaining = remaining;
+  rep.solver = std::string(contact_->name());
+  rep.iterations = iterations;
+  rep.iteration_bound = p.time.iteration_bound();
+  rep.held_back = held_back;
+  rep.stats = fs;
+  rep.stats.frame = frame_ + 1;
+  rep.stats.sim_time = st.time;
+  rep.stats.violations_remaining = std::max(rep.stats.violations_remaining, remaining);
+  std::vector<std::int32_t> half_spaces;
+  std::vector<double> distance;
+  std::vector<std::uint8_t> halted;
+  contact_->vertex_diagnostics(half_spaces, distance, halted);
+  const double keep = 1.0 - p.debug.audit_tolerance;
+  // anchor_ holds where the substep ends, solve_ the last pass's anchors (where its regions were built).
+  const auto close = contact_->close_pairs(anchor_, keep, 64);
+  auto vertex = [&](Index v) {
+    StopReport::Vertex x;
+    const auto& o = topo.object_of_vertex(v);
+    x.object = o.name;
+    x.kind = std::string(to_string(o.kind));
+    x.local = v - o.vertex_begin;
+    x.fixed = !(st.inv_mass[v] > 0.0);
+    if (x.fixed && static_cast<size_t>(v) < kinematic_step_.size()) x.scripted_step = kinematic_step_[v].norm();
+    x.halted = static_cast<size_t>(v) < halted.size() && halted[v];
+    // held_marks_ also frees the neighbourhood of violated pairs for the next pass: not a hold-back.
+    x.held_back = static_cast<size_t>(v) < held_marks_.size() && held_marks_[v] &&
+                  !(static_cast<size_t>(v) < violated_marks_.size() && violated_marks_[v]);
+    if (!x.fixed && static_cast<size_t>(v) < solve_.size()) x.region_empty = contact_->region_empty(v, solve_);
+    return x;
+  };
+  static constexpr const char* kKind[] = {"vertex-face", "edge-edge", "vertex-edge", "vertex-vertex"};
+  for (size_t i = 0; i < close.size() && i < 3; ++i) {
+    const auto& c = close[i];
+    StopReport::Pair pr;
+    pr.kind = kKind[std::clamp(c.kind, 0, 3)];
+    for (int k = 0; k < c.size; ++k) (k < c.side_a ? pr.a : pr.b).push_back(vertex(c.v[static_cast<size_t>(k)]));
+    pr.distance = c.distance;
+    pr.offset = c.offset;
+    rep.pairs.push_back(std::move(pr));
+  }
+  // What holds the reported pairs' movable vertices: every object that cannot move and is on the
+  // other side of one of their close pairs (up to 64 scanned).
+  std::vector<std::uint8_t> reported(static_cast<size_t>(st.size()), 0);
+  for (size_t i = 0; i < close.size() && i < 3; ++i)
+    for (int k = 0; k < close[i].size; ++k) reported[static_cast<size_t>(close[i].v[static_cast<size_t>(k)])] = 1;
+  std::vector<Index> holders;
+  double fastest = 0.0;
+  std::string fastest_object;
+  for (const auto& c : close) {
+    bool touches = false;
+    for (int k = 0; k < c.size; ++k)
+      touches = touches || (reported[static_cast<size_t>(c.v[static_cast<size_t>(k)])] &&
+                            st.inv_mass[c.v[static_cast<size_t>(k)]] > 0.0);
+    if (!touches) continue;
+    for (int k = 0; k < c.size; ++k) {
+      const Index v = c.v[static_cast<size_t>(k)];
+      if (st.inv_mass[v] > 0.0) continue;
+      const Index oi = topo.vertex_object[v];
+      if (std::find(holders.begin(), holders.end(), oi) == holders.end()) holders.push_back(oi);
+    }
+  }
+  for (const auto& pr : rep.pairs)
+    for (const auto* side : {&pr.a, &pr.b})
+      for (const auto& x : *side)
+        if (x.fixed && x.scripted_step > fastest) fastest = x.scripted_step, fastest_object = x.object;
+  for (Index oi : holders) {
+    const auto& o = topo.objects[oi];
+    double step = 0.0;
+    for (Index v = o.vertex_begin; v < o.vertex_end && static_cast<size_t>(v) < kinematic_step_.size(); ++v)
+      if (!(st.inv_mass[v] > 0.0)) step = std::max(step, kinematic_step_[v].norm());
+    if (step > fastest) fastest = step, fastest_object = o.name;
+    rep.held_by.push_back(fmt::format("'{}' ({}{})", o.name, to_string(o.kind),
+                                      step > 0.0
+                                          ? fmt::format(", scripted, {:.3g} m per substep piece", step)
+                                          : std::string(o.kind == ObjectKind::obstacle ? ", fixed" : ", pinned")));
+  }
+  // The cause, most specific first.
+  bool fixed_pair = false, empty = false, halted_any = false;
+  for (const auto& pr : rep.pairs) {
+    bool a_fixed = true, b_fixed = true;
+    for (const auto& x : pr.a) {
+      a_fixed = a_fixed && x.fixed;
+      empty = empty || x.region_empty.value_or(false);
+      halted_any = halted_any || x.halted;
+    }
+    for (const auto& x : pr.b) {
+      b_fixed = b_fixed && x.fixed;
+      empty = empty || x.region_empty.value_or(false);
+      halted_any = halted_any || x.halted;
+    }
+    fixed_pair = fixed_pair || (a_fixed && b_fixed);
+  }
+  const bool ran_out = held_back > 0 && iterations >= rep.iteration_bound;
+  rep.cause = fixed_pair   ? "fixed_pair"
+              : empty      ? "region_empty"
+              : ran_out    ? "iterations_ran_out"
+              : halted_any ? "halted"
+                           : "unresolved";
+  const double xi = p.contact.offset, r = p.contact.radius;
+  if (!fastest_object.empty())
+    rep.suggestions.push_back(
+        fmt::format("slow the scripted motion of '{}' ({:.3g} m per substep piece against "
+                    "r = {:.3g}) or stop it before it closes the gap",
+                    fastest_object, fastest, r));
+  if (rep.cause == "iterations_ran_out" || !fastest_object.empty())
+    rep.suggestions.push_back(fmt::format("raise time.substeps (now {}) for smaller steps", p.time.substeps));
+  if (rep.cause == "iterations_ran_out")
+    rep.suggestions.push_back(
+        fmt::format("raise time.max_iterations (now {}: all {} outer iterations ran with {} "
+                    "vertices still held back)",
+                    p.time.max_iterations, iterations, held_back));
+  if (rep.cause == "region_empty" || holders.size() >= 2 || rep.cause == "fixed_pair")
+    rep.suggestions.push_back(
+        fmt::format("give the squeezed objects room: a gap narrower than their offsets "
+                    "(contact.offset = {:.3g} per pair) cannot hold them; lower the offset, or "
+                    "move the objects that cannot move apart",
+                    xi));
+  if (rep.cause == "halted" || rep.cause == "unresolved")
+    rep.suggestions.push_back(
+        fmt::format("raise time.substeps (now {}) or contact.radius (r = {:.3g}) so that "
+                    "vertices can get away in time",
+                    p.time.substeps, r));
+  rep.suggestions.push_back(
+      "contact.on_violation: warn continues past it (the frames then keep the violations; ccfr audit reports them)");
+  return rep;
+}
+
+namespace {
+std::string describe_side(const std::vector<StopReport::Vertex>& side) {
+  if (side.empty()) return "?";
+  std::string s = "'" + side.front().object + "' vert" + (side.size() > 1 ? "ices " : "ex ");
+  for (size_t k = 0; k < side.size(); ++k) s += (k ? ", " : "") + std::to_string(side[k].local);
+  std::vector<std::string> notes;
+  const auto& f = side.front();
+  if (f.scripted_step > 0.0)
+    notes.push_back("scripted");
+  else if (f.fixed)
+    notes.push_back(f.kind == "obstacle" ? "obstacle" : "pinned");
+  bool halted = false, held = false, empty = false, nonempty = false;
+  for (const auto& x : side) {
+    halted = halted || x.halted;
+    held = held || x.held_back;
+    empty = empty || x.region_empty.value_or(false);
+    nonempty = nonempty || (x.region_empty.has_value() && !*x.region_empty);
+  }
+  if (halted) notes.push_back("halted");
+  if (held) notes.push_back("held back by the step bound");
+  if (empty) notes.push_back("region empty");
+  if (nonempty && !empty) notes.push_back("region not empty");
+  if (!notes.empty()) {
+    s += " (";
+    for (size_t k = 0; k < notes.size(); ++k) s += (k ? ", " : "") + notes[k];
+    s += ")";
+  }
+  return s;
+}
+}  // namespace
+
+void Simulation::check_violations(Index remaining, int substep_index, int iterations, Index held_back,
+                                  const FrameStats& fs) {
   if (remaining <= 0) return;
   const auto& p = scene_.params;
   const bool fatal = p.contact.on_violation == ViolationPolicy::error ||
                      (p.contact.on_violation == ViolationPolicy::automatic && contact_->guarantees_separation());
-  const std::string example = contact_->last_violation();
-  const std::string what =
-      std::to_string(remaining) + " violation(s) remain at the end of substep " + std::to_string(substep_index + 1) +
-      " under contact solver '" + std::string(contact_->name()) +
-      "' (pairs closer than their offset, or a deformed rigid body)" +
-      (example.empty() ? std::string() : "; e.g. a " + example) +
-      ". Likely causes: objects squeezed into less room than their offsets need, or scripted motion "
-      "pushing into other objects faster than they can move away";
-  if (fatal)
-    throw GuaranteeError(frame_ + 1, what +
-                                         "; stopping before the frame is written (contact.on_violation: warn "
-                                         "continues, e.g. for ablations)");
-  if (!warned_violation_) spdlog::error("frame {}: {}; continuing (contact.on_violation: warn)", frame_ + 1, what);
-  warned_violation_ = true;
+  if (!fatal) {
+    if (!warned_violation_) {
+      const std::string example = contact_->last_violation();
+      spdlog::error(
+          "frame {}: {} violation(s) remain at the end of substep {} under contact solver '{}'{}; continuing "
+          "(contact.on_violation: warn)",
+          frame_ + 1, remaining, substep_index + 1, contact_->name(),
+          example.empty() ? std::string() : "; e.g. a " + example);
+    }
+    warned_violation_ = true;
+    return;
+  }
+  StopReport rep = diagnose_stop(remaining, substep_index, iterations, held_back, fs);
+  std::string what = std::to_string(remaining) + " violation(s) remain at the end of substep " +
+                     std::to_string(substep_index + 1) + " under contact solver '" + rep.solver +
+                     "' (pairs closer than their offset, or a deformed rigid body)";
+  if (rep.pairs.empty()) {
+    const std::string example = contact_->last_violation();
+    if (!example.empty()) what += "; e.g. a " + example;
+  } else {
+    what += "; " + std::string(rep.pairs.size() < static_cast<size_t>(remaining) ? "among them " : "");
+    for (size_t i = 0; i < rep.pairs.size(); ++i) {
+      const auto& pr = rep.pairs[i];
+      what += (i ? "; " : "") + pr.kind + " " + describe_side(pr.a) + " - " + describe_side(pr.b) +
+              fmt::format(" at {:.6g} ({:.4f} of its offset {:.6g})", pr.distance, pr.distance / pr.offset, pr.offset);
+    }
+  }
+  static const std::map<std::string, std::string> kCause = {
+      {"fixed_pair",
+       "neither side of a pair can move (obstacles, pinned or scripted vertices): the scene drives "
+       "them into each other"},
+      {"region_empty",
+       "a squeeze: the region of a movable vertex is empty (certified by the exact projection), "
+       "no position keeps it its offset from everything around it"},
+      {"iterations_ran_out", "the outer iterations ran out"},
+      {"halted", "a vertex of the pair halted (its projection failed and it stayed at its anchor)"},
+      {"unresolved",
+       "the regions were not empty and the iterations did not run out, yet the pair ended inside its "
+       "offset"}};
+  what += ". Cause: " + kCause.at(rep.cause) +
+          fmt::format(" ({} of {} outer iterations ran, {} vertices held back at the end)", rep.iterations,
+                      rep.iteration_bound, rep.held_back);
+  if (!rep.held_by.empty()) {
+    what += ". Held by: ";
+    for (size_t i = 0; i < rep.held_by.size(); ++i) what += (i ? ", " : "") + rep.held_by[i];
+  }
+  what += ". What to change: ";
+  for (size_t i = 0; i < rep.suggestions.size(); ++i) what += (i ? "; " : "") + rep.suggestions[i];
+  stop_ = std::move(rep);
+  throw GuaranteeError(frame_ + 1, what + "; stopping before the frame is written");
 }
 
 Simulation::OuterIterationEnd Simulation::end_outer_iteration(const SolveResult& res, double t1, StepContext& ctx,
@@ -437,8 +642,10 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
   // Until no vertex is held back by r (often after one pass, so fewer than time.iterations may
   // run), at most iteration_bound() passes.
   const int bound = tp.iteration_bound();
+  int iterations_run = 0;
   for (int it = 0; it < bound; ++it) {
     ctx.iteration = it;
+    iterations_run = it + 1;
     const InverseMassMask mask(
         st.inv_mass, inv_mass_saved_,
         next_local ? std::span<const std::uint8_t>(held_marks_) : std::span<const std::uint8_t>());
@@ -532,7 +739,7 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
   // Speed capped because the iterations ran out (not by the shortfall rule's choice): say so once.
   if (end.worst && !end.short_enough) report_capped_speed(*end.worst, end.worst_length + (bound - 1) * r, dt);
   fs.violations_remaining = std::max(fs.violations_remaining, end.remaining);
-  check_violations(end.remaining, substep_index);
+  check_violations(end.remaining, substep_index, iterations_run, end.held_back, fs);
 
   // v_{n+1} = (x - x_n) / dt, then damping.
   const double keep = std::max(0.0, 1.0 - tp.damping * dt);

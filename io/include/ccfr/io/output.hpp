@@ -92,6 +92,10 @@ class RunWriter {
   /// Where the run is being written now (DIR, or DIR.ccfr-new while staged).
   const std::filesystem::path& dir() const { return dir_; }
   int frames_written() const { return frames_written_; }
+  /// run.json's `stop` (a JSON object; empty: none): why the run stopped (Simulation::stop_report).
+  void set_stop(std::string stop_json) { stop_json_ = std::move(stop_json); }
+  /// True while the run is written beside a previous one that it has not replaced yet.
+  bool staged() const { return staged_; }
   /// True once finish() discarded a staged run (the previous run in DIR was kept).
   bool discarded() const { return discarded_; }
   /// What could not be cleaned up after the run was in place (the previous run's files that could
@@ -119,6 +123,7 @@ class RunWriter {
   long long resume_stats_size_ = 0;  ///< bytes of stats.csv kept (header and rows up to resume_frame_)
   std::string resumed_json_;         ///< run.json `resumed` (JSON array), empty for a fresh run
   std::string cleanup_error_;
+  std::string stop_json_;  ///< run.json `stop` (JSON object), empty unless set_stop()
 };
 
 /// ISO-8601 UTC timestamp of now.

@@ -1,4 +1,5 @@
 #pragma once
+#include <array>
 /// @file contact_solver.hpp
 /// The pluggable part of the substep (docs/architecture.md, "One substep"): detection at the
 /// anchors, contact response inside XPBD, and the resolution that keeps every vertex in its region.
@@ -100,6 +101,22 @@ class ContactSolver {
   /// One violation of the last count_outside() that found any, for error messages (e.g. "vertex
   /// 12 of 'cloth' - face 3 of 'lid' at 0.0093, offset 0.01"); empty if none.
   virtual std::string last_violation() const { return {}; }
+  /// A detected pair closer than its offset (for the error that stops a run, Simulation::stop_report).
+  struct ClosePair {
+    int kind = 0;  ///< 0 vertex-face, 1 edge-edge, 2 vertex-edge, 3 vertex-vertex
+    std::array<Index, 4> v{-1, -1, -1, -1};
+    int size = 0;    ///< vertices used in v
+    int side_a = 1;  ///< v[0, side_a) is one side, v[side_a, size) the other
+    double distance = 0.0, offset = 0.0;
+  };
+  /// Up to `max` of the last detection's pairs closer than (1 - debug.audit_tolerance) times their
+  /// offset at `x`, lowest pair index first (independent of the thread count). Empty for a solver
+  /// without a pair list. Only called when a run stops: a plain scan.
+  virtual std::vector<ClosePair> close_pairs(const Positions& x, double keep, size_t max) const { return {}; }
+  /// Whether vertex v's region of the last detection is empty, certified: false when the anchor
+  /// satisfies it (the anchor is a feasible point), true when the exact projection from the anchor
+  /// reports it infeasible. nullopt for a solver without regions or a vertex without half-spaces.
+  virtual std::optional<bool> region_empty(Index v, const Positions& anchor) const { return std::nullopt; }
   /// Per-vertex diagnostics for the VTU point data (docs/interop.md), each #V or left empty when
   /// the solver has no such notion: half-spaces of the vertex's region at the last detection,
   /// distance to the nearest primitive among the detected contacts (NaN: none in range), and

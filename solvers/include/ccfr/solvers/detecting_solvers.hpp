@@ -29,6 +29,8 @@ class DetectingSolver : public ContactSolver {
   std::optional<Index> count_outside(const Positions& x, const Positions& anchor, const SimState& state,
                                      StepContext& ctx) const override;
   std::string last_violation() const override { return last_violation_; }
+  std::vector<ClosePair> close_pairs(const Positions& x, double keep, size_t max) const override;
+  std::optional<bool> region_empty(Index v, const Positions& anchor) const override;
   /// The detector's reduced offsets (initial proximity), the only state kept between substeps.
   std::vector<double> save_state() const override;
   void restore_state(std::span<const double> state) override;

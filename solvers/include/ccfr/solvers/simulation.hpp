@@ -8,6 +8,8 @@
 #include <memory>
 #include <optional>
 #include <span>
+#include <string>
+#include <vector>
 
 #include "ccfr/solvers/contact_solver.hpp"
 #include "ccfr/solvers/materials.hpp"
@@ -55,6 +57,40 @@ struct FrameStats {
   /// Detection passes of the frame that evaluated the kept sub-pair list instead of running the
   /// broad phase (collision.reuse_skin); they add nothing to candidates_total.
   int detections_reused = 0;
+};
+
+/// Why a run stopped because pairs could not be separated (contact.on_violation): the error's
+/// message, and the same facts for run.json's `stop` and stats.csv (docs/output.md).
+struct StopReport {
+  int frame = 0, substep = 0;  ///< the frame being computed (not written) and its substep, from 1
+  Index remaining = 0;         ///< pairs (and rigid-body vertices) left closer than their offset
+  std::string solver;
+  /// "fixed_pair": neither side can move (obstacles, pinned or scripted vertices on both sides);
+  /// "region_empty": a movable vertex's region has no point (the exact projection's certificate);
+  /// "iterations_ran_out": the outer iterations ended with vertices held back by the step bound;
+  /// "halted": a vertex of the pairs halted (its projection failed, it stayed at its anchor);
+  /// "unresolved": none of these (e.g. a deformed rigid body, or a recount after the step bound).
+  std::string cause;
+  int iterations = 0, iteration_bound = 0;  ///< outer iterations of the substep run / allowed
+  Index held_back = 0;                      ///< vertices the step bound held back in the last one
+  struct Vertex {
+    std::string object, kind;          ///< object name and kind
+    Index local = 0;                   ///< index within its object (as in the object's own mesh)
+    bool fixed = false;                ///< cannot move (obstacle, pinned or scripted vertex)
+    double scripted_step = 0;          ///< > 0: scripted, moving this far per substep piece
+    bool halted = false;               ///< halted in this frame
+    bool held_back = false;            ///< held back by the step bound in the last outer iteration
+    std::optional<bool> region_empty;  ///< movable vertices with a region: certified empty or not
+  };
+  struct Pair {
+    std::string kind;  ///< vertex-face, edge-edge, vertex-edge, vertex-vertex
+    std::vector<Vertex> a, b;
+    double distance = 0, offset = 0;
+  };
+  std::vector<Pair> pairs;               ///< the first few close pairs
+  std::vector<std::string> held_by;      ///< what holds the movable vertices: objects that cannot move
+  std::vector<std::string> suggestions;  ///< what a user can change
+  FrameStats stats;                      ///< the failed frame up to the stop
 };
 
 /// Everything a Simulation carries from frame to frame beyond its scene (Simulation::checkpoint):
@@ -108,6 +144,8 @@ class Simulation {
   /// the scripted motion only).
   void set_kinematic_targets(std::span<const Index> vertices, std::span<const Vec3> targets);
   int frames_done() const { return frame_; }
+  /// Set when a frame stopped because pairs could not be separated (the GuaranteeError's facts).
+  const std::optional<StopReport>& stop_report() const { return stop_; }
   ContactSolver& contact_solver() { return *contact_; }
   const ContactSolver& contact_solver() const { return *contact_; }
   const MaterialSystem& materials() const { return materials_; }
@@ -142,7 +180,10 @@ class Simulation {
   /// most r per piece and the intended advance fits in the outer iterations' step bounds.
   int subdivision(double dt);
   /// Applies contact.on_violation to a substep that ended with `remaining` violations.
-  void check_violations(Index remaining, int substep_index);
+  void check_violations(Index remaining, int substep_index, int iterations, Index held_back, const FrameStats& fs);
+  /// The facts of a stop for `remaining` violations (StopReport), with its message.
+  StopReport diagnose_stop(Index remaining, int substep_index, int iterations, Index held_back,
+                           const FrameStats& fs) const;
   /// Applies contact.on_violation to a failed in-simulation audit.
   void check_audit(Index penetrations);
   /// Warns (once per object) when the step bound held vertices back at the end of a substep.
@@ -181,6 +222,7 @@ class Simulation {
   std::vector<bool> warned_capped_;  ///< per object: the capped-speed warning was given
   AuditHook audit_;
   int frame_ = 0;
+  std::optional<StopReport> stop_;
   // set_kinematic_targets: per slot of kinematic_, whether it is driven from outside, from where
   // (its position when the frame started) and to where; the frame's start and end time.
   std::vector<Index> kin_slot_;  ///< #V: slot in kinematic_, -1 for dynamic vertices
