@@ -5,6 +5,7 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <optional>
 
@@ -13,6 +14,7 @@
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
 #include "ccfr/core/parallel.hpp"
+#include "ccfr/core/process.hpp"
 #include "ccfr/geometry_exact/audit.hpp"
 #include "ccfr/io/checkpoint.hpp"
 #include "ccfr/io/dir_lock.hpp"
@@ -187,6 +189,23 @@ void check_frames_before(const std::filesystem::path& dir, const Resume& r, cons
                   " in the checkpoint): frame and checkpoint come from different runs");
   }
 }
+
+std::string gigabytes(double bytes) {
+  return bytes >= 1e9 ? fmt::format("{:.1f} GB", bytes / 1e9) : fmt::format("{:.0f} MB", bytes / 1e6);
+}
+
+// Why a run stopped for memory, and what to do about it (docs/output.md, exit codes).
+std::string memory_stop_message(int frame, double held, const io::MemoryEstimate& m) {
+  return "memory: the run holds " + gigabytes(held) + " after frame " + std::to_string(frame) + ", more than the " +
+         gigabytes(m.limit_bytes) +
+         (m.limit_from_environment ? " of CCFR_RUN_MEMORY_LIMIT_MB"
+          : m.limit_is_max_memory  ? " of max_memory"
+                                   : " the machine had for it when it started") +
+         " (the loader estimated " + gigabytes(m.total_bytes) +
+         "); every frame so far is whole. Contact memory grows with the pairs in range: raise max_memory "
+         "(or --max-memory) if the machine has more, or coarsen the meshes, or lower contact.offset and "
+         "contact.radius (docs/choosing-parameters.md, Memory)";
+}
 }  // namespace
 
 RunSummary run_scene(const RunOptions& opts) {
@@ -300,6 +319,8 @@ RunSummary run_scene(const RunOptions& opts) {
   if (!opts.out.empty() || resume) {
     io::RunMeta meta = io::make_run_meta(sim, opts.command_line, opts.argv);
     meta.scene_fingerprint = fingerprint;
+    meta.memory_estimate = loaded.memory.total_bytes;
+    meta.memory_limit = loaded.memory.limit_bytes;
     writer = resume ? std::make_unique<io::RunRecorder>(opts.resume, sim, loaded.resolved_json, std::move(meta),
                                                         params.time.frames, io::RunWriter::ResumeAt{first_frame - 1})
                     : std::make_unique<io::RunRecorder>(opts.out, sim, loaded.resolved_json, std::move(meta),
@@ -311,6 +332,15 @@ RunSummary run_scene(const RunOptions& opts) {
     }
   }
   const int total = params.time.frames;
+  // The run is held to the limit the scene was loaded under; CCFR_RUN_MEMORY_LIMIT_MB lowers it
+  // for this run only (the tests of the stop use it: no scene of theirs is estimated low).
+  io::MemoryEstimate run_limit = loaded.memory;
+  if (const char* cap = std::getenv("CCFR_RUN_MEMORY_LIMIT_MB"); cap && std::atof(cap) > 0) {
+    const double b = std::atof(cap) * 1e6;
+    run_limit.limit_bytes = run_limit.limit_bytes > 0 ? std::min(run_limit.limit_bytes, b) : b;
+    run_limit.limit_is_max_memory = false;
+    run_limit.limit_from_environment = true;
+  }
   // With --resume, progress and ETA count the frames still to run.
   std::optional<ProgressReporter> progress;
   if (opts.progress) progress.emplace(opts.progress_label, total - first_frame + 1);
@@ -356,6 +386,22 @@ RunSummary run_scene(const RunOptions& opts) {
         output_failed(e);
         break;
       }
+    }
+    // The loader's estimate can err low (a sheet twisting into a rope): past the limit the machine
+    // would swap or kill the run, so stop now, with every frame so far whole and a checkpoint.
+    if (const double held = resident_bytes(); run_limit.limit_bytes > 0 && held > run_limit.limit_bytes) {
+      const std::string why = memory_stop_message(f, held, run_limit);
+      summary.status = "failed: " + why;
+      summary.failed = true;
+      spdlog::error("{}", why);
+      if (writer && params.output.checkpoint_every > 0 && f > summary.last_checkpoint && f < total) {
+        try {
+          save_checkpoint();
+        } catch (const Error& e) {
+          spdlog::error("{}", e.what());
+        }
+      }
+      break;
     }
     if (progress && progress->on_terminal())
       progress->update(f - first_frame + 1,

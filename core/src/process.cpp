@@ -6,7 +6,9 @@
 #include <unistd.h>
 
 #include <cstdlib>
+#include <fstream>
 #include <sstream>
+#include <string>
 
 extern char** environ;
 
@@ -46,5 +48,20 @@ int run_process(const std::vector<std::string>& args, const fs::path& output) {
     if (errno != EINTR) return -1;
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
+
+namespace {
+/// A "Key:   1234 kB" line of /proc/self/status, in bytes; 0 when absent (not Linux).
+double status_kib(const char* key) {
+  std::ifstream in("/proc/self/status");
+  std::string line;
+  const std::string k = std::string(key) + ":";
+  while (std::getline(in, line))
+    if (line.compare(0, k.size(), k) == 0) return 1024.0 * std::strtod(line.c_str() + k.size(), nullptr);
+  return 0.0;
+}
+}  // namespace
+
+double resident_bytes() { return status_kib("VmRSS"); }
+double peak_resident_bytes() { return status_kib("VmHWM"); }
 
 }  // namespace ccfr

@@ -14,6 +14,7 @@
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
+#include "ccfr/core/process.hpp"
 #include "ccfr/io/obj.hpp"
 
 namespace ccfr::io {
@@ -516,6 +517,10 @@ void RunWriter::write_run_json(const std::string& status, bool finished) {
   if (!resumed_json_.empty()) j["resumed"] = Json::parse(resumed_json_);
   if (!stop_json_.empty()) j["stop"] = Json::parse(stop_json_);
   j["vertices"] = topo_.num_vertices();
+  if (meta_.memory_estimate > 0)
+    j["memory"] = {{"estimate_bytes", meta_.memory_estimate},
+                   {"limit_bytes", meta_.memory_limit},
+                   {"peak_resident_bytes", peak_resident_bytes()}};
   if (meta_.scene_fingerprint != 0) {
     char fp[24];
     std::snprintf(fp, sizeof fp, "%016llx", static_cast<unsigned long long>(meta_.scene_fingerprint));

@@ -19,6 +19,7 @@
 #include <optional>
 #include <set>
 #include <sstream>
+#include <unordered_map>
 
 #include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/parser.h>
@@ -26,6 +27,7 @@
 #include "ccfr/collision/broad_phase.hpp"
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
+#include "ccfr/core/process.hpp"
 #include "ccfr/feasibility/projector.hpp"
 #include "ccfr/geometry/generators.hpp"
 #include "ccfr/geometry/mass_properties.hpp"
@@ -53,53 +55,56 @@ struct RawGeometry {
   AnalyticShape shape;
 };
 
-/// Element counts of one object (or a whole scene), in doubles: products of 32-bit keys must not wrap.
+/// Element counts of one object (or a whole scene), in doubles: products of 32-bit keys must not
+/// wrap; and the contact units of io::memory_model.
 struct Counts {
   double v = 0, f = 0, t = 0, e = 0;  ///< vertices, surface faces, tets, strand segments
+  double sv = 0;                      ///< vertices that collide (a tet solid: its boundary's)
   double bv = 0, bf = 0;              ///< of those, the vertices and faces of rigid bodies and obstacles
-  double crowd = 0;    ///< sum over vertices of ((ξ + r + δ) / mean edge length)² (strands: to the power 1)
-  double contact = 0;  ///< bodies: io::MemoryEstimate's contact units (see memory_model)
-  double h = 0;        ///< mean edge length of one object (not summed)
-  double rho = 0;      ///< bodies: 3 volume / area of a closed surface (a sphere's radius); 0 if open
+  double driven = 0;                  ///< a surface moved by scripted pins, wound onto itself: sv (1 + D / h)²
+  double strand = 0;                  ///< self-contact units of strands: sv (1 + D / h)
+  double fine = 0;                    ///< a surface finer than D pairs with itself where flat: sv (D / h)²
+  double grains = 0;                  ///< particles: how many others each has within D, summed
+  double cross = 0;                   ///< contact with other objects (a deformable on either side)
+  double patch = 0;                   ///< a rigid body's contact patch with another body
+  double h = 0;                       ///< mean edge length of what collides (not summed)
+  double rho = 0;                     ///< bodies: 3 volume / area of a closed surface; 0 if open (not summed)
+  double area = 0;                    ///< collision surface area (strands: sv h²; not summed)
   Counts& operator+=(const Counts& o) {
-    v += o.v, f += o.f, t += o.t, e += o.e, bv += o.bv, bf += o.bf, crowd += o.crowd, contact += o.contact;
-    h = 0, rho = 0;  // per object only
+    v += o.v, sv += o.sv, f += o.f, t += o.t, e += o.e, bv += o.bv, bf += o.bf;
+    driven += o.driven, strand += o.strand, fine += o.fine, grains += o.grains, cross += o.cross, patch += o.patch;
+    h = 0, rho = 0, area = 0;  // per object only
     return *this;
   }
 };
 
+bool is_body(ObjectKind k) { return k == ObjectKind::rigid || k == ObjectKind::obstacle; }
+
 /// Marks the elements of a rigid body or an obstacle: they move as a whole, so they carry no
 /// material constraints and never pair with each other.
 Counts as_kind(Counts c, ObjectKind kind) {
-  if (kind == ObjectKind::rigid || kind == ObjectKind::obstacle) c.bv = c.v, c.bf = c.f, c.crowd = 0;
+  if (is_body(kind)) c.bv = c.v, c.bf = c.f, c.driven = c.strand = c.fine = 0;
   return c;
 }
 
-bool is_body(ObjectKind k) { return k == ObjectKind::rigid || k == ObjectKind::obstacle; }
-
-// A rough estimate of the peak memory of a run, from the geometry as loaded (formula and constants:
-// io::memory_model). Per element of a deformable object: positions, velocities, masses, rest state,
-// BVHs, constraints, adjacency and frame text. Per crowded vertex: the contact pairs and regions of
-// its self-contact, which grow with the primitives within the contact range ξ + r + δ, i.e. with
-// (range / edge length)²; calibrated on peak resident sizes of a 200 x 200 cloth grid (40401
-// vertices) alone: 62 MB at edge 0.1 m, 230 MB at 20 mm, 1.6 GB at 10 mm, 5.5 GB at 5 mm. A rigid
-// body or an obstacle has no self pairs (never enumerated) and a quarter of the per-vertex bytes
-// (a 37,706-vertex bunny: 29-35 MB above the base). Its contact with other objects is charged on
-// its side: a vertex within reach D = 2r + ξ + δ of another surface holds a half-space per
-// primitive of that surface there, about 24 (D / h)² of them (measured from stats.csv: 1,240 per
-// contact vertex in the scanned pile at h = 2 mm, 184 in a knot-on-elephant drop at h = 4-6 mm),
-// and the peak comes when a share of about D / (2ρ) of a curved body's surface is within reach
-// (the pile: 3 %, the tube-like knot on the elephant: 13 %). Each half-space costs 460-640 bytes
-// of peak RSS (the pose solve's copy, the region, the contact pair, the response; massif). So a
-// body vertex costs kBytesPerContactUnit min(1, D / 2ρ) (2 + D / h_p)², h_p the finest surface
-// it can touch (docs/performance.md, "the memory estimate (issue 39)").
+// The memory model (io::memory_model; fitted and checked in docs/performance.md, "A memory
+// estimate that tells the truth"). Peak RSS is the process base, about 1 KB per element, and
+// about 170-270 bytes per half-space of the densest pass; the half-spaces are what the
+// contact units predict. A movable vertex within reach D = 2r + ξ + δ of a surface of mean edge
+// h_j holds about 20 ((h_i + h_j) / 2 + D)² / h_j² half-spaces (one per sub-pair with a primitive
+// of that surface in reach), so each contact term counts vertices times that factor:
+// self-contact of a sheet, a tet boundary or a strand; contact of a deformable with another
+// object over the smaller of the two areas (a sheet has two sides: at most two such layers);
+// and a rigid body's patch on another body, a cap of area 2π D ρ_eff (ρ_eff = ρ_i ρ_j / (ρ_i +
+// ρ_j), ρ = 3 volume / area) where its surface meets its finest partner.
 using namespace memory_model;
 
 /// What the elements of one object (or of several: the sum is linear) add to the estimate.
 double object_bytes(const Counts& c) {
-  return kBytesPerVertex * (c.v - c.bv) + kBytesPerBodyVertex * c.bv + kBytesPerCrowdedVertex * c.crowd +
-         kBytesPerFace * (c.f - c.bf) + kBytesPerBodyFace * c.bf + kBytesPerTet * c.t + kBytesPerSegment * c.e +
-         kBytesPerContactUnit * c.contact;
+  return kBytesPerVertex * (c.v - c.bv) + kBytesPerFace * (c.f - c.bf) + kBytesPerTet * c.t + kBytesPerSegment * c.e +
+         kBytesPerBodyVertex * c.bv + kBytesPerBodyFace * c.bf + kBytesPerDrivenUnit * c.driven +
+         kBytesPerStrandSelfUnit * c.strand + kBytesPerFineUnit * c.fine + kBytesPerGrainUnit * c.grains +
+         kBytesPerCrossUnit * c.cross + kBytesPerPatchUnit * c.patch;
 }
 
 double estimate_bytes(const Counts& c) { return kBaseBytes + object_bytes(c); }
@@ -125,9 +130,13 @@ double available_memory_bytes() {
   return pages > 0 && page > 0 ? double(pages) * double(page) : 0.0;
 }
 
+/// "12.3 GB", or "45 MB" below 1 GB (a small scene's estimate would otherwise read 0.0 GB).
 std::string gigabytes(double b) {
   char buf[32];
-  std::snprintf(buf, sizeof buf, "%.1f GB", b / 1e9);
+  if (b >= 1e9)
+    std::snprintf(buf, sizeof buf, "%.1f GB", b / 1e9);
+  else
+    std::snprintf(buf, sizeof buf, "%.0f MB", b / 1e6);
   return buf;
 }
 
@@ -186,7 +195,6 @@ struct ObjectCost {
   std::string name;
   ObjectKind kind;
   Counts counts;
-  double partner_h = 0;  ///< bodies: the finest mean edge it can touch (0: none; infinity: no edges)
 };
 
 class Builder {
@@ -228,22 +236,23 @@ class Builder {
       check_rotation(o["transform"], path + ".transform");
       place(g, o["transform"]);
       check_placed(g.v, path, name);
-      const Counts actual = counts(g, kind, p.contact.offset + p.contact.radius + p.contact.repulsion_range);
+      const Counts actual = counts(g, kind, reach(p), driven_by_pins(o["pins"]));
       check_size(total, actual, spath, name, kind);
       total += actual;
-      costs_.push_back({name, kind, actual, 0.0});
+      costs_.push_back({name, kind, actual});
       tb.add_object(name, kind, static_cast<Index>(g.v.size()), g.faces, g.tets, g.lines);
       geoms.push_back(std::move(g));
     }
-    charge_contact(total, 2 * p.contact.radius + p.contact.offset + p.contact.repulsion_range);
+    charge_contact(total, reach(p), p.contact.offset);
     if (spdlog::should_log(spdlog::level::debug)) {
       std::string detail;
       for (const ObjectCost& c : costs_)
         detail += fmt::format(
-            "; '{}' {} v={} f={} t={} e={} h={:.4g} crowd={:.0f} rho={:.4g} h_p={:.4g} contact={:.0f}: "
-            "{:.1f} MB",
-            printable(c.name), to_string(c.kind), c.counts.v, c.counts.f, c.counts.t, c.counts.e, c.counts.h,
-            c.counts.crowd, c.counts.rho, c.partner_h, c.counts.contact, object_bytes(c.counts) / 1e6);
+            "; '{}' {} v={} sv={} f={} t={} e={} h={:.4g} area={:.4g} rho={:.4g} driven={:.0f} "
+            "strand={:.0f} fine={:.0f} grains={:.0f} cross={:.0f} patch={:.0f}: {:.1f} MB",
+            printable(c.name), to_string(c.kind), c.counts.v, c.counts.sv, c.counts.f, c.counts.t, c.counts.e,
+            c.counts.h, c.counts.area, c.counts.rho, c.counts.driven, c.counts.strand, c.counts.fine, c.counts.grains,
+            c.counts.cross, c.counts.patch, object_bytes(c.counts) / 1e6);
       spdlog::debug("{}: estimated memory {:.1f} MB ({} vertices{}), limit {}", ctx_.file, estimate_bytes(total) / 1e6,
                     count_str(total.v), detail, gigabytes(memory_limit_()));
     }
@@ -331,29 +340,102 @@ class Builder {
     return as_kind(c, kind);
   }
 
-  /// Element counts of generated or loaded geometry, with the crowding of its vertices relative
-  /// to the contact range.
-  static Counts counts(const RawGeometry& g, ObjectKind kind, double range) {
-    Counts c{double(g.v.size()), double(g.faces.size()), double(g.tets.size()), 0, 0};
+  /// The detection reach D = 2r + ξ + δ: how far apart two primitives can be and still pair.
+  static double reach(const SimulationParams& p) {
+    return 2 * p.contact.radius + p.contact.offset + p.contact.repulsion_range;
+  }
+
+  /// True if a pin group of `pins` (resolved) is moved by a script: such a sheet can be wound
+  /// onto itself (the twisting cloth becomes a rope), so its self-contact is charged as driven.
+  static bool driven_by_pins(const YAML::Node& pins) {
+    if (!pins || !pins.IsSequence()) return false;
+    for (const auto& pn : pins)
+      if (pn["motion"] && read_motion(pn["motion"]).moves()) return true;
+    return false;
+  }
+
+  /// Element counts of generated or loaded geometry, with its collision surface (area, mean edge
+  /// h) and its self-contact units for reach D (io::memory_model).
+  static Counts counts(const RawGeometry& g, ObjectKind kind, double reach, bool driven) {
+    Counts c{double(g.v.size()), double(g.faces.size()), double(g.tets.size()), 0};
+    c.sv = c.v;
     for (const auto& l : g.lines) c.e += double(l.size()) - 1;
-    if (kind == ObjectKind::tet_solid) c.f = 2 * c.t;  // rough: its surface faces
+    // A tet solid collides through its boundary only: its surface faces and their edges set the
+    // contact terms (a tetgen fill of a scanned surface has tets far coarser than the surface).
+    const std::vector<Vec3i> boundary = kind == ObjectKind::tet_solid ? tet_boundary(g.tets) : std::vector<Vec3i>{};
+    if (kind == ObjectKind::tet_solid) {
+      c.f = double(boundary.size());
+      std::vector<char> on(g.v.size(), 0);
+      for (const auto& f : boundary) on[f[0]] = on[f[1]] = on[f[2]] = 1;
+      c.sv = double(std::count(on.begin(), on.end(), 1));
+    }
     double sum = 0, n = 0;
-    auto edge = [&](Index a, Index b) { sum += (g.v[a] - g.v[b]).norm(), n += 1; };
-    for (const auto& f : g.faces) edge(f[0], f[1]), edge(f[1], f[2]), edge(f[2], f[0]);
-    for (const auto& t : g.tets) edge(t[0], t[1]), edge(t[0], t[2]), edge(t[0], t[3]);
+    // Per vertex too: a scanned or tetgen surface mixes edges of 1 and 10 mm, and (1 + D / h)² is
+    // convex in 1 / h, so its fine patches crowd far more than the mean edge says.
+    std::vector<double> vsum(g.v.size(), 0.0), vn(g.v.size(), 0.0);
+    auto edge = [&](Index a, Index b) {
+      const double l = (g.v[a] - g.v[b]).norm();
+      sum += l, n += 1, vsum[a] += l, vsum[b] += l, vn[a] += 1, vn[b] += 1;
+    };
+    for (const auto& f : kind == ObjectKind::tet_solid ? boundary : g.faces) {
+      edge(f[0], f[1]), edge(f[1], f[2]), edge(f[2], f[0]);
+      c.area += 0.5 * (g.v[f[1]] - g.v[f[0]]).cross(g.v[f[2]] - g.v[f[0]]).norm();
+    }
     for (const auto& l : g.lines)
       for (size_t k = 1; k < l.size(); ++k) edge(l[k - 1], l[k]);
     if (n > 0 && sum > 0) c.h = sum / n;
-    if (n > 0 && sum > 0) {
-      // Neighbours within the range grow with s² on a surface or solid, with s along a strand
-      // (hair.yaml: 33094 strand vertices, 1.1 GB measured, 1.7 GB estimated).
-      const double s = range / (sum / n);
-      c.crowd = c.v * (kind == ObjectKind::strand ? s : s * s);
-    }
+    if (kind == ObjectKind::strand) c.area = c.sv * c.h * c.h;
+    // Self-contact, per vertex that collides with h_v its mean edge: a surface pairs with its own
+    // flat neighbourhood where it is finer than D, (D / h_v)² (fine); one wound by scripted pins
+    // also with the layers around it, (1 + D / h_v)² (driven); strands with their neighbours along
+    // a bundle, 1 + D / h_v.
+    if (c.h > 0 && !is_body(kind))
+      for (size_t k = 0; k < g.v.size(); ++k) {
+        if (vn[k] == 0 || vsum[k] <= 0) continue;
+        const double q = reach * vn[k] / vsum[k];
+        if (kind == ObjectKind::strand) {
+          c.strand += 1 + q;
+        } else {
+          c.fine += q * q;
+          if (driven) c.driven += (1 + q) * (1 + q);
+        }
+      }
+    if (kind == ObjectKind::particles) c.grains = neighbours_within(g.v, reach);
     if (is_body(kind)) c.rho = body_radius(g);
-    // A rigid body or an obstacle moves as a whole: its own primitives never form a contact pair
-    // (the broad phase does not even enumerate them), so as_kind drops its crowding.
     return as_kind(c, kind);
+  }
+
+  /// Sum over the points of how many others lie within `reach` (each pair counted from both
+  /// sides), by hashing them into cells of that size: a block of particles pairs with itself
+  /// from the first frame, and a pile packs no looser.
+  static double neighbours_within(const Positions& x, double reach) {
+    if (x.size() < 2 || !(reach > 0)) return 0;
+    std::unordered_map<std::uint64_t, std::vector<Index>> cells;
+    auto key = [](std::int64_t i, std::int64_t j, std::int64_t k) {
+      return (std::uint64_t(i & 0x1fffff) << 42) | (std::uint64_t(j & 0x1fffff) << 21) | std::uint64_t(k & 0x1fffff);
+    };
+    auto cell = [&](const Vec3& p) {
+      return Eigen::Array3d(std::floor(p.x() / reach), std::floor(p.y() / reach), std::floor(p.z() / reach))
+          .cast<std::int64_t>();
+    };
+    for (size_t a = 0; a < x.size(); ++a) {
+      const auto c = cell(x[a]);
+      cells[key(c[0], c[1], c[2])].push_back(static_cast<Index>(a));
+    }
+    double n = 0;
+    const double r2 = reach * reach;
+    for (size_t a = 0; a < x.size(); ++a) {
+      const auto c = cell(x[a]);
+      for (int di = -1; di <= 1; ++di)
+        for (int dj = -1; dj <= 1; ++dj)
+          for (int dk = -1; dk <= 1; ++dk) {
+            const auto it = cells.find(key(c[0] + di, c[1] + dj, c[2] + dk));
+            if (it == cells.end()) continue;
+            for (const Index b : it->second)
+              if (b != Index(a) && (x[b] - x[a]).squaredNorm() <= r2) n += 1;
+          }
+    }
+    return n;
   }
 
   /// 3 V / A of a closed triangle surface (every edge in exactly two faces): the radius of a
@@ -392,32 +474,42 @@ class Builder {
                 "the scene would have " + count_str(all.v) + " vertices, more than the " + count_str(kMax) +
                     " that 32-bit indices address");
     std::vector<ObjectCost> costs = costs_;
-    costs.push_back({name, kind, add, 0.0});
+    costs.push_back({name, kind, add});
     refuse_if_too_large(all, costs, spath);
   }
 
-  /// Charges every rigid body and obstacle that can touch another object for that contact
-  /// (memory_model::kBytesPerContactUnit): its vertices times (1 + reach / h_p)², h_p the finest
-  /// mean edge among the objects it can touch. Two obstacles never pair; particles have no edges
-  /// (a vertex of a body touches one particle at a time within a particle's spacing).
-  void charge_contact(Counts& total, double reach) {
+  /// Charges contact between objects (io::memory_model), once every object is known: each
+  /// movable object (not an obstacle) for the half-spaces its vertices hold. With a deformable on
+  /// either side, a vertex of i touches j over at most the smaller area, min(1, A_j / A_i) of i,
+  /// with about F_ij = ((h_i + h_j) / 2 + D)² / h_j² half-spaces (1 for particles, which have no
+  /// edges), summing at most two such layers (a sheet's two sides; fewer when D < ξ cannot hold
+  /// them). Two bodies meet on a patch: a rigid body is charged its largest cap 2π D ρ_eff with
+  /// another body, times F per vertex area (A / h_i²), an open surface counting as a plane.
+  void charge_contact(Counts& total, double reach, double offset) {
+    const double layers = std::min(2.0, std::max(1.0, 2.0 * reach / offset));
     for (size_t i = 0; i < costs_.size(); ++i) {
-      ObjectCost& c = costs_[i];
-      if (!is_body(c.kind)) continue;
-      bool partner = false;
-      double finest = std::numeric_limits<double>::infinity();
+      Counts& ci = costs_[i].counts;
+      const ObjectKind ki = costs_[i].kind;
+      if (ki == ObjectKind::obstacle) continue;  // its vertices never move: no half-space of its own
+      double cross = 0, cover = 0, patch = 0;
       for (size_t j = 0; j < costs_.size(); ++j) {
-        if (j == i || (c.kind == ObjectKind::obstacle && costs_[j].kind == ObjectKind::obstacle)) continue;
-        if (costs_[j].counts.v <= 0) continue;
-        partner = true;
-        if (costs_[j].counts.h > 0) finest = std::min(finest, costs_[j].counts.h);
+        const Counts& cj = costs_[j].counts;
+        if (j == i || cj.v <= 0) continue;
+        const double f = cj.h > 0 ? std::pow((ci.h + cj.h) / 2 + reach, 2) / (cj.h * cj.h) : 1.0;
+        if (is_body(ki) && is_body(costs_[j].kind)) {
+          const double inf = std::numeric_limits<double>::infinity();
+          const double ri = ci.rho > 0 ? ci.rho : inf, rj = cj.rho > 0 ? cj.rho : inf;
+          const double eff = std::isinf(ri) ? rj : std::isinf(rj) ? ri : ri * rj / (ri + rj);
+          const double cap = std::min({2 * std::numbers::pi * reach * eff, ci.area, cj.area});
+          if (ci.h > 0) patch = std::max(patch, cap / (ci.h * ci.h) * f);
+        } else {
+          const double share = ci.area > 0 && cj.area > 0 ? std::min(1.0, cj.area / ci.area) : 1.0;
+          cross += share * f, cover += share;
+        }
       }
-      c.partner_h = partner ? finest : 0.0;
-      if (!partner) continue;
-      const double s = std::isfinite(finest) ? 2.0 + reach / finest : 1.0;
-      const double share = c.counts.rho > 0 ? std::min(1.0, reach / (2.0 * c.counts.rho)) : 1.0;
-      c.counts.contact = c.counts.v * share * s * s;
-      total.contact += c.counts.contact;
+      if (cover > layers) cross *= layers / cover;
+      ci.cross = ci.sv * cross, ci.patch = patch;
+      total.cross += ci.cross, total.patch += ci.patch;
     }
   }
 
@@ -433,10 +525,9 @@ class Builder {
                     (all.t > 0 ? ", " + count_str(all.t) + " tets" : "") +
                     (all.e > 0 ? ", " + count_str(all.e) + " strand segments" : "") + "), more than the " +
                     gigabytes(have) + (max_memory_gb_ > 0 ? " of max_memory" : " available (MemAvailable)") +
-                    ". Contact pairs grow with ((offset + radius + repulsion_range) / mean edge length)^2 per "
-                    "vertex of a deformable object, and with (1 + (2 radius + offset + repulsion_range) / the "
-                    "finest mean edge it can touch)^2 per vertex of a rigid body or obstacle: reduce the "
-                    "resolution, or the contact offset and radius; or, "
+                    ". Contact memory grows with the half-spaces of the densest pass, about (1 + D / h)^2 per "
+                    "vertex in contact with a surface of mean edge h, D = 2 radius + offset + repulsion_range: "
+                    "coarsen the finest meshes, or reduce the contact offset and radius; or, "
                     "if the machine has the memory, raise the limit with max_memory (GB) or `ccfr run "
                     "--max-memory GB` (docs/choosing-parameters.md)");
     }
@@ -1176,12 +1267,17 @@ class Builder {
       ObjectMemory o;
       o.name = c.name;
       o.vertices = c.counts.v, o.faces = c.counts.f, o.tets = c.counts.t, o.segments = c.counts.e;
-      o.mean_edge = c.counts.h, o.crowd = c.counts.crowd, o.partner_edge = c.partner_h, o.contact = c.counts.contact;
-      o.body_radius = c.counts.rho;
+      o.mean_edge = c.counts.h, o.area = c.counts.area, o.body_radius = c.counts.rho;
+      o.fine_contact = c.counts.fine, o.driven_contact = c.counts.driven, o.strand_contact = c.counts.strand;
+      o.grain_contact = c.counts.grains;
+      o.cross_contact = c.counts.cross, o.patch_contact = c.counts.patch;
       o.bytes = object_bytes(c.counts);
       m.objects.push_back(std::move(o));
     }
     m.total_bytes = estimate_bytes(total);
+    const double have = memory_limit_();
+    m.limit_is_max_memory = max_memory_gb_ > 0;
+    m.limit_bytes = have > 0 ? have + (m.limit_is_max_memory ? 0.0 : resident_bytes()) : 0.0;
     return m;
   }
 

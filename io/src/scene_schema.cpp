@@ -309,10 +309,12 @@ NodePtr build_scene_schema() {
           {"scene", optional_string("scene name (default: the file name without extension)")},
           {"max_memory",
            number(0.0,
-                  "largest estimated memory (GB) a scene may need: a scene estimated above it is refused while "
-                  "loading, naming what each object costs; 0 means the memory the machine has available "
-                  "(MemAvailable). Raise it knowingly (`ccfr run --max-memory GB`) when the estimate is "
-                  "pessimistic for the scene (docs/performance.md compares it with measured peaks)",
+                  "largest memory (GB) a scene may use: a scene estimated above it is refused while "
+                  "loading, naming what each object costs, and a run whose resident memory passes it stops "
+                  "after that frame (exit 1, frames whole, a checkpoint to resume from); 0 means the memory the "
+                  "machine has available (MemAvailable). Raise it knowingly (`ccfr run --max-memory GB`) when "
+                  "the estimate is pessimistic for the scene (docs/performance.md compares it with measured "
+                  "peaks)",
                   Range{0, 1e6, false, false})},
           {"time",
            map("time stepping",

@@ -76,3 +76,39 @@ TEST(CliLimits, MaxMemoryIsTheLimitOfTheEstimate) {
   const Result fine = run(base + " --max-memory 1");
   EXPECT_EQ(fine.code, 0) << fine.out;
 }
+
+// A run that outgrows its memory limit stops after the frame that crossed it, before the machine
+// swaps or kills it: exit 1, run.json says why and how much it held, every frame on disk is whole,
+// and a checkpoint lets the run resume where the memory is. A block of 3375 particles packed at
+// less than the reach pairs with itself from frame 1 (about 50 MB); the limit is lowered for the
+// one run with CCFR_RUN_MEMORY_LIMIT_MB, because no scene is estimated below its peak.
+TEST(CliLimits, ARunThatOutgrowsItsMemoryStopsWithItsFramesWhole) {
+  const fs::path d = ccfr::test::scratch_dir("memory_stop");
+  std::ofstream(d / "block.yaml") << "scene: block\ntime: {fps: 60, frames: 3}\n"
+                                     "contact: {radius: 0.005, offset: 0.004, repulsion_range: 0.001}\n"
+                                     "output: {checkpoint_every: 10}\n"
+                                     "materials: {sand: {density: 1500}}\n"
+                                     "objects:\n"
+                                     "  - {name: block, kind: particles, material: sand, shape: {type: particles, "
+                                     "counts: [15, 15, 15], spacing: 0.005}}\n";
+  const std::string out = (d / "out").string();
+  const Result r = ccfr::test::run_shell("CCFR_RUN_MEMORY_LIMIT_MB=25 " + std::string(CCFR_EXE) + " run " +
+                                         (d / "block.yaml").string() + " --out " + out + " 2>&1");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(has(r, "memory: the run holds")) << r.out;
+  EXPECT_TRUE(has(r, "after frame 1, more than the 25 MB of CCFR_RUN_MEMORY_LIMIT_MB")) << r.out;
+  std::ifstream rj(d / "out" / "run.json");
+  const std::string json((std::istreambuf_iterator<char>(rj)), std::istreambuf_iterator<char>());
+  EXPECT_NE(json.find("\"status\": \"failed: memory: the run holds"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"peak_resident_bytes\""), std::string::npos) << json;
+  EXPECT_NE(json.find("\"frames_written\": 2"), std::string::npos) << json;
+  EXPECT_TRUE(fs::exists(d / "out" / "frames" / "frame_00001.obj"));
+  EXPECT_FALSE(fs::exists(d / "out" / "frames" / "frame_00002.obj"));
+  EXPECT_TRUE(fs::exists(d / "out" / "checkpoints" / "checkpoint_00001.ccfr"));
+  // Where the memory is, the run resumes and completes, and the audit certifies every frame.
+  const Result resumed = run("run --resume " + out);
+  EXPECT_EQ(resumed.code, 0) << resumed.out;
+  const Result audit = run("audit " + out);
+  EXPECT_EQ(audit.code, 0) << audit.out;
+  EXPECT_TRUE(fs::exists(d / "out" / "frames" / "frame_00003.obj"));
+}

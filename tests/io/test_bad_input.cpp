@@ -95,7 +95,7 @@ TEST(BadInput, ScenesLargerThanTheMemoryAreRefusedBeforeAllocating) {
 
 // A fine mesh (40962 vertices, edges ~8 mm, contact range 20.5 mm) as a shell crowds every vertex
 // with ~6 neighbours' pairs: estimated above 1 GB. The same mesh as a rigid body or an obstacle
-// never pairs with itself, so only its elements count (about 0.1 GB) and it loads under that limit.
+// never pairs with itself, so only its elements count (98 MB) and it loads under that limit.
 TEST(BadInput, MemoryEstimateChargesNoSelfPairsToRigidsAndObstacles) {
   const std::string ball = with(shape("{type: sphere, radius: 0.5, subdivisions: 6}"), "scene: t\n",
                                 "scene: t\nmax_memory: 1\nmaterials: {m: {density: 1000}}\n");
@@ -118,7 +118,7 @@ TEST(BadInput, MemoryEstimateChargesNoSelfPairsToRigidsAndObstacles) {
                                        "  - name: body\n    kind: rigid", "  - name: body\n    kind: shell");
   e = config_error(rigid_first);
   EXPECT_EQ(e.key_path(), "objects[1].shape");
-  EXPECT_TRUE(has(e, "'sheet' (rigid, 40962 vertices) 0.1 GB, 'body' (shell, 40962 vertices)")) << e.what();
+  EXPECT_TRUE(has(e, "'sheet' (rigid, 40962 vertices) 98 MB, 'body' (shell, 40962 vertices)")) << e.what();
   // Raised knowingly (what `ccfr run --max-memory` sets): the shell loads.
   EXPECT_NO_THROW(io::load_scene_text(shell, "scene.yaml", ".", {"max_memory=1000"}));
   e = config_error(shell, {"max_memory=-1"});

@@ -1,10 +1,11 @@
-// The loader's memory estimate (io::memory_model) against a count by hand: element counts, mean
-// edge lengths, enclosed volumes and contact partners worked out from the shapes' closed forms,
-// not from the loader's own passes over the geometry.
+// The loader's memory estimate (io::memory_model) against a count by hand: shapes whose every
+// vertex has edges of one length (an equilateral triangle, a regular octahedron, a regular
+// tetrahedron), so each term follows from closed forms (areas, 3 volume / area, the reach), not
+// from the loader's own passes over the geometry.
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <limits>
+#include <numbers>
 
 #include "ccfr/io/scene_loader.hpp"
 
@@ -14,14 +15,34 @@ using namespace ccfr::io::memory_model;
 namespace {
 
 constexpr double kR = 0.01, kXi = 0.004, kDelta = 0.001;  // radius, offset, repulsion range
-constexpr double kRange = kXi + kR + kDelta;              // a deformable's contact range
-constexpr double kReach = 2 * kR + kXi + kDelta;          // the detection reach
+constexpr double kReach = 2 * kR + kXi + kDelta;          // D: the detection reach
+constexpr double kL = 0.02;                               // the triangle's side
+constexpr double kA = 0.1;                                // the octahedron's edge
+constexpr double rel = 1e-12;
 
-std::string scene(const std::string& objects) {
+const double kSqrt3 = std::sqrt(3.0);
+
+std::string header() {
   return "scene: t\ntime: {fps: 60, frames: 1}\n"
          "contact: {radius: 0.01, offset: 0.004, repulsion_range: 0.001}\n"
-         "materials: {m: {density: 500}}\nobjects:\n" +
-         objects;
+         "materials: {m: {density: 500}}\nobjects:\n";
+}
+
+io::MeshArrays triangle(double side, double y) {
+  io::MeshArrays m;
+  m.vertices = {Vec3(0, y, 0), Vec3(side, y, 0), Vec3(side / 2, y, side * std::sqrt(3.0) / 2)};
+  m.faces = {Vec3i(0, 2, 1)};
+  return m;
+}
+
+/// A regular octahedron of edge `a`, centred at height `y`, outward-facing triangles.
+io::MeshArrays octahedron(double a, double y) {
+  const double c = a / std::sqrt(2.0);
+  io::MeshArrays m;
+  m.vertices = {Vec3(c, y, 0), Vec3(-c, y, 0), Vec3(0, y + c, 0), Vec3(0, y - c, 0), Vec3(0, y, c), Vec3(0, y, -c)};
+  m.faces = {Vec3i(0, 2, 4), Vec3i(2, 1, 4), Vec3i(1, 3, 4), Vec3i(3, 0, 4),
+             Vec3i(2, 0, 5), Vec3i(1, 2, 5), Vec3i(3, 1, 5), Vec3i(0, 3, 5)};
+  return m;
 }
 
 const io::ObjectMemory& object(const io::MemoryEstimate& m, const std::string& name) {
@@ -31,106 +52,147 @@ const io::ObjectMemory& object(const io::MemoryEstimate& m, const std::string& n
   return m.objects.front();
 }
 
-/// Mean of the three edge lengths of the two triangles of an a x b rectangle, halved by a diagonal.
-double rectangle_mean_edge(double a, double b) { return (a + b + std::hypot(a, b)) / 3.0; }
-
-/// A box generator's mean edge: two triangles per face, each with two sides and the diagonal.
-double box_mean_edge(double x, double y, double z) {
-  return (rectangle_mean_edge(y, z) + rectangle_mean_edge(x, y) + rectangle_mean_edge(x, z)) / 3.0;
-}
-
-/// 3 V / A of an x, y, z box.
-double box_radius(double x, double y, double z) { return 3.0 * x * y * z / (2.0 * (x * y + y * z + z * x)); }
-
-double body_contact(double vertices, double rho, double partner_h) {
-  const double share = std::min(1.0, kReach / (2.0 * rho));
-  const double s = std::isfinite(partner_h) ? 2.0 + kReach / partner_h : 1.0;
-  return vertices * share * s * s;
-}
-
-constexpr double rel = 1e-12;
+/// F = ((h_i + h_j) / 2 + D)² / h_j²: half-spaces per vertex of i per unit, against j.
+double per_vertex(double hi, double hj) { return std::pow((hi + hj) / 2 + kReach, 2) / (hj * hj); }
 
 }  // namespace
 
-// A floor obstacle (1 x 0.1 x 1), a wall obstacle beside it, a rigid cube (0.1) and a 2 x 2 cloth
-// grid (0.5 m): the cloth is charged its elements and self-crowding, the cube and the floor their
-// elements and contact with the finest object each can touch (the cloth's 0.25 m cells are
-// coarser than the cube's edges, so the floor's finest partner is the cube), the wall only
-// what the floor is: two obstacles never pair.
+// A shell triangle above a rigid octahedron above an open floor plane. The triangle (3 vertices,
+// h = L) pays its elements, its fine self-contact 3 (D / L)² and contact with both others (each
+// larger than it: share 1, two layers); the octahedron pays body elements, contact with the
+// triangle over the triangle's share of its area, and its patch on the floor: a cap 2π D ρ with
+// ρ = 3 volume / area = a / √6 (the floor, open, counts as a plane); the floor, an obstacle,
+// holds no half-space and pays its elements only.
 TEST(MemoryEstimate, MatchesTheFormulaCountedByHand) {
-  const auto loaded =
-      io::load_scene_text(scene("  - {name: floor, kind: obstacle, shape: {type: box, size: [1, 0.1, 1]}}\n"
-                                "  - {name: wall, kind: obstacle, shape: {type: box, size: [0.2, 1, 0.3]},"
-                                " transform: {translate: [3, 0, 0]}}\n"
-                                "  - {name: cube, kind: rigid, material: m, shape: {type: box, size: [0.1, "
-                                "0.1, 0.1]}, transform: {translate: [0, 0.5, 0]}}\n"
-                                "  - {name: sheet, kind: cloth, material: m, shape: {type: grid, size: "
-                                "[0.5, 0.5], resolution: [2, 2]}, transform: {translate: [0, 1, 0]}}\n"),
-                          "scene.yaml", ".");
+  const std::map<std::string, io::MeshArrays> arrays{{"tri", triangle(kL, 1.0)}, {"oct", octahedron(kA, 0.5)}};
+  const auto loaded = io::load_scene_arrays(header() +
+                                                "  - {name: floor, kind: obstacle, shape: {type: plane, size: 1, "
+                                                "resolution: 1}}\n"
+                                                "  - {name: ball, kind: rigid, material: m, shape: {type: mesh, "
+                                                "path: oct}}\n"
+                                                "  - {name: sheet, kind: shell, material: m, shape: {type: mesh, "
+                                                "path: tri}}\n",
+                                            "scene.yaml", arrays);
   const io::MemoryEstimate& m = loaded.memory;
-  ASSERT_EQ(m.objects.size(), 4u);
+  ASSERT_EQ(m.objects.size(), 3u);
 
-  const double h_floor = box_mean_edge(1, 0.1, 1), h_wall = box_mean_edge(0.2, 1, 0.3);
-  const double h_cube = box_mean_edge(0.1, 0.1, 0.1), h_sheet = rectangle_mean_edge(0.25, 0.25);
-  ASSERT_LT(h_cube, h_sheet);
+  const double h_floor = (2 + std::sqrt(2.0)) / 3;  // two sides and a diagonal of a unit square
+  const double area_tri = kSqrt3 / 4 * kL * kL, area_oct = 2 * kSqrt3 * kA * kA;
+  const double rho_oct = kA / std::sqrt(6.0);
 
   const auto& sheet = object(m, "sheet");
-  EXPECT_NEAR(sheet.mean_edge, h_sheet, rel * h_sheet);
-  const double crowd = 9 * (kRange / h_sheet) * (kRange / h_sheet);
-  EXPECT_NEAR(sheet.crowd, crowd, rel * crowd);
-  EXPECT_EQ(sheet.contact, 0.0);  // a deformable's pairs are its crowding
-  const double sheet_bytes = kBytesPerVertex * 9 + kBytesPerFace * 8 + kBytesPerCrowdedVertex * crowd;
+  EXPECT_NEAR(sheet.mean_edge, kL, rel * kL);
+  EXPECT_NEAR(sheet.area, area_tri, rel * area_tri);
+  const double fine = 3 * std::pow(kReach / kL, 2);
+  EXPECT_NEAR(sheet.fine_contact, fine, rel * fine);
+  EXPECT_EQ(sheet.driven_contact, 0.0);
+  const double sheet_cross = 3 * (per_vertex(kL, kA) + per_vertex(kL, h_floor));
+  EXPECT_NEAR(sheet.cross_contact, sheet_cross, rel * sheet_cross);
+  EXPECT_EQ(sheet.patch_contact, 0.0);
+  const double sheet_bytes =
+      kBytesPerVertex * 3 + kBytesPerFace * 1 + kBytesPerFineUnit * fine + kBytesPerCrossUnit * sheet_cross;
   EXPECT_NEAR(sheet.bytes, sheet_bytes, rel * sheet_bytes);
 
-  const auto& cube = object(m, "cube");
-  EXPECT_NEAR(cube.body_radius, box_radius(0.1, 0.1, 0.1), 1e-15);
-  EXPECT_NEAR(cube.partner_edge, std::min(h_floor, std::min(h_wall, h_sheet)), 1e-15);
-  const double cube_contact = body_contact(8, box_radius(0.1, 0.1, 0.1), h_sheet);
-  EXPECT_NEAR(cube.contact, cube_contact, rel * cube_contact);
-  const double cube_bytes = kBytesPerBodyVertex * 8 + kBytesPerBodyFace * 12 + kBytesPerContactUnit * cube_contact;
-  EXPECT_NEAR(cube.bytes, cube_bytes, rel * cube_bytes);
+  const auto& ball = object(m, "ball");
+  EXPECT_NEAR(ball.body_radius, rho_oct, rel * rho_oct);
+  EXPECT_NEAR(ball.area, area_oct, rel * area_oct);
+  const double ball_cross = 6 * (area_tri / area_oct) * per_vertex(kA, kL);
+  EXPECT_NEAR(ball.cross_contact, ball_cross, rel * ball_cross);
+  const double cap = 2 * std::numbers::pi * kReach * rho_oct;
+  ASSERT_LT(cap, area_oct);
+  const double patch = cap / (kA * kA) * per_vertex(kA, h_floor);
+  EXPECT_NEAR(ball.patch_contact, patch, rel * patch);
+  EXPECT_EQ(ball.fine_contact, 0.0);  // a body never pairs with itself
+  const double ball_bytes =
+      kBytesPerBodyVertex * 6 + kBytesPerBodyFace * 8 + kBytesPerCrossUnit * ball_cross + kBytesPerPatchUnit * patch;
+  EXPECT_NEAR(ball.bytes, ball_bytes, rel * ball_bytes);
 
   const auto& floor = object(m, "floor");
-  EXPECT_NEAR(floor.partner_edge, h_cube, 1e-15);  // the wall is not a partner
-  const double floor_contact = body_contact(8, box_radius(1, 0.1, 1), h_cube);
-  EXPECT_NEAR(floor.contact, floor_contact, rel * floor_contact);
-  const auto& wall = object(m, "wall");
-  const double wall_contact = body_contact(8, box_radius(0.2, 1, 0.3), h_cube);
-  EXPECT_NEAR(wall.contact, wall_contact, rel * wall_contact);
-
-  const double total = kBaseBytes + sheet_bytes + cube_bytes + 2 * (kBytesPerBodyVertex * 8 + kBytesPerBodyFace * 12) +
-                       kBytesPerContactUnit * (floor_contact + wall_contact);
-  EXPECT_NEAR(m.total_bytes, total, rel * total);
+  EXPECT_EQ(floor.cross_contact + floor.patch_contact + floor.fine_contact, 0.0);
+  const double floor_bytes = kBytesPerBodyVertex * 4 + kBytesPerBodyFace * 2;
+  EXPECT_NEAR(floor.bytes, floor_bytes, rel * floor_bytes);
+  EXPECT_NEAR(m.total_bytes, kBaseBytes + sheet_bytes + ball_bytes + floor_bytes, rel * m.total_bytes);
 }
 
-// Degenerate partners: a body alone touches nothing (no contact term), two obstacles alone never
-// pair, particles have no edges (one half-space each: factor 1), and an open surface (a plane
-// obstacle) can be touched all over (share 1).
-TEST(MemoryEstimate, LoneBodiesObstaclePairsParticlesAndOpenSurfaces) {
-  auto lone = io::load_scene_text(
-      scene("  - {name: cube, kind: rigid, material: m, shape: {type: box, size: [0.1, 0.1, 0.1]}}\n"), "s.yaml", ".");
-  EXPECT_EQ(object(lone.memory, "cube").contact, 0.0);
-  EXPECT_EQ(object(lone.memory, "cube").partner_edge, 0.0);
-  EXPECT_NEAR(lone.memory.total_bytes, kBaseBytes + kBytesPerBodyVertex * 8 + kBytesPerBodyFace * 12, 1e-6);
+// Degenerate partners and limits: a body alone touches nothing; two obstacles never pair;
+// particles have no edges (F = 1 against them, and their own h is 0); a sheet among many layers
+// is charged two (its two sides), scaled from the shares it would otherwise sum.
+TEST(MemoryEstimate, LoneBodiesObstaclePairsParticlesAndLayers) {
+  const std::map<std::string, io::MeshArrays> arrays{{"oct", octahedron(kA, 0.5)}};
+  auto lone = io::load_scene_arrays(
+      header() + "  - {name: ball, kind: rigid, material: m, shape: {type: mesh, path: oct}}\n", "s.yaml", arrays);
+  EXPECT_EQ(object(lone.memory, "ball").cross_contact + object(lone.memory, "ball").patch_contact, 0.0);
+  EXPECT_NEAR(lone.memory.total_bytes, kBaseBytes + kBytesPerBodyVertex * 6 + kBytesPerBodyFace * 8, 1e-6);
 
-  auto two = io::load_scene_text(
-      scene("  - {name: a, kind: obstacle, shape: {type: box, size: [1, 1, 1]}}\n"
-            "  - {name: b, kind: obstacle, shape: {type: box, size: [1, 1, 1]}, transform: {translate: [0, 1, 0]}}\n"),
-      "s.yaml", ".");
-  EXPECT_EQ(object(two.memory, "a").contact, 0.0);
-  EXPECT_EQ(object(two.memory, "b").contact, 0.0);
+  auto two = io::load_scene_arrays(header() +
+                                       "  - {name: a, kind: obstacle, shape: {type: mesh, path: oct}}\n"
+                                       "  - {name: b, kind: obstacle, shape: {type: mesh, path: oct}, transform: "
+                                       "{translate: [0, 1, 0]}}\n",
+                                   "s.yaml", arrays);
+  EXPECT_NEAR(two.memory.total_bytes, kBaseBytes + 2 * (kBytesPerBodyVertex * 6 + kBytesPerBodyFace * 8), 1e-6);
 
-  auto grains = io::load_scene_text(
-      scene("  - {name: ground, kind: obstacle, shape: {type: plane, size: 1, resolution: 3}}\n"
-            "  - {name: sand, kind: particles, material: m, shape: {type: particles, counts: [2, 2, 2], spacing: "
-            "0.05}, transform: {translate: [0, 0.2, 0]}}\n"),
-      "s.yaml", ".");
-  const auto& ground = object(grains.memory, "ground");
-  EXPECT_EQ(ground.body_radius, 0.0);  // open
-  EXPECT_EQ(ground.partner_edge, std::numeric_limits<double>::infinity());
-  EXPECT_DOUBLE_EQ(ground.contact, 16.0);  // 16 vertices x share 1 x factor 1
+  // Particles against a rigid octahedron: the octahedron holds F = 1 per particle contact over a
+  // share 1 (particles have no area), each particle F against the octahedron's surface.
+  auto grains = io::load_scene_arrays(header() +
+                                          "  - {name: ball, kind: rigid, material: m, shape: {type: mesh, path: oct}}\n"
+                                          "  - {name: sand, kind: particles, material: m, shape: {type: particles, "
+                                          "counts: [2, 2, 2], spacing: 0.05}, transform: {translate: [0, 1, 0]}}\n",
+                                      "s.yaml", arrays);
   const auto& sand = object(grains.memory, "sand");
-  EXPECT_EQ(sand.vertices, 8.0);
   EXPECT_EQ(sand.mean_edge, 0.0);
-  EXPECT_DOUBLE_EQ(sand.bytes, kBytesPerVertex * 8);
+  EXPECT_EQ(sand.fine_contact, 0.0);
+  const double sand_cross = 8 * std::pow(kA / 2 + kReach, 2) / (kA * kA);
+  EXPECT_NEAR(sand.cross_contact, sand_cross, rel * sand_cross);
+  EXPECT_NEAR(object(grains.memory, "ball").cross_contact, 6.0, rel);
+
+  // Four equal triangles stacked: each has three partners of share 1, charged as two.
+  std::map<std::string, io::MeshArrays> stack;
+  std::string yaml = header();
+  for (int k = 0; k < 4; ++k) {
+    const std::string n = "t" + std::to_string(k);
+    stack[n] = triangle(kL, 0.01 * k);
+    yaml += "  - {name: " + n + ", kind: cloth, material: m, shape: {type: mesh, path: " + n + "}}\n";
+  }
+  const auto layered = io::load_scene_arrays(yaml, "s.yaml", stack);
+  const double two_layers = 3 * 2 * per_vertex(kL, kL);
+  for (int k = 0; k < 4; ++k)
+    EXPECT_NEAR(object(layered.memory, "t" + std::to_string(k)).cross_contact, two_layers, rel * two_layers);
+}
+
+// A sheet whose pins are moved by a script is charged the driven self-contact (1 + D / h)² per
+// vertex on top of its fine term; the same sheet with still pins is not.
+TEST(MemoryEstimate, ScriptedPinsChargeTheWoundSheet) {
+  const std::map<std::string, io::MeshArrays> arrays{{"tri", triangle(kL, 1.0)}};
+  const std::string still = header() +
+                            "  - {name: sheet, kind: cloth, material: m, shape: {type: mesh, path: tri}, pins: "
+                            "[{indices: [0]}]}\n";
+  const std::string moved = header() +
+                            "  - {name: sheet, kind: cloth, material: m, shape: {type: mesh, path: tri}, pins: "
+                            "[{indices: [0], motion: {velocity: [0.1, 0, 0]}}]}\n";
+  const auto a = io::load_scene_arrays(still, "s.yaml", arrays), b = io::load_scene_arrays(moved, "s.yaml", arrays);
+  EXPECT_EQ(object(a.memory, "sheet").driven_contact, 0.0);
+  const double driven = 3 * std::pow(1 + kReach / kL, 2);
+  EXPECT_NEAR(object(b.memory, "sheet").driven_contact, driven, rel * driven);
+  EXPECT_NEAR(b.memory.total_bytes - a.memory.total_bytes, kBytesPerDrivenUnit * driven, 1e-6);
+}
+
+// A tet solid collides through its boundary: a single regular tetrahedron's four faces, edge s,
+// give h = s, area √3 s², and 4 vertices that collide; its fine units are 4 (D / s)².
+TEST(MemoryEstimate, TetSolidsAreChargedByTheirBoundary) {
+  const double s = 0.05;
+  io::MeshArrays t;
+  t.vertices = {Vec3(0, 0, 0), Vec3(s, 0, 0), Vec3(s / 2, 0, s * kSqrt3 / 2),
+                Vec3(s / 2, s * std::sqrt(2.0 / 3.0), s * kSqrt3 / 6)};
+  t.tets = {Vec4i(0, 1, 3, 2)};
+  if ((t.vertices[1] - t.vertices[0]).cross(t.vertices[3] - t.vertices[0]).dot(t.vertices[2] - t.vertices[0]) < 0)
+    t.tets = {Vec4i(0, 1, 2, 3)};
+  const auto loaded = io::load_scene_arrays(
+      header() + "  - {name: solid, kind: tet_solid, material: m, shape: {type: mesh, path: tet}}\n", "s.yaml",
+      {{"tet", t}});
+  const auto& o = object(loaded.memory, "solid");
+  EXPECT_EQ(o.faces, 4.0);
+  EXPECT_NEAR(o.mean_edge, s, rel * s);
+  EXPECT_NEAR(o.area, kSqrt3 * s * s, rel * s * s);
+  const double fine = 4 * std::pow(kReach / s, 2);
+  EXPECT_NEAR(o.fine_contact, fine, rel * fine);
 }

@@ -35,6 +35,9 @@ struct RunMeta {
   /// scene_fingerprint() of the run's initial scene, written to run.json so that a resume can tell
   /// a checkpoint of this run from one copied from another (0: not recorded).
   std::uint64_t scene_fingerprint = 0;
+  /// The loader's memory estimate and the limit the run is held to (bytes; 0: not recorded).
+  /// run.json's `memory` adds this process's peak resident memory so far.
+  double memory_estimate = 0, memory_limit = 0;
 };
 
 /// True if DIR/run.json is a JSON object with the ccfr marker (`"ccfr": {"version": ...}`).

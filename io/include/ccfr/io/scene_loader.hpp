@@ -13,47 +13,68 @@ namespace ccfr::io {
 
 /// The loader's estimate of a run's peak resident memory (docs/choosing-parameters.md, "Memory"):
 /// a scene whose estimate exceeds the limit (max_memory, else MemAvailable) is refused before it is
-/// built. With V vertices, F surface faces, T tets, E strand segments of an object, h its mean edge
-/// length, R = ξ + r + δ its contact range and D = 2r + ξ + δ the detection reach, an object costs
-///   deformable:  kBytesPerVertex V + kBytesPerFace F + kBytesPerTet T + kBytesPerSegment E
-///                + kBytesPerCrowdedVertex V (R / h)^2   (strands: (R / h)^1; self-contact)
-///   rigid body, obstacle:  kBytesPerBodyVertex V + kBytesPerBodyFace F
-///                + kBytesPerContactUnit V min(1, D / (2 rho)) (2 + D / h_p)^2   (contact with others)
-/// where h_p is the smallest mean edge length of the objects it can touch (every other object but
-/// an obstacle's fellow obstacles; particles, without edges, count as (2 + D / h_p)^2 = 1), and
-/// rho = 3 volume / area of its closed surface (a sphere's radius; an open surface has share 1).
-/// A vertex within reach of a surface holds a half-space per primitive of that surface within D
-/// plus its nearest ring, about (2 + D / h_p)^2 of them up to a constant; a body resting on a
-/// curved neighbour has a share of about D / (2 rho) of its surface within reach. A body that can
-/// touch nothing pays no contact term. The scene adds kBaseBytes. Checked against the peak RSS
-/// of scenes of every kind in docs/performance.md.
+/// built, and `ccfr run` stops cleanly if the run outgrows the limit anyway. Peak RSS is the
+/// process base, about 1 KB per element and 170-270 bytes per half-space of the densest detection
+/// pass (measured on 17 scenes, docs/performance.md); the contact units predict the half-spaces.
+/// With D = 2r + ξ + δ the detection reach, and per object V vertices, F surface faces, T tets, E
+/// strand segments, S the vertices that collide (a tet solid's boundary), h the mean edge and A
+/// the area of what collides (strands: S h²), ρ = 3 volume / area of a closed body surface:
+///   elements:  kBytesPerVertex V + kBytesPerFace F + kBytesPerTet T + kBytesPerSegment E
+///              (rigid bodies and obstacles: kBytesPerBodyVertex V + kBytesPerBodyFace F)
+///   self:      per vertex that collides, h_v its mean edge: kBytesPerFineUnit (D / h_v)^2 of a
+///              surface (a sheet or a tet boundary finer than D pairs with its own flat
+///              neighbourhood), plus kBytesPerDrivenUnit (1 + D / h_v)^2 when scripted pins move it
+///              (it can be wound onto itself, like the twisting cloth); kBytesPerStrandSelfUnit
+///              (1 + D / h_v) of strands; kBytesPerGrainUnit per pair of particles of one object
+///              within D of each other as loaded, counted from both sides
+///   cross:     kBytesPerCrossUnit S sum_j min(1, A_j / A) F_j, for every other object j when either
+///              side is deformable, F_j = ((h + h_j) / 2 + D)^2 / h_j^2 (1 for particles), the shares
+///              min(1, A_j / A) summing to at most 2 layers
+///   patch:     kBytesPerPatchUnit max_j min(2 pi D rho_eff, A, A_j) / h^2 F_j of a rigid body
+///              against other bodies j, rho_eff = rho rho_j / (rho + rho_j) (an open surface: rho)
+/// Obstacles hold no half-spaces (their vertices never move) and pay elements only. The scene adds
+/// kBaseBytes.
 namespace memory_model {
-inline constexpr double kBaseBytes = 26e6;
-inline constexpr double kBytesPerVertex = 4096;
-inline constexpr double kBytesPerCrowdedVertex = 16384;
-inline constexpr double kBytesPerFace = 512;
-inline constexpr double kBytesPerTet = 1024;
-inline constexpr double kBytesPerSegment = 512;
-inline constexpr double kBytesPerBodyVertex = 1024;
-inline constexpr double kBytesPerBodyFace = 256;
-inline constexpr double kBytesPerContactUnit = 2304;  ///< calibrated: docs/performance.md (issue 39)
+inline constexpr double kBaseBytes = 17.5e6;
+inline constexpr double kBytesPerVertex = 500;
+inline constexpr double kBytesPerFace = 200;
+inline constexpr double kBytesPerTet = 300;
+inline constexpr double kBytesPerSegment = 100;
+inline constexpr double kBytesPerBodyVertex = 1200;
+inline constexpr double kBytesPerBodyFace = 600;
+inline constexpr double kBytesPerFineUnit = 10300;
+inline constexpr double kBytesPerDrivenUnit = 3600;
+inline constexpr double kBytesPerGrainUnit = 180;
+inline constexpr double kBytesPerStrandSelfUnit = 8200;
+inline constexpr double kBytesPerCrossUnit = 4800;
+inline constexpr double kBytesPerPatchUnit = 20700;
 }  // namespace memory_model
 
 /// What one object is charged (see memory_model).
 struct ObjectMemory {
   std::string name;
   double vertices = 0, faces = 0, tets = 0, segments = 0;
-  double mean_edge = 0;     ///< h (0: the object has no edges)
-  double crowd = 0;         ///< deformables: V (R / h)^2 (strands: V R / h)
-  double partner_edge = 0;  ///< bodies: h_p (infinity: only particles to touch; 0: nothing to touch)
-  double body_radius = 0;   ///< bodies: rho = 3 volume / area (0: open surface)
-  double contact = 0;       ///< bodies: V min(1, D / (2 rho)) (2 + D / h_p)^2
-  double bytes = 0;         ///< the object's share of the estimate
+  double mean_edge = 0;       ///< h of what collides (0: no edges)
+  double area = 0;            ///< A of what collides
+  double body_radius = 0;     ///< bodies: rho = 3 volume / area (0: open surface)
+  double fine_contact = 0;    ///< fine units
+  double driven_contact = 0;  ///< driven units (a surface with scripted pins)
+  double strand_contact = 0;  ///< strand units
+  double grain_contact = 0;   ///< particles: neighbours within D, summed over the particles
+  double cross_contact = 0;   ///< cross units
+  double patch_contact = 0;   ///< patch units (rigid bodies)
+  double bytes = 0;           ///< the object's share of the estimate
 };
 
 struct MemoryEstimate {
   std::vector<ObjectMemory> objects;
   double total_bytes = 0;  ///< memory_model::kBaseBytes plus every object's bytes
+  /// What the run may hold: max_memory, else MemAvailable when the scene was loaded plus what this
+  /// process held then (0: unknown, no limit). `ccfr run` stops cleanly when its resident memory
+  /// passes it after a frame (docs/output.md), because an estimate can err low.
+  double limit_bytes = 0;
+  bool limit_is_max_memory = false;     ///< the limit is max_memory (else the machine's)
+  bool limit_from_environment = false;  ///< lowered for one run by CCFR_RUN_MEMORY_LIMIT_MB
 };
 
 struct LoadedScene {
