@@ -1003,8 +1003,9 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
     return;
   }
   list_valid_ = false;
-  // List only if the last pass's motion, repeated, would leave the list valid for one pass.
-  const bool listing = skin_ > 0.0 && 2.0 * step < skin_;
+  // List only if the last pass's motion, repeated, would leave the list valid for two passes: a list
+  // that serves one pass costs more than it saves (larger boxes, kernels up to 2r + ξ + s).
+  const bool listing = skin_ > 0.0 && 4.0 * step < skin_;
   // A primitive with no movable vertex can only meet another immovable one in vain: such pairs
   // are never enumerated (a static obstacle against itself would dominate the broad phase).
   movable_.resize(static_cast<size_t>(prims_.size()));
@@ -1031,9 +1032,17 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
       },
       4096);
   // Building the list: boxes grown by s/2 more, so pairs within 2r + ξ + s come up.
-  compute_primitive_boxes(
-      prims_, topo_, x,
-      box_inflation(params_.radius, params_.offset, params_.repulsion_range) + (listing ? 0.5 * skin_ : 0.0), boxes_);
+  const double inflation = box_inflation(params_.radius, params_.offset, params_.repulsion_range);
+  if (rebuild_ && listing) {
+    // The tree is built over the boxes a pass without the list uses, then refitted to the grown
+    // ones: a tree built over grown boxes splits differently and enumerates in another order, so
+    // the contacts came out reordered and the frames differed in the last bits (card stack, three
+    // cubes, particles from the fifth frame on).
+    compute_primitive_boxes(prims_, topo_, x, inflation, boxes_);
+    broad_->build(boxes_);
+    rebuild_ = false;
+  }
+  compute_primitive_boxes(prims_, topo_, x, inflation + (listing ? 0.5 * skin_ : 0.0), boxes_);
   if (rebuild_) {
     broad_->build(boxes_);
     rebuild_ = false;
