@@ -257,9 +257,11 @@ class CollisionDetector {
   /// range skip the kernel.
   /// The contacts, and so the regions, equal a fresh pass's exactly, in the same order (every
   /// broad phase reports its pairs in an order fixed by the tree or the ids, so a subsequence
-  /// keeps it). A pass lists only when the previous pass moved every vertex by less than s/2, so
-  /// that the list can be expected to serve at least once: in fast scenes (each outer iteration
-  /// moves vertices by up to r) the larger boxes would cost without a reuse to pay for them.
+  /// keeps it; a listing pass at a rebuild builds the tree over the boxes without the skin, then
+  /// refits). A pass lists only when the previous pass's spread, repeated twice, keeps the list
+  /// valid (4 spread < s), so that the list can be expected to serve at least twice: in fast
+  /// scenes (each outer iteration moves vertices by up to r) the larger boxes would cost without
+  /// reuses to pay for them.
   /// `skin` = 0 (the default) detects from scratch in every pass.
   void set_reuse_skin(double skin);
   double reuse_skin() const { return skin_; }
