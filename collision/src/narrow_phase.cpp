@@ -795,23 +795,88 @@ void CollisionDetector::set_reuse_skin(double skin) {
   }
 }
 
-namespace {
-/// Largest |x_v - ref_v| over the vertices (infinity if any is NaN), each also written to
-/// `per_vertex` when given. Chunked: the result does not depend on the thread count.
-double largest_displacement(const Positions& x, const Positions& ref, double* per_vertex) {
-  const Index n = static_cast<Index>(x.size());
+ReuseMotion measure_reuse_motion(const Topology& topo, std::span<const Vec3> x, std::span<const Vec3> ref,
+                                 double* per_vertex) {
+  const Index n = topo.num_vertices();
+  if (static_cast<Index>(x.size()) != n || static_cast<Index>(ref.size()) != n)
+    throw Error("measure_reuse_motion: expected " + std::to_string(n) + " positions, got " + std::to_string(x.size()) +
+                " and " + std::to_string(ref.size()));
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  const size_t num_objects = topo.objects.size();
+  ReuseMotion m;
+  m.still.assign(num_objects, 1);
+  // Per object: whether any vertex moved (objects are contiguous vertex ranges, so this is cheap).
+  for (size_t o = 0; o < num_objects; ++o) {
+    const ObjectInfo& ob = topo.objects[o];
+    for (Index v = ob.vertex_begin; v < ob.vertex_end; ++v)
+      if (!(x[v] == ref[v])) {  // NaN counts as moved
+        m.still[o] = 0;
+        break;
+      }
+  }
+  // Box of the moving objects' displacements and their largest length; maxima and minima only,
+  // so the chunked reduction is exact for any thread count.
   const Index chunks = default_chunk_count(n);
+  std::vector<AABB> boxes(static_cast<size_t>(chunks));
   std::vector<double> largest(static_cast<size_t>(chunks), 0.0);
+  auto moving = [&](Index v) { return !m.still[static_cast<size_t>(topo.vertex_object[v])]; };
   parallel_chunks(n, chunks, [&](Index c, Index b, Index e) {
-    double m = 0.0;
+    AABB box;
+    double l = 0.0;
     for (Index v = b; v < e; ++v) {
-      const double d = (x[v] - ref[v]).norm();
-      if (per_vertex) per_vertex[v] = d;
-      m = std::isnan(d) ? std::numeric_limits<double>::infinity() : std::max(m, d);
+      if (!moving(v)) continue;
+      const Vec3 d = x[v] - ref[v];
+      const double len = d.norm();
+      l = std::isnan(len) ? kInf : std::max(l, len);
+      box.expand(d);
     }
-    largest[c] = m;
+    boxes[c] = box;
+    largest[c] = l;
   });
-  return n > 0 ? *std::max_element(largest.begin(), largest.end()) : 0.0;
+  AABB all;
+  for (Index c = 0; c < chunks; ++c) {
+    all.expand(boxes[c]);
+    m.largest = std::max(m.largest, largest[c]);
+  }
+  if (!std::isfinite(m.largest)) {
+    m.spread = m.largest = kInf;
+    if (per_vertex) std::fill(per_vertex, per_vertex + n, kInf);
+    return m;
+  }
+  // The box centre is usually far better than t = 0 (a falling scene), but not always (the box of
+  // a few displacements on a sphere can be off-centre): take whichever bounds the spread lower.
+  const Vec3 centre = all.valid() ? all.center() : Vec3::Zero();
+  std::vector<double> spread(static_cast<size_t>(chunks), 0.0);
+  parallel_chunks(n, chunks, [&](Index c, Index b, Index e) {
+    double s = 0.0;
+    for (Index v = b; v < e; ++v)
+      if (moving(v)) s = std::max(s, (x[v] - ref[v] - centre).norm());
+    spread[c] = s;
+  });
+  const double centred = *std::max_element(spread.begin(), spread.end());
+  if (centred < m.largest) {
+    m.shift = centre;
+    m.spread = centred;
+  } else {
+    m.spread = m.largest;
+  }
+  if (per_vertex) {
+    const Vec3 t = m.shift;
+    parallel_chunks(n, chunks, [&](Index, Index b, Index e) {
+      for (Index v = b; v < e; ++v) {
+        const double d = (x[v] - ref[v] - t).norm();
+        per_vertex[v] = std::isnan(d) ? kInf : d;
+      }
+    });
+  }
+  return m;
+}
+
+namespace {
+/// Euclidean distance between two boxes (0 if they overlap).
+double box_distance(const AABB& a, const AABB& b) {
+  const Vec3 gap = (a.lo - b.hi).cwiseMax(b.lo - a.hi).cwiseMax(0.0);
+  return gap.norm();
 }
 }  // namespace
 
@@ -822,10 +887,29 @@ bool CollisionDetector::list_covers(const Positions& x, std::span<const double> 
     if (list_movable_[v] != static_cast<std::uint8_t>(inv_mass[v] > 0.0)) return false;
   disp_.resize(static_cast<size_t>(nv));
   // A NaN gives infinity and fails the check: the pass then runs the broad phase, which reports it.
-  const double d_max = largest_displacement(x, list_x_, disp_.data());
-  // Two sides each moved at most d_max: a sub-pair beyond 2r + ξ + s at listing is still beyond
-  // 2r + ξ while 2 d_max <= s. The relative margin covers the rounding of the listed distances.
-  return 2.0 * d_max <= skin_ * (1.0 - 1e-9) - 1e-9 * (2.0 * params_.radius + params_.offset);
+  const ReuseMotion m = measure_reuse_motion(topo_, x, list_x_, disp_.data());
+  const double reach = 2.0 * params_.radius + params_.offset;
+  // The relative margin covers the rounding of the listed distances and of the displacements.
+  auto fits = [&](double move, double room) { return move <= room * (1.0 - 1e-9) - 1e-9 * reach; };
+  // Two moving sides: each within `spread` of its listing position shifted by t, so a sub-pair
+  // beyond 2r + ξ + s at listing is still beyond 2r + ξ while 2 spread <= s.
+  if (!fits(2.0 * m.spread, skin_)) return false;
+  // A moving side against a still one: the still side stayed put, so the pair came closer by at
+  // most `largest`; it was at least max(2r + ξ + s, g) apart, g the distance of the boxes at listing.
+  AABB movers;
+  bool any_still = false;
+  for (size_t o = 0; o < m.still.size(); ++o) {
+    if (topo_.objects[o].num_vertices() == 0) continue;
+    if (m.still[o])
+      any_still = true;
+    else
+      movers.expand(list_boxes_[o]);
+  }
+  if (!any_still || !movers.valid()) return true;
+  double gap = std::numeric_limits<double>::infinity();
+  for (size_t o = 0; o < m.still.size(); ++o)
+    if (m.still[o] && topo_.objects[o].num_vertices() > 0) gap = std::min(gap, box_distance(list_boxes_[o], movers));
+  return fits(m.largest, std::max(skin_, gap - reach));
 }
 
 double CollisionDetector::step_since_last_pass(const Positions& x) {
@@ -833,7 +917,7 @@ double CollisionDetector::step_since_last_pass(const Positions& x) {
   if (restart_step_ >= 0.0)
     step = restart_step_;
   else if (last_x_.size() == x.size())
-    step = largest_displacement(x, last_x_, nullptr);
+    step = measure_reuse_motion(topo_, x, last_x_).spread;
   restart_step_ = -1.0;
   last_x_ = x;
   return step;
@@ -919,8 +1003,9 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
     return;
   }
   list_valid_ = false;
-  // List only if the last pass's motion, repeated, would leave the list valid for one pass.
-  const bool listing = skin_ > 0.0 && 2.0 * step < skin_;
+  // List only if the last pass's motion, repeated, would leave the list valid for two passes: a list
+  // that serves one pass costs more than it saves (larger boxes, kernels up to 2r + ξ + s).
+  const bool listing = skin_ > 0.0 && 4.0 * step < skin_;
   // A primitive with no movable vertex can only meet another immovable one in vain: such pairs
   // are never enumerated (a static obstacle against itself would dominate the broad phase).
   movable_.resize(static_cast<size_t>(prims_.size()));
@@ -947,9 +1032,17 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
       },
       4096);
   // Building the list: boxes grown by s/2 more, so pairs within 2r + ξ + s come up.
-  compute_primitive_boxes(
-      prims_, topo_, x,
-      box_inflation(params_.radius, params_.offset, params_.repulsion_range) + (listing ? 0.5 * skin_ : 0.0), boxes_);
+  const double inflation = box_inflation(params_.radius, params_.offset, params_.repulsion_range);
+  if (rebuild_ && listing) {
+    // The tree is built over the boxes a pass without the list uses, then refitted to the grown
+    // ones: a tree built over grown boxes splits differently and enumerates in another order, so
+    // the contacts came out reordered and the frames differed in the last bits (card stack, three
+    // cubes, particles from the fifth frame on).
+    compute_primitive_boxes(prims_, topo_, x, inflation, boxes_);
+    broad_->build(boxes_);
+    rebuild_ = false;
+  }
+  compute_primitive_boxes(prims_, topo_, x, inflation + (listing ? 0.5 * skin_ : 0.0), boxes_);
   if (rebuild_) {
     broad_->build(boxes_);
     rebuild_ = false;
@@ -994,6 +1087,9 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
   }
   if (listing) {
     list_x_ = x;
+    list_boxes_.assign(topo_.objects.size(), AABB{});
+    for (size_t o = 0; o < topo_.objects.size(); ++o)
+      for (Index v = topo_.objects[o].vertex_begin; v < topo_.objects[o].vertex_end; ++v) list_boxes_[o].expand(x[v]);
     list_movable_.resize(static_cast<size_t>(nv));
     for (Index v = 0; v < nv; ++v) list_movable_[v] = inv_mass[v] > 0.0;
     list_valid_ = true;

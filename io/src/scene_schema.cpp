@@ -215,8 +215,9 @@ std::vector<Field> collision_fields() {
        number(d.reuse_skin,
               "skin s of the sub-pair list kept between detection passes, in units of r: a pass that runs the "
               "broad phase lists every sub-pair within 2r + ξ + s r, and later passes evaluate only those while "
-              "every vertex has moved less than s r / 2 since (same contacts, same order); 0 runs the broad phase "
-              "in every pass",
+              "the motion since cannot have brought another into range: every vertex within s r / 2 of its listed "
+              "position shifted by one common translation, and within max(s r, g - 2r - ξ) against obstacles at "
+              "rest g away (same contacts, same order; docs/feasibility.md); 0 runs the broad phase in every pass",
               Range{0, 100, false, false})},
   };
   add_component_sections(f, broad_phases(), "collision.broad_phase");

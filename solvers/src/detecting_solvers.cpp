@@ -54,10 +54,12 @@ DetectResult DetectingSolver::detect(const Positions& anchor, const SimState& st
   if (detector_->reuse_skin() > 0.0 && ctx.frame != reuse_frame_) {
     // Frame start: the kept list restarts from what a checkpoint holds (the velocities), so a
     // resumed run lists and reuses exactly where the uninterrupted one did (same stats.csv).
+    // The last substep's step dt v, up to one common shift (a scene falling as a whole lists).
     reuse_frame_ = ctx.frame;
-    double speed = 0.0;
-    for (const Vec3& v : state.v) speed = std::max(speed, v.norm());
-    detector_->restart_reuse(speed * ctx.dt);
+    reuse_step_.resize(state.v.size());
+    reuse_zero_.assign(state.v.size(), Vec3::Zero());
+    for (size_t i = 0; i < state.v.size(); ++i) reuse_step_[i] = ctx.dt * state.v[i];
+    detector_->restart_reuse(measure_reuse_motion(ctx.topo, reuse_step_, reuse_zero_).spread);
   }
   DetectionStats ds;
   detector_->detect(anchor, state.inv_mass, regions_, contacts_, ds, ctx.kinematic_step);

@@ -171,6 +171,27 @@ struct ListedSubPair {
 };
 }  // namespace detail
 
+/// How far a motion (x − ref per vertex) can have brought two primitives closer, as the kept
+/// sub-pair list needs it (CollisionDetector::set_reuse_skin; docs/feasibility.md, "Reusing
+/// detection"). The distance of two primitives does not change when both translate by the same t,
+/// so for any t it drops by at most \f$\max_{a}|D_a - t| + \max_{b}|D_b - t|\f$ over the two sides'
+/// vertices: a scene falling as a whole has moved nothing relative to itself. An object none of
+/// whose vertices moved (an obstacle at rest) is *still*: against it a side has come closer by at
+/// most \f$\max_b |D_b|\f$ (t = 0), its own vertices having stayed put.
+struct ReuseMotion {
+  /// t: the centre of the box of the moving objects' displacements, or 0 where that is no better.
+  Vec3 shift = Vec3::Zero();
+  double spread = 0.0;              ///< max |D_v − t| over the vertices of moving objects (infinity on NaN)
+  double largest = 0.0;             ///< max |D_v| over the vertices of moving objects (infinity on NaN)
+  std::vector<std::uint8_t> still;  ///< per object: every vertex has D = 0 exactly
+};
+
+/// Measures x − ref (#V each) per object of `topo`; writes |D_v − t| for every vertex to
+/// `per_vertex` (#V) when given. Exact maxima and minima only, so the result does not depend on
+/// the thread count.
+ReuseMotion measure_reuse_motion(const Topology& topo, std::span<const Vec3> x, std::span<const Vec3> ref,
+                                 double* per_vertex = nullptr);
+
 /// What the initial configuration did to contact (counts of sub-pairs), for the log and run.json.
 struct InitialProximity {
   /// Always 0 now: adjacent sub-pairs closer than ξ are kept (adjacent_kept); excluding them let a
@@ -228,22 +249,26 @@ class CollisionDetector {
   /// Keeps the sub-pair list between passes (a Verlet list at the level of sub-pairs). A pass that
   /// runs the broad phase also lists every sub-pair within \f$2r + \xi + s\f$ (s = `skin`, m) that
   /// is not excluded and has a movable vertex. Later passes evaluate only the listed sub-pairs
-  /// while every vertex has moved at most s/2 since: the distance of two primitives changes by
-  /// at most the largest displacement of each side's vertices, so a sub-pair left out (farther
-  /// than 2r + ξ + s) is still beyond the search range 2r + ξ. Listed sub-pairs whose distance
-  /// bound (listed distance less both sides' displacements) clears the range skip the kernel.
+  /// while the motion since listing (measure_reuse_motion) cannot have brought a sub-pair left out
+  /// into the search range 2r + ξ: every vertex of a moving object within s/2 of its listing
+  /// position shifted by one common t, and the moving objects within max(s, g − 2r − ξ) of
+  /// their listing positions where g is their distance to the still objects (boxes at listing).
+  /// Listed sub-pairs whose distance bound (listed distance less both sides' |D − t|) clears the
+  /// range skip the kernel.
   /// The contacts, and so the regions, equal a fresh pass's exactly, in the same order (every
   /// broad phase reports its pairs in an order fixed by the tree or the ids, so a subsequence
-  /// keeps it). A pass lists only when the previous pass moved every vertex by less than s/2, so
-  /// that the list can be expected to serve at least once: in fast scenes (each outer iteration
-  /// moves vertices by up to r) the larger boxes would cost without a reuse to pay for them.
+  /// keeps it; a listing pass at a rebuild builds the tree over the boxes without the skin, then
+  /// refits). A pass lists only when the previous pass's spread, repeated twice, keeps the list
+  /// valid (4 spread < s), so that the list can be expected to serve at least twice: in fast
+  /// scenes (each outer iteration moves vertices by up to r) the larger boxes would cost without
+  /// reuses to pay for them.
   /// `skin` = 0 (the default) detects from scratch in every pass.
   void set_reuse_skin(double skin);
   double reuse_skin() const { return skin_; }
   /// Drops the kept list: the next pass runs the broad phase.
   void invalidate_reuse() { list_valid_ = false; }
-  /// Drops the kept list and the previous pass's positions, and takes `recent_step` (the largest
-  /// displacement of the last substep, e.g. dt · max |v|) as the motion that decides whether the
+  /// Drops the kept list and the previous pass's positions, and takes `recent_step` (the spread of
+  /// the last substep's displacements, e.g. ReuseMotion::spread of dt · v) as the motion that decides whether the
   /// next pass lists. Called at every frame start, it makes the reuse decisions depend only on
   /// state a checkpoint holds, so a resumed run reuses exactly where the uninterrupted one did.
   void restart_reuse(double recent_step);
@@ -295,7 +320,7 @@ class CollisionDetector {
   /// Whether the kept list still covers every sub-pair within range at `x` (displacements from
   /// the listing positions in disp_, movable flags unchanged).
   bool list_covers(const Positions& x, std::span<const double> inv_mass);
-  /// Largest |x - last_x_| (infinity without a previous pass or on NaN); then last_x_ = x.
+  /// The spread of x - last_x_ (ReuseMotion; infinity without a previous pass or on NaN); then last_x_ = x.
   double step_since_last_pass(const Positions& x);
   /// A pass over the kept list instead of the broad phase and the enumeration.
   void detect_from_list(const Positions& x, std::span<const double> inv_mass, DetectionStats& stats);
@@ -331,7 +356,8 @@ class CollisionDetector {
   Positions last_x_;                        ///< positions of the previous pass (skin > 0 only)
   double restart_step_ = -1.0;              ///< restart_reuse()'s step for the next pass (< 0: none)
   std::vector<std::uint8_t> list_movable_;  ///< per vertex
-  std::vector<double> disp_;                ///< per vertex: |x - list_x_| of the current pass
+  std::vector<double> disp_;                ///< per vertex: |x - list_x_ - t| of the current pass
+  std::vector<AABB> list_boxes_;            ///< per object: box of its vertices at listing
 };
 
 }  // namespace ccfr

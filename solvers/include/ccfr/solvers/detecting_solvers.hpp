@@ -57,6 +57,9 @@ class DetectingSolver : public ContactSolver {
   int reuse_frame_ = -1;    ///< frame whose start restarted the detector's kept list
   int rebuild_frame_ = -1;  ///< frame whose first pass rebuilt the broad phase
   RegionSet regions_;
+
+  // dt v and zeros at the frame start (restart_reuse), kept to avoid reallocating per frame.
+  Positions reuse_step_, reuse_zero_;
   std::vector<ContactPair> contacts_;
   ContactResponse response_;
   std::vector<double> friction_override_;  ///< #V: material friction of the vertex's object (< 0: global)
