@@ -236,7 +236,10 @@ class Builder {
       check_rotation(o["transform"], path + ".transform");
       place(g, o["transform"]);
       check_placed(g.v, path, name);
-      const Counts actual = counts(g, kind, reach(p), driven_by_pins(o["pins"]));
+      // Particles' neighbours are counted up to what the limit could hold, no further.
+      const double limit = memory_limit_();
+      const double grain_cap = limit > 0 ? limit / kBytesPerGrainUnit : 1e10;
+      const Counts actual = counts(g, kind, reach(p), driven_by_pins(o["pins"]), grain_cap);
       check_size(total, actual, spath, name, kind);
       total += actual;
       costs_.push_back({name, kind, actual});
@@ -356,7 +359,7 @@ class Builder {
 
   /// Element counts of generated or loaded geometry, with its collision surface (area, mean edge
   /// h) and its self-contact units for reach D (io::memory_model).
-  static Counts counts(const RawGeometry& g, ObjectKind kind, double reach, bool driven) {
+  static Counts counts(const RawGeometry& g, ObjectKind kind, double reach, bool driven, double grain_cap) {
     Counts c{double(g.v.size()), double(g.faces.size()), double(g.tets.size()), 0};
     c.sv = c.v;
     for (const auto& l : g.lines) c.e += double(l.size()) - 1;
@@ -400,7 +403,7 @@ class Builder {
           if (driven) c.driven += (1 + q) * (1 + q);
         }
       }
-    if (kind == ObjectKind::particles) c.grains = neighbours_within(g.v, reach);
+    if (kind == ObjectKind::particles) c.grains = neighbours_within(g.v, reach, grain_cap);
     if (is_body(kind)) c.rho = body_radius(g);
     return as_kind(c, kind);
   }
@@ -408,15 +411,21 @@ class Builder {
   /// Sum over the points of how many others lie within `reach` (each pair counted from both
   /// sides), by hashing them into cells of that size: a block of particles pairs with itself
   /// from the first frame, and a pile packs no looser.
-  static double neighbours_within(const Positions& x, double reach) {
+  /// Counting stops once it passes `stop_at` (what the memory limit allows: such a scene is refused
+  /// anyway), so that a million particles packed far below the reach cannot stall the loader.
+  static double neighbours_within(const Positions& x, double reach, double stop_at) {
     if (x.size() < 2 || !(reach > 0)) return 0;
     std::unordered_map<std::uint64_t, std::vector<Index>> cells;
     auto key = [](std::int64_t i, std::int64_t j, std::int64_t k) {
       return (std::uint64_t(i & 0x1fffff) << 42) | (std::uint64_t(j & 0x1fffff) << 21) | std::uint64_t(k & 0x1fffff);
     };
-    auto cell = [&](const Vec3& p) {
-      return Eigen::Array3d(std::floor(p.x() / reach), std::floor(p.y() / reach), std::floor(p.z() / reach))
-          .cast<std::int64_t>();
+    // The key wraps the cell indices into 21 bits each, which only merges far cells into one
+    // bucket (their points fail the distance test), never misses a neighbour.
+    auto index = [reach](double v) {
+      return std::int64_t(std::clamp(std::floor(v / reach), -4.0e18, 4.0e18));  // a tiny reach must not overflow
+    };
+    auto cell = [&](const Vec3& p) -> std::array<std::int64_t, 3> {
+      return {index(p.x()), index(p.y()), index(p.z())};
     };
     for (size_t a = 0; a < x.size(); ++a) {
       const auto c = cell(x[a]);
@@ -434,6 +443,7 @@ class Builder {
             for (const Index b : it->second)
               if (b != Index(a) && (x[b] - x[a]).squaredNorm() <= r2) n += 1;
           }
+      if (n > stop_at) return n;
     }
     return n;
   }
