@@ -6,6 +6,7 @@
 #include <benchmark/benchmark.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -16,6 +17,7 @@
 #include "../tests/collision/scenes.hpp"
 #include "ccfr/collision/narrow_phase.hpp"
 #include "ccfr/core/parallel.hpp"
+#include "ccfr/feasibility/projector.hpp"
 #include "ccfr/geometry/generators.hpp"
 
 namespace {
@@ -137,6 +139,157 @@ void BM_Detect(benchmark::State& state, bool narrow_only) {
   state.counters["narrow_ms"] = 1e3 * stats.narrow_s;
 }
 
+/// The region screen ("is the candidate outside any plane of its vertex?", projector.cpp) in two
+/// layouts, on the 16k cloth's regions with every vertex displaced by arg1 % of r in a fixed
+/// pseudo-random direction (issue 38 item 1): arg 0 reads each vertex's CSR row (today's
+/// per-vertex copies, contiguous); arg 1 streams one record per contact {n, d_A, d_B} in contact
+/// order and marks the vertices it finds outside, the screen a compact region would run. Both
+/// must mark the same vertices (checked before timing).
+void BM_Screen(benchmark::State& state) {
+  spdlog::set_level(spdlog::level::warn);
+  const int layout = static_cast<int>(state.range(0));
+  const Scene& s = scene(0);
+  CollisionDetector det(s.topo, s.x, kParams, make_broad_phase(default_broad_phase_name()));
+  RegionSet regions;
+  std::vector<ContactPair> contacts;
+  DetectionStats stats;
+  det.detect(s.x, s.inv_mass, regions, contacts, stats);
+  // The compact record of each contact, recovered from the CSR: a vertex's planes are in contact
+  // order, so a per-vertex cursor pairs each contact with its plane (every vertex is movable here).
+  struct Compact {
+    Vec3 n;
+    double d[2];
+  };
+  // Self-contained: the vertices too (64 bytes), so the screen reads one array.
+  struct Packed {
+    std::int32_t v[4];
+    std::int32_t size_na;
+    Vec3 n;
+    double d[2];
+  };
+  std::vector<Compact> compact(contacts.size());
+  std::vector<Index> seen(static_cast<size_t>(regions.num_vertices()), 0);
+  for (size_t i = 0; i < contacts.size(); ++i) {
+    const ContactPair& c = contacts[i];
+    compact[i].n = c.n;
+    for (int k = 0; k < c.size(); ++k) {
+      const HalfSpace& h = regions.planes[static_cast<size_t>(regions.offsets[c.v[k]] + seen[c.v[k]]++)];
+      compact[i].d[k < c.side_a() ? 0 : 1] = h.d;
+    }
+  }
+  std::vector<Packed> packed(contacts.size());
+  for (size_t i = 0; i < contacts.size(); ++i) {
+    const ContactPair& c = contacts[i];
+    for (int k = 0; k < 4; ++k) packed[i].v[k] = k < c.size() ? c.v[k] : 0;
+    packed[i].size_na = c.size() * 4 + c.side_a();
+    packed[i].n = c.n;
+    packed[i].d[0] = compact[i].d[0];
+    packed[i].d[1] = compact[i].d[1];
+  }
+  Positions x = s.x;
+  std::uint64_t rng = 88172645463325252ull;
+  auto uniform = [&rng] {
+    rng ^= rng << 13, rng ^= rng >> 7, rng ^= rng << 17;
+    return static_cast<double>(rng >> 11) * 0x1.0p-53;
+  };
+  for (Vec3& p : x) {
+    const double z = 2.0 * uniform() - 1.0, phi = 2.0 * std::numbers::pi * uniform();
+    const double rho = std::sqrt(1.0 - z * z);
+    p +=
+        0.01 * static_cast<double>(state.range(1)) * kParams.radius * Vec3(rho * std::cos(phi), rho * std::sin(phi), z);
+  }
+  const Index nv = regions.num_vertices();
+  std::vector<unsigned char> outside(static_cast<size_t>(nv));
+  auto csr_screen = [&] {
+    for (Index v = 0; v < nv; ++v)
+      outside[static_cast<size_t>(v)] = regions.count(v) > 0 && falls_below(s.x[v], x[v], regions.of(v), 0.0);
+  };
+  auto compact_screen = [&] {
+    std::fill(outside.begin(), outside.end(), 0);
+    for (size_t i = 0; i < contacts.size(); ++i) {
+      const ContactPair& c = contacts[i];
+      const Compact& r = compact[i];
+      const int na = c.side_a();
+      for (int k = 0; k < c.size(); ++k) {
+        const Index v = c.v[k];
+        const double along = (x[v] - s.x[v]).dot(r.n);
+        const bool out = k < na ? along + r.d[0] < 0.0 : -along + r.d[1] < 0.0;
+        outside[static_cast<size_t>(v)] |= static_cast<unsigned char>(out);
+      }
+    }
+  };
+  auto packed_screen = [&] {
+    std::fill(outside.begin(), outside.end(), 0);
+    for (const Packed& r : packed) {
+      const int size = r.size_na >> 2, na = r.size_na & 3;
+      for (int k = 0; k < size; ++k) {
+        const Index v = r.v[k];
+        const double along = (x[v] - s.x[v]).dot(r.n);
+        const bool out = k < na ? along + r.d[0] < 0.0 : -along + r.d[1] < 0.0;
+        outside[static_cast<size_t>(v)] |= static_cast<unsigned char>(out);
+      }
+    }
+  };
+  // What the compact layout saves: writing the per-vertex rows (count, prefix sum, fill), serially.
+  RegionSet rows;
+  auto build_rows = [&] {
+    rows.offsets.assign(static_cast<size_t>(nv) + 1, 0);
+    for (const Packed& r : packed)
+      for (int k = 0; k < (r.size_na >> 2); ++k) ++rows.offsets[static_cast<size_t>(r.v[k]) + 1];
+    for (Index v = 0; v < nv; ++v) rows.offsets[v + 1] += rows.offsets[v];
+    seen.assign(rows.offsets.begin(), rows.offsets.end() - 1);
+    rows.planes.resize(static_cast<size_t>(rows.offsets.back()));
+    for (const Packed& r : packed) {
+      const int size = r.size_na >> 2, na = r.size_na & 3;
+      for (int k = 0; k < size; ++k) {
+        HalfSpace& h = rows.planes[static_cast<size_t>(seen[r.v[k]]++)];
+        h.n = k < na ? r.n : Vec3(-r.n);
+        h.d = r.d[k < na ? 0 : 1];
+      }
+    }
+  };
+  csr_screen();
+  const std::vector<unsigned char> reference = outside;
+  compact_screen();
+  const bool same1 = outside == reference;
+  packed_screen();
+  build_rows();
+  if (rows.offsets != regions.offsets ||
+      std::memcmp(rows.planes.data(), regions.planes.data(), rows.planes.size() * sizeof(HalfSpace)) != 0) {
+    state.SkipWithError("the rebuilt rows differ");
+    return;
+  }
+  if (!same1 || outside != reference) {
+    state.SkipWithError("the two screens disagree");
+    return;
+  }
+  for (auto _ : state) {
+    if (layout == 0)
+      csr_screen();
+    else if (layout == 1)
+      compact_screen();
+    else if (layout == 2)
+      packed_screen();
+    else {
+      if (layout == 3) rows.planes = {};  // a fresh allocation: the page faults of a pass that outgrew the last
+      build_rows();                       // layout 4: into the last pass's capacity, as the detector does
+    }
+    benchmark::DoNotOptimize(outside.data());
+  }
+  state.SetLabel(layout == 0   ? "per-vertex CSR rows"
+                 : layout == 1 ? "contacts + {n, d_A, d_B} per contact, contact order"
+                 : layout == 2 ? "64-byte record per contact, contact order"
+                 : layout == 3 ? "writing the CSR rows from the records (count, fill), fresh memory"
+                               : "writing the CSR rows from the records (count, fill), reused memory");
+  state.counters["outside"] = static_cast<double>(std::count(reference.begin(), reference.end(), 1));
+  state.counters["planes"] = static_cast<double>(regions.total());
+  state.counters["contacts"] = static_cast<double>(contacts.size());
+  state.counters["bytes_MB"] =
+      1e-6 * static_cast<double>(layout == 0 || layout > 2 ? regions.total() * sizeof(HalfSpace)
+                                 : layout == 1             ? compact.size() * sizeof(Compact)
+                                                           : packed.size() * sizeof(Packed));
+}
+
 BENCHMARK_CAPTURE(BM_Broad, bvh, std::string("bvh"))->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK_CAPTURE(BM_Broad, fcl, std::string("fcl"))->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK_CAPTURE(BM_Detect, narrow, true)
@@ -151,6 +304,7 @@ BENCHMARK_CAPTURE(BM_Detect, full, false)
     ->Args({0, 1})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
+BENCHMARK(BM_Screen)->ArgsProduct({{0, 1, 2, 3, 4}, {0, 5, 50}})->Unit(benchmark::kMillisecond);
 
 }  // namespace
 
