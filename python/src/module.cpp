@@ -170,6 +170,7 @@ static_assert(sizeof(Vec3) == 3 * sizeof(double), "Positions must be a packed (n
 /// The simulation with the loaded scene it came from (its resolved configuration goes to run.json).
 struct PySimulation {
   std::string resolved_json;
+  io::MemoryEstimate memory;  // the estimate the scene was admitted with (run.json `memory`)
   std::unique_ptr<Simulation> sim;
   std::optional<FrameStats> last;
   int threads = 0;
@@ -361,6 +362,7 @@ PYBIND11_MODULE(_core, m) {
                loaded = scene.loaded;
              }
              s->resolved_json = loaded.resolved_json;
+             s->memory = loaded.memory;
              const SimulationParams params = loaded.scene.params;
              s->sim = std::make_unique<Simulation>(std::move(loaded.scene));
              if (params.debug.audit != AuditMode::off)
@@ -448,8 +450,11 @@ PYBIND11_MODULE(_core, m) {
              std::string cmd = "python3";
              for (const auto& a : args) cmd += " " + a;
              const int last = last_frame.value_or(r->sim->sim->scene().params.time.frames);
-             r->recorder = std::make_unique<io::RunRecorder>(dir, *r->sim->sim, r->sim->resolved_json,
-                                                             io::make_run_meta(*r->sim->sim, cmd, {}), last, force);
+             io::RunMeta meta = io::make_run_meta(*r->sim->sim, cmd, {});
+             meta.memory_estimate = r->sim->memory.total_bytes;
+             meta.memory_limit = r->sim->memory.limit_bytes;
+             r->recorder = std::make_unique<io::RunRecorder>(dir, *r->sim->sim, r->sim->resolved_json, std::move(meta),
+                                                             last, force);
              return r;
            }),
            py::arg("sim"), py::arg("dir"), py::arg("force") = false, py::arg("last_frame") = py::none(),
