@@ -38,7 +38,7 @@ def test_one_thread_work_against_the_quarter_ceiling(tmp_path):
     assert row[1:4] == ["0.0038", "0.0304", "0.0076"]
     assert row[4:8] == ["2", "0.0070", "0.0071", "PASS"]
     assert row[8] == "0.23 (yes)"  # 0.007 / 0.0304
-    assert row[9:11] == ["0.0090", "0.0180"]
+    assert row[9:13] == ["0.0090", "0.0180", "2.00", "0.78"]  # speed-up 0.007 / 0.009
 
 
 def test_a_row_over_the_target_is_marked_and_a_missing_one_thread_run_says_so(tmp_path):
