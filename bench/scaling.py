@@ -114,6 +114,7 @@ def main():
     ap.add_argument("--warmup", type=int, default=4)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--out", default=os.path.join(ROOT, "out", "scaling"))
+    ap.add_argument("--from-csv", default=None, help="redraw the table and plot from a scaling CSV of an earlier run")
     ap.add_argument("--plot", default=None, help="default docs/images/scaling.png (layers: scaling_layers.png)")
     args = ap.parse_args()
     if args.plot is None:
@@ -121,12 +122,19 @@ def main():
     if args.sizes is None:
         args.sizes = "24500,49000,98000,245000" if args.scene == "layers" else "4096,16384,65536,262144"
     exe = os.path.join(os.environ.get("CCFR_BUILD_DIR", os.path.join(ROOT, "build")), "apps", "ccfr")
-    rows = [run_size(exe, int(s), args) for s in args.sizes.split(",")]
-    keys = list(rows[0].keys())
-    with open(os.path.join(args.out, f"scaling_{args.scene}.csv"), "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=keys)
-        w.writeheader()
-        w.writerows(rows)
+    if args.from_csv:
+        with open(args.from_csv) as f:
+            rows = [{k: float(v) for k, v in r.items()} for r in csv.DictReader(f)]
+        for r in rows:
+            r["vertices"] = int(r["vertices"])
+            r.setdefault("cpu_per_frame", float("nan"))  # CSVs written before the column existed
+    else:
+        rows = [run_size(exe, int(s), args) for s in args.sizes.split(",")]
+        os.makedirs(args.out, exist_ok=True)
+        with open(os.path.join(args.out, f"scaling_{args.scene}.csv"), "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+            w.writeheader()
+            w.writerows(rows)
     v = [r["vertices"] for r in rows]
     print("| vertices | frame | XPBD | broad | narrow | resolution | CPU s / simulated frame | candidates | half-spaces | peak RSS |")
     print("|---|---|---|---|---|---|---|---|---|---|")
@@ -155,7 +163,7 @@ def main():
         b.legend(fontsize=8)
         b.grid(True, which="both", alpha=0.3)
         what = "layered cloth on a cylinder" if args.scene == "layers" else "cloth on a strand pile"
-        fig.suptitle(f"ccfr scaling: {what}, {args.threads} threads")
+        fig.suptitle(f"ccfr scaling: {what}, {args.threads} thread{'' if args.threads == 1 else 's'}")
         fig.tight_layout()
         os.makedirs(os.path.dirname(args.plot), exist_ok=True)
         fig.savefig(args.plot, dpi=110)
