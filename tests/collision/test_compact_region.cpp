@@ -46,8 +46,7 @@ std::vector<std::vector<HalfSpace>> brute_rows(const std::vector<ContactPair>& c
     const double phi = c.distance - c.offset;
     for (int k = 0; k < c.size(); ++k) {
       if (!(inv_mass[static_cast<size_t>(c.v[k])] > 0.0)) continue;
-      rows[static_cast<size_t>(c.v[k])].push_back(
-          HalfSpace{k < na ? c.n : Vec3(-c.n), (k < na ? sa : 1.0 - sa) * phi});
+      rows[static_cast<size_t>(c.v[k])].push_back(HalfSpace{k < na ? c.n : Vec3(-c.n), (k < na ? sa : 1.0 - sa) * phi});
     }
   }
   return rows;
