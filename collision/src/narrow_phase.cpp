@@ -1119,8 +1119,12 @@ void CollisionDetector::assemble(std::span<const double> inv_mass, std::span<con
   for (Index c = 0; c < chunks; ++c) start[c + 1] = start[c] + contact_buffers_[c].size();
   contacts.resize(start.back());
   regions.offsets.assign(static_cast<size_t>(nv) + 1, 0);
+  if (start.back() > std::numeric_limits<std::uint32_t>::max() / 2)
+    throw Error("CollisionDetector::detect: " + std::to_string(start.back()) +
+                " contacts exceed the region's 32-bit plane references");
+  regions.records.resize(start.back());  // every record is written below
   if (contacts.empty()) {
-    regions.planes.clear();
+    regions.refs.clear();
     plane_sources_.clear();
     return;
   }
@@ -1137,15 +1141,16 @@ void CollisionDetector::assemble(std::span<const double> inv_mass, std::span<con
           if (inv_mass[c.v[k]] > 0.0) ++count[c.v[k]];
   });
   counts_to_block_cursors(nv, blocks, block_cursor_, regions.offsets);
-  regions.planes.resize(static_cast<size_t>(regions.offsets.back()));
+  regions.refs.resize(static_cast<size_t>(regions.offsets.back()));
   // Every entry is written below: resizing without clearing first skips zero-filling them.
-  plane_sources_.resize(record_sources_ ? regions.planes.size() : 0);
+  plane_sources_.resize(record_sources_ ? regions.refs.size() : 0);
   parallel_chunks(chunks, blocks, [&](Index b, Index chunk_begin, Index chunk_end) {
     Index* cursor = block_cursor_.data() + static_cast<size_t>(b) * nv;
     for (Index chunk = chunk_begin; chunk < chunk_end; ++chunk) {
       ContactPair* out = contacts.data() + start[chunk];
       for (const ContactPair& c : contact_buffers_[chunk]) {
-        const Index slot0 = 4 * static_cast<Index>(out - contacts.data());
+        const size_t ci = static_cast<size_t>(out - contacts.data());
+        const Index slot0 = 4 * static_cast<Index>(ci);
         *out++ = c;
         const double phi = c.distance - c.offset;
         // Gap left to the movable vertices: phi plus the known approach of kinematic vertices
@@ -1169,13 +1174,14 @@ void CollisionDetector::assemble(std::span<const double> inv_mass, std::span<con
         }
         const double s_a = share_a(c, inv_mass), s_b = 1.0 - s_a;
         const int na = c.side_a();
+        // One record per contact; each movable vertex's slot refers to it and its side.
+        regions.records[ci] = {c.n, {s_a * gap, s_b * gap}};
+        const std::uint32_t ref = 2 * static_cast<std::uint32_t>(ci);
         for (int k = 0; k < c.size(); ++k) {
           const Index v = c.v[k];
           if (!(inv_mass[v] > 0.0)) continue;
           if (record_sources_) plane_sources_[static_cast<size_t>(cursor[v])] = slot0 + k;
-          HalfSpace& h = regions.planes[static_cast<size_t>(cursor[v]++)];
-          h.n = k < na ? c.n : Vec3(-c.n);
-          h.d = (k < na ? s_a : s_b) * gap;
+          regions.refs[static_cast<size_t>(cursor[v]++)] = ref + (k < na ? 0u : 1u);
         }
       }
     }

@@ -208,7 +208,8 @@ std::vector<ContactSolver::ClosePair> DetectingSolver::close_pairs(const Positio
 
 std::optional<bool> DetectingSolver::region_empty(Index v, const Positions& anchor) const {
   if (v < 0 || static_cast<size_t>(v) + 1 >= regions_.offsets.size() || regions_.count(v) == 0) return std::nullopt;
-  const auto planes = regions_.of(v);
+  std::vector<HalfSpace> buf;
+  const auto planes = regions_.of(v, buf);
   if (!falls_below(anchor[v], anchor[v], planes, 0.0)) return false;  // the anchor is a feasible point
   // The anchor left its own region (a scripted step or a reduced offset moved a plane past it):
   // the exact projection decides, and reports an empty region as infeasible.
@@ -316,7 +317,7 @@ SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& ancho
     auto plane_contact = [&](Index q) {
       RigidPlaneContact pc;
       pc.repel = delta;
-      if (sources.size() != regions_.planes.size()) return pc;
+      if (sources.size() != regions_.total()) return pc;
       const ContactPair& c = contacts_[static_cast<size_t>(sources[q] / 4)];
       const int k = static_cast<int>(sources[q] % 4), na = c.side_a();
       const int lo = k < na ? na : 0, hi = k < na ? c.size() : na;
@@ -330,7 +331,8 @@ SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& ancho
         pc.other_motion += std::abs(c.w[j]) * (candidates_[u] - state.x_prev[u]);
         point += std::abs(c.w[j]) * anchor[u];
       }
-      const Vec3 n = regions_.planes[static_cast<size_t>(q)].n;
+      const HalfSpace h = regions_.plane(q);
+      const Vec3 n = h.n;
       pc.other_wt = pc.other_w;
       pc.responds_w = pc.other_w;
       const Index ob = rigid_.body_of(c.v[lo]);
@@ -343,13 +345,13 @@ SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& ancho
         pc.other_wt = 0.5 * (f.inverse_mass_at(point, t1) + f.inverse_mass_at(point, t2));
       }
       const double gap = c.distance - c.offset;
-      pc.repel = delta - std::max(0.0, gap - regions_.planes[static_cast<size_t>(q)].d);
+      pc.repel = delta - std::max(0.0, gap - h.d);
       return pc;
     };
     auto plane_repel = [&](Index q) {
-      if (sources.size() != regions_.planes.size()) return delta;
+      if (sources.size() != regions_.total()) return delta;
       const ContactPair& c = contacts_[static_cast<size_t>(sources[q] / 4)];
-      return delta - std::max(0.0, c.distance - c.offset - regions_.planes[static_cast<size_t>(q)].d);
+      return delta - std::max(0.0, c.distance - c.offset - regions_.plane(q).d);
     };
     RigidContactOptions options;
     options.x_start = &state.x_prev;
@@ -390,7 +392,7 @@ void DetectingSolver::vertex_diagnostics(std::vector<std::int32_t>& half_spaces,
   const Index n = num_vertices_;
   half_spaces.assign(static_cast<size_t>(n), 0);
   for (Index v = 0; v < std::min(n, regions_.num_vertices()); ++v)
-    half_spaces[v] = static_cast<std::int32_t>(regions_.of(v).size());
+    half_spaces[v] = static_cast<std::int32_t>(regions_.count(v));
   distance.assign(static_cast<size_t>(n), std::numeric_limits<double>::quiet_NaN());
   for (const ContactPair& c : contacts_)
     for (int k = 0; k < c.size(); ++k) {

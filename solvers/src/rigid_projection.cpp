@@ -201,7 +201,7 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
           auto regions_hold = [&](const std::vector<Vec3>& p) {
             for (size_t i = 0; i < n; ++i) {
               const Index v = b.begin + static_cast<Index>(i);
-              if (falls_below(anchor[v], p[i], regions.of(v), kOutside)) return false;
+              if (regions.falls_below(v, anchor[v], p[i], kOutside)) return false;
             }
             return true;
           };
@@ -234,7 +234,7 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
           place(target, y);
           for (size_t i = 0; i < n; ++i) {
             const Index v = b.begin + static_cast<Index>(i);
-            if (regions.count(v) > 0 && falls_below(anchor[v], y[i], regions.of(v), 0.0)) ++st.vertices_violated;
+            if (regions.count(v) > 0 && regions.falls_below(v, anchor[v], y[i], 0.0)) ++st.vertices_violated;
           }
           // Resolve the contacts in the body's pose space (Müller et al. 2020, positional
           // constraints with generalized inverse masses): projected Gauss-Seidel on the pose's
@@ -284,7 +284,7 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
               if (q0 == q1) continue;
               const Vec3 at = r * b.rest[i] + pose.c;
               for (Index q = q0; q < q1; ++q) {
-                const HalfSpace& h = regions.planes[static_cast<size_t>(q)];
+                const HalfSpace h = regions.plane(q);
                 Index& s = ws.slot[static_cast<size_t>(q - q_begin)];
                 const double value = h.value(anchor[v], at);
                 // δ bounds every repulsion target: a plane beyond it needs no pair data; nor does
@@ -431,7 +431,7 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
               alpha = step_bound / len;
               bound_limits = true;
             }
-            for (const HalfSpace& h : regions.of(v)) {
+            for (const HalfSpace& h : regions.planes_of(v)) {
               const double along = h.n.dot(step);
               if (along < 0.0 && h.d >= 0.0 && h.d / -along < alpha) {
                 alpha = h.d / -along;
@@ -462,7 +462,7 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
                 clear = true;
                 for (size_t i = 0; i < n; ++i) {
                   const Index v = b.begin + static_cast<Index>(i);
-                  for (const HalfSpace& h : regions.of(v)) {
+                  for (const HalfSpace& h : regions.planes_of(v)) {
                     const double value = h.value(anchor[v], turned_p * b.rest[i] + p.c);
                     if (value < accept_of(h)) clear = false;
                     if (value < aim_of(h)) p.c += (aim_of(h) - value) * h.n;

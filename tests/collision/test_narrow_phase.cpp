@@ -251,7 +251,7 @@ TEST_P(NarrowPhaseScenes, HalfSpacesAreConsistentWithContacts) {
         const Index v = c.v[k];
         if (!(s.inv_mass[v] > 0)) continue;
         ASSERT_LT(cursor[v], d.regions.offsets[v + 1]) << "vertex " << v << " has fewer planes than contacts";
-        const HalfSpace& h = d.regions.planes[static_cast<size_t>(cursor[v]++)];
+        const HalfSpace& h = d.regions.plane(static_cast<size_t>(cursor[v]++));
         // The normal points from the other primitive toward the vertex (clarification 3).
         EXPECT_EQ(h.n, side == 0 ? c.n : Vec3(-c.n));
         // d = s φ with a share s in [0, 1], the same for every vertex of a side.
@@ -308,10 +308,10 @@ TEST_P(NarrowPhaseScenes, DeterministicForAnyThreadCountAndBroadPhase) {
       // One broad phase at 1 and 2 threads: bit-identical regions and contact lists.
       const Detection& one = results[i - 1];
       EXPECT_EQ(d.regions.offsets, one.regions.offsets) << "run " << i;
-      ASSERT_EQ(d.regions.planes.size(), one.regions.planes.size()) << "run " << i;
-      for (size_t k = 0; k < d.regions.planes.size(); ++k) {
-        EXPECT_EQ(d.regions.planes[k].n, one.regions.planes[k].n);
-        EXPECT_EQ(d.regions.planes[k].d, one.regions.planes[k].d);
+      ASSERT_EQ(d.regions.total(), one.regions.total()) << "run " << i;
+      for (size_t k = 0; k < d.regions.total(); ++k) {
+        EXPECT_EQ(d.regions.plane(k).n, one.regions.plane(k).n);
+        EXPECT_EQ(d.regions.plane(k).d, one.regions.plane(k).d);
       }
       EXPECT_EQ(names_of(d), names_of(one)) << "contact order depends on the thread count";
     }
@@ -364,9 +364,9 @@ TEST_P(NarrowPhaseScenes, ReusedListGivesTheFreshPassExactly) {
             << where << ": contact " << k << " differs";
       }
       EXPECT_EQ(a.regions.offsets, b.regions.offsets) << where;
-      ASSERT_EQ(a.regions.planes.size(), b.regions.planes.size()) << where;
-      for (size_t k = 0; k < a.regions.planes.size(); ++k)
-        ASSERT_TRUE(a.regions.planes[k].n == b.regions.planes[k].n && a.regions.planes[k].d == b.regions.planes[k].d)
+      ASSERT_EQ(a.regions.total(), b.regions.total()) << where;
+      for (size_t k = 0; k < a.regions.total(); ++k)
+        ASSERT_TRUE(a.regions.plane(k).n == b.regions.plane(k).n && a.regions.plane(k).d == b.regions.plane(k).d)
             << where << ": plane " << k;
       EXPECT_EQ(a.stats.pairs_within_range, b.stats.pairs_within_range) << where;
       EXPECT_EQ(a.stats.degenerate, b.stats.degenerate) << where;
@@ -388,8 +388,8 @@ TEST_P(NarrowPhaseScenes, ReusedListGivesTheFreshPassExactly) {
       return ::testing::AssertionFailure() << "contact " << k << " differs";
   }
   if (a.regions.offsets != b.regions.offsets) return ::testing::AssertionFailure() << "plane counts differ";
-  for (size_t k = 0; k < a.regions.planes.size(); ++k)
-    if (!(a.regions.planes[k].n == b.regions.planes[k].n && a.regions.planes[k].d == b.regions.planes[k].d))
+  for (size_t k = 0; k < a.regions.total(); ++k)
+    if (!(a.regions.plane(k).n == b.regions.plane(k).n && a.regions.plane(k).d == b.regions.plane(k).d))
       return ::testing::AssertionFailure() << "plane " << k << " differs";
   return ::testing::AssertionSuccess();
 }
@@ -743,7 +743,7 @@ TEST(NarrowPhaseExclusions, SubPairsCloserThanOffsetInitially) {
   const Detection d = run(det, s.x, s.inv_mass);
   EXPECT_EQ(d.stats.excluded_initial, 0);
   for (const auto& c : d.contacts) EXPECT_GE(c.distance, c.offset) << "the rest configuration is feasible";
-  for (const HalfSpace& h : d.regions.planes) EXPECT_GE(h.d, 0.0);
+  for (const HalfSpace& h : d.regions.rows()) EXPECT_GE(h.d, 0.0);
 }
 
 TEST(NarrowPhaseExclusions, PrimitivesIntersectingInitially) {

@@ -99,7 +99,7 @@ Index check_separation(const test::TestScene& s, std::mt19937_64& g, int samples
     return -1;
   }
   EXPECT_FALSE(contacts.empty()) << "pair at distance " << before << " not detected";
-  for (const HalfSpace& h : regions.planes) EXPECT_TRUE(h.n.allFinite() && std::isfinite(h.d));
+  for (const HalfSpace& h : regions.rows()) EXPECT_TRUE(h.n.allFinite() && std::isfinite(h.d));
   for (int k = 0; k < samples; ++k) {
     Positions y = s.x;
     bool ok = true;

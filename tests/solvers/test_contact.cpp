@@ -347,7 +347,7 @@ TEST(ContactResponse, DetectorIncidenceGivesTheResponseOfItsOwnIndex) {
       ASSERT_EQ(c.v[k], v);
       EXPECT_GT(ci, previous) << "contact order";
       previous = ci;
-      EXPECT_EQ(regions.planes[i].n, k < c.side_a() ? c.n : Vec3(-c.n));
+      EXPECT_EQ(regions.plane(i).n, k < c.side_a() ? c.n : Vec3(-c.n));
     }
   }
 

@@ -156,12 +156,14 @@ BatchStats project_all(const Projector& projector, const RegionSet& regions, con
   std::vector<BatchStats> per_chunk(static_cast<size_t>(std::max<Index>(chunks, 1)));
   parallel_chunks(n, chunks, [&](Index c, Index begin, Index end) {
     BatchStats s;
+    std::vector<HalfSpace> buf;  // the gathered planes of one vertex outside its region
     for (Index v = begin; v < end; ++v) {
       if (!inv_mass.empty() && !(inv_mass[v] > 0.0)) continue;
-      const auto planes = regions.of(v);
-      if (planes.empty()) continue;
-      // Cheap pre-check: most vertices are inside their region and skip the projector.
-      if (!falls_below(anchor[v], x[v], planes, 0.0)) continue;
+      if (regions.count(v) == 0) continue;
+      // Cheap pre-check on the shared records: most vertices are inside their region and skip
+      // the gather and the projector.
+      if (!regions.falls_below(v, anchor[v], x[v], 0.0)) continue;
+      const auto planes = regions.of(v, buf);
       const ProjectResult r = projector.project(anchor[v], x[v], planes);
       if (r.status == ProjectStatus::feasible) continue;  // within the projector's tolerance
       ++s.violated;

@@ -1,6 +1,7 @@
 #include "ccfr/feasibility/region.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <numeric>
 
 #include "ccfr/core/parallel.hpp"
@@ -9,7 +10,32 @@ namespace ccfr {
 
 void RegionSet::clear(Index num_vertices) {
   offsets.assign(static_cast<size_t>(num_vertices) + 1, 0);
-  planes.clear();
+  records.clear();
+  refs.clear();
+}
+
+std::span<const HalfSpace> RegionSet::of(Index v, std::vector<HalfSpace>& buf) const {
+  const Index b = offsets[v], e = offsets[v + 1];
+  buf.resize(static_cast<size_t>(e - b));
+  for (Index q = b; q < e; ++q) buf[static_cast<size_t>(q - b)] = plane(q);
+  return {buf.data(), buf.size()};
+}
+
+std::vector<HalfSpace> RegionSet::rows() const {
+  std::vector<HalfSpace> out(refs.size());
+  for (size_t q = 0; q < refs.size(); ++q) out[q] = plane_of_ref(refs[q]);
+  return out;
+}
+
+bool RegionSet::falls_below(Index v, const Vec3& x_anchor, const Vec3& x, double level) const {
+  // The free falls_below's arithmetic on the planes as of() would gather them.
+  const Vec3 q = x - x_anchor;
+  const Index b = offsets[v], e = offsets[v + 1];
+  for (Index s = b; s < e; ++s) {
+    const HalfSpace h = plane(s);
+    if (!(h.n.dot(q) + h.d >= level)) return true;
+  }
+  return b == e && !(std::numeric_limits<double>::infinity() >= level);
 }
 
 void build_region_set(Index num_vertices, std::span<const std::vector<TaggedHalfSpace>> buffers, RegionSet& out) {
@@ -17,14 +43,14 @@ void build_region_set(Index num_vertices, std::span<const std::vector<TaggedHalf
   for (const auto& buf : buffers)
     for (const auto& t : buf) ++out.offsets[t.vertex + 1];
   std::partial_sum(out.offsets.begin(), out.offsets.end(), out.offsets.begin());
-  out.planes.resize(static_cast<size_t>(out.offsets.back()));
+  std::vector<HalfSpace> planes(static_cast<size_t>(out.offsets.back()));
 
-  std::vector<std::uint64_t> keys(out.planes.size());
+  std::vector<std::uint64_t> keys(planes.size());
   std::vector<Index> cursor(out.offsets.begin(), out.offsets.end() - 1);
   for (const auto& buf : buffers)
     for (const auto& t : buf) {
       const Index slot = cursor[t.vertex]++;
-      out.planes[slot] = t.h;
+      planes[slot] = t.h;
       keys[slot] = t.key;
     }
 
@@ -42,13 +68,20 @@ void build_region_set(Index num_vertices, std::span<const std::vector<TaggedHalf
       tmp.clear();
       tmp_keys.clear();
       for (Index p : perm) {
-        tmp.push_back(out.planes[p]);
+        tmp.push_back(planes[p]);
         tmp_keys.push_back(keys[p]);
       }
-      std::copy(tmp.begin(), tmp.end(), out.planes.begin() + b);
+      std::copy(tmp.begin(), tmp.end(), planes.begin() + b);
       std::copy(tmp_keys.begin(), tmp_keys.end(), keys.begin() + b);
     }
   });
+  // One record per plane, side A: the record carries the plane as given.
+  out.records.resize(planes.size());
+  out.refs.resize(planes.size());
+  for (size_t q = 0; q < planes.size(); ++q) {
+    out.records[q] = {planes[q].n, {planes[q].d, planes[q].d}};
+    out.refs[q] = static_cast<std::uint32_t>(2 * q);
+  }
 }
 
 }  // namespace ccfr
