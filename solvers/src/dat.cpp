@@ -42,7 +42,10 @@ void DivideAndTruncateSolver::build_limits(std::span<const double> inv_mass, std
       l.normal = a ? c.n : Vec3(-c.n);
       const double own = l.normal.dot(centers_[u]);  // where u is, along its own side's normal
       const double bound = a ? mid + 0.5 * c.offset : -(mid - 0.5 * c.offset);  // how far it may come
-      l.limit = own - two_gp * std::max(0.0, own - bound);
+      // Beyond the bound already (a scripted side's known step moved the plane past it, or the
+      // pair starts inside its offset): the limit is the bound itself, so the cut pushes u out
+      // along ν, as CCFR's half-space with a known Δx_B does.
+      l.limit = own >= bound ? own - two_gp * (own - bound) : bound;
       limits_[static_cast<size_t>(cursor[u]++)] = l;
     }
   }
@@ -77,10 +80,11 @@ bool DivideAndTruncateSolver::truncate_against(const Vec3& c, std::span<const Di
       double t = 1.0;
       for (const DivisionLimit& l : limits) {
         const double at_c = l.normal.dot(c) - l.limit, at_y = l.normal.dot(y) - l.limit;
-        if (at_y < 0.0) t = std::min(t, at_c > 0.0 ? at_c / (at_c - at_y) : 0.0);
+        // A limit the centre itself crosses (a push) cannot be met along this ray: left to the sweeps.
+        if (at_y < 0.0 && at_c >= 0.0) t = std::min(t, at_c > 0.0 ? at_c / (at_c - at_y) : 0.0);
       }
       y = c + t * (y - c);
-      if (crosses(y, 8.0)) y = c;  // t rounded past a limit: the centre is always allowed
+      if (crosses(y, 8.0) && !crosses(c, 8.0)) y = c;  // t rounded past a limit: the centre is allowed
     }
   }
   // The isotropic fallback for what lies beyond the query radius.

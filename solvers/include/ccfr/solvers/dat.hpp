@@ -41,8 +41,11 @@ struct DivisionLimit {
 /// keep the movable vertices there (each limit is at or beyond the bound, as 2γ_p ≤ 1) and the
 /// scripted vertices were counted in ℓ_A, h_B, so when \f$\ell_A - h_B \ge \xi_c\f$ at detection
 /// (a feasible anchor, \f$\ell_A - h_B = d_c\f$ for the exact closest-point normal) nothing
-/// crosses. Undetected pairs are kept apart by the isotropic bound, as for `ogc`. A pair with
-/// \f$\ell_A - h_B < \xi_c\f$ (already inside its offset) only may not approach further.
+/// crosses. Undetected pairs are kept apart by the isotropic bound, as for `ogc`. A vertex already
+/// beyond its bound (a scripted side's known step moved the plane past it, or the pair is inside
+/// its offset) gets the bound itself as its limit, so the cut pushes it out along the normal, as
+/// CCFR's half-space with a known \f$\Delta\mathbf{x}_B\f$ does (Eq. 3); the ray fallback then
+/// skips that limit (the centre does not satisfy it).
 class DivideAndTruncateSolver final : public TrustRegionSolver {
  public:
   explicit DivideAndTruncateSolver(TrustRegionParams params = {}) : TrustRegionSolver(params) {}
