@@ -23,17 +23,27 @@ void DivideAndTruncateSolver::build_limits(std::span<const double> inv_mass, std
     const int na = c.side_a(), n = c.size();
     // The gap along n: side A's lowest and side B's highest vertex, a scripted vertex at both
     // ends of its straight step (n·x is linear along it).
-    double lo_a = std::numeric_limits<double>::infinity(), hi_b = -lo_a;
+    // The same over the vertices that cannot move (scripted or fixed), which no limit can hold.
+    const double inf = std::numeric_limits<double>::infinity();
+    double lo_a = inf, hi_b = -inf, lo_a_fixed = inf, hi_b_fixed = -inf;
     for (int k = 0; k < n; ++k) {
       const Vec3& p = centers_[c.v[k]];
       double s0 = c.n.dot(p), s1 = s0;
       if (!kinematic.empty()) s1 = c.n.dot(p + kinematic[c.v[k]]);
-      if (k < na)
+      const bool fixed = !(inv_mass[c.v[k]] > 0.0);
+      if (k < na) {
         lo_a = std::min({lo_a, s0, s1});
-      else
+        if (fixed) lo_a_fixed = std::min({lo_a_fixed, s0, s1});
+      } else {
         hi_b = std::max({hi_b, s0, s1});
+        if (fixed) hi_b_fixed = std::max({hi_b_fixed, s0, s1});
+      }
     }
-    const double mid = 0.5 * (lo_a + hi_b);
+    // The middle of the gap; where the gap is below ξ_c (a push), moved so that the immovable
+    // vertices already meet their side's bound and the movable side takes the whole push.
+    double mid = 0.5 * (lo_a + hi_b);
+    const double lowest = hi_b_fixed + 0.5 * c.offset, highest = lo_a_fixed - 0.5 * c.offset;
+    if (lowest <= highest) mid = std::clamp(mid, lowest, highest);
     for (int k = 0; k < n; ++k) {
       const Index u = c.v[k];
       if (!(inv_mass[u] > 0.0)) continue;

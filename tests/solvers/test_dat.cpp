@@ -65,6 +65,27 @@ TEST(Dat, VertexAboveAPlaneKeepsItsTangentialStep) {
   EXPECT_EQ(res.violations_remaining, 0);
 }
 
+TEST(Dat, AScriptedStepMovesThePlaneAndPushesWhereTheGapIsGone) {
+  // The floor is scripted K up in this pass, the particle 2 cm above it. K = 8 mm: the gap along n
+  // is 2 cm − K, the plane at its middle, the limit 2γ_p of the way to ξ/2 above it. K = 12 mm: the
+  // gap is below ξ, the plane sits ξ/2 above the floor's new height and the particle is pushed to
+  // ξ above that, its tangential step kept.
+  for (const double k : {0.008, 0.012}) {
+    auto p = probe({floor_square(), particle(Vec3(0.15, 0.02, -0.1))});
+    p.kinematic.assign(5, Vec3::Zero());
+    for (Index v = 0; v < 4; ++v) p.kinematic[v] = Vec3(0, k, 0);
+    p.detect();
+    ASSERT_EQ(p.solver->limits(4).size(), 1u);
+    const double expect = k < 0.01 ? 0.02 - 2 * kGp * (0.02 - ((0.02 + k) / 2 + kXi / 2)) : k + kXi;
+    EXPECT_NEAR(p.solver->limits(4)[0].limit, expect, 1e-15) << k;
+    Positions x = p.scene.state.x;
+    x[4] += Vec3(0.003, -0.001, 0.0);
+    p.iteration = 1;
+    p.resolve(x);
+    EXPECT_NEAR((x[4] - Vec3(0.153, std::max(expect, 0.019), -0.1)).norm(), 0.0, 1e-15) << k;
+  }
+}
+
 TEST(Dat, ParallelEdgesGetTheMidPlane) {
   const double gap = 0.02;
   const Part lower{"lower", ObjectKind::strand, {Vec3(0, 0, 0), Vec3(0.1, 0, 0)}, {}, {{0, 1}}};

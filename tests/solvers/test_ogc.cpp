@@ -223,3 +223,12 @@ TEST(Ogc, ClothOnABoxPassesTheExactAuditEveryFrame) {
   for (Index v = c0; v < sim.topology().num_vertices(); ++v) lowest = std::min(lowest, sim.positions()[v].y());
   EXPECT_LT(lowest, 0.1 + 0.015);  // reached the top (y = 0.1) within its offset shell
 }
+
+TEST(Ogc, AScriptedStepTowardTheVertexComesOutOfItsBound) {
+  // The floor is scripted 8 mm up in this pass: the particle 2 cm above keeps γ_p (d − ξ − K).
+  auto p = probe({floor_square(), particle(Vec3(0.15, 0.02, -0.1))});
+  p.kinematic.assign(5, Vec3::Zero());
+  for (Index v = 0; v < 4; ++v) p.kinematic[v] = Vec3(0, 0.008, 0);
+  p.detect();
+  EXPECT_NEAR(p.solver->bounds()[4], kGp * (0.02 - kXi - 0.008), 1e-15);
+}

@@ -58,11 +58,16 @@ struct Probe {
   std::unique_ptr<Solver> solver;
   StageTimes times;
   int iteration = 0;
+  std::vector<Vec3> kinematic;  ///< scripted steps of the pass (#V), or empty
 
   Probe(Scene s, std::unique_ptr<Solver> sol) : scene(std::move(s)), solver(std::move(sol)) {
     solver->initialize(scene.topo, scene.state, scene.params);
   }
-  StepContext context() { return StepContext{scene.topo, scene.params, 1e-3, 1, 0, iteration, times}; }
+  StepContext context() {
+    StepContext ctx{scene.topo, scene.params, 1e-3, 1, 0, iteration, times};
+    if (iteration == 0) ctx.kinematic_step = kinematic;
+    return ctx;
+  }
   DetectResult detect() {
     StepContext ctx = context();
     return solver->detect(scene.state.x, scene.state, ctx);
