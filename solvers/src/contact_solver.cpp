@@ -20,6 +20,8 @@ ContactSolverRegistry& contact_solvers() {
     register_region_projection_solvers(r);
     register_post_process_solver(r);
     register_toi_clamp_solver(r);
+    register_ogc_solver(r);
+    register_dat_solver(r);
     r.add({"none",
            "no deformable contact at all (analytic obstacles still push when contact.analytic_obstacles is on); "
            "the ablation's lower bound on cost",

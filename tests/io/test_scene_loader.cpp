@@ -261,6 +261,22 @@ TEST(SceneLoader, SolverSectionsReachTheSolverAndAreRefusedForAnotherSolver) {
   EXPECT_NE(u.detail().find("scale"), std::string::npos) << u.what();
 }
 
+// ogc and dat: their registered sections, γ_p's open range (two sides at 1/2 each would meet at
+// the offset with no margin) and the file line of a bad value.
+TEST(SceneLoader, TrustRegionSolverSectionsAreCheckedFromTheRegistry) {
+  for (const std::string solver : {"ogc", "dat"}) {
+    std::string y = kBase;
+    y.replace(y.find("  radius: 0.01\n"), 15,
+              "  radius: 0.01\n  solver: " + solver + "\n  " + solver + ": {gamma_p: 0.3, gamma_e: 0.05}\n");
+    const auto s = io::load_scene_text(y, "scene.yaml", ".");
+    EXPECT_DOUBLE_EQ(s.scene.params.contact.solver_params.number("gamma_p"), 0.3);
+    EXPECT_DOUBLE_EQ(s.scene.params.contact.solver_params.number("query_radius"), 0.0);  // the default
+    const auto e = config_error(y, {"contact." + solver + ".gamma_p=0.5"});
+    EXPECT_EQ(e.key_path(), "contact." + solver + ".gamma_p");
+    EXPECT_NE(e.detail().find("(0, 0.5)"), std::string::npos) << e.what();
+  }
+}
+
 TEST(SceneLoader, MovedKeysNameTheirNewPlace) {
   std::string y = kBase;
   y.replace(y.find("  radius: 0.01\n"), 15, "  radius: 0.01\n  projection_sweeps: 8\n");

@@ -108,7 +108,8 @@ TEST(EveryContactSolverAudit, CatchesTheSolverThatDoesNothing) {
 // The registry's own contract, which the scene file and the CLI rely on.
 TEST(ContactSolverRegistry, ListsEveryBuiltInAndChecksParameters) {
   const auto names = registered_contact_solvers();
-  for (const char* n : {"ccfr", "exact_projection", "successive_projection", "post_process", "toi_clamp", "none"})
+  for (const char* n :
+       {"ccfr", "exact_projection", "successive_projection", "post_process", "toi_clamp", "ogc", "dat", "none"})
     EXPECT_NE(std::find(names.begin(), names.end(), n), names.end()) << n;
   for (const auto& n : names) EXPECT_EQ(make_contact_solver(n)->name(), n);
   // Unknown names list the registered ones; unknown keys list the solver's keys; ranges hold.

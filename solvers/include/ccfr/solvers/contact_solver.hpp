@@ -134,7 +134,7 @@ class ContactSolver {
 };
 
 /// The registry of contact solvers: ccfr, exact_projection, successive_projection, post_process,
-/// toi_clamp, none, then whatever downstream code adds. An entry's parameters are the keys of
+/// toi_clamp, ogc, dat, none, then whatever downstream code adds. An entry's parameters are the keys of
 /// `contact.<name>.*` in scene files; its factory receives them checked, with defaults filled in.
 using ContactSolverRegistry = Registry<ContactSolver>;
 ContactSolverRegistry& contact_solvers();
