@@ -114,23 +114,7 @@ TEST(CompactRegion, RecordsAndReferencesGiveTheBruteForceRowsOnAFoldedCloth) {
 // coincident particles (no normal: no contact, no record) and an obstacle at rest under them.
 TEST(CompactRegion, RecordsAndReferencesGiveTheBruteForceRowsOnDegenerateInput) {
   test::ExpectWarnings expect_warnings;  // coincident particles and close segments at rest
-  gen::TriMesh sheet;
-  sheet.v = {Vec3(0, 0, 0), Vec3(0.02, 0, 0), Vec3(0.04, 0, 0), Vec3(0, 0, 0.02), Vec3(0.02, 0, 0.02)};
-  sheet.f = {Vec3i(0, 1, 2), Vec3i(0, 3, 1), Vec3i(1, 3, 4)};  // (0, 1, 2) has zero area
-  gen::PolylineSet wires;
-  wires.v = {Vec3(0, 0.012, 0),     Vec3(0.02, 0.012, 0),     Vec3(0.04, 0.012, 0),
-             Vec3(0, 0.012, 0.015), Vec3(0.02, 0.012, 0.015), Vec3(0.04, 0.012, 0.015)};
-  wires.lines = {{0, 1, 2}, {3, 4, 5}};  // parallel segments 1.5 cm apart, 1.2 cm above the sheet
-  const Positions grains = {Vec3(0.01, -0.01, 0.01), Vec3(0.01, -0.01, 0.01), Vec3(0.022, -0.01, 0.01)};
-  gen::TriMesh floor;
-  floor.v = {Vec3(-0.05, -0.025, -0.05), Vec3(0.1, -0.025, -0.05), Vec3(-0.05, -0.025, 0.1), Vec3(0.1, -0.025, 0.1)};
-  floor.f = {Vec3i(0, 2, 1), Vec3i(1, 2, 3)};
-  const test::TestScene s = test::SceneBuilder()
-                                .mesh("sheet", ObjectKind::cloth, sheet)
-                                .strands("wires", wires)
-                                .particles("grains", grains)
-                                .mesh("floor", ObjectKind::obstacle, floor, 0.0)
-                                .finish();
+  const test::TestScene s = test::degenerate_mixed_scene();
   check_scene(s, s.x, 2);
   // The coincident grains came within range with no normal: counted degenerate, no record.
   CollisionDetector det(s.topo, s.x, kParams, make_broad_phase("bvh"));

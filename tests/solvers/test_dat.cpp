@@ -154,36 +154,7 @@ TEST(Dat, RestingContactKeepsSlidingWhereOgcStalls) {
 }
 
 TEST(Dat, ClothOnASpherePassesTheExactAuditEveryFrame) {
-  const auto cloth = gen::grid(0.3, 0.3, 8, 8);
-  const auto ball = gen::sphere(0.08, 2);
-  TopologyBuilder tb;
-  tb.add_object("ball", ObjectKind::obstacle, static_cast<Index>(ball.v.size()), ball.f);
-  tb.add_object("cloth", ObjectKind::cloth, static_cast<Index>(cloth.v.size()), cloth.f);
-  Scene s;
-  s.topo = tb.finish();
-  s.state.resize(s.topo.num_vertices());
-  Index k = 0;
-  for (const auto& q : ball.v) s.state.x[k++] = q;
-  const Index c0 = k;
-  for (const auto& q : cloth.v) s.state.x[k++] = q + Vec3(0.01, 0.11, 0.02);
-  for (Index v = c0; v < k; ++v) s.state.mass[v] = 1e-4, s.state.inv_mass[v] = 1e4;
-  s.state.rest = s.state.x_prev = s.state.x;
-  s.params.objects.resize(2);
-  s.params.contact.solver = "dat";
-  s.params.contact.offset = 0.01;
-  s.params.contact.radius = 0.005;
-  s.params.time.substeps = 4;
-  exact::PenetrationAudit audit(s.topo, s.state.x, exact::AuditOptions{0.01, 1e-6});
-  Simulation sim(std::move(s));
-  Index detected = 0;
-  double lowest = std::numeric_limits<double>::infinity();
-  for (int f = 0; f < 12; ++f) {
-    const FrameStats fs = sim.step_frame();
-    detected += fs.violations_detected;
-    EXPECT_EQ(fs.violations_remaining, 0) << f;
-    EXPECT_EQ(audit.audit_next(sim.positions()).penetrations(), 0) << "frame " << f + 1;
-  }
-  for (Index v = c0; v < sim.topology().num_vertices(); ++v) lowest = std::min(lowest, sim.positions()[v].y());
-  EXPECT_GT(detected, 0) << "the cloth was meant to reach the sphere";
-  EXPECT_LT(lowest, 0.08);  // the edges hang below the sphere's top
+  const test::DropResult r = test::drop_cloth_audited(gen::sphere(0.08, 2), Vec3(0.01, 0.11, 0.02), "dat");
+  EXPECT_GT(r.detected, 0) << "the cloth was meant to reach the sphere";
+  EXPECT_LT(r.lowest, 0.08);  // the edges hang below the sphere's top
 }

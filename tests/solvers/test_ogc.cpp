@@ -188,40 +188,10 @@ TEST(Ogc, RestingContactStallsTheTangentialMotion) {
 }
 
 TEST(Ogc, ClothOnABoxPassesTheExactAuditEveryFrame) {
-  // A 0.3 m cloth (8 x 8 cells) dropped from 3 cm onto a 0.2 m box: the exact (CGAL) audit at ξ,
-  // independent of the solver's own detection, finds nothing in any frame.
-  const auto cloth = gen::grid(0.3, 0.3, 8, 8);
-  const auto box = gen::box(Vec3(0.2, 0.2, 0.2));
-  TopologyBuilder tb;
-  tb.add_object("box", ObjectKind::obstacle, static_cast<Index>(box.v.size()), box.f);
-  tb.add_object("cloth", ObjectKind::cloth, static_cast<Index>(cloth.v.size()), cloth.f);
-  Scene s;
-  s.topo = tb.finish();
-  s.state.resize(s.topo.num_vertices());
-  Index k = 0;
-  for (const auto& p : box.v) s.state.x[k++] = p;
-  const Index c0 = k;
-  for (const auto& p : cloth.v) s.state.x[k++] = p + Vec3(0.01, 0.13, 0.02);
-  for (Index v = c0; v < k; ++v) s.state.mass[v] = 1e-4, s.state.inv_mass[v] = 1e4;
-  s.state.rest = s.state.x_prev = s.state.x;
-  s.params.objects.resize(2);
-  s.params.contact.solver = "ogc";
-  s.params.contact.offset = 0.01;
-  s.params.contact.radius = 0.005;
-  s.params.time.substeps = 4;
-  exact::PenetrationAudit audit(s.topo, s.state.x, exact::AuditOptions{0.01, 1e-6});
-  Simulation sim(std::move(s));
-  Index detected = 0;
-  for (int f = 0; f < 12; ++f) {
-    const FrameStats fs = sim.step_frame();
-    detected += fs.violations_detected;
-    EXPECT_EQ(fs.violations_remaining, 0) << f;
-    EXPECT_EQ(audit.audit_next(sim.positions()).penetrations(), 0) << "frame " << f + 1;
-  }
-  EXPECT_GT(detected, 0) << "the cloth was meant to reach the box";
-  double lowest = std::numeric_limits<double>::infinity();
-  for (Index v = c0; v < sim.topology().num_vertices(); ++v) lowest = std::min(lowest, sim.positions()[v].y());
-  EXPECT_LT(lowest, 0.1 + 0.015);  // reached the top (y = 0.1) within its offset shell
+  // Dropped from 3 cm onto a 0.2 m box.
+  const test::DropResult r = test::drop_cloth_audited(gen::box(Vec3(0.2, 0.2, 0.2)), Vec3(0.01, 0.13, 0.02), "ogc");
+  EXPECT_GT(r.detected, 0) << "the cloth was meant to reach the box";
+  EXPECT_LT(r.lowest, 0.1 + 0.015);  // reached the top (y = 0.1) within its offset shell
 }
 
 TEST(Ogc, AScriptedStepTowardTheVertexComesOutOfItsBound) {
