@@ -619,7 +619,9 @@ std::vector<CellRow> collect_rows(const SweepLayout& s) {
     };
     const size_t c_frame = col("frame"), c_wall = col("wall_s"), c_x = col("xpbd_s"), c_b = col("broad_s"),
                  c_n = col("narrow_s"), c_r = col("resolution_s"), c_d = col("violations_detected"),
-                 c_rem = col("violations_remaining"), c_h = col("halted_vertices"), c_cv = col("contact_vertices");
+                 c_rem = col("violations_remaining"), c_h = col("halted_vertices"), c_cv = col("contact_vertices"),
+                 c_lm = col("lag_mean"), c_lx = col("lag_max");
+    const bool has_lag = c_lm < header.size() && c_lx < header.size();
     std::vector<FrameStats> fsv;
     while (std::getline(in, line)) {
       const auto v = split_csv(line);
@@ -635,6 +637,7 @@ std::vector<CellRow> collect_rows(const SweepLayout& s) {
       f.violations_remaining = std::stoi(v[c_rem]);
       f.halted_vertices = std::stoi(v[c_h]);
       f.contact_vertices = std::stoi(v[c_cv]);
+      if (has_lag) f.lag_mean = std::stod(v[c_lm]), f.lag_max = std::stod(v[c_lx]);
       fsv.push_back(f);
     }
     r.frames = fsv.size();
@@ -645,6 +648,10 @@ std::vector<CellRow> collect_rows(const SweepLayout& s) {
       r.broad = aggregate(fsv, [](const FrameStats& f) { return f.times.broad; }).mean;
       r.narrow = aggregate(fsv, [](const FrameStats& f) { return f.times.narrow; }).mean;
       r.resolution = aggregate(fsv, [](const FrameStats& f) { return f.times.resolution; }).mean;
+      if (has_lag) {
+        r.lag_mean = aggregate(fsv, [](const FrameStats& f) { return f.lag_mean; }).mean;
+        r.lag_max = aggregate(fsv, [](const FrameStats& f) { return f.lag_max; }).max;
+      }
     }
     for (const auto& f : fsv) {
       r.detected += f.violations_detected;
@@ -697,7 +704,7 @@ std::string metrics_header() {
   return "frames,status,avg_frame_s,max_frame_s,median_frame_s,xpbd_s,broad_s,narrow_s,resolution_s,violations_"
          "detected,"
          "violations_remaining,max_violations_remaining,halted_vertices,audit,audit_violations,min_distance_over_"
-         "offset";
+         "offset,lag_mean,lag_max";
 }
 
 std::string metrics_csv(const CellRow& r) {
@@ -707,7 +714,8 @@ std::string metrics_csv(const CellRow& r) {
          fmt_num(r.median_s) + "," + fmt_num(r.xpbd) + "," + fmt_num(r.broad) + "," + fmt_num(r.narrow) + "," +
          fmt_num(r.resolution) + "," + std::to_string(r.detected) + "," + std::to_string(r.remaining_sum) + "," +
          std::to_string(r.remaining_max) + "," + std::to_string(r.halted) + "," + r.audit + "," +
-         std::to_string(r.audit_violations) + "," + fmt_num(r.min_over_xi, "%.9f");
+         std::to_string(r.audit_violations) + "," + fmt_num(r.min_over_xi, "%.9f") + "," + fmt_num(r.lag_mean, "%.6g") +
+         "," + fmt_num(r.lag_max, "%.6g");
 }
 
 namespace {

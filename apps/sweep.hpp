@@ -52,6 +52,9 @@ struct CellRow {
   long detected = 0, remaining_sum = 0, remaining_max = 0, halted = 0, contact_vertices = 0;
   long audit_violations = 0;
   double min_over_xi = NAN;
+  /// Lag behind the unconstrained (material) step, stats.csv lag_mean averaged over the frames and
+  /// lag_max's largest (m); NaN for runs written before those columns.
+  double lag_mean = NAN, lag_max = NAN;
   std::vector<std::vector<long>> per_frame;  ///< frame, detected, remaining, halted, contact vertices, audit (-1)
 };
 /// Reads every cell's run.json, stats.csv and audit.json (auditing a run that has none).

@@ -42,7 +42,7 @@ const std::string& stats_header() {
       "frame,sim_time,wall_s,xpbd_s,broad_s,narrow_s,resolution_s,candidates,constraints,violations_detected,"
       "violations_remaining,halted_vertices,min_distance,penetrations,audit_s,outer_iterations,clamped_vertices,"
       "check_s,contact_vertices,substeps_run,projector_fallbacks,halted_vertices_distinct,contact_vertices_distinct,"
-      "projector_rescues,candidates_total,detections_reused,cpu_s";
+      "projector_rescues,candidates_total,detections_reused,cpu_s,lag_mean,lag_max";
   return h;
 }
 
@@ -57,13 +57,14 @@ std::string stats_row(const FrameStats& s) {
   char hd[24] = "", cd[24] = "";
   if (s.halted_vertices_distinct >= 0) std::snprintf(hd, sizeof hd, "%d", s.halted_vertices_distinct);
   if (s.contact_vertices_distinct >= 0) std::snprintf(cd, sizeof cd, "%d", s.contact_vertices_distinct);
-  std::snprintf(buf, sizeof buf,
-                "%d,%.9g,%.6f,%.6f,%.6f,%.6f,%.6f,%d,%d,%d,%d,%d,%s,%s,%.6f,%d,%d,%.6f,%d,%d,%d,%s,%s,%d,%lld,%d,%.6f",
-                s.frame, s.sim_time, s.wall_s, s.times.xpbd, s.times.broad, s.times.narrow, s.times.resolution,
-                s.candidates, s.constraints, s.violations_detected, s.violations_remaining, s.halted_vertices, md, pen,
-                s.times.audit, s.outer_iterations, s.clamped_vertices, s.times.check, s.contact_vertices,
-                s.substeps_run, s.projector_fallbacks, hd, cd, s.projector_rescues,
-                static_cast<long long>(s.candidates_total), s.detections_reused, s.cpu_s);
+  std::snprintf(
+      buf, sizeof buf,
+      "%d,%.9g,%.6f,%.6f,%.6f,%.6f,%.6f,%d,%d,%d,%d,%d,%s,%s,%.6f,%d,%d,%.6f,%d,%d,%d,%s,%s,%d,%lld,%d,%.6f,%.9g,%.9g",
+      s.frame, s.sim_time, s.wall_s, s.times.xpbd, s.times.broad, s.times.narrow, s.times.resolution, s.candidates,
+      s.constraints, s.violations_detected, s.violations_remaining, s.halted_vertices, md, pen, s.times.audit,
+      s.outer_iterations, s.clamped_vertices, s.times.check, s.contact_vertices, s.substeps_run, s.projector_fallbacks,
+      hd, cd, s.projector_rescues, static_cast<long long>(s.candidates_total), s.detections_reused, s.cpu_s, s.lag_mean,
+      s.lag_max);
   return buf;
 }
 

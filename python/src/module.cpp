@@ -112,6 +112,8 @@ py::dict frame_stats_dict(const FrameStats& s) {
   d["projector_rescues"] = s.projector_rescues;
   d["candidates_total"] = s.candidates_total;
   d["detections_reused"] = s.detections_reused;
+  d["lag_mean"] = s.lag_mean;
+  d["lag_max"] = s.lag_max;
   return d;
 }
 

@@ -741,6 +741,8 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
   fs.violations_remaining = std::max(fs.violations_remaining, end.remaining);
   check_violations(end.remaining, substep_index, iterations_run, end.held_back, fs);
 
+  record_lag(fs);
+
   // v_{n+1} = (x - x_n) / dt, then damping.
   const double keep = std::max(0.0, 1.0 - tp.damping * dt);
   // Copied rather than swapped: positions() keeps one buffer for the simulation's lifetime.
@@ -761,6 +763,34 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
     fs.penetrations = std::max<Index>(fs.penetrations, 0) + pen;
     check_audit(pen);
   }
+}
+
+void Simulation::record_lag(FrameStats& fs) const {
+  const auto& st = scene_.state;
+  const Index nv = st.size();
+  // Fixed chunks summed in chunk order: the same stats at any thread count.
+  const Index chunks = default_chunk_count(nv);
+  std::vector<double> sum(static_cast<size_t>(chunks), 0.0), worst(static_cast<size_t>(chunks), 0.0);
+  std::vector<Index> movable(static_cast<size_t>(chunks), 0);
+  parallel_chunks(nv, chunks, [&](Index c, Index b, Index e) {
+    for (Index i = b; i < e; ++i) {
+      if (!(st.inv_mass[i] > 0.0)) continue;
+      const double d = (anchor_[i] - material_solved_[i]).norm();
+      sum[c] += d;
+      worst[c] = std::max(worst[c], d);
+      ++movable[c];
+    }
+  });
+  double total = 0.0;
+  Index count = 0;
+  for (Index c = 0; c < chunks; ++c) {
+    total += sum[c];
+    count += movable[c];
+    fs.lag_max = std::max(fs.lag_max, worst[c]);
+  }
+  // A running mean over the substeps run so far (substeps_run counts this one).
+  const double mean = count > 0 ? total / static_cast<double>(count) : 0.0;
+  fs.lag_mean += (mean - fs.lag_mean) / static_cast<double>(fs.substeps_run);
 }
 
 void Simulation::check_audit(Index penetrations) {

@@ -57,6 +57,13 @@ struct FrameStats {
   /// Detection passes of the frame that evaluated the kept sub-pair list instead of running the
   /// broad phase (collision.reuse_skin); they add nothing to candidates_total.
   int detections_reused = 0;
+  /// How far the contact handling kept vertices from their unconstrained step: per substep and
+  /// movable vertex, |x_end - x_material|, x_material the material (XPBD) solve from the prediction
+  /// and x_end where the substep left it. Mean over the movable vertices, averaged over the frame's
+  /// substeps (m). It includes the contact response every solver shares (repulsion, friction);
+  /// what differs between solvers is what their resolution holds back (stalling, damping).
+  double lag_mean = 0.0;
+  double lag_max = 0.0;  ///< the largest such distance of one vertex in the frame (m)
 };
 
 /// Why a run stopped because pairs could not be separated (contact.on_violation): the error's
@@ -186,6 +193,8 @@ class Simulation {
                            const FrameStats& fs) const;
   /// Applies contact.on_violation to a failed in-simulation audit.
   void check_audit(Index penetrations);
+  /// Adds the substep's lag behind the material step (FrameStats::lag_mean, lag_max).
+  void record_lag(FrameStats& fs) const;
   /// Warns (once per object) when the step bound held vertices back at the end of a substep.
   void report_capped_speed(Index vertex, double advance, double dt);
   /// Writes each moving kinematic vertex's target at time t into `target` and its step into
