@@ -82,7 +82,7 @@ TEST(Lag, TheMeanIsOverTheMovableVerticesAndTheSameAtAnyThreadCount) {
   const FrameStats one = run(1), two = run(2);
   set_thread_count(0);
   const double fall = 9.81 * (kDt / 2) * (kDt / 2);  // per substep of dt / 2
-  EXPECT_NEAR(one.lag_mean, fall / 2, 1e-12);          // the floor's obstacle vertices do not count
+  EXPECT_NEAR(one.lag_mean, fall / 2, 1e-12);        // the floor's obstacle vertices do not count
   EXPECT_NEAR(one.lag_max, fall, 1e-12);
   EXPECT_EQ(one.lag_mean, two.lag_mean);
   EXPECT_EQ(one.lag_max, two.lag_max);
