@@ -492,15 +492,19 @@ class Builder {
   /// movable object (not an obstacle) for the half-spaces its vertices hold. With a deformable on
   /// either side, a vertex of i touches j over at most the smaller area, min(1, A_j / A_i) of i,
   /// with about F_ij = ((h_i + h_j) / 2 + D)² / h_j² half-spaces (1 for particles, which have no
-  /// edges), summing at most two such layers (a sheet's two sides; fewer when D < ξ cannot hold
-  /// them). Two bodies meet on a patch: a rigid body is charged its largest cap 2π D ρ_eff with
-  /// another body, times F per vertex area (A / h_i²), an open surface counting as a plane.
+  /// edges), summing at most two layers (a sheet's two sides), or, for a sheet among other sheets,
+  /// the layers a stack can pack within D (layers_within_reach). Two
+  /// bodies meet on a patch: a rigid body is charged its largest cap 2π D ρ_eff with another
+  /// body, times F per vertex area (A / h_i²), an open surface counting as a plane.
   void charge_contact(Counts& total, double reach, double offset) {
-    const double layers = std::min(2.0, std::max(1.0, 2.0 * reach / offset));
+    const auto is_sheet = [](ObjectKind k) { return k == ObjectKind::cloth || k == ObjectKind::shell; };
+    const double sheets =
+        static_cast<double>(std::count_if(costs_.begin(), costs_.end(), [&](const auto& c) { return is_sheet(c.kind); }));
     for (size_t i = 0; i < costs_.size(); ++i) {
       Counts& ci = costs_[i].counts;
       const ObjectKind ki = costs_[i].kind;
       if (ki == ObjectKind::obstacle) continue;  // its vertices never move: no half-space of its own
+      const double layers = is_sheet(ki) ? layers_within_reach(ci.h, reach, offset, sheets - 1) : two_sides(reach, offset);
       double cross = 0, cover = 0, patch = 0;
       for (size_t j = 0; j < costs_.size(); ++j) {
         const Counts& cj = costs_[j].counts;
@@ -521,6 +525,27 @@ class Builder {
       ci.cross = ci.sv * cross, ci.patch = patch;
       total.cross += ci.cross, total.patch += ci.patch;
     }
+  }
+
+  /// A sheet's two sides, one layer each; fewer when D < ξ cannot hold them.
+  static double two_sides(double reach, double offset) { return std::min(2.0, std::max(1.0, 2.0 * reach / offset)); }
+
+  /// How many partner layers (in units of the nearest one) a sheet of mean edge h can hold within
+  /// reach D in a stack of sheets, layers being kept at least ξ apart: on each side the k-th sits
+  /// at k ξ, k = 1 .. floor(D / ξ), and holds the primitives within a disc of radius √(D² − (k
+  /// ξ)²), about (h + √(D² − (k ξ)²))² / h² of them. A landed pile of cloths packs 2-3 per side
+  /// (docs/performance.md, the 50 layers); one per side when D < 2ξ, and never more per side than
+  /// there are other sheets. Other kinds keep two_sides: they do not stack in layers.
+  static double layers_within_reach(double h, double reach, double offset, double other_sheets) {
+    if (!(reach >= 2 * offset) || other_sheets < 2) return two_sides(reach, offset);
+    const auto within = [&](double k) {
+      const double z = k * offset;
+      return std::pow(h + std::sqrt(std::max(0.0, reach * reach - z * z)), 2);
+    };
+    const double n = std::min(std::floor(reach / offset), other_sheets);
+    double sum = 0;
+    for (double k = 1; k <= n; ++k) sum += within(k);
+    return 2 * sum / within(1);
   }
 
   /// The whole scene against the limit, once every object and its contact term are known.

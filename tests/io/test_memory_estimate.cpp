@@ -145,18 +145,44 @@ TEST(MemoryEstimate, LoneBodiesObstaclePairsParticlesAndLayers) {
   EXPECT_NEAR(sand.cross_contact, sand_cross, rel * sand_cross);
   EXPECT_NEAR(object(grains.memory, "ball").cross_contact, 6.0, rel);
 
-  // Four equal triangles stacked: each has three partners of share 1, charged as two.
-  std::map<std::string, io::MeshArrays> stack;
-  std::string yaml = header();
-  for (int k = 0; k < 4; ++k) {
-    const std::string n = "t" + std::to_string(k);
-    stack[n] = triangle(kL, 0.01 * k);
-    yaml += "  - {name: " + n + ", kind: cloth, material: m, shape: {type: mesh, path: " + n + "}}\n";
-  }
-  const auto layered = io::load_scene_arrays(yaml, "s.yaml", stack);
-  const double two_layers = 3 * 2 * per_vertex(kL, kL);
+  // Equal triangles stacked: each has every other as a partner of share 1. Layers kept ξ apart fit
+  // floor(D / ξ) = 6 per side here, the k-th holding (L + √(D² − (k ξ)²))² / L² primitives, so a
+  // sheet is charged at most cap = 2 Σ_k that / the first's: all three partners of a stack of four
+  // (cap 5.7, n limited to the 3 other sheets), 9.17 of the eleven of a stack of twelve.
+  const auto stack_of = [&](int count, const std::string& head = header(), double spacing = 0.01) {
+    std::map<std::string, io::MeshArrays> stack;
+    std::string yaml = head;
+    for (int k = 0; k < count; ++k) {
+      const std::string n = "t" + std::to_string(k);
+      stack[n] = triangle(kL, spacing * k);
+      yaml += "  - {name: " + n + ", kind: cloth, material: m, shape: {type: mesh, path: " + n + "}}\n";
+    }
+    return io::load_scene_arrays(yaml, "s.yaml", stack);
+  };
+  const auto cap = [](int layers_per_side) {
+    const auto within = [](int k) { return std::pow(kL + std::sqrt(kReach * kReach - std::pow(k * kXi, 2)), 2); };
+    double sum = 0;
+    for (int k = 1; k <= layers_per_side; ++k) sum += within(k);
+    return 2 * sum / within(1);
+  };
+  ASSERT_EQ(std::floor(kReach / kXi), 6.0);
+  EXPECT_NEAR(cap(6), 9.17, 0.01);  // by hand: 2 (1.996 + 1.908 + 1.758 + 1.537 + 1.225 + 0.729) / 1.996
+  const auto four = stack_of(4), twelve = stack_of(12);
+  ASSERT_GT(cap(3), 3.0);
+  const double three_partners = 3 * 3 * per_vertex(kL, kL), capped = 3 * cap(6) * per_vertex(kL, kL);
   for (int k = 0; k < 4; ++k)
-    EXPECT_NEAR(object(layered.memory, "t" + std::to_string(k)).cross_contact, two_layers, rel * two_layers);
+    EXPECT_NEAR(object(four.memory, "t" + std::to_string(k)).cross_contact, three_partners, rel * three_partners);
+  for (int k = 0; k < 12; ++k)
+    EXPECT_NEAR(object(twelve.memory, "t" + std::to_string(k)).cross_contact, capped, rel * capped);
+
+  // With D < 2ξ only the nearest layer on each side fits: two, as before the stack model.
+  auto near_header = header();
+  near_header.replace(near_header.find("offset: 0.004"), 13, "offset: 0.025");
+  const auto two_sided = stack_of(4, near_header, 0.05);
+  const double reach25 = 2 * kR + 0.025 + kDelta;  // D = 0.046 < 2 ξ
+  const double two_layers = 3 * 2 * std::pow(kL + reach25, 2) / (kL * kL);
+  for (int k = 0; k < 4; ++k)
+    EXPECT_NEAR(object(two_sided.memory, "t" + std::to_string(k)).cross_contact, two_layers, rel * two_layers);
 }
 
 // A sheet whose pins are moved by a script is charged the driven self-contact (1 + D / h)² per
