@@ -498,13 +498,14 @@ class Builder {
   /// body, times F per vertex area (A / h_i²), an open surface counting as a plane.
   void charge_contact(Counts& total, double reach, double offset) {
     const auto is_sheet = [](ObjectKind k) { return k == ObjectKind::cloth || k == ObjectKind::shell; };
-    const double sheets =
-        static_cast<double>(std::count_if(costs_.begin(), costs_.end(), [&](const auto& c) { return is_sheet(c.kind); }));
+    const double sheets = static_cast<double>(
+        std::count_if(costs_.begin(), costs_.end(), [&](const auto& c) { return is_sheet(c.kind); }));
     for (size_t i = 0; i < costs_.size(); ++i) {
       Counts& ci = costs_[i].counts;
       const ObjectKind ki = costs_[i].kind;
       if (ki == ObjectKind::obstacle) continue;  // its vertices never move: no half-space of its own
-      const double layers = is_sheet(ki) ? layers_within_reach(ci.h, reach, offset, sheets - 1) : two_sides(reach, offset);
+      const double layers =
+          is_sheet(ki) ? layers_within_reach(ci.h, reach, offset, sheets - 1) : two_sides(reach, offset);
       double cross = 0, cover = 0, patch = 0;
       for (size_t j = 0; j < costs_.size(); ++j) {
         const Counts& cj = costs_[j].counts;
