@@ -84,6 +84,24 @@ TEST(SweepSpec, ThePaperSweepCoversEveryConfigAndSolver) {
   EXPECT_EQ(s.cells.size(), scenes * s.solvers.size());
 }
 
+// The comparison of contact methods (docs/methods.md): every registered solver but `none` on six
+// scenes, each to its own end (no frames override), every frame audited, the baselines not stopped.
+TEST(SweepSpec, TheMethodsSweepRunsEverySolverThatKeepsPairsApartToTheEnd) {
+  const auto s = ccfr::io::load_sweep_spec(cfg("sweeps/methods.yaml"));
+  auto expected = ccfr::registered_contact_solvers();
+  expected.erase(std::remove(expected.begin(), expected.end(), "none"), expected.end());
+  auto got = s.solvers;
+  std::sort(got.begin(), got.end());
+  std::sort(expected.begin(), expected.end());
+  EXPECT_EQ(got, expected);
+  EXPECT_EQ(s.configs.size(), 6u);
+  for (const auto& c : s.configs) EXPECT_TRUE(fs::exists(c)) << c;
+  EXPECT_EQ(s.frames, -1);
+  EXPECT_EQ(s.audit_stride, 1);
+  EXPECT_NE(std::find(s.set.begin(), s.set.end(), "contact.on_violation=warn"), s.set.end());
+  EXPECT_EQ(s.cells.size(), 6 * expected.size());
+}
+
 TEST(SweepSpec, ThePaperSmokeSweepIsThePaperSweepInThreeAuditedFrames) {
   const auto full = ccfr::io::load_sweep_spec(cfg("sweeps/paper.yaml"));
   const auto smoke = ccfr::io::load_sweep_spec(cfg("sweeps/paper_smoke.yaml"));
