@@ -51,6 +51,10 @@ __version__: str = _core.version()
 _Path = Union[str, "os.PathLike[str]"]
 _Overrides = Union[Mapping[str, Any], Sequence[str], None]
 
+# help(), repr() and doctest name the classes where users find them: ccfr, not ccfr._core.
+for _cls in (AuditResult, FrameAudit, Projection, Run, Scene, Simulation):
+    _cls.__module__ = __name__
+
 # The scene summary and per-frame lines of `ccfr run` are info; a Python session sees warnings.
 _core.set_log_level("warn")
 
