@@ -266,6 +266,52 @@ TEST_F(Interop, BlenderPlaysThePointCachesAsWritten) {
   EXPECT_GT(moved, 0.1);
 }
 
+// The import as docs/interop.md gives it (headless, no --factory-startup): the startup file's cube,
+// light and camera are removed, the .blend it saves reopens with the run's objects, timeline and
+// point caches (referenced relative to the .blend).
+TEST_F(Interop, BlenderImportAsDocumentedSavesACleanBlend) {
+  if (!has_program("blender")) GTEST_SKIP() << "blender is not installed (scripts/install-deps)";
+  const fs::path d = ccfr::test::scratch_dir(scratch_name() + "-blend");
+  const std::string src = CCFR_SOURCE_DIR;
+  int code = -1;
+  std::string out = shell("cd " + d.string() + " && blender -b --python " + src + "/scripts/import_blender.py -- " +
+                              run_dir().string() + " --z-up --save out/run.blend",
+                          &code);
+  ASSERT_EQ(code, 0) << out;
+  EXPECT_NE(out.find("import_blender: 3 objects (cloth sheet, block, ball), frames 0-6 at 30 fps"), std::string::npos)
+      << out;
+  ASSERT_TRUE(fs::exists(d / "out" / "run.blend")) << out;
+
+  out = shell("blender -b " + (d / "out" / "run.blend").string() + " --python " + src +
+                  "/tests/interop/check_blender.py -- " + run_dir().string() + " blend 0 3 6",
+              &code);
+  ASSERT_EQ(code, 0) << out;
+  const json r = result_of(out);
+  ASSERT_TRUE(r.is_object()) << out;
+  EXPECT_EQ(r["all_objects"], json::array({json::array({"ball", "MESH"}), json::array({"block", "MESH"}),
+                                           json::array({"cloth sheet", "MESH"})}));
+  const json run = json::parse(std::ifstream(run_dir() / "run.json"));
+  const int every = run["config"]["output"]["every"];
+  EXPECT_EQ(r["frame_start"], 0);
+  EXPECT_EQ(r["frame_end"].get<int>(), (run["frames_written"].get<int>() - 1) * every);
+  EXPECT_EQ(r["frame_end"], kFrames);
+  EXPECT_DOUBLE_EQ(r["fps"].get<double>(), run["fps"].get<double>());
+  ASSERT_EQ(r["frames"].size(), 3u);
+  for (const auto& f : r["frames"]) {
+    EXPECT_EQ(f["compared"], obj(0).v.size()) << f.dump();
+    EXPECT_TRUE(f["missing"].empty()) << f.dump();
+    // Float32 rounding of coordinates below 2 m is at most 2^-24 * 2 m = 1.2e-7 m.
+    EXPECT_LE(f["max_error"].get<double>(), 1.2e-7) << f.dump();
+  }
+
+  out = shell("blender -b --python " + src + "/scripts/import_blender.py -- " + (d / "nothing").string(), &code);
+  EXPECT_EQ(code, 1) << out;
+  EXPECT_NE(
+      out.find("import_blender: error: " + (d / "nothing" / "blender" / "manifest.json").string() + " does not exist"),
+      std::string::npos)
+      << out;
+}
+
 TEST_F(Interop, ExportFromDiskMatchesTheLiveWriters) {
   const fs::path out = ccfr::test::scratch_path(scratch_name()) / "exported";
   fs::remove_all(out);
