@@ -82,17 +82,21 @@ void make_dir(const fs::path& d) {
 }
 
 /// A per-frame format on resume: every frame written before the checkpoint must be on disk (else
-/// the finished run would have a gap), and the ones after it, left by the interrupted run, go.
-void keep_frames_before(const fs::path& folder, const char* ext, const ResumedFrames& before) {
+/// the finished run would have a gap).
+void check_frames_before(const fs::path& folder, const char* ext, const ResumedFrames& before) {
   for (int f : before.frames) {
     std::error_code ec;
     const fs::path p = folder / frame_name(f, ext);
     if (!fs::is_regular_file(p, ec))
       throw Error("cannot resume: '" + p.string() + "' (written before the checkpoint of frame " +
-                  std::to_string(before.last) +
-                  ") is missing; the finished run would have a gap: restore it or "
-                  "run again");
+                  std::to_string(before.last) + ") is missing; the finished run would have a gap: restore it or run " +
+                  "again");
   }
+}
+
+/// ... and the frames after it, left by the interrupted run, go.
+void keep_frames_before(const fs::path& folder, const char* ext, const ResumedFrames& before) {
+  check_frames_before(folder, ext, before);
   std::error_code ec;
   for (const auto& e : fs::directory_iterator(folder, ec)) {
     const std::string n = e.path().filename().string();
@@ -625,7 +629,19 @@ void resume_frame_sinks(const std::vector<FrameSink*>& sinks, const fs::path& di
   } else if (has(OutputFormat::pc2)) {
     before.positions = [dir, &topo](size_t k, int) { return read_pc2_sample(dir / "blender", topo, k); };
   }
-  for (FrameSink* s : sinks) s->resume(dir, before);
+  // Whatever can refuse the resume runs before any file changes: the per-frame files are checked
+  // here, the USDA layer only reads (it is written at the end), the PC2 caches check themselves
+  // before they are cut; the frames after the checkpoint are removed last.
+  std::vector<std::pair<int, FrameSink*>> order;
+  size_t k = 0;
+  for (OutputFormat f : formats) {
+    if (f == OutputFormat::obj || k >= sinks.size()) continue;
+    if (f == OutputFormat::ply) check_frames_before(dir / "frames", "ply", before);
+    if (f == OutputFormat::vtu) check_frames_before(dir / "vtk", "vtu", before);
+    order.emplace_back(f == OutputFormat::usda ? 0 : f == OutputFormat::pc2 ? 1 : 2, sinks[k++]);
+  }
+  std::stable_sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (const auto& [rank, s] : order) s->resume(dir, before);
 }
 
 std::unique_ptr<FrameSink> make_frame_sink(OutputFormat format, const Topology& topo, double fps, int every) {

@@ -491,6 +491,33 @@ TEST(InterruptedRun, UsdaWithoutObjOrPc2IsRefusedNamingWhy) {
   EXPECT_EQ(read(dir / "stats.csv"), stats);
 }
 
+// A VTU frame before the checkpoint deleted: the resume is refused naming it, and nothing changes,
+// not even the PLY frames after the checkpoint (the ply sink, first in the list, used to remove
+// them before the vtu sink found the gap).
+TEST(InterruptedRun, AMissingVtuFrameIsRefusedBeforeAnyFileChanges) {
+  const fs::path root = ccfr::test::scratch_dir("resume_formats_gap");
+  const fs::path dir = root / "run";
+  auto r = run_ccfr("run '" + config("stress/cloth_near_floor.yaml") +
+                    "' --frames 5 --set output.checkpoint_every=2 --set 'output.formats=[obj, ply, vtu, pc2]' --out '" +
+                    dir.string() + "' --log-level warn");
+  ASSERT_EQ(r.code, 0) << r.out;
+  auto rj = nlohmann::json::parse(read(dir / "run.json"));
+  rj["status"] = "running";  // as if cut short after its checkpoint of frame 4
+  write(dir / "run.json", rj.dump());
+  fs::remove(dir / "vtk" / "frame_00002.vtu");
+  const std::string pc2 = read(dir / "blender" / "001_cloth.pc2");
+  r = run_ccfr("run --resume '" + dir.string() + "'");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("'" + (dir / "vtk" / "frame_00002.vtu").string() +
+                       "' (written before the checkpoint of frame 4) is missing"),
+            std::string::npos)
+      << r.out;
+  EXPECT_TRUE(fs::exists(dir / "frames" / "frame_00005.ply"));
+  EXPECT_TRUE(fs::exists(dir / "frames" / "frame_00005.obj"));
+  EXPECT_TRUE(fs::exists(dir / "vtk" / "frame_00005.vtu"));
+  EXPECT_EQ(read(dir / "blender" / "001_cloth.pc2"), pc2);
+}
+
 // `ccfr sweep resume` continues a cell that writes vtu, pc2 and usda (as animated_body's cells in
 // configs/sweeps/paper*.yaml do): on main such a cell stayed `terminated` for good. The finished
 // cell equals the same run by hand, byte for byte.

@@ -73,7 +73,8 @@ void replay_frames(const std::vector<FrameSink*>& sinks, const std::filesystem::
 
 /// Resumes every sink of a run in `dir` after frame `last` (FrameSink::resume): the frames before
 /// are read back from the OBJ frames if `formats` has obj, else from the PC2 caches if it has
-/// pc2. Throws ccfr::Error naming the file that is missing or does not fit.
+/// pc2. `sinks` are those of `formats` but obj, in that order. Throws ccfr::Error naming the file
+/// that is missing or does not fit, before any file is changed where it can tell in advance.
 void resume_frame_sinks(const std::vector<FrameSink*>& sinks, const std::filesystem::path& dir, const Topology& topo,
                         const std::vector<OutputFormat>& formats, int last, const std::vector<int>& frames, double fps);
 
