@@ -5,6 +5,7 @@
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
+#include "ccfr/io/checkpoint.hpp"
 #include "commands.hpp"
 #include "progress.hpp"
 #include "run_driver.hpp"
@@ -12,6 +13,19 @@
 namespace ccfr::app {
 
 namespace {
+
+// What to run after this run: a completed one is audited; one stopped by a signal is continued
+// from its checkpoint (`ccfr audit` of it exits 4, not completed), or run again if it has none; any
+// other stop leaves frames whose audit needs --partial.
+std::string next_command(const RunSummary& s, const std::string& dir) {
+  const std::string q = shell_quote(dir);
+  if (!s.failed) return "ccfr audit " + q;
+  if (s.stop_signal != 0) {
+    if (io::latest_checkpoint(s.out)) return "ccfr run --resume " + q;
+    return invocation_string() + "  (again: no checkpoint to resume from)";
+  }
+  return "ccfr audit --partial " + q;
+}
 
 // The closing summary on stdout: where the output went, how long it took, what is left to
 // check, and the command that checks it.
@@ -44,7 +58,7 @@ void print_summary(const RunSummary& s) {
       "vertex halts",
       detected, remaining_frames, remaining_max, halted);
   if (audited) std::printf(", %ld penetrations found by debug.audit", penetrations);
-  std::printf("\n  next: ccfr audit %s\n", dir.c_str());
+  std::printf("\n  next: %s\n", next_command(s, dir).c_str());
   std::fflush(stdout);
 }
 

@@ -728,6 +728,7 @@ std::string metrics_csv(const CellRow& r) {
 namespace {
 
 int collect(const fs::path& dir, const std::string& metric, const std::string& against, bool plot) {
+  const auto t0 = std::chrono::steady_clock::now();
   const SweepLayout s = read_sweep(dir);
   const auto rows = collect_rows(s);
   std::string head = "cell,scene,solver";
@@ -772,11 +773,26 @@ int collect(const fs::path& dir, const std::string& metric, const std::string& a
         spdlog::warn("sweep collect: plotting failed ({}); the tables are written", cmd);
     }
   }
-  size_t bad = 0;
-  for (const auto& r : rows) bad += r.audit != "pass";
+  size_t bad = 0, unfinished = 0;
+  const CellRow* failing = nullptr;
+  for (const auto& r : rows) {
+    bad += r.audit != "pass";
+    unfinished += r.status != "completed";
+    if (!failing && r.status == "completed" && r.audit != "pass") failing = &r;
+  }
   if (bad)
     std::fprintf(stderr, "sweep collect: %zu of %zu cells did not pass the audit or did not complete\n", bad,
                  rows.size());
+  // Cells not completed are continued first; then a completed cell that failed its audit is looked
+  // at in its own report; with every cell passing, the pictures of the first.
+  const std::string next = unfinished     ? "ccfr sweep resume " + shell_quote(dir.string())
+                           : failing      ? "ccfr audit " + shell_quote((dir / failing->id).string())
+                           : rows.empty() ? "ccfr sweep status " + shell_quote(dir.string())
+                                          : "ccfr render " + shell_quote((dir / rows.front().id).string()) + " --sheet";
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("\nsweep collect: %zu cells, %zu passed the audit, %zu not completed, in %s; tables in %s; next: %s\n",
+              rows.size(), rows.size() - bad, unfinished, format_duration(secs).c_str(),
+              (dir / "sweep.md").string().c_str(), next.c_str());
   return bad ? 1 : 0;
 }
 

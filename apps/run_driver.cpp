@@ -38,16 +38,6 @@ std::vector<std::string>& invocation() {
   return argv;
 }
 
-// Quotes an argument for a POSIX shell when it needs it, so that command_line can be pasted back.
-std::string shell_quote(const std::string& a) {
-  if (!a.empty() && a.find_first_not_of("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_-+=./:,@%") ==
-                        std::string::npos)
-    return a;
-  std::string o = "'";
-  for (char c : a) o += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return o + "'";
-}
-
 // Installs the stop handlers for the run and restores the previous ones however it ends. SIGXFSZ
 // is ignored so that a file-size limit fails the write (EFBIG, reported) instead of killing us.
 class SignalScope {
@@ -72,6 +62,15 @@ class SignalScope {
 };
 
 }  // namespace
+
+std::string shell_quote(const std::string& a) {
+  if (!a.empty() && a.find_first_not_of("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_-+=./:,@%") ==
+                        std::string::npos)
+    return a;
+  std::string o = "'";
+  for (char c : a) o += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return o + "'";
+}
 
 int run_exit_code(const RunSummary& s) {
   if (s.nothing_to_resume) return 0;

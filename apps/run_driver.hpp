@@ -55,6 +55,9 @@ struct RunSummary {
   std::string cleanup_error;
 };
 
+/// Quotes an argument for a POSIX shell when it needs it, so that a command can be pasted back.
+std::string shell_quote(const std::string& a);
+
 /// Loads, simulates and (if opts.out is set) writes the run. Numerical failures end the run with
 /// `failed` set and the frames so far kept; configuration errors throw ccfr::Error.
 RunSummary run_scene(const RunOptions& opts);

@@ -81,6 +81,35 @@ void make_dir(const fs::path& d) {
   if (ec) throw Error("cannot create directory '" + d.string() + "': " + ec.message());
 }
 
+/// A per-frame format on resume: every frame written before the checkpoint must be on disk (else
+/// the finished run would have a gap).
+void check_frames_before(const fs::path& folder, const char* ext, const ResumedFrames& before) {
+  for (int f : before.frames) {
+    std::error_code ec;
+    const fs::path p = folder / frame_name(f, ext);
+    if (!fs::is_regular_file(p, ec))
+      throw Error("cannot resume: '" + p.string() + "' (written before the checkpoint of frame " +
+                  std::to_string(before.last) + ") is missing; the finished run would have a gap: restore it or run " +
+                  "again");
+  }
+}
+
+/// ... and the frames after it, left by the interrupted run, go.
+void keep_frames_before(const fs::path& folder, const char* ext, const ResumedFrames& before) {
+  check_frames_before(folder, ext, before);
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(folder, ec)) {
+    const std::string n = e.path().filename().string();
+    const std::string suffix = std::string(".") + ext;
+    if (n.size() != 11 + suffix.size() || n.rfind("frame_", 0) != 0 || n.substr(11) != suffix) continue;
+    const std::string digits = n.substr(6, 5);
+    if (digits.find_first_not_of("0123456789") != std::string::npos || std::stoi(digits) <= before.last) continue;
+    std::error_code rec;
+    fs::remove(e.path(), rec);
+    if (rec) throw Error("cannot remove '" + e.path().string() + "': " + rec.message());
+  }
+}
+
 template <class T>
 void append_raw(std::string& s, const T& value) {
   s.append(reinterpret_cast<const char*>(&value), sizeof(T));
@@ -162,6 +191,10 @@ class PlySink final : public FrameSink {
     make_dir(dir / "frames");
     write_file_atomic(dir / "frames" / frame_name(frame, "ply"), s);
   }
+  // One file per frame: the frames before the checkpoint are already as an uninterrupted run left them.
+  void resume(const fs::path& dir, const ResumedFrames& before) override {
+    keep_frames_before(dir / "frames", "ply", before);
+  }
 
  private:
   const Topology& topo_;
@@ -197,7 +230,7 @@ void append_compressed(std::string& out, const char* bytes, size_t size) {
 // VTK XML UnstructuredGrid, zlib-compressed binary appended data (UInt64 headers), and a PVD collection.
 class VtuSink final : public FrameSink {
  public:
-  VtuSink(const Topology& topo) : topo_(topo), cells_(make_cells(topo)) {
+  explicit VtuSink(const Topology& topo) : topo_(topo), cells_(make_cells(topo)) {
     for (Index v = 0; v < topo.num_vertices(); ++v) object_.push_back(static_cast<std::int32_t>(topo.vertex_object[v]));
   }
   void write(const fs::path& dir, int frame, double time, const Positions& x, const VertexFields& f) override {
@@ -249,16 +282,27 @@ class VtuSink final : public FrameSink {
     make_dir(dir / "vtk");
     const std::string name = frame_name(frame, "vtu");
     write_file_atomic(dir / "vtk" / name, xml);
-    char t[40];
-    std::snprintf(t, sizeof t, "%.17g", time);
-    entries_ += std::string("    <DataSet timestep=\"") + t + "\" part=\"0\" file=\"" + name + "\"/>\n";
+    add_entry(frame, time);
     write_file_atomic(dir / "vtk" / "frames.pvd",
                       "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" "
                       "byte_order=\"LittleEndian\">\n  <Collection>\n" +
                           entries_ + "  </Collection>\n</VTKFile>\n");
   }
+  // The .vtu files before the checkpoint carry the solver's point data (halted, half_spaces,
+  // distance), which OBJ frames do not hold: they are kept, and the collection lists them again.
+  void resume(const fs::path& dir, const ResumedFrames& before) override {
+    keep_frames_before(dir / "vtk", "vtu", before);
+    entries_.clear();
+    for (int f : before.frames) add_entry(f, before.fps > 0 ? f / before.fps : 0.0);
+  }
 
  private:
+  void add_entry(int frame, double time) {
+    char t[40];
+    std::snprintf(t, sizeof t, "%.17g", time);
+    entries_ +=
+        std::string("    <DataSet timestep=\"") + t + "\" part=\"0\" file=\"" + frame_name(frame, "vtu") + "\"/>\n";
+  }
   const Topology& topo_;
   Cells cells_;
   std::vector<std::int32_t> object_;
@@ -275,6 +319,55 @@ std::string file_stem(size_t index, const std::string& name) {
   std::string s = prefix;
   for (unsigned char c : name) s += std::isalnum(c) || c == '_' || c == '-' ? static_cast<char>(c) : '_';
   return s;
+}
+
+/// What resume needs of a PC2 cache written by Pc2Sink: the samples it holds whole (its header's
+/// count, as far as the file is that long), or why it is not one of this run's (`problem`).
+struct Pc2Header {
+  int count = 0;
+  std::string problem;
+};
+
+Pc2Header read_pc2_header(const fs::path& p, Index nv) {
+  std::ifstream in(p, std::ios::binary);
+  if (!in) return {0, "'" + p.string() + "' is missing"};
+  char h[32];
+  if (!in.read(h, sizeof h) || std::memcmp(h, "POINTCACHE2\0", 12) != 0)
+    return {0, "'" + p.string() + "' does not start with a PC2 header"};
+  std::int32_t version = 0, points = 0, count = 0;
+  std::memcpy(&version, h + 12, 4);
+  std::memcpy(&points, h + 16, 4);
+  std::memcpy(&count, h + 28, 4);
+  if (version != 1 || points != nv)
+    return {0, "'" + p.string() + "' holds " + std::to_string(points) + " points per sample, the object has " +
+                   std::to_string(nv)};
+  std::error_code ec;
+  const auto size = fs::file_size(p, ec);
+  if (ec) return {0, "cannot read '" + p.string() + "': " + ec.message()};
+  const long long whole = nv > 0 ? static_cast<long long>((size - 32) / (12 * static_cast<std::uintmax_t>(nv))) : count;
+  return {static_cast<int>(std::min<long long>(std::max(count, 0), whole)), ""};
+}
+
+/// Sample `k` of the PC2 caches of `blender` (one per object), as positions of the whole run.
+Positions read_pc2_sample(const fs::path& blender, const Topology& topo, size_t k) {
+  Positions x(static_cast<size_t>(topo.num_vertices()), Vec3::Zero());
+  for (size_t i = 0; i < topo.objects.size(); ++i) {
+    const ObjectInfo& o = topo.objects[i];
+    const fs::path p = blender / (file_stem(i, o.name) + ".pc2");
+    const Pc2Header h = read_pc2_header(p, o.num_vertices());
+    if (!h.problem.empty()) throw Error("cannot resume: " + h.problem);
+    if (static_cast<size_t>(h.count) <= k)
+      throw Error("cannot resume: '" + p.string() + "' holds " + std::to_string(h.count) + " whole samples, sample " +
+                  std::to_string(k) + " is needed");
+    std::ifstream in(p, std::ios::binary);
+    in.seekg(static_cast<std::streamoff>(32 + k * 12 * static_cast<size_t>(o.num_vertices())));
+    for (Index v = o.vertex_begin; v < o.vertex_end; ++v) {
+      float c[3];
+      if (!in.read(reinterpret_cast<char*>(c), sizeof c)) throw Error("cannot read '" + p.string() + "'");
+      x[v] = Vec3(c[0], c[1], c[2]);
+    }
+  }
+  return x;
 }
 
 class Pc2Sink final : public FrameSink {
@@ -317,6 +410,45 @@ class Pc2Sink final : public FrameSink {
       append(b / (file_stem(i, o.name) + ".pc2"), s, samples_ + 1, o.num_vertices());
     }
     ++samples_;
+  }
+  // The caches are appended sample by sample: cut back to the samples before the checkpoint
+  // (count first, so the file never counts more than it holds), or, if they are not whole, written
+  // again from the frames on disk.
+  void resume(const fs::path& dir, const ResumedFrames& before) override {
+    samples_ = 0;
+    if (before.frames.empty()) return;
+    const fs::path b = dir / "blender";
+    const int n = static_cast<int>(before.frames.size());
+    std::string problem;
+    std::error_code ec;
+    for (const char* f : {"manifest.json", "first_frame.obj"})
+      if (problem.empty() && !fs::is_regular_file(b / f, ec)) problem = "'" + (b / f).string() + "' is missing";
+    for (size_t i = 0; i < topo_.objects.size() && problem.empty(); ++i) {
+      const fs::path p = b / (file_stem(i, topo_.objects[i].name) + ".pc2");
+      const Pc2Header h = read_pc2_header(p, topo_.objects[i].num_vertices());
+      problem = h.problem;
+      if (problem.empty() && h.count < n)
+        problem = "'" + p.string() + "' holds " + std::to_string(h.count) + " whole samples, the run had written " +
+                  std::to_string(n) + " frames before its checkpoint of frame " + std::to_string(before.last);
+    }
+    if (problem.empty()) {
+      for (size_t i = 0; i < topo_.objects.size(); ++i) {
+        const fs::path p = b / (file_stem(i, topo_.objects[i].name) + ".pc2");
+        const std::int32_t count = n;
+        const int fd = ::open(p.c_str(), O_WRONLY | O_CLOEXEC);
+        const bool ok = fd >= 0 && ::pwrite(fd, &count, sizeof count, 28) == sizeof count &&
+                        ::ftruncate(fd, 32 + static_cast<off_t>(n) * 12 * topo_.objects[i].num_vertices()) == 0;
+        const int err = errno;
+        if (fd >= 0) ::close(fd);
+        if (!ok) throw Error("cannot write '" + p.string() + "': " + std::strerror(err));
+      }
+      samples_ = n;
+      return;
+    }
+    if (!before.positions)
+      throw Error("cannot resume: " + problem + "; without OBJ frames (output.formats has no obj) the point caches " +
+                  "cannot be rebuilt: run again");
+    replay_frames({this}, dir, before.frames, before.positions, before.fps, false);
   }
 
  private:
@@ -446,6 +578,72 @@ class UsdaSink final : public FrameSink {
 
 }  // namespace
 
+void FrameSink::resume(const fs::path& dir, const ResumedFrames& before) {
+  if (before.frames.empty()) return;
+  if (!before.positions)
+    throw Error("cannot resume '" + dir.string() +
+                "': its whole-run files (usda) are rebuilt from the frames written before the checkpoint, and "
+                "output.formats has neither obj nor pc2 to read them from: run again");
+  replay_frames({this}, dir, before.frames, before.positions, before.fps, false);
+}
+
+void replay_frames(const std::vector<FrameSink*>& sinks, const fs::path& dir, const std::vector<int>& frames,
+                   const FramePositions& positions, double fps, bool velocities) {
+  Positions prev;
+  int prev_frame = 0;
+  for (size_t k = 0; k < frames.size(); ++k) {
+    const int frame = frames[k];
+    Positions x = positions(k, frame);
+    VertexFields fields;
+    if (velocities) {
+      fields.velocity.assign(x.size(), Vec3::Zero());
+      if (!prev.empty() && frame > prev_frame)
+        for (size_t v = 0; v < x.size(); ++v) fields.velocity[v] = (x[v] - prev[v]) * fps / (frame - prev_frame);
+    }
+    for (FrameSink* s : sinks) s->write(dir, frame, fps > 0 ? frame / fps : 0.0, x, fields);
+    prev_frame = frame;
+    prev = std::move(x);
+  }
+}
+
+void resume_frame_sinks(const std::vector<FrameSink*>& sinks, const fs::path& dir, const Topology& topo,
+                        const std::vector<OutputFormat>& formats, int last, const std::vector<int>& frames,
+                        double fps) {
+  ResumedFrames before{last, frames, {}, fps};
+  auto has = [&](OutputFormat f) { return std::find(formats.begin(), formats.end(), f) != formats.end(); };
+  // Refused before any sink changes a file (the default FrameSink::resume would refuse it too, later).
+  if (has(OutputFormat::usda) && !has(OutputFormat::obj) && !has(OutputFormat::pc2) && !frames.empty())
+    throw Error("cannot resume '" + dir.string() +
+                "': its USDA layer is rebuilt from the frames written before the checkpoint, and output.formats has "
+                "neither obj nor pc2 to read them from: run again");
+  // OBJ frames hold the exact positions; PC2 holds them as float, which is all USDA writes.
+  if (has(OutputFormat::obj)) {
+    before.positions = [dir, &topo](size_t, int frame) {
+      const fs::path p = dir / "frames" / frame_name(frame, "obj");
+      Frame fr = read_frame_obj(p);
+      if (static_cast<Index>(fr.v.size()) != topo.num_vertices())
+        throw Error("cannot resume: '" + p.string() + "' has " + std::to_string(fr.v.size()) +
+                    " vertices, the run has " + std::to_string(topo.num_vertices()));
+      return std::move(fr.v);
+    };
+  } else if (has(OutputFormat::pc2)) {
+    before.positions = [dir, &topo](size_t k, int) { return read_pc2_sample(dir / "blender", topo, k); };
+  }
+  // Whatever can refuse the resume runs before any file changes: the per-frame files are checked
+  // here, the USDA layer only reads (it is written at the end), the PC2 caches check themselves
+  // before they are cut; the frames after the checkpoint are removed last.
+  std::vector<std::pair<int, FrameSink*>> order;
+  size_t k = 0;
+  for (OutputFormat f : formats) {
+    if (f == OutputFormat::obj || k >= sinks.size()) continue;
+    if (f == OutputFormat::ply) check_frames_before(dir / "frames", "ply", before);
+    if (f == OutputFormat::vtu) check_frames_before(dir / "vtk", "vtu", before);
+    order.emplace_back(f == OutputFormat::usda ? 0 : f == OutputFormat::pc2 ? 1 : 2, sinks[k++]);
+  }
+  std::stable_sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (const auto& [rank, s] : order) s->resume(dir, before);
+}
+
 std::unique_ptr<FrameSink> make_frame_sink(OutputFormat format, const Topology& topo, double fps, int every) {
   switch (format) {
     case OutputFormat::ply:
@@ -493,31 +691,25 @@ int export_run(const fs::path& run_dir, const std::vector<OutputFormat>& formats
   auto number = [](const fs::path& p) { return std::stoi(p.stem().string().substr(6)); };
   const int every = info.frames.size() > 1 ? std::max(1, number(info.frames[1]) - number(info.frames[0])) : 1;
   std::vector<std::unique_ptr<FrameSink>> sinks;
-  for (OutputFormat f : formats) {
-    if (f == OutputFormat::obj) {
-      if (fs::equivalent(out, run_dir)) continue;  // already there
-      make_dir(out / "frames");
-    }
-    if (f != OutputFormat::obj) sinks.push_back(make_frame_sink(f, topo, fps, every));
-  }
-  Positions prev;
-  int prev_frame = 0;
-  for (const fs::path& p : info.frames) {
-    const Frame fr = p == info.frames.front() ? first : read_frame_obj(p);
-    if (!same_structure(first, fr))
-      throw Error(p.string() + ": its objects or elements differ from " + info.frames.front().string());
-    const int frame = number(p);
-    VertexFields fields;
-    fields.velocity.assign(fr.v.size(), Vec3::Zero());
-    if (!prev.empty() && frame > prev_frame)
-      for (size_t v = 0; v < fr.v.size(); ++v) fields.velocity[v] = (fr.v[v] - prev[v]) * fps / (frame - prev_frame);
-    for (OutputFormat f : formats)
-      if (f == OutputFormat::obj && !fs::equivalent(out, run_dir))
-        fs::copy_file(p, out / "frames" / p.filename(), fs::copy_options::overwrite_existing);
-    for (auto& s : sinks) s->write(out, frame, frame / fps, fr.v, fields);
-    prev = fr.v;
-    prev_frame = frame;
-  }
+  std::vector<FrameSink*> raw;
+  const bool copy_obj = std::find(formats.begin(), formats.end(), OutputFormat::obj) != formats.end() &&
+                        !fs::equivalent(out, run_dir);  // in the run directory they are already there
+  if (copy_obj) make_dir(out / "frames");
+  for (OutputFormat f : formats)
+    if (f != OutputFormat::obj) raw.push_back(sinks.emplace_back(make_frame_sink(f, topo, fps, every)).get());
+  std::vector<int> numbers;
+  for (const fs::path& p : info.frames) numbers.push_back(number(p));
+  replay_frames(
+      raw, out, numbers,
+      [&](size_t k, int) {
+        const fs::path& p = info.frames[k];
+        Frame fr = k == 0 ? first : read_frame_obj(p);
+        if (!same_structure(first, fr))
+          throw Error(p.string() + ": its objects or elements differ from " + info.frames.front().string());
+        if (copy_obj) fs::copy_file(p, out / "frames" / p.filename(), fs::copy_options::overwrite_existing);
+        return std::move(fr.v);
+      },
+      fps, /*velocities=*/true);
   for (auto& s : sinks) s->finish(out);
   return static_cast<int>(info.frames.size());
 }

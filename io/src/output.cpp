@@ -306,16 +306,6 @@ RunWriter::RunWriter(fs::path dir, const Topology& topo, std::string resolved_co
       resume_frame_(resume.frame) {
   lock_ = DirLock::acquire(final_, meta_.command_line);
   recover_commit(final_);
-  // PC2, USDA and the VTU collection (.pvd) hold every frame in one file; only OBJ and PLY
-  // frames continue cleanly. The others are rebuilt from the OBJ frames by `ccfr export`.
-  for (const OutputFormat f : meta_.formats)
-    if (f != OutputFormat::obj && f != OutputFormat::ply) {
-      const std::string name = output_format_names()[static_cast<size_t>(f)];
-      throw Error("cannot resume '" + final_.string() + "': output.formats has '" + name +
-                  "', whose files span the whole run; resume with output.formats [obj] (or [obj, ply]) and "
-                  "rebuild it afterwards with `ccfr export " +
-                  final_.string() + " --format " + name + "`");
-    }
   std::ifstream in(final_ / "run.json");
   const Json old = in ? Json::parse(in, nullptr, /*allow_exceptions=*/false) : Json();
   if (!is_ccfr_run(final_) || !old.is_object())
@@ -350,6 +340,16 @@ RunWriter::RunWriter(fs::path dir, const Topology& topo, std::string resolved_co
                 " whole rows, the checkpoint is at frame " + std::to_string(resume.frame));
   resume_stats_size_ = size;
 
+  // The frames written before the checkpoint (frame 0, then every output.every-th; the last frame
+  // of the run comes after it). The other formats continue from them (FrameSink::resume): per-frame
+  // files are kept, PC2 caches cut back to them, USDA and the VTU collection rebuilt with them.
+  std::vector<int> before;
+  for (int f = 0; meta_.frames && f <= resume.frame; f += std::max(1, meta_.every)) before.push_back(f);
+  std::vector<FrameSink*> sinks;
+  for (OutputFormat f : meta_.formats)
+    if (f != OutputFormat::obj)
+      sinks.push_back(sinks_.emplace_back(make_frame_sink(f, topo_, meta_.fps, meta_.every)).get());
+  resume_frame_sinks(sinks, final_, topo_, meta_.formats, resume.frame, before, meta_.fps);
   std::error_code ec;
   create_dirs(final_ / "frames");
   for (const auto& p : list_frame_files(final_ / "frames")) {
@@ -360,6 +360,8 @@ RunWriter::RunWriter(fs::path dir, const Topology& topo, std::string resolved_co
       ++frames_written_;
     }
   }
+  if (std::find(meta_.formats.begin(), meta_.formats.end(), OutputFormat::obj) == meta_.formats.end())
+    frames_written_ = static_cast<int>(before.size());
 }
 
 RunWriter::~RunWriter() {

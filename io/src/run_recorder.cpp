@@ -21,6 +21,7 @@ RunMeta make_run_meta(const Simulation& sim, std::string command_line, std::vect
     meta.initial_proximity = det->initial_proximity();
   if (!p.output.formats.empty()) meta.formats = parse_output_formats(p.output.formats);
   meta.every = p.output.every;
+  meta.frames = p.output.frames;
   return meta;
 }
 

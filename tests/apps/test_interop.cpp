@@ -435,6 +435,11 @@ TEST_F(Interop, ExportFromDiskMatchesTheLiveWriters) {
       ccfr::test::run_ccfr("export " + run_dir().string() + " --format ply,pc2,usda,vtu --out " + out.string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("exported 7 frames"), std::string::npos) << r.out;
+  // The summary ends with the time taken and the command that shows the first format exported
+  // that has a viewer (pc2: Blender with the importer).
+  EXPECT_NE(r.out.find("into " + out.string() + " in "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("import_blender.py -- " + out.string() + "\n"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("; next: blender --python "), std::string::npos) << r.out;
   const auto bytes = [](const fs::path& p) { return ccfr::test::read_text(p); };
   for (const char* f : {"frames/frame_00004.ply", "blender/000_cloth_sheet.pc2", "blender/002_ball.pc2"})
     EXPECT_EQ(bytes(out / f), bytes(run_dir() / f)) << f;

@@ -5,6 +5,7 @@
 /// Cache modifier), and one time-sampled USDA file (Blender, Houdini, usdview).
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -34,6 +35,17 @@ struct VertexFields {
   std::vector<double> distance;
 };
 
+/// Positions of the `k`-th frame a run wrote (frame number `frame`), read back from its files.
+using FramePositions = std::function<Positions(size_t k, int frame)>;
+
+/// What a resumed run had written before its checkpoint (FrameSink::resume).
+struct ResumedFrames {
+  int last = 0;              ///< the checkpoint's frame
+  std::vector<int> frames;   ///< frames written up to `last`, ascending
+  FramePositions positions;  ///< reads them back; empty when no format the run writes can be read
+  double fps = 0;            ///< frame k is at time frames[k] / fps (0 when fps is 0)
+};
+
 /// Writes one format of a run directory, frame by frame. Paths are relative to the directory
 /// passed in each call, so that a staged run (DIR.ccfr-new) can be renamed between frames.
 class FrameSink {
@@ -45,7 +57,26 @@ class FrameSink {
                      const VertexFields& fields) = 0;
   /// After the last frame (also of a run stopped early): files that need every frame (USDA).
   virtual void finish(const std::filesystem::path& dir) {}
+  /// `ccfr run --resume` after frame `last`: brings the sink to where it was in the uninterrupted
+  /// run after `frames` (the frames written up to `last`, ascending), so that the finished files
+  /// are byte-identical to an uninterrupted run's. The default writes them again from `positions`
+  /// as `ccfr export` does (replay_frames); sinks whose files are per frame or appendable keep
+  /// those on disk instead.
+  virtual void resume(const std::filesystem::path& dir, const ResumedFrames& before);
 };
+
+/// Writes `frames` (the k-th read by `positions`) into every sink, at time frame / fps; with
+/// `velocities`, each frame's velocity is the backward difference to the previous one (zero for
+/// the first). What `ccfr export` and the default FrameSink::resume do.
+void replay_frames(const std::vector<FrameSink*>& sinks, const std::filesystem::path& dir,
+                   const std::vector<int>& frames, const FramePositions& positions, double fps, bool velocities);
+
+/// Resumes every sink of a run in `dir` after frame `last` (FrameSink::resume): the frames before
+/// are read back from the OBJ frames if `formats` has obj, else from the PC2 caches if it has
+/// pc2. `sinks` are those of `formats` but obj, in that order. Throws ccfr::Error naming the file
+/// that is missing or does not fit, before any file is changed where it can tell in advance.
+void resume_frame_sinks(const std::vector<FrameSink*>& sinks, const std::filesystem::path& dir, const Topology& topo,
+                        const std::vector<OutputFormat>& formats, int last, const std::vector<int>& frames, double fps);
 
 /// A sink for `format` (not obj: the OBJ frames are RunWriter's own). `every` is output.every
 /// (the PC2 sample rate in frames).

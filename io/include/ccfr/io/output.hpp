@@ -31,7 +31,8 @@ struct RunMeta {
   std::optional<InitialProximity> initial_proximity;
   /// output.formats (docs/interop.md); obj writes frames/frame_NNNNN.obj.
   std::vector<OutputFormat> formats{OutputFormat::obj};
-  int every = 1;  ///< output.every (the PC2 sample rate)
+  int every = 1;       ///< output.every (the PC2 sample rate)
+  bool frames = true;  ///< output.frames: false writes no frame in any format
   /// scene_fingerprint() of the run's initial scene, written to run.json so that a resume can tell
   /// a checkpoint of this run from one copied from another (0: not recorded).
   std::uint64_t scene_fingerprint = 0;
