@@ -952,9 +952,12 @@ void register_sweep(CLI::App& app) {
   co->add_option("dir", o->dir, "Sweep directory")->required();
   co->add_option("--metric", o->metric, "Column of sweep.csv to plot")->capture_default_str();
   co->add_option("--against", o->against, "Swept parameter on the x axis (default: the first)");
-  co->add_flag("!--no-plot", o->plot, "Do not draw sweep_<metric>.png");
-  co->callback([o] {
+  // A plain flag: CLI11 prints a negated one ("!--no-plot") as `--no-plot{false}` in --help.
+  auto no_plot = std::make_shared<bool>(false);
+  co->add_flag("--no-plot", *no_plot, "Do not draw sweep_<metric>.png");
+  co->callback([o, no_plot] {
     init_logging("warn");
+    o->plot = !*no_plot;
     guarded([o] { return collect(o->dir, o->metric, o->against, o->plot); });
   });
 
