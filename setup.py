@@ -1,6 +1,7 @@
 """Builds the extension ccfr._core with the project's CMake build (only that target) for pip."""
 import os
 import pathlib
+import re
 import shutil
 import subprocess
 import sys
@@ -9,6 +10,14 @@ from setuptools import Extension, setup
 from setuptools.command.build_ext import build_ext
 
 ROOT = pathlib.Path(__file__).resolve().parent
+
+
+def project_version():
+    """The version of CMakeLists.txt's project() (ccfr.__version__ is compiled from it too)."""
+    m = re.search(r"project\(ccfr\s+VERSION\s+([0-9.]+)", (ROOT / "CMakeLists.txt").read_text())
+    if not m:
+        raise RuntimeError("CMakeLists.txt: no `project(ccfr VERSION x.y.z ...)`")
+    return m.group(1)
 
 
 class CMakeBuild(build_ext):
@@ -27,6 +36,7 @@ class CMakeBuild(build_ext):
 
 
 setup(
+    version=project_version(),
     packages=["ccfr"],
     package_dir={"": "python"},
     package_data={"ccfr": ["__init__.pyi", "py.typed"]},

@@ -631,8 +631,9 @@ std::vector<CellRow> collect_rows(const SweepLayout& s) {
     const size_t c_frame = col("frame"), c_wall = col("wall_s"), c_x = col("xpbd_s"), c_b = col("broad_s"),
                  c_n = col("narrow_s"), c_r = col("resolution_s"), c_d = col("violations_detected"),
                  c_rem = col("violations_remaining"), c_h = col("halted_vertices"), c_cv = col("contact_vertices"),
-                 c_lm = col("lag_mean"), c_lx = col("lag_max");
+                 c_lm = col("lag_mean"), c_lx = col("lag_max"), c_cpu = col("cpu_s"), c_oi = col("outer_iterations");
     const bool has_lag = c_lm < header.size() && c_lx < header.size();
+    const bool has_cpu = c_cpu < header.size(), has_iterations = c_oi < header.size();
     std::vector<FrameStats> fsv;
     while (std::getline(in, line)) {
       const auto v = split_csv(line);
@@ -649,6 +650,8 @@ std::vector<CellRow> collect_rows(const SweepLayout& s) {
       f.halted_vertices = std::stoi(v[c_h]);
       f.contact_vertices = std::stoi(v[c_cv]);
       if (has_lag) f.lag_mean = std::stod(v[c_lm]), f.lag_max = std::stod(v[c_lx]);
+      if (has_cpu) f.cpu_s = std::stod(v[c_cpu]);
+      if (has_iterations) f.outer_iterations = std::stoi(v[c_oi]);
       fsv.push_back(f);
     }
     r.frames = fsv.size();
@@ -663,6 +666,10 @@ std::vector<CellRow> collect_rows(const SweepLayout& s) {
         r.lag_mean = aggregate(fsv, [](const FrameStats& f) { return f.lag_mean; }).mean;
         r.lag_max = aggregate(fsv, [](const FrameStats& f) { return f.lag_max; }).max;
       }
+      if (has_cpu) r.cpu_s = aggregate(fsv, [](const FrameStats& f) { return f.cpu_s; }).mean;
+      if (has_iterations)
+        r.outer_iterations =
+            aggregate(fsv, [](const FrameStats& f) { return static_cast<double>(f.outer_iterations); }).mean;
     }
     for (const auto& f : fsv) {
       r.detected += f.violations_detected;
@@ -715,7 +722,7 @@ std::string metrics_header() {
   return "frames,status,avg_frame_s,max_frame_s,median_frame_s,xpbd_s,broad_s,narrow_s,resolution_s,violations_"
          "detected,"
          "violations_remaining,max_violations_remaining,halted_vertices,audit,audit_violations,min_distance_over_"
-         "offset,lag_mean,lag_max";
+         "offset,lag_mean,lag_max,cpu_frame_s,outer_iterations";
 }
 
 std::string metrics_csv(const CellRow& r) {
@@ -726,7 +733,7 @@ std::string metrics_csv(const CellRow& r) {
          fmt_num(r.resolution) + "," + std::to_string(r.detected) + "," + std::to_string(r.remaining_sum) + "," +
          std::to_string(r.remaining_max) + "," + std::to_string(r.halted) + "," + r.audit + "," +
          std::to_string(r.audit_violations) + "," + fmt_num(r.min_over_xi, "%.9f") + "," + fmt_num(r.lag_mean, "%.6g") +
-         "," + fmt_num(r.lag_max, "%.6g");
+         "," + fmt_num(r.lag_max, "%.6g") + "," + fmt_num(r.cpu_s, "%.6f") + "," + fmt_num(r.outer_iterations, "%.3f");
 }
 
 namespace {

@@ -55,6 +55,9 @@ struct CellRow {
   /// Lag behind the unconstrained (material) step, stats.csv lag_mean averaged over the frames and
   /// lag_max's largest (m); NaN for runs written before those columns.
   double lag_mean = NAN, lag_max = NAN;
+  /// Means per frame of stats.csv cpu_s (the work: CPU seconds of all threads) and
+  /// outer_iterations (each runs one detection pass, except under `none`); NaN when absent.
+  double cpu_s = NAN, outer_iterations = NAN;
   std::vector<std::vector<long>> per_frame;  ///< frame, detected, remaining, halted, contact vertices, audit (-1)
 };
 /// Reads every cell's run.json, stats.csv and audit.json (auditing a run that has none).

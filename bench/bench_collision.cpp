@@ -15,7 +15,7 @@
 #include <string>
 
 #include "../tests/collision/scenes.hpp"
-#include "ccfr/collision/narrow_phase.hpp"
+#include "ccfr/collision/collision_detector.hpp"
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/feasibility/projector.hpp"
 #include "ccfr/geometry/generators.hpp"

@@ -1,16 +1,22 @@
 """Headless screenshot of a ccfr run in Blender (docs/images/interop_blender.png):
 
+    blender -b RUN.blend --python scripts/blender_screenshot.py -- OUT.png FRAME
     blender -b --factory-startup --python scripts/blender_screenshot.py -- RUN_DIR OUT.png FRAME
 
-Imports RUN_DIR with import_blender.py (PC2 caches, z-up), aims a camera at the origin and renders
+Renders the meshes of RUN.blend (saved by `import_blender.py RUN_DIR --z-up --save RUN.blend`), or
+imports RUN_DIR with import_blender.py (PC2 caches, z-up); aims a camera at the origin and renders
 FRAME with the Workbench engine (no GPU needed).
 """
 import bpy, sys, os, math
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import import_blender
 args = sys.argv[sys.argv.index("--") + 1:]
-bpy.ops.wm.read_factory_settings(use_empty=True)
-objs = import_blender.import_run(args[0], z_up=True)
+if bpy.data.filepath:  # started with a .blend: its meshes
+    objs = [o for o in bpy.context.scene.objects if o.type == "MESH"]
+    args = [None] + args
+else:
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    objs = import_blender.import_run(args[0], z_up=True)
 scene = bpy.context.scene
 scene.frame_set(int(args[2]))
 cam = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))

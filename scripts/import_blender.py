@@ -1,14 +1,21 @@
 """Imports a ccfr run into Blender as animated meshes, without add-ons.
 
-    blender --python scripts/import_blender.py -- RUN_DIR [--z-up]
+    blender -b --python scripts/import_blender.py -- RUN_DIR [--z-up] [--save OUT.blend] [--keep-scene]
+
+`-b` runs Blender without a window (a machine without a display needs it: without it Blender
+stops with "GHOST: unable to initialize"); on a desktop, leave it out to get the imported scene
+in Blender's window.
 
 RUN_DIR must hold blender/ (written by `output.formats: [pc2]` or `ccfr export RUN_DIR --format pc2`):
-first_frame.obj, one .pc2 point cache per object and manifest.json. Each object becomes a mesh
-built from the first frame in ccfr's vertex order (faces, strand edges, loose particle vertices),
-with a Mesh Cache modifier (PC2) that plays the run: Blender frame F shows ccfr frame F. The
-scene's fps and frame range follow the run. --z-up rotates the objects (not their vertices) from
-ccfr's y-up to Blender's z-up.
+first_frame.obj, one .pc2 point cache per object and manifest.json. The scene's objects (the
+startup file's cube, light and camera) are removed first, unless --keep-scene. Each object becomes
+a mesh built from the first frame in ccfr's vertex order (faces, strand edges, loose particle
+vertices), with a Mesh Cache modifier (PC2) that plays the run: Blender frame F shows ccfr frame F.
+The scene's fps and frame range (frame_start, frame_end) follow the run. --z-up rotates the objects
+(not their vertices) from ccfr's y-up to Blender's z-up. --save writes a .blend whose point caches
+are referenced relative to it (move the .blend and the run together).
 """
+import argparse
 import json
 import math
 import os
@@ -18,7 +25,7 @@ import bpy
 
 
 def read_obj(path):
-    """Vertices, faces, lines and points of a ccfr frame (1-based global indices)."""
+    """Vertices, faces, lines and points of a ccfr frame (0-based global indices)."""
     v, blocks = [], []
     with open(path) as f:
         for line in f:
@@ -34,15 +41,30 @@ def read_obj(path):
     return v, blocks
 
 
+def clear_scene():
+    """Removes every object (the startup file's cube, light, camera) and the data they leave unused."""
+    for obj in list(bpy.data.objects):
+        bpy.data.objects.remove(obj, do_unlink=True)
+    for coll in (bpy.data.meshes, bpy.data.lights, bpy.data.cameras, bpy.data.materials):
+        for block in list(coll):
+            if block.users == 0:
+                coll.remove(block)
+
+
 def import_run(run_dir, z_up=False):
     bdir = os.path.join(run_dir, "blender")
-    with open(os.path.join(bdir, "manifest.json")) as f:
+    manifest_path = os.path.join(bdir, "manifest.json")
+    if not os.path.exists(manifest_path):
+        raise FileNotFoundError(
+            "%s does not exist: write the run with output.formats including pc2, or run "
+            "`ccfr export %s --format pc2`" % (manifest_path, run_dir))
+    with open(manifest_path) as f:
         manifest = json.load(f)
-    verts, _ = read_obj(os.path.join(bdir, manifest["first_frame"]))
-    _, blocks = read_obj(os.path.join(bdir, manifest["first_frame"]))
+    verts, blocks = read_obj(os.path.join(bdir, manifest["first_frame"]))
     every = max(1, int(manifest["every"]))
     scene = bpy.context.scene
     fps = float(manifest["fps"])
+    # Blender's frame rate is the integer fps / fps_base: exact for non-integer rates too.
     scene.render.fps = max(1, round(fps))
     scene.render.fps_base = scene.render.fps / fps
     scene.frame_start = int(manifest["start_frame"])
@@ -78,11 +100,49 @@ def import_run(run_dir, z_up=False):
         last = max(last, int(manifest["start_frame"]) + (samples - 1) * every)
         objects.append(obj)
     scene.frame_end = last
+    scene.frame_set(scene.frame_start)
     return objects
 
 
+def save_blend(path, objects):
+    """Saves the scene as PATH, the point caches referenced relative to it ('//' paths)."""
+    path = os.path.abspath(path)
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    for obj in objects:
+        for mod in obj.modifiers:
+            if mod.type == "MESH_CACHE":
+                mod.filepath = "//" + os.path.relpath(mod.filepath, os.path.dirname(path)).replace(os.sep, "/")
+    bpy.ops.wm.save_as_mainfile(filepath=path, check_existing=False)
+
+
+def main(argv):
+    parser = argparse.ArgumentParser(
+        prog="blender -b --python scripts/import_blender.py --",
+        description="Imports a ccfr run (its blender/ point caches) into Blender.")
+    parser.add_argument("run_dir", help="the run directory (with blender/manifest.json)")
+    parser.add_argument("--z-up", action="store_true", help="rotate from ccfr's y-up to Blender's z-up")
+    parser.add_argument("--save", metavar="OUT.blend", help="save the scene as this .blend file")
+    parser.add_argument("--keep-scene", action="store_true",
+                        help="keep the objects already in the scene (default: remove them)")
+    args = parser.parse_args(argv)
+    if not args.keep_scene:
+        clear_scene()
+    try:
+        objects = import_run(args.run_dir, z_up=args.z_up)
+    except (OSError, ValueError, KeyError) as e:
+        print("import_blender: error: %s" % e, file=sys.stderr)
+        return 1
+    scene = bpy.context.scene
+    print("import_blender: %d objects (%s), frames %d-%d at %g fps" %
+          (len(objects), ", ".join(o.name for o in objects), scene.frame_start, scene.frame_end,
+           scene.render.fps / scene.render.fps_base))
+    if args.save:
+        save_blend(args.save, objects)
+        print("import_blender: saved %s" % os.path.abspath(args.save))
+    return 0
+
+
 if __name__ == "__main__":
-    args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    if not args:
-        sys.exit("usage: blender --python import_blender.py -- RUN_DIR [--z-up]")
-    import_run(args[0], z_up="--z-up" in args)
+    code = main(sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else [])
+    if code:
+        sys.exit(code)  # Blender exits with it; without, it would carry on (and exit 0)

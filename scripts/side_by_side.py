@@ -31,7 +31,9 @@ def caption(run_dir, frame):
     solver = run.get("solver", os.path.basename(run_dir))
     verdict = str(audit.get("verdict", "?")).upper()
     checked = audit.get("frames_checked", "?")
-    if verdict == "PASS":
+    if verdict == "PASS" and audit.get("min_distance") is None:
+        whole = f"audit PASS: {checked} frames, no pair within range"  # nothing came near (free fall)
+    elif verdict == "PASS":
         whole = f"audit PASS: {checked} frames, min distance {audit['min_distance'] / audit['offset']:.3f} ξ"
     else:
         whole = (f"audit {verdict}: {audit.get('violations', '?'):,} violations in {audit.get('bad_frames', '?')} of "

@@ -5,7 +5,7 @@ Runs configs/drape.yaml (a cloth dropped on a ball; coarser cloth with --quick) 
 offset, writes each run directory, audits it, and plots the closest distance seen per frame
 relative to ξ, with the audit's verdict in the legend.
 
-    PYTHONPATH=build/python python3 examples/python/ablation.py --frames 30 --out out/ablation_py
+    PYTHONPATH=build/python /usr/bin/python3 examples/python/ablation.py --frames 30 --out out/ablation_py
 """
 import argparse
 import pathlib

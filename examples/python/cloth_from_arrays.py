@@ -4,7 +4,7 @@
 Both meshes are made here, not by ccfr's generators: a regular grid for the cloth (two triangles
 per cell) and a closed box for the obstacle. They go through the same validation as a YAML scene.
 
-    PYTHONPATH=build/python python3 examples/python/cloth_from_arrays.py --frames 60 --out out/cloth_from_arrays
+    PYTHONPATH=build/python /usr/bin/python3 examples/python/cloth_from_arrays.py --frames 60 --out out/cloth_from_arrays
 """
 import argparse
 

@@ -5,7 +5,7 @@ The right end stays pinned; each frame the script rotates the left end's pinned 
 further about the strip's long axis (x) and moves them toward the centre, writes the frame into a
 run directory like `ccfr run`, and audits the run at the end.
 
-    PYTHONPATH=build/python python3 examples/python/twist_handle.py --frames 120 --out out/twist_handle
+    PYTHONPATH=build/python /usr/bin/python3 examples/python/twist_handle.py --frames 120 --out out/twist_handle
 """
 import argparse
 

@@ -6,6 +6,7 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include <cerrno>
 #include <cmath>
 #include <functional>
 #include <map>
@@ -38,6 +39,21 @@ PyObject* g_error = nullptr;
 PyObject* g_config_error = nullptr;
 PyObject* g_numerical_error = nullptr;
 PyObject* g_guarantee_error = nullptr;
+PyObject* g_missing_file = nullptr;  // ccfr.MissingFileError: ccfr.Error and FileNotFoundError
+PyObject* g_missing_mesh = nullptr;  // ccfr.MissingMeshError: ccfr.ConfigError and MissingFileError
+
+/// A scene file or run directory that does not exist (raised as ccfr.MissingFileError).
+struct MissingFile : Error {
+  MissingFile(const std::string& message, fs::path p) : Error(message), path(std::move(p)) {}
+  fs::path path;
+};
+
+/// A mesh file named by a scene that does not exist (ccfr.MissingMeshError, a ConfigError too).
+struct MissingMesh : ConfigError {
+  MissingMesh(const ConfigError& e, fs::path p)
+      : ConfigError(e.file(), e.key_path(), e.line(), e.detail()), path(std::move(p)) {}
+  fs::path path;
+};
 
 // Raises `cls(message)` with the C++ error's fields as attributes.
 void raise_with(PyObject* cls, const std::string& message,
@@ -56,31 +72,90 @@ struct PyScene {
 };
 
 /// "key.path=value" overrides from a dict (values written as JSON, which YAML reads) or a list.
+/// NumPy scalars and arrays (anything with tolist()) are written as the Python values they hold.
 std::vector<std::string> to_overrides(const py::object& o) {
   std::vector<std::string> out;
   if (o.is_none()) return out;
   if (py::isinstance<py::dict>(o)) {
     py::object dumps = py::module_::import("json").attr("dumps");
+    py::cpp_function plain([](const py::object& v) -> py::object {
+      if (py::hasattr(v, "tolist")) return v.attr("tolist")();
+      throw py::type_error("an override value must be a number, string, bool, list or dict, not " +
+                           std::string(py::str(py::type::handle_of(v).attr("__name__"))));
+    });
     for (auto item : py::reinterpret_borrow<py::dict>(o)) {
       const std::string key = py::str(item.first);
       py::object value = py::reinterpret_borrow<py::object>(item.second);
-      const std::string text =
-          py::isinstance<py::str>(value) ? value.cast<std::string>() : dumps(value).cast<std::string>();
+      const std::string text = py::isinstance<py::str>(value)
+                                   ? value.cast<std::string>()
+                                   : dumps(value, py::arg("default") = plain).cast<std::string>();
       out.push_back(key + "=" + text);
     }
     return out;
   }
+  if (py::isinstance<py::str>(o)) throw py::type_error("overrides must be a dict or a list of strings, not a string");
   for (auto item : o) out.push_back(py::str(item));
   return out;
 }
 
-std::shared_ptr<PyScene> make_scene(std::function<io::LoadedScene(const std::vector<std::string>&)> load,
-                                    std::vector<std::string> overrides) {
+using Loader = std::function<io::LoadedScene(const std::vector<std::string>&)>;
+
+/// Runs `load`, relabelling what the loader blames on `--set` (it serves the command line) as the
+/// Python argument that carried it: "overrides (key=value)", or `solver_label` for `solver_item`.
+/// A mesh file that does not exist becomes MissingMesh.
+io::LoadedScene load_labelled(const Loader& load, const std::vector<std::string>& overrides,
+                              const std::string& solver_item = "", const std::string& solver_label = "") {
+  auto label = [&](const std::string& item) {
+    return !solver_item.empty() && item == solver_item ? solver_label : "overrides (" + item + ")";
+  };
+  try {
+    return load(overrides);
+  } catch (const ConfigError& e) {
+    for (const auto& item : overrides)
+      if (e.file() == "command line (--set " + item + ")") throw ConfigError(label(item), e.key_path(), 0, e.detail());
+    // The loader's message for a mesh path it could not find; the file system confirms it.
+    const std::string head = "mesh file '", tail = "' does not exist";
+    const std::string& d = e.detail();
+    if (d.size() > head.size() + tail.size() && d.rfind(head, 0) == 0 && d.ends_with(tail)) {
+      const fs::path p = d.substr(head.size(), d.size() - head.size() - tail.size());
+      std::error_code ec;
+      if (fs::status(p, ec).type() == fs::file_type::not_found) throw MissingMesh(e, p);
+    }
+    throw;
+  } catch (const Error& e) {
+    // apply_override's own refusals ("--set 'ITEM': ...") name the item but no key path.
+    const std::string what = e.what();
+    for (const auto& item : overrides) {
+      const std::string prefix = "--set '" + item + "': ";
+      if (what.rfind(prefix, 0) == 0) {
+        const auto eq = item.find('=');
+        throw ConfigError(label(item), item.substr(0, eq), 0, what.substr(prefix.size()));
+      }
+    }
+    throw;
+  }
+}
+
+std::shared_ptr<PyScene> make_scene(Loader load, std::vector<std::string> overrides) {
   auto s = std::make_shared<PyScene>();
-  s->loaded = load(overrides);
+  s->loaded = load_labelled(load, overrides);
   s->overrides = std::move(overrides);
   s->load = std::move(load);
   return s;
+}
+
+/// Runs `f`; a ccfr::Error while `path` does not exist becomes MissingFile with the same message.
+template <class F>
+auto require_existing(const fs::path& path, F&& f) {
+  try {
+    return f();
+  } catch (const ConfigError&) {
+    throw;
+  } catch (const Error& e) {
+    std::error_code ec;
+    if (!path.empty() && fs::status(path, ec).type() == fs::file_type::not_found) throw MissingFile(e.what(), path);
+    throw;
+  }
 }
 
 py::dict frame_stats_dict(const FrameStats& s) {
@@ -205,6 +280,10 @@ using namespace ccfr::python;
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "ccfr: XPBD with Convex Collision-Free Regions (C++ core bindings; import ccfr, not ccfr._core)";
+  // Each docstring starts with a text signature "name(...)\n--\n\n", which CPython turns into
+  // __text_signature__ so that inspect.signature reads the parameters (pybind11's own would not).
+  py::options options;
+  options.disable_function_signatures();
 
   // Exceptions: ccfr.Error (a RuntimeError) and its subclasses carrying the C++ fields.
   g_error = PyErr_NewExceptionWithDoc("ccfr.Error", "A ccfr error that is the user's to fix; str() is the message.",
@@ -216,6 +295,26 @@ PYBIND11_MODULE(_core, m) {
       "ccfr.NumericalError", "A non-finite position: attributes frame, vertex and stage.", g_error, nullptr);
   g_guarantee_error = PyErr_NewExceptionWithDoc(
       "ccfr.GuaranteeError", "The run cannot keep its separation promise: attribute frame.", g_error, nullptr);
+  // Missing files are FileNotFoundError too (errno, filename), while str() stays ccfr's message.
+  {
+    py::tuple bases = py::make_tuple(py::handle(g_error), py::handle(PyExc_FileNotFoundError));
+    g_missing_file = PyErr_NewExceptionWithDoc(
+        "ccfr.MissingFileError",
+        "A scene file or run directory that does not exist: a ccfr.Error and a FileNotFoundError (errno ENOENT, "
+        "filename the path).",
+        bases.ptr(), nullptr);
+    py::cpp_function message([](const py::object& self) { return py::str(py::tuple(self.attr("args"))[0]); },
+                             py::name("__str__"), py::doc("The ccfr message (what `ccfr run` prints)."));
+    py::handle(g_missing_file).attr("__str__") = py::reinterpret_steal<py::object>(PyInstanceMethod_New(message.ptr()));
+    py::tuple mesh_bases = py::make_tuple(py::handle(g_config_error), py::handle(g_missing_file));
+    g_missing_mesh = PyErr_NewExceptionWithDoc(
+        "ccfr.MissingMeshError",
+        "A mesh file named by a scene that does not exist: a ccfr.ConfigError (file, key_path, line, detail) and a "
+        "ccfr.MissingFileError (filename the mesh path).",
+        mesh_bases.ptr(), nullptr);
+  }
+  m.add_object("MissingFileError", py::handle(g_missing_file));
+  m.add_object("MissingMeshError", py::handle(g_missing_mesh));
   m.add_object("Error", py::handle(g_error));
   m.add_object("ConfigError", py::handle(g_config_error));
   m.add_object("NumericalError", py::handle(g_numerical_error));
@@ -223,6 +322,16 @@ PYBIND11_MODULE(_core, m) {
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);
+    } catch (const MissingMesh& e) {
+      raise_with(g_missing_mesh, e.what(),
+                 {{"file", py::str(e.file())},
+                  {"key_path", py::str(e.key_path())},
+                  {"line", py::int_(e.line())},
+                  {"detail", py::str(e.detail())},
+                  {"errno", py::int_(ENOENT)},
+                  {"filename", py::str(e.path.string())}});
+    } catch (const MissingFile& e) {
+      raise_with(g_missing_file, e.what(), {{"errno", py::int_(ENOENT)}, {"filename", py::str(e.path.string())}});
     } catch (const ConfigError& e) {
       raise_with(g_config_error, e.what(),
                  {{"file", py::str(e.file())},
@@ -241,15 +350,19 @@ PYBIND11_MODULE(_core, m) {
 
   m.def(
       "set_log_level", [](const std::string& level) { init_logging(level); }, py::arg("level"),
-      "Sets the level of ccfr's log on stderr: trace, debug, info, warn (the default in Python), error or off.");
-  m.def("version", &io::version, "The library version.");
+      "set_log_level(level)\n--\n\nSets the level of ccfr's log on stderr: trace, debug, info, warn (the default in "
+      "Python), error or off.");
+  m.def("version", &io::version, "version()\n--\n\nThe library version (the CMake project version).");
 
   // ---- scenes
   py::class_<PyScene, std::shared_ptr<PyScene>>(m, "Scene",
                                                 "A validated scene: objects, state and parameters. Build it with "
                                                 "ccfr.load_scene or ccfr.Scene.from_arrays.")
-      .def_property_readonly("name", [](const PyScene& s) { return s.loaded.scene.params.scene_name; })
-      .def_property_readonly("num_vertices", [](const PyScene& s) { return s.loaded.scene.topo.num_vertices(); })
+      .def_property_readonly(
+          "name", [](const PyScene& s) { return s.loaded.scene.params.scene_name; }, "The scene's `scene` key.")
+      .def_property_readonly(
+          "num_vertices", [](const PyScene& s) { return s.loaded.scene.topo.num_vertices(); },
+          "Vertices of all objects together.")
       .def_property_readonly(
           "source", [](const PyScene& s) { return s.loaded.source.string(); },
           "The scene file ('' when built from text or arrays).")
@@ -296,7 +409,9 @@ PYBIND11_MODULE(_core, m) {
             for (auto& x : to_overrides(overrides)) o.push_back(std::move(x));
             return make_scene(s.load, std::move(o));
           },
-          py::arg("overrides"), "The same scene loaded again with more overrides (validated like --set).")
+          py::arg("overrides"),
+          "with_overrides(self, /, overrides)\n--\n\nThe same scene loaded again with more overrides (validated like "
+          "--set).")
       .def("__repr__", [](const PyScene& s) {
         return "<ccfr.Scene '" + s.loaded.scene.params.scene_name +
                "': " + std::to_string(s.loaded.scene.topo.objects.size()) + " objects, " +
@@ -306,11 +421,14 @@ PYBIND11_MODULE(_core, m) {
   m.def(
       "load_scene",
       [](const fs::path& path, const py::object& overrides) {
-        return make_scene([path](const std::vector<std::string>& o) { return io::load_scene(path, o); },
-                          to_overrides(overrides));
+        auto o = to_overrides(overrides);
+        return require_existing(path, [&] {
+          return make_scene([path](const std::vector<std::string>& v) { return io::load_scene(path, v); }, o);
+        });
       },
       py::arg("path"), py::arg("overrides") = py::none(),
-      "Loads a YAML scene file. overrides: {\"contact.offset\": 0.02} or [\"contact.offset=0.02\"], applied "
+      "load_scene(path, overrides=None)\n--\n\nLoads a YAML scene file. overrides: {\"contact.offset\": 0.02} or "
+      "[\"contact.offset=0.02\"], applied "
       "before validation like `ccfr run --set`. Raises ccfr.ConfigError naming file, key path and line.");
   m.def(
       "load_scene_text",
@@ -322,7 +440,9 @@ PYBIND11_MODULE(_core, m) {
             to_overrides(overrides));
       },
       py::arg("yaml"), py::arg("label") = "<text>", py::arg("base_dir") = fs::path("."),
-      py::arg("overrides") = py::none(), "Loads a scene from YAML text; `label` names it in errors.");
+      py::arg("overrides") = py::none(),
+      "load_scene_text(yaml, label='<text>', base_dir='.', overrides=None)\n--\n\nLoads a scene from YAML text; "
+      "`label` names it in errors.");
   m.def(
       "_load_scene_arrays",
       [](const std::string& yaml, const std::string& label, const py::dict& arrays, const py::object& overrides) {
@@ -331,25 +451,44 @@ PYBIND11_MODULE(_core, m) {
           const std::string key = py::str(item.first);
           py::tuple t = py::reinterpret_borrow<py::tuple>(item.second);
           io::MeshArrays a;
-          a.vertices = to_positions(t[0], (key + ": vertices").c_str());
-          a.faces = to_rows<3>(t[1], (key + ": faces").c_str());
-          a.edges = to_rows<2>(t[2], (key + ": edges").c_str());
-          a.tets = to_rows<4>(t[3], (key + ": tets").c_str());
+          // t[4] is the argument's name for the object, e.g. objects[0].
+          const std::string name = py::str(t[4]);
+          a.vertices = to_positions(t[0], (name + ".vertices").c_str());
+          a.faces = to_rows<3>(t[1], (name + ".faces").c_str());
+          a.edges = to_rows<2>(t[2], (name + ".edges").c_str());
+          a.tets = to_rows<4>(t[3], (name + ".tets").c_str());
           (*meshes)[key] = std::move(a);
         }
-        return make_scene(
-            [yaml, label, meshes](const std::vector<std::string>& o) {
-              return io::load_scene_arrays(yaml, label, *meshes, o);
-            },
-            to_overrides(overrides));
+        try {
+          return make_scene(
+              [yaml, label, meshes](const std::vector<std::string>& o) {
+                return io::load_scene_arrays(yaml, label, *meshes, o);
+              },
+              to_overrides(overrides));
+        } catch (const ConfigError& e) {
+          // The document is generated from the arguments: its line numbers mean nothing to the
+          // caller, the key path (objects[0].faces, time.fps) names the argument and entry.
+          if (e.file() == label && e.line() != 0) throw ConfigError(label, e.key_path(), 0, e.detail());
+          throw;
+        }
       },
-      py::arg("yaml"), py::arg("label"), py::arg("arrays"), py::arg("overrides") = py::none());
+      py::arg("yaml"), py::arg("label"), py::arg("arrays"), py::arg("overrides") = py::none(),
+      "_load_scene_arrays(yaml, label, arrays, overrides=None)\n--\n\nScene.from_arrays's loader: `arrays` maps "
+      "each mesh path of `yaml` to (vertices, faces, edges, tets, argument name).");
 
   // ---- simulation
   py::class_<PySimulation>(m, "Simulation",
-                           "Steps a scene frame by frame. Simulation(scene, solver=None, threads=None): `solver` "
-                           "overrides contact.solver through the loader (like `ccfr run --solver`); `threads` sets "
-                           "the process-wide worker count (None: all cores).")
+                           R"(Steps a scene frame by frame.
+
+Simulation(scene, solver=None, threads=None): `solver` overrides contact.solver through the loader
+(like `ccfr run --solver`); `threads` sets the process-wide worker count (None: all cores).
+
+>>> sim = ccfr.Simulation(ccfr.load_scene("configs/drape.yaml"), threads=2)
+>>> sim.step(2)["frame"], sim.frame, sim.positions.shape
+(2, 2, (2323, 3))
+>>> round(sim.time, 6)
+0.033333
+)")
       .def(py::init([](const PyScene& scene, const std::optional<std::string>& solver, std::optional<int> threads) {
              auto s = std::make_unique<PySimulation>();
              s->threads = threads.value_or(0);
@@ -359,7 +498,7 @@ PYBIND11_MODULE(_core, m) {
              if (solver) {
                std::vector<std::string> o = scene.overrides;
                o.push_back("contact.solver=" + *solver);
-               loaded = scene.load(o);
+               loaded = load_labelled(scene.load, o, o.back(), "Simulation(solver=" + *solver + ")");
              } else {
                loaded = scene.loaded;
              }
@@ -371,7 +510,8 @@ PYBIND11_MODULE(_core, m) {
                s->sim->set_audit(io::make_audit_hook(s->sim->topology(), s->sim->positions(), params));
              return s;
            }),
-           py::arg("scene"), py::arg("solver") = py::none(), py::arg("threads") = py::none())
+           py::arg("scene"), py::arg("solver") = py::none(), py::arg("threads") = py::none(),
+           "__init__(self, /, scene, solver=None, threads=None)\n--\n\nA simulation of `scene` (see the class).")
       .def(
           "step",
           [](PySimulation& s, int frames) {
@@ -380,7 +520,8 @@ PYBIND11_MODULE(_core, m) {
             return frame_stats_dict(*s.last);
           },
           py::arg("frames") = 1,
-          "Advances `frames` frames (all substeps; the GIL is released meanwhile) and returns the last frame's "
+          "step(self, /, frames=1)\n--\n\nAdvances `frames` frames (all substeps; the GIL is released meanwhile) and "
+          "returns the last frame's "
           "stats row as a dict. Raises ccfr.GuaranteeError or ccfr.NumericalError like `ccfr run` stops.")
       .def_property_readonly(
           "positions", [](py::object self) { return view(self.cast<PySimulation&>().sim->positions(), self); },
@@ -392,11 +533,13 @@ PYBIND11_MODULE(_core, m) {
       .def(
           "set_positions",
           [](PySimulation& s, const py::object& x) { s.sim->set_positions(to_positions(x, "positions")); },
-          py::arg("positions"), "Overwrites every position ((n, 3), finite) between frames.")
+          py::arg("positions"),
+          "set_positions(self, /, positions)\n--\n\nOverwrites every position ((n, 3), finite) between frames.")
       .def(
           "set_velocities",
           [](PySimulation& s, const py::object& v) { s.sim->set_velocities(to_positions(v, "velocities")); },
-          py::arg("velocities"), "Overwrites every velocity ((n, 3), finite) between frames.")
+          py::arg("velocities"),
+          "set_velocities(self, /, velocities)\n--\n\nOverwrites every velocity ((n, 3), finite) between frames.")
       .def(
           "set_kinematic_targets",
           [](PySimulation& s, const py::object& indices, const py::object& targets) {
@@ -408,7 +551,8 @@ PYBIND11_MODULE(_core, m) {
             s.sim->set_kinematic_targets(std::span<const Index>(idx.data(), static_cast<size_t>(idx.size())), t);
           },
           py::arg("indices"), py::arg("targets"),
-          "Drives pinned or obstacle vertices (global indices): over the next frame each moves linearly to its target "
+          "set_kinematic_targets(self, /, indices, targets)\n--\n\nDrives pinned or obstacle vertices (global "
+          "indices): over the next frame each moves linearly to its target "
           "and then holds there.")
       .def_property_readonly(
           "stats",
@@ -420,8 +564,12 @@ PYBIND11_MODULE(_core, m) {
           "frame", [](const PySimulation& s) { return s.sim->frames_done(); }, "Frames done.")
       .def_property_readonly(
           "time", [](const PySimulation& s) { return s.sim->scene().state.time; }, "Simulated time in seconds.")
-      .def_property_readonly("num_vertices", [](const PySimulation& s) { return s.sim->topology().num_vertices(); })
-      .def_property_readonly("solver", [](const PySimulation& s) { return s.sim->scene().params.contact.solver; })
+      .def_property_readonly(
+          "num_vertices", [](const PySimulation& s) { return s.sim->topology().num_vertices(); },
+          "Vertices of all objects together.")
+      .def_property_readonly(
+          "solver", [](const PySimulation& s) { return s.sim->scene().params.contact.solver; },
+          "The contact solver (contact.solver).")
       .def_property_readonly(
           "frames", [](const PySimulation& s) { return s.sim->scene().params.time.frames; },
           "time.frames of the scene.")
@@ -438,10 +586,20 @@ PYBIND11_MODULE(_core, m) {
 
   // ---- run directories
   py::class_<PyRun>(m, "Run",
-                    "Writes the run directory of `ccfr run` (run.json, frames/, stats.csv) while stepping:\n"
-                    "    with ccfr.Run(sim, 'out/x') as run:\n        for _ in range(sim.frames): run.step()\n"
-                    "Frame 0 is written on entry, frame f when f is a multiple of output.every or equals `last_frame` "
-                    "(default time.frames), and run.json's status on exit ('completed', or 'failed: ...').")
+                    R"(Writes the run directory of `ccfr run` (run.json, frames/, stats.csv) while stepping.
+
+Run(sim, dir, force=False, last_frame=None, argv=None). Frame 0 is written on entry, frame f when f
+is a multiple of output.every or equals `last_frame` (default time.frames), and run.json's status
+on exit ('completed', or 'failed: ...'). `force` replaces an earlier run in `dir`; `argv` is the
+command line run.json records (default sys.argv).
+
+>>> sim = ccfr.Simulation(ccfr.load_scene("configs/drape.yaml", overrides={"time.frames": 2}), threads=2)
+>>> with ccfr.Run(sim, "out/drape_doc", force=True) as run:
+...     for _ in range(sim.frames):
+...         stats = run.step()
+>>> run.frames_written, stats["frame"], ccfr.audit("out/drape_doc").verdict
+(3, 2, 'pass')
+)")
       .def(py::init([](py::object sim, const fs::path& dir, bool force, std::optional<int> last_frame,
                        std::optional<std::vector<std::string>> argv) {
              auto r = std::make_unique<PyRun>();
@@ -460,15 +618,19 @@ PYBIND11_MODULE(_core, m) {
              return r;
            }),
            py::arg("sim"), py::arg("dir"), py::arg("force") = false, py::arg("last_frame") = py::none(),
-           py::arg("argv") = py::none())
-      .def("__enter__",
-           [](py::object self) {
-             auto& r = self.cast<PyRun&>();
-             if (r.started) throw py::value_error("a Run is entered once");
-             r.started = true;
-             r.recorder->start();
-             return self;
-           })
+           py::arg("argv") = py::none(),
+           "__init__(self, /, sim, dir, force=False, last_frame=None, argv=None)\n--\n\nA run of `sim` into "
+           "`dir` (see the class).")
+      .def(
+          "__enter__",
+          [](py::object self) {
+            auto& r = self.cast<PyRun&>();
+            if (r.started) throw py::value_error("a Run is entered once");
+            r.started = true;
+            r.recorder->start();
+            return self;
+          },
+          "__enter__(self, /)\n--\n\nWrites run.json (status running) and frame 0.")
       .def(
           "step",
           [](PyRun& r, int frames) {
@@ -477,30 +639,40 @@ PYBIND11_MODULE(_core, m) {
             for (int f = 0; f < frames; ++f) r.recorder->record(step_once(*r.sim));
             return frame_stats_dict(*r.sim->last);
           },
-          py::arg("frames") = 1, "Steps the simulation and writes what belongs to each frame; returns the last stats.")
-      .def("__exit__",
-           [](PyRun& r, const py::object& type, const py::object& value, const py::object&) {
-             if (r.finished) return false;
-             r.finished = true;
-             r.recorder->finish(value.is_none() ? std::string("completed")
-                                                : "failed: " + py::str(value).cast<std::string>());
-             return false;
-           })
+          py::arg("frames") = 1,
+          "step(self, /, frames=1)\n--\n\nSteps the simulation and writes what belongs to each frame; returns the last "
+          "stats.")
+      .def(
+          "__exit__",
+          [](PyRun& r, const py::object& type, const py::object& value, const py::object&) {
+            if (r.finished) return false;
+            r.finished = true;
+            r.recorder->finish(value.is_none() ? std::string("completed")
+                                               : "failed: " + py::str(value).cast<std::string>());
+            return false;
+          },
+          "__exit__(self, type, value, traceback, /)\n--\n\nRecords run.json's status: 'completed', or 'failed: "
+          "<exception>' when the block raised (which propagates).")
       .def_property_readonly(
           "dir", [](const PyRun& r) { return r.recorder->writer().dir(); },
           "Where the run is written (DIR, or DIR.ccfr-new while it replaces an earlier run).")
-      .def_property_readonly("frames_written", [](const PyRun& r) { return r.recorder->writer().frames_written(); });
+      .def_property_readonly(
+          "frames_written", [](const PyRun& r) { return r.recorder->writer().frames_written(); },
+          "Frame files written so far (frame 0 included).");
 
   // ---- audit
   py::class_<io::FrameAuditRow>(m, "FrameAudit", "One audited frame.")
-      .def_readonly("frame", &io::FrameAuditRow::frame)
-      .def_readonly("file", &io::FrameAuditRow::file)
-      .def_readonly("triangle_intersections", &io::FrameAuditRow::triangle_intersections)
-      .def_readonly("segment_crossings", &io::FrameAuditRow::segment_crossings)
-      .def_readonly("close_pairs", &io::FrameAuditRow::close_pairs)
-      .def_readonly("min_distance", &io::FrameAuditRow::min_distance)
-      .def_readonly("examples", &io::FrameAuditRow::examples)
-      .def_property_readonly("clean", &io::FrameAuditRow::clean)
+      .def_readonly("frame", &io::FrameAuditRow::frame, "The frame number.")
+      .def_readonly("file", &io::FrameAuditRow::file, "The frame file audited.")
+      .def_readonly("triangle_intersections", &io::FrameAuditRow::triangle_intersections,
+                    "Pairs of triangles that intersect.")
+      .def_readonly("segment_crossings", &io::FrameAuditRow::segment_crossings,
+                    "Strand segments crossing each other or a triangle.")
+      .def_readonly("close_pairs", &io::FrameAuditRow::close_pairs, "Pairs closer than the offset minus the tolerance.")
+      .def_readonly("min_distance", &io::FrameAuditRow::min_distance,
+                    "The smallest distance between non-adjacent pairs.")
+      .def_readonly("examples", &io::FrameAuditRow::examples, "A few offending pairs, described.")
+      .def_property_readonly("clean", &io::FrameAuditRow::clean, "No intersection, crossing or close pair.")
       .def("__repr__", [](const io::FrameAuditRow& r) {
         return "<FrameAudit " + std::to_string(r.frame) + ": " + (r.clean() ? "clean" : "violations") + ">";
       });
@@ -510,18 +682,29 @@ PYBIND11_MODULE(_core, m) {
   };
   py::class_<PyAudit>(m, "AuditResult", "The exact penetration audit of a run directory (`ccfr audit`).")
       .def_readonly("verdict", &PyAudit::verdict, "'pass', 'fail' or 'incomplete' (docs/audit.md).")
-      .def_property_readonly("clean", [](const PyAudit& a) { return a.r.clean(); })
-      .def_property_readonly("offset", [](const PyAudit& a) { return a.r.offset; })
-      .def_property_readonly("offset_source", [](const PyAudit& a) { return a.r.offset_source; })
+      .def_property_readonly(
+          "clean", [](const PyAudit& a) { return a.r.clean(); }, "Every audited frame is clean.")
+      .def_property_readonly(
+          "offset", [](const PyAudit& a) { return a.r.offset; }, "The offset ξ audited against.")
+      .def_property_readonly(
+          "offset_source", [](const PyAudit& a) { return a.r.offset_source; },
+          "Where ξ came from: 'run.json', or '--offset' (the offset argument).")
       .def_property_readonly(
           "status", [](const PyAudit& a) { return a.r.status; }, "run.json's status.")
-      .def_property_readonly("frames_checked", [](const PyAudit& a) { return a.r.frames_checked; })
-      .def_property_readonly("frames_total", [](const PyAudit& a) { return a.r.frames_total; })
-      .def_property_readonly("bad_frames", [](const PyAudit& a) { return a.r.bad_frames; })
-      .def_property_readonly("violations", [](const PyAudit& a) { return a.r.violations; })
-      .def_property_readonly("first_bad_frame", [](const PyAudit& a) { return a.r.first_bad_frame; })
-      .def_property_readonly("first_example", [](const PyAudit& a) { return a.r.first_example; })
-      .def_property_readonly("min_distance", [](const PyAudit& a) { return a.r.min_distance; })
+      .def_property_readonly(
+          "frames_checked", [](const PyAudit& a) { return a.r.frames_checked; }, "Frames audited.")
+      .def_property_readonly(
+          "frames_total", [](const PyAudit& a) { return a.r.frames_total; }, "Frame files in the run.")
+      .def_property_readonly(
+          "bad_frames", [](const PyAudit& a) { return a.r.bad_frames; }, "Frames with a violation.")
+      .def_property_readonly(
+          "violations", [](const PyAudit& a) { return a.r.violations; }, "Violations over all frames.")
+      .def_property_readonly(
+          "first_bad_frame", [](const PyAudit& a) { return a.r.first_bad_frame; }, "The first bad frame (-1: none).")
+      .def_property_readonly(
+          "first_example", [](const PyAudit& a) { return a.r.first_example; }, "The first violation, described.")
+      .def_property_readonly(
+          "min_distance", [](const PyAudit& a) { return a.r.min_distance; }, "The smallest distance of the run.")
       .def_property_readonly(
           "rows", [](const PyAudit& a) { return a.r.rows; }, "One FrameAudit per audited frame.")
       .def("__bool__", [](const PyAudit& a) { return a.verdict == "pass"; })
@@ -538,10 +721,10 @@ PYBIND11_MODULE(_core, m) {
         o.tolerance = tolerance;
         o.stride = stride;
         PyAudit a;
-        {
+        a.r = require_existing(dir, [&] {
           py::gil_scoped_release release;
-          a.r = io::audit_run(dir, o);
-        }
+          return io::audit_run(dir, o);
+        });
         a.verdict = io::audit_verdict(a.r, partial);
         if (write_report) {
           const int code = io::audit_exit_code(a.r, a.verdict);
@@ -553,19 +736,24 @@ PYBIND11_MODULE(_core, m) {
       },
       py::arg("run_dir"), py::arg("offset") = py::none(), py::arg("tolerance") = 1e-6, py::arg("stride") = 1,
       py::arg("partial") = false, py::arg("write_report") = false,
+      "audit(run_dir, offset=None, tolerance=1e-06, stride=1, partial=False, write_report=False)\n--\n\n"
       "Audits a run directory frame by frame with the exact predicates (`ccfr audit`). offset: ξ (default: "
       "run.json's). write_report: also write DIR/audit.json as `ccfr audit` does.");
 
   // ---- projectors and closest points
   py::class_<ProjectResult>(m, "Projection", "The result of ccfr.project.")
-      .def_property_readonly("x", [](const ProjectResult& r) { return py::array_t<double>(3, r.x.data()); })
+      .def_property_readonly(
+          "x", [](const ProjectResult& r) { return py::array_t<double>(3, r.x.data()); }, "The projected point.")
       .def_property_readonly(
           "status", [](const ProjectResult& r) { return std::string(to_string(r.status)); },
           "'feasible', 'projected', 'halted' or 'infeasible'.")
-      .def_readonly("iterations", &ProjectResult::iterations)
+      .def_readonly("iterations", &ProjectResult::iterations, "Iterations the method took.")
       .def_readonly("active", &ProjectResult::active, "Half-spaces violated by the candidate.")
-      .def_readonly("fell_back", &ProjectResult::fell_back);
-  m.def("projector_names", &projector_names, "The projector methods: plesnik, successive_projection, exact.");
+      .def_readonly(
+          "fell_back", &ProjectResult::fell_back,
+          "Plesník only: its point was farther from the candidate than the anchor, so x is the exact projection.");
+  m.def("projector_names", &projector_names,
+        "projector_names()\n--\n\nThe projector methods: plesnik, successive_projection, exact.");
   m.def(
       "project",
       [](const py::object& anchor, const py::object& candidate, const py::object& planes, const std::string& method,
@@ -587,6 +775,7 @@ PYBIND11_MODULE(_core, m) {
       },
       py::arg("anchor"), py::arg("candidate"), py::arg("planes"), py::arg("method") = "plesnik",
       py::arg("epsilon") = 1e-6, py::arg("max_iterations") = 4, py::arg("sweeps") = 10,
+      "project(anchor, candidate, planes, method='plesnik', epsilon=1e-06, max_iterations=4, sweeps=10)\n--\n\n"
       "Projects `candidate` into the region {x : (x - anchor).n_k + d_k >= 0} of the half-spaces `planes` (rows "
       "nx, ny, nz, d; unit normals), by `method` (ccfr.projector_names()).");
   auto vec = [](const py::object& o, const char* what) {
@@ -603,7 +792,8 @@ PYBIND11_MODULE(_core, m) {
         return d;
       },
       py::arg("p"), py::arg("a"), py::arg("b"),
-      "Closest point of segment ab to p: dict closest, t (closest = a + t (b - a)), distance, feature.");
+      "point_edge(p, a, b)\n--\n\nClosest point of segment ab to p: dict closest, t (closest = a + t (b - a)), "
+      "distance, feature.");
   m.def(
       "point_triangle",
       [vec, arr](const py::object& p, const py::object& a, const py::object& b, const py::object& c) {
@@ -615,7 +805,8 @@ PYBIND11_MODULE(_core, m) {
         return d;
       },
       py::arg("p"), py::arg("a"), py::arg("b"), py::arg("c"),
-      "Closest point of triangle abc to p: dict closest, bary (barycentrics), distance, feature.");
+      "point_triangle(p, a, b, c)\n--\n\nClosest point of triangle abc to p: dict closest, bary (barycentrics), "
+      "distance, feature.");
   m.def(
       "edge_edge",
       [vec, arr](const py::object& a0, const py::object& a1, const py::object& b0, const py::object& b1) {
@@ -626,5 +817,6 @@ PYBIND11_MODULE(_core, m) {
         return d;
       },
       py::arg("a0"), py::arg("a1"), py::arg("b0"), py::arg("b1"),
-      "Closest points of segments a0a1 and b0b1: dict pa, pb, s, t, distance, parallel.");
+      "edge_edge(a0, a1, b0, b1)\n--\n\nClosest points of segments a0a1 and b0b1: dict pa, pb, s, t, distance, "
+      "parallel.");
 }

@@ -1,18 +1,23 @@
 #pragma once
-// Registration of the built-in contact solvers, each defined in its implementation's file and
-// called by contact_solvers() on first use. Private to solvers/.
+// The built-in contact solvers: one file per solver under solvers/src/contact/, named by its YAML
+// key, defining register_contact_solver_<key>(). CMake lists those files into
+// builtin_contact_solvers.inc, which contact_solvers() expands on first use (a static library
+// would drop self-registering objects nobody references). Private to solvers/.
 #include <vector>
 
 #include "ccfr/solvers/contact_solver.hpp"
 
 namespace ccfr {
 struct TrustRegionParams;
-void register_region_projection_solvers(ContactSolverRegistry& registry);  ///< detecting_solvers.cpp
-void register_post_process_solver(ContactSolverRegistry& registry);        ///< detecting_solvers.cpp
-void register_toi_clamp_solver(ContactSolverRegistry& registry);           ///< toi_clamp.cpp
-void register_ogc_solver(ContactSolverRegistry& registry);                 ///< ogc.cpp
-void register_dat_solver(ContactSolverRegistry& registry);                 ///< dat.cpp
+
+#define CCFR_BUILTIN_CONTACT_SOLVER(key) void register_contact_solver_##key(ContactSolverRegistry& registry);
+#include "builtin_contact_solvers.inc"
+#undef CCFR_BUILTIN_CONTACT_SOLVER
+
+/// A RegionProjectionSolver entry: CCFR's regions with `projector`, whose parameters it exposes
+/// under contact.<name>.* (region_projection.cpp).
+ContactSolverRegistry::Entry region_projection_entry(const char* name, const char* projector, const char* description);
 /// The parameters `ogc` and `dat` share (gamma_p, gamma_e, query_radius), with defaults `d`.
 std::vector<ParamSpec> trust_region_param_specs(const TrustRegionParams& d);
-TrustRegionParams trust_region_params(const ParamValues& v);  ///< ogc.cpp
+TrustRegionParams trust_region_params(const ParamValues& v);  ///< trust_region.cpp
 }  // namespace ccfr

@@ -1,5 +1,5 @@
-// The contact-solver registry. The built-in entries live next to their implementations and are
-// added here on first use (a static library drops self-registering objects nobody references).
+// The contact-solver registry. The built-in entries are the files of solvers/src/contact/, each
+// named by its key, added here on first use in the order of their names (builtin_solvers.hpp).
 #include "ccfr/solvers/contact_solver.hpp"
 
 #include "ccfr/core/error.hpp"
@@ -17,16 +17,9 @@ void ContactSolver::restore_state(std::span<const double> state) {
 ContactSolverRegistry& contact_solvers() {
   static ContactSolverRegistry registry = [] {
     ContactSolverRegistry r("contact solver");
-    register_region_projection_solvers(r);
-    register_post_process_solver(r);
-    register_toi_clamp_solver(r);
-    register_ogc_solver(r);
-    register_dat_solver(r);
-    r.add({"none",
-           "no deformable contact at all (analytic obstacles still push when contact.analytic_obstacles is on); "
-           "the ablation's lower bound on cost",
-           {},
-           [](const ParamValues&) { return std::make_unique<NoContactSolver>(); }});
+#define CCFR_BUILTIN_CONTACT_SOLVER(key) register_contact_solver_##key(r);
+#include "builtin_contact_solvers.inc"
+#undef CCFR_BUILTIN_CONTACT_SOLVER
     return r;
   }();
   return registry;

@@ -92,7 +92,7 @@ TEST(Cli, SetAndSolverOptionsOverrideTheScene) {
   EXPECT_NE(json.find("\"frames\": 1"), std::string::npos);
   const auto bad = run("run " + (d / "scene.yaml").string() + " --out " + (d / "out2").string() + " --solver magic");
   EXPECT_NE(bad.code, 0);
-  EXPECT_NE(bad.out.find("ccfr, exact_projection"), std::string::npos) << bad.out;  // lists the valid solvers
+  EXPECT_NE(bad.out.find("ccfr, dat, exact_projection"), std::string::npos) << bad.out;  // lists the valid solvers
 }
 
 TEST(Cli, NonFiniteStateStopsTheRunAndKeepsFrames) {

@@ -2,10 +2,12 @@
 // the audit: the paper's experiments in short form (long runs belong to `ccfr bench`).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <filesystem>
 #include <string>
+#include <vector>
 #include "cli_support.hpp"
 
 namespace fs = std::filesystem;
@@ -39,6 +41,39 @@ TEST_P(ConfigRun, ShortRunIsAuditClean) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Configs, ConfigRun, ::testing::ValuesIn(configs()),
+                         [](const ::testing::TestParamInfo<fs::path>& info) {
+                           std::string n = info.param.stem().string();
+                           for (char& c : n)
+                             if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+                           return n;
+                         });
+
+namespace {
+std::vector<fs::path> benchmarks() {
+  std::vector<fs::path> v;
+  for (const auto& e : fs::directory_iterator(fs::path(CCFR_SOURCE_DIR) / "configs" / "benchmarks"))
+    if (e.path().extension() == ".yaml") v.push_back(e.path());
+  std::sort(v.begin(), v.end());
+  return v;
+}
+}  // namespace
+
+// The benchmark scenes are too long for the suite; each must still load, pass the initial checks
+// and write its frame 0 (the memory limit raised: the 50 layers are estimated at 19 GB).
+class BenchmarkLoad : public ::testing::TestWithParam<fs::path> {};
+
+TEST_P(BenchmarkLoad, LoadsAndWritesFrameZero) {
+  const fs::path cfg = GetParam();
+  const fs::path out = ccfr::test::scratch_path("benchmark_" + cfg.stem().string());
+  std::string log;
+  ASSERT_EQ(run("run " + cfg.string() + " --frames 0 --max-memory 64 --out " + out.string() + " --log-level warn", log),
+            0)
+      << log;
+  EXPECT_TRUE(fs::exists(out / "frames" / "frame_00000.obj"));
+  fs::remove_all(out);
+}
+
+INSTANTIATE_TEST_SUITE_P(Benchmarks, BenchmarkLoad, ::testing::ValuesIn(benchmarks()),
                          [](const ::testing::TestParamInfo<fs::path>& info) {
                            std::string n = info.param.stem().string();
                            for (char& c : n)

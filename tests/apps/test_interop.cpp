@@ -17,6 +17,7 @@
 
 #include "ccfr/io/formats.hpp"
 #include "ccfr/io/obj.hpp"
+#include "ccfr/render/image.hpp"
 #include "cli_support.hpp"
 
 namespace fs = std::filesystem;
@@ -264,6 +265,167 @@ TEST_F(Interop, BlenderPlaysThePointCachesAsWritten) {
   const auto a = obj(0), b = obj(6);
   for (size_t v = 0; v < a.v.size(); ++v) moved = std::max(moved, (a.v[v] - b.v[v]).norm());
   EXPECT_GT(moved, 0.1);
+}
+
+// The import as docs/interop.md gives it (headless, no --factory-startup): the startup file's cube,
+// light and camera are removed, the .blend it saves reopens with the run's objects, timeline and
+// point caches (referenced relative to the .blend).
+TEST_F(Interop, BlenderImportAsDocumentedSavesACleanBlend) {
+  if (!has_program("blender")) GTEST_SKIP() << "blender is not installed (scripts/install-deps)";
+  const fs::path d = ccfr::test::scratch_dir(scratch_name() + "-blend");
+  const std::string src = CCFR_SOURCE_DIR;
+  int code = -1;
+  std::string out = shell("cd " + d.string() + " && blender -b --python " + src + "/scripts/import_blender.py -- " +
+                              run_dir().string() + " --z-up --save out/run.blend",
+                          &code);
+  ASSERT_EQ(code, 0) << out;
+  EXPECT_NE(out.find("import_blender: 3 objects (cloth sheet, block, ball), frames 0-6 at 30 fps"), std::string::npos)
+      << out;
+  ASSERT_TRUE(fs::exists(d / "out" / "run.blend")) << out;
+
+  out = shell("blender -b " + (d / "out" / "run.blend").string() + " --python " + src +
+                  "/tests/interop/check_blender.py -- " + run_dir().string() + " blend 0 3 6",
+              &code);
+  ASSERT_EQ(code, 0) << out;
+  const json r = result_of(out);
+  ASSERT_TRUE(r.is_object()) << out;
+  EXPECT_EQ(r["all_objects"], json::array({json::array({"ball", "MESH"}), json::array({"block", "MESH"}),
+                                           json::array({"cloth sheet", "MESH"})}));
+  const json run = json::parse(std::ifstream(run_dir() / "run.json"));
+  const int every = run["config"]["output"]["every"];
+  EXPECT_EQ(r["frame_start"], 0);
+  EXPECT_EQ(r["frame_end"].get<int>(), (run["frames_written"].get<int>() - 1) * every);
+  EXPECT_EQ(r["frame_end"], kFrames);
+  EXPECT_DOUBLE_EQ(r["fps"].get<double>(), run["fps"].get<double>());
+  ASSERT_EQ(r["frames"].size(), 3u);
+  for (const auto& f : r["frames"]) {
+    EXPECT_EQ(f["compared"], obj(0).v.size()) << f.dump();
+    EXPECT_TRUE(f["missing"].empty()) << f.dump();
+    // Float32 rounding of coordinates below 2 m is at most 2^-24 * 2 m = 1.2e-7 m.
+    EXPECT_LE(f["max_error"].get<double>(), 1.2e-7) << f.dump();
+  }
+
+  out = shell("blender -b --python " + src + "/scripts/import_blender.py -- " + (d / "nothing").string(), &code);
+  EXPECT_EQ(code, 1) << out;
+  EXPECT_NE(
+      out.find("import_blender: error: " + (d / "nothing" / "blender" / "manifest.json").string() + " does not exist"),
+      std::string::npos)
+      << out;
+}
+
+// scripts/paraview_open.py under pvbatch, headless as docs/interop.md gives it: ParaView's PVD reader
+// sees every frame and vertex, and the screenshot shows something.
+TEST_F(Interop, ParaViewOpensThePvdAndSavesAScreenshot) {
+  if (!has_program("pvbatch")) GTEST_SKIP() << "pvbatch is not installed (package paraview, scripts/install-deps)";
+  // python3-paraview holds pvbatch's Python modules (and conflicts with python3-vtk9).
+  if (shell("/usr/bin/python3 -c 'import paraview'").find("Error") != std::string::npos)
+    GTEST_SKIP() << "python3-paraview is not installed (scripts/install-deps)";
+  const fs::path d = ccfr::test::scratch_dir(scratch_name() + "-paraview");
+  const std::string script = std::string(CCFR_SOURCE_DIR) + "/scripts/paraview_open.py ";
+  int code = -1;
+  std::string out = shell("xvfb-run -a -s '-screen 0 1280x1024x24 -noreset' pvbatch --no-mpi " + script +
+                              run_dir().string() + " --frame 3 --halted --size 480 360 --screenshot " +
+                              (d / "pv.png").string() + " --state " + (d / "pv.pvsm").string(),
+                          &code);
+  ASSERT_EQ(code, 0) << out;
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(
+      out, m,
+      std::regex(R"(paraview_open: \S+: (\d+) time steps \(times 0-0\.2\), frame 3 at time 0\.1: (\d+) points, )"
+                 R"((\d+) cells; distance in \[(\S+), (\S+)\]; (\d+) halted vertices shown)")))
+      << out;
+  EXPECT_EQ(std::stoi(m[1]), kFrames + 1);
+  EXPECT_EQ(size_t(std::stoi(m[2])), obj(3).v.size());
+  EXPECT_EQ(std::stoi(m[3]), 288 + 24 + 320);  // cloth triangles, block tets, ball triangles
+  // The cloth lies on the ball at frame 3: contact distances exist, and no penetration.
+  EXPECT_GT(std::stod(m[4]), 0.0);
+  EXPECT_LE(std::stod(m[4]), std::stod(m[5]));
+  EXPECT_LE(size_t(std::stoi(m[6])), obj(3).v.size());
+  EXPECT_TRUE(fs::exists(d / "pv.pvsm"));
+
+  const auto img = ccfr::render::read_png(d / "pv.png");
+  ASSERT_EQ(img.width, 480);
+  ASSERT_EQ(img.height, 360);
+  double sum = 0, sum2 = 0;
+  for (size_t i = 0; i < img.rgb.size(); ++i) sum += img.rgb[i], sum2 += double(img.rgb[i]) * img.rgb[i];
+  const double n = double(img.rgb.size()), variance = sum2 / n - (sum / n) * (sum / n);
+  EXPECT_GT(variance, 100.0) << "a blank (or nearly one-colour) screenshot";
+
+  // --halted shows exactly the flagged vertices (not every corner of their cells): frame 3 with
+  // vertices 0, 5 and 200 flagged, rewritten by VTK's writer, as a one-frame run.
+  fs::create_directories(d / "flagged" / "vtk");
+  std::ofstream(d / "flag.py") << "import sys, vtk\n"
+                                  "r = vtk.vtkXMLUnstructuredGridReader()\n"
+                                  "r.SetFileName(sys.argv[1]); r.Update()\n"
+                                  "g = r.GetOutput(); h = g.GetPointData().GetArray('halted')\n"
+                                  "for i in range(h.GetNumberOfTuples()): h.SetValue(i, int(i in (0, 5, 200)))\n"
+                                  "w = vtk.vtkXMLUnstructuredGridWriter()\n"
+                                  "w.SetFileName(sys.argv[2]); w.SetInputData(g); w.Write()\n";
+  out = shell("/usr/bin/python3 " + (d / "flag.py").string() + " " + (run_dir() / "vtk" / "frame_00003.vtu").string() +
+                  " " + (d / "flagged" / "vtk" / "frame_00003.vtu").string(),
+              &code);
+  ASSERT_EQ(code, 0) << out;
+  std::ofstream(d / "flagged" / "vtk" / "frames.pvd")
+      << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n<Collection>\n"
+         "<DataSet timestep=\"0.1\" file=\"frame_00003.vtu\"/>\n</Collection>\n</VTKFile>\n";
+  out = shell("xvfb-run -a -s '-screen 0 1280x1024x24 -noreset' pvbatch --no-mpi " + script + (d / "flagged").string() +
+                  " --halted --size 320 240 --screenshot " + (d / "flagged.png").string(),
+              &code);
+  ASSERT_EQ(code, 0) << out;
+  EXPECT_NE(out.find(": 1 time steps (times 0.1-0.1), frame 3 at time 0.1: "), std::string::npos) << out;
+  EXPECT_NE(out.find("; 3 halted vertices shown"), std::string::npos) << out;
+
+  out = shell("pvbatch --no-mpi " + script + (d / "nothing").string(), &code);
+  EXPECT_NE(code, 0) << out;
+  EXPECT_NE(out.find("paraview_open: " + (d / "nothing" / "vtk" / "frames.pvd").string() + " does not exist"),
+            std::string::npos)
+      << out;
+}
+
+// docs/interop.md's VTK-only snippet (no ParaView), run as printed, from a directory holding the run
+// as runs/body.
+TEST_F(Interop, VtkOnlySnippetInTheDocsReadsEveryFrame) {
+  if (!fs::exists("/usr/bin/python3") || shell("/usr/bin/python3 -c 'import vtk'").find("Error") != std::string::npos)
+    GTEST_SKIP() << "python3-vtk9 is not installed (scripts/install-deps)";
+  const std::string doc = ccfr::test::read_text(fs::path(CCFR_SOURCE_DIR) / "docs" / "interop.md");
+  const std::string head = "```python\n# Every frame of a run with VTK alone";
+  const auto begin = doc.find(head);
+  ASSERT_NE(begin, std::string::npos) << "docs/interop.md lost its VTK snippet";
+  const auto end = doc.find("```\n", begin + head.size());
+  ASSERT_NE(end, std::string::npos);
+  const fs::path d = ccfr::test::scratch_dir(scratch_name() + "-snippet");
+  std::ofstream(d / "snippet.py") << doc.substr(begin + 10, end - begin - 10);
+  fs::create_directories(d / "runs");
+  fs::remove(d / "runs" / "body");
+  fs::create_directory_symlink(run_dir(), d / "runs" / "body");
+  int code = -1;
+  const std::string out = shell("cd " + d.string() + " && /usr/bin/python3 snippet.py", &code);
+  ASSERT_EQ(code, 0) << out;
+  std::istringstream lines(out);
+  std::string line;
+  int frame = 0, contact = 0;
+  while (std::getline(lines, line)) {
+    std::istringstream in(line);
+    double time = -1, x = 0, y = 0, z = 0;
+    size_t points = 0, cells = 0, halted = 0;
+    std::string dist;
+    if (!(in >> time >> points >> cells >> halted >> dist >> x >> y >> z)) continue;  // VTK's warnings
+    SCOPED_TRACE("frame " + std::to_string(frame) + ": " + line);
+    const auto ref = obj(frame);
+    EXPECT_NEAR(time, frame / kFps, 1e-9);
+    EXPECT_EQ(points, ref.v.size());
+    EXPECT_EQ(cells, 288u + 24u + 320u);
+    EXPECT_LE(halted, points);
+    // NaN: no contact pair within range; else never a penetration.
+    if (dist != "nan") EXPECT_GT(std::stod(dist), 0.0) << dist;
+    contact += dist != "nan";
+    EXPECT_NEAR(x, ref.v[0].x(), 1e-6);
+    EXPECT_NEAR(y, ref.v[0].y(), 1e-6);
+    EXPECT_NEAR(z, ref.v[0].z(), 1e-6);
+    ++frame;
+  }
+  EXPECT_EQ(frame, kFrames + 1) << out;
+  EXPECT_GT(contact, 0) << "the run must have contact for the distances to be checked\n" << out;
 }
 
 TEST_F(Interop, ExportFromDiskMatchesTheLiveWriters) {

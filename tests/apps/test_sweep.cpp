@@ -3,11 +3,13 @@
 // collect. The Slurm backend is tested on a real cluster by tests/cluster/slurm_sweep.sh.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/io/sweep.hpp"
@@ -82,6 +84,24 @@ TEST(SweepSpec, ThePaperSweepCoversEveryConfigAndSolver) {
   EXPECT_EQ(s.cells.size(), scenes * s.solvers.size());
 }
 
+// The comparison of contact methods (docs/methods.md): every registered solver but `none` on six
+// scenes, each to its own end (no frames override), every frame audited, the baselines not stopped.
+TEST(SweepSpec, TheMethodsSweepRunsEverySolverThatKeepsPairsApartToTheEnd) {
+  const auto s = ccfr::io::load_sweep_spec(cfg("sweeps/methods.yaml"));
+  auto expected = ccfr::registered_contact_solvers();
+  expected.erase(std::remove(expected.begin(), expected.end(), "none"), expected.end());
+  auto got = s.solvers;
+  std::sort(got.begin(), got.end());
+  std::sort(expected.begin(), expected.end());
+  EXPECT_EQ(got, expected);
+  EXPECT_EQ(s.configs.size(), 6u);
+  for (const auto& c : s.configs) EXPECT_TRUE(fs::exists(c)) << c;
+  EXPECT_EQ(s.frames, -1);
+  EXPECT_EQ(s.audit_stride, 1);
+  EXPECT_NE(std::find(s.set.begin(), s.set.end(), "contact.on_violation=warn"), s.set.end());
+  EXPECT_EQ(s.cells.size(), 6 * expected.size());
+}
+
 TEST(SweepSpec, ThePaperSmokeSweepIsThePaperSweepInThreeAuditedFrames) {
   const auto full = ccfr::io::load_sweep_spec(cfg("sweeps/paper.yaml"));
   const auto smoke = ccfr::io::load_sweep_spec(cfg("sweeps/paper_smoke.yaml"));
@@ -147,6 +167,42 @@ TEST(Sweep, LocalCellsEqualHandRunsAndResumeRunsWhatIsMissing) {
   EXPECT_EQ(rows, 4);
   EXPECT_NE(read_text(out / "sweep.md").find("| cloth_near_floor | `post_process` | 0.01 | completed | 3 |"),
             std::string::npos);
+
+  // The work and the passes per frame: the means of the cell's own stats.csv columns.
+  const auto fields = [](const std::string& row) {
+    std::vector<std::string> f;
+    std::stringstream ss(row);
+    for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
+    return f;
+  };
+  const auto mean_of = [&](const fs::path& stats, const std::string& column) {
+    std::istringstream in(read_text(stats));
+    std::string l;
+    std::getline(in, l);
+    const auto h = fields(l);
+    const size_t c = std::find(h.begin(), h.end(), column) - h.begin();
+    double sum = 0;
+    int n = 0;
+    while (std::getline(in, l)) sum += std::stod(fields(l).at(c)), ++n;
+    return sum / n;
+  };
+  const auto head = fields(header);
+  const size_t c_cpu = std::find(head.begin(), head.end(), "cpu_frame_s") - head.begin(),
+               c_it = std::find(head.begin(), head.end(), "outer_iterations") - head.begin();
+  ASSERT_LT(c_cpu, head.size()) << header;
+  ASSERT_LT(c_it, head.size()) << header;
+  std::istringstream again(read_text(out / "sweep.csv"));
+  std::getline(again, line);
+  int checked = 0;
+  while (std::getline(again, line)) {
+    const auto f = fields(line);
+    const fs::path stats = out / f[0] / "stats.csv";
+    EXPECT_NEAR(std::stod(f[c_cpu]), mean_of(stats, "cpu_s"), 1e-6) << line;
+    EXPECT_NEAR(std::stod(f[c_it]), mean_of(stats, "outer_iterations"), 1e-3) << line;
+    EXPECT_GE(std::stod(f[c_it]), 1.0) << line;
+    ++checked;
+  }
+  EXPECT_EQ(checked, 4);
 
   // A lost cell: status says so, resume runs it (and only it) again.
   fs::remove_all(out / id);

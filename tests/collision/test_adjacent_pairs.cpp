@@ -9,7 +9,7 @@
 #include <map>
 #include <set>
 
-#include "ccfr/collision/narrow_phase.hpp"
+#include "ccfr/collision/collision_detector.hpp"
 #include "ccfr/geometry/distance.hpp"
 #include "ccfr/geometry/generators.hpp"
 #include "test_support.hpp"

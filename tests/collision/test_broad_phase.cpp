@@ -7,7 +7,7 @@
 #include <limits>
 
 #include "ccfr/collision/broad_phase.hpp"
-#include "ccfr/collision/narrow_phase.hpp"
+#include "ccfr/collision/collision_detector.hpp"
 #include "ccfr/collision/primitives.hpp"
 #include "ccfr/core/error.hpp"
 #include "scenes.hpp"

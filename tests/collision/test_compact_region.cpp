@@ -7,7 +7,7 @@
 #include <random>
 #include <vector>
 
-#include "ccfr/collision/narrow_phase.hpp"
+#include "ccfr/collision/collision_detector.hpp"
 #include "ccfr/feasibility/projector.hpp"
 #include "scenes.hpp"
 #include "test_support.hpp"

@@ -6,7 +6,7 @@
 
 #include <Eigen/Geometry>
 
-#include "ccfr/collision/narrow_phase.hpp"
+#include "ccfr/collision/collision_detector.hpp"
 #include "ccfr/geometry/generators.hpp"
 #include "scenes.hpp"
 #include "test_support.hpp"

@@ -4,7 +4,7 @@
 
 #include <Eigen/Geometry>
 
-#include "ccfr/collision/narrow_phase.hpp"
+#include "ccfr/collision/collision_detector.hpp"
 #include "ccfr/geometry/distance.hpp"
 #include "scenes.hpp"
 #include "test_support.hpp"

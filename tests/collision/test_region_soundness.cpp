@@ -13,7 +13,7 @@
 #include <random>
 #include <vector>
 
-#include "ccfr/collision/narrow_phase.hpp"
+#include "ccfr/collision/collision_detector.hpp"
 #include "ccfr/feasibility/exact_projector.hpp"
 #include "ccfr/geometry/distance.hpp"
 #include "scenes.hpp"

@@ -9,7 +9,7 @@
 #include <functional>
 #include <limits>
 
-#include "ccfr/collision/narrow_phase.hpp"
+#include "ccfr/collision/collision_detector.hpp"
 #include "ccfr/geometry/distance.hpp"
 #include "scenes.hpp"
 #include "test_support.hpp"

@@ -9,7 +9,7 @@
 #include <limits>
 #include <random>
 
-#include "ccfr/collision/narrow_phase.hpp"
+#include "ccfr/collision/collision_detector.hpp"
 
 namespace ccfr {
 namespace {

@@ -3,9 +3,12 @@
     blender -b --factory-startup --python check_blender.py -- RUN_DIR MODE FRAME...
 
 MODE pc2: imports RUN_DIR with scripts/import_blender.py (Mesh Cache modifier); MODE usda: imports
-RUN_DIR/usd/scene.usda with bpy.ops.wm.usd_import. For each FRAME, evaluates every object at that
+RUN_DIR/usd/scene.usda with bpy.ops.wm.usd_import; MODE blend: checks the .blend Blender was started
+with (`blender -b OUT.blend --python check_blender.py -- RUN_DIR blend ...`, a file saved by
+import_blender.py --save) as it is. For each FRAME, evaluates every object at that
 Blender frame and compares its vertex positions (object-local) with RUN_DIR/frames/frame_FRAME.obj.
-Prints one line `RESULT {json}`: per frame the largest error and the vertices compared.
+Prints one line `RESULT {json}`: every object's name and type, the scene's frame range and fps, and
+per frame the largest error and the vertices compared.
 """
 import json
 import os
@@ -18,14 +21,21 @@ run_dir, mode, frames = args[0], args[1], [int(f) for f in args[2:]]
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts"))
 import import_blender  # noqa: E402
 
-bpy.ops.wm.read_factory_settings(use_empty=True)
-if mode == "pc2":
+if mode != "blend":
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+if mode == "blend":
+    objects = [o for o in bpy.context.scene.objects if o.type == "MESH"]
+elif mode == "pc2":
     objects = import_blender.import_run(run_dir)
 else:
     bpy.ops.wm.usd_import(filepath=os.path.join(run_dir, "usd", "scene.usda"))
     objects = [o for o in bpy.context.scene.objects if o.type in ("MESH", "CURVES", "CURVE", "POINTCLOUD")]
 
-result = {"mode": mode, "objects": len(objects), "frames": []}
+scene = bpy.context.scene
+result = {"mode": mode, "objects": len(objects), "frames": [],
+          "all_objects": sorted([o.name, o.type] for o in bpy.data.objects),
+          "frame_start": scene.frame_start, "frame_end": scene.frame_end,
+          "fps": scene.render.fps / scene.render.fps_base}
 for frame in frames:
     verts, blocks = import_blender.read_obj(os.path.join(run_dir, "frames", "frame_%05d.obj" % frame))
     bpy.context.scene.frame_set(frame)

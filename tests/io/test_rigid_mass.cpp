@@ -17,7 +17,7 @@
 #include "ccfr/geometry/generators.hpp"
 #include "ccfr/geometry/mass_properties.hpp"
 #include "ccfr/io/scene_loader.hpp"
-#include "ccfr/solvers/rigid_projection.hpp"
+#include "ccfr/solvers/rigid_bodies.hpp"
 #include "ccfr/solvers/simulation.hpp"
 #include "l_prism.hpp"
 #include "test_support.hpp"

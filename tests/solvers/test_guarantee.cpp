@@ -12,7 +12,7 @@
 #include "ccfr/geometry/distance.hpp"
 #include "ccfr/geometry/generators.hpp"
 #include "ccfr/solvers/contact_solver.hpp"
-#include "ccfr/solvers/rigid_projection.hpp"
+#include "ccfr/solvers/rigid_bodies.hpp"
 #include "ccfr/solvers/simulation.hpp"
 #include "ccfr/solvers/step_bound.hpp"
 #include "scenes.hpp"

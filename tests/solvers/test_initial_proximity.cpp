@@ -6,7 +6,7 @@
 #include <cmath>
 #include <limits>
 
-#include "ccfr/collision/narrow_phase.hpp"
+#include "ccfr/collision/collision_detector.hpp"
 #include "ccfr/geometry/distance.hpp"
 #include "ccfr/geometry/generators.hpp"
 #include "ccfr/solvers/detecting_solvers.hpp"

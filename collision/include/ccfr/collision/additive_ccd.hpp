@@ -4,7 +4,7 @@
 /// sub-pairs of the narrow phase (ContactKind). Used by the `toi_clamp` contact solver.
 #include <array>
 
-#include "ccfr/collision/narrow_phase.hpp"
+#include "ccfr/collision/collision_detector.hpp"
 
 namespace ccfr {
 

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "ccfr/collision/narrow_phase.hpp"
+#include "ccfr/collision/collision_detector.hpp"
 #include "ccfr/core/topology.hpp"
 #include "ccfr/io/dir_lock.hpp"
 #include "ccfr/io/formats.hpp"

@@ -7,7 +7,7 @@
 #include <span>
 #include <vector>
 
-#include "ccfr/collision/narrow_phase.hpp"
+#include "ccfr/collision/collision_detector.hpp"
 #include "ccfr/solvers/params.hpp"
 
 namespace ccfr {

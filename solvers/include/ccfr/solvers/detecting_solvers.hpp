@@ -8,12 +8,12 @@
 /// All share the contact response (repulsion within δ, friction).
 #include <memory>
 
-#include "ccfr/collision/narrow_phase.hpp"
+#include "ccfr/collision/collision_detector.hpp"
 #include "ccfr/feasibility/projector.hpp"
 #include "ccfr/feasibility/region.hpp"
 #include "ccfr/solvers/contact_response.hpp"
 #include "ccfr/solvers/contact_solver.hpp"
-#include "ccfr/solvers/rigid_projection.hpp"
+#include "ccfr/solvers/rigid_bodies.hpp"
 
 namespace ccfr {
 

@@ -1,4 +1,4 @@
-#include "ccfr/collision/narrow_phase.hpp"
+#include "ccfr/collision/collision_detector.hpp"
 
 #include <spdlog/spdlog.h>
 

@@ -1,6 +1,6 @@
 #include "ccfr/solvers/toi_clamp.hpp"
 
-#include "builtin_solvers.hpp"
+#include "../builtin_solvers.hpp"
 #include "ccfr/solvers/step_bound.hpp"
 
 #include <algorithm>
@@ -93,7 +93,7 @@ SolveResult TimeOfImpactClampSolver::resolve(Positions& x, const Positions& anch
   return res;
 }
 
-void register_toi_clamp_solver(ContactSolverRegistry& registry) {
+void register_contact_solver_toi_clamp(ContactSolverRegistry& registry) {
   const ToiClampParams d;  // the specs' defaults are the struct's
   registry.add({"toi_clamp",
                 "time-of-impact clamp of the whole system along a -> x with Additive CCD (Lu et al. 2023 baseline)",

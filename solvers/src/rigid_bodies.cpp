@@ -1,4 +1,4 @@
-#include "ccfr/solvers/rigid_projection.hpp"
+#include "ccfr/solvers/rigid_bodies.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>

@@ -11,7 +11,7 @@
 #include <set>
 #include <string>
 
-#include "ccfr/collision/narrow_phase.hpp"
+#include "ccfr/collision/collision_detector.hpp"
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/geometry/distance.hpp"

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <limits>
 
-#include "builtin_solvers.hpp"
+#include "../builtin_solvers.hpp"
 
 namespace ccfr {
 
@@ -118,7 +118,7 @@ bool DivideAndTruncateSolver::within(Index v, const Vec3& p) const {
   return true;
 }
 
-void register_dat_solver(ContactSolverRegistry& registry) {
+void register_contact_solver_dat(ContactSolverRegistry& registry) {
   const TrustRegionParams d;
   registry.add({"dat",
                 "planar Divide-and-Truncate: one division plane per detected pair at the middle of its gap, each "

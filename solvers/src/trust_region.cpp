@@ -1,3 +1,5 @@
+// TrustRegionSolver: what `ogc` and `dat` share (Chen et al. 2025): a detection kept while every
+// vertex stays inside the limits built from it, truncation toward them, re-detection past γ_e.
 #include "ccfr/solvers/ogc.hpp"
 
 #include <algorithm>
@@ -117,41 +119,6 @@ std::optional<Index> TrustRegionSolver::count_outside(const Positions& x, const 
   if (redetect_ && ctx.violated.size() == truncated_.size())
     for (size_t v = 0; v < truncated_.size(); ++v) ctx.violated[v] |= truncated_[v];
   return n;
-}
-
-void OffsetGeometricContactSolver::build_limits(std::span<const double>, std::span<const Vec3> kinematic) {
-  const double gp = params_.gamma_p;
-  bounds_.assign(centers_.size(), free_bound());
-  for (const ContactPair& c : contacts_) {
-    const int na = c.side_a(), n = c.size();
-    double ka = 0.0, kb = 0.0;  // the largest scripted step on each side
-    if (!kinematic.empty())
-      for (int k = 0; k < n; ++k) (k < na ? ka : kb) = std::max(k < na ? ka : kb, kinematic[c.v[k]].norm());
-    const double b = gp * std::max(0.0, c.distance - c.offset - ka - kb);
-    for (int k = 0; k < n; ++k) bounds_[c.v[k]] = std::min(bounds_[c.v[k]], b);
-  }
-}
-
-bool OffsetGeometricContactSolver::truncate(Index v, Vec3& x) const {
-  const Vec3 d = x - centers_[v];
-  const double len = d.norm(), b = bounds_[v];
-  if (len <= b) return false;
-  x = b > 0.0 ? Vec3(centers_[v] + (b / len) * d) : centers_[v];
-  return true;
-}
-
-bool OffsetGeometricContactSolver::within(Index v, const Vec3& p) const {
-  return (p - centers_[v]).norm() <= bounds_[v] * (1.0 + 1e-9) + 1e-14 * centers_[v].cwiseAbs().sum();
-}
-
-void register_ogc_solver(ContactSolverRegistry& registry) {
-  const TrustRegionParams d;
-  registry.add({"ogc",
-                "Offset Geometric Contact's conservative per-vertex bounds b_v = γ_p (d_v − ξ), truncation toward "
-                "the last detection, re-detection past γ_e (Chen et al. 2025; guarantees separation)",
-                trust_region_param_specs(d), [](const ParamValues& v) {
-                  return std::make_unique<OffsetGeometricContactSolver>(trust_region_params(v));
-                }});
 }
 
 std::vector<ParamSpec> trust_region_param_specs(const TrustRegionParams& d) {

@@ -1,0 +1,202 @@
+// RegionProjectionSolver: a vertex outside its region is projected back onto it by a registered
+// projector (paper Alg. 1); `ccfr`, `exact_projection` and `successive_projection` are its
+// registrations (contact/*.cpp), differing only in the projector.
+#include "ccfr/solvers/detecting_solvers.hpp"
+
+#include "ccfr/core/error.hpp"
+#include "ccfr/core/log.hpp"
+#include "ccfr/core/parallel.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <tuple>
+
+#include "builtin_solvers.hpp"
+
+namespace ccfr {
+
+std::span<const double> RegionProjectionSolver::response_mass(const SimState& state) {
+  if (rigid_.empty()) return {};
+  free_mask_.assign(state.inv_mass.begin(), state.inv_mass.end());
+  rigid_.mask_free(free_mask_);
+  return free_mask_;
+}
+
+void RegionProjectionSolver::respond(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) {
+  if (rigid_.empty()) return DetectingSolver::respond(x, anchor, state, ctx);
+  // Unpinned rigid bodies respond in their pose solve (enforce), with their generalized masses:
+  // here they count as fixed (a vertex's own mass gave a rigid body a far too weak impulse).
+  free_mask_.assign(state.inv_mass.begin(), state.inv_mass.end());
+  rigid_.mask_free(free_mask_);
+  // A contact between a movable side and an unpinned rigid body: the body's generalized inverse
+  // mass at its closest point (frame at the anchor, where the contacts were found) joins the
+  // response's, as the pose solve counts the movable side's in its share.
+  other_inverse_mass_.assign(contacts_.size(), 0.0);
+  std::vector<RigidFrame> frames;
+  const bool any_movable = std::any_of(free_mask_.begin(), free_mask_.end(), [](double w) { return w > 0.0; });
+  for (size_t ci = 0; any_movable && ci < contacts_.size(); ++ci) {
+    const ContactPair& c = contacts_[ci];
+    const int na = c.side_a();
+    bool moves_a = false, moves_b = false;
+    for (int k = 0; k < c.size(); ++k) (k < na ? moves_a : moves_b) |= free_mask_[c.v[k]] > 0.0;
+    if (moves_a == moves_b) continue;  // both sides movable, or neither
+    const int lo = moves_a ? na : 0, hi = moves_a ? c.size() : na;
+    const Index body = rigid_.body_of(c.v[lo]);
+    if (body < 0) continue;
+    if (frames.empty()) frames = rigid_.frames(anchor);
+    Vec3 point = Vec3::Zero();
+    for (int j = lo; j < hi; ++j) point += std::abs(c.w[j]) * anchor[c.v[j]];
+    other_inverse_mass_[ci] = frames[static_cast<size_t>(body)].inverse_mass_at(point, c.n);
+  }
+  response_.apply(x, state.x_prev, free_mask_, ctx.params.contact, ctx.dt, friction_override_, other_inverse_mass_);
+}
+
+RegionProjectionSolver::RegionProjectionSolver(std::string solver_name, std::string projector_name, ParamValues params)
+    : name_(std::move(solver_name)), projector_name_(std::move(projector_name)), projector_params_(std::move(params)) {}
+
+void RegionProjectionSolver::initialize(const Topology& topo, const SimState& state, const SimulationParams& params) {
+  DetectingSolver::initialize(topo, state, params);
+  ProjectorParams pp = apply_projector_params(ProjectorParams{}, projector_params_);
+  // ε scales with ξ: an absolute 1e-6 exceeds a vertex's share of a gap at ξ = 0.001, and every
+  // projection then snapped back to the anchor (a card stack that could not move).
+  pp.epsilon = params.contact.epsilon * params.contact.offset;
+  projector_ = make_projector(projector_name_, pp);
+  rigid_ = RigidBodies(topo, state, &params);
+}
+
+SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& anchor, const SimState& state,
+                                            StepContext& ctx) {
+  if (ctx.frame != halted_frame_ || halted_.size() != x.size()) {
+    halted_.assign(x.size(), 0);
+    halted_frame_ = ctx.frame;
+  }
+  // Unpinned rigid bodies' vertices are not projected one by one: enforce() resolves their
+  // contacts in the body's pose space.
+  std::span<const double> projected_mass = state.inv_mass;
+  if (!rigid_.empty()) {
+    free_mask_.assign(state.inv_mass.begin(), state.inv_mass.end());
+    rigid_.mask_free(free_mask_);
+    projected_mass = free_mask_;
+  }
+  const BatchStats b = project_all(*projector_, regions_, anchor, x, projected_mass, halted_);
+  SolveResult r;
+  r.violations_detected = b.violated;
+  r.violations_remaining = b.remaining;
+  r.halted_vertices = b.halted;
+  r.projector_fallbacks = b.fallbacks;
+  r.projector_rescues = b.rescued;
+  std::tie(r.contact_vertices, r.contact_vertices_distinct) = mark_contact_vertices(ctx.frame, state.inv_mass);
+  if (!rigid_.empty()) {
+    // A halted body is put back at its anchor pose as a whole: its vertices that wanted to move
+    // and sit exactly at their anchors afterwards are the halted ones.
+    std::vector<std::uint8_t> wanted(x.size(), 0);
+    for (const auto& o : ctx.topo.objects)
+      if (o.kind == ObjectKind::rigid)
+        for (Index v = o.vertex_begin; v < o.vertex_end; ++v) wanted[v] = x[v] != anchor[v];
+    // The repulsion of a rigid vertex's plane acts on its pair's gap, which exceeds the plane's
+    // value by the other side's share (gap - d), and the pair's other side takes its part of the
+    // correction (its inverse masses): against a light cloth a heavy ball then barely moves, as
+    // the pair's XPBD repulsion has it, instead of bouncing off a stiff spring.
+    const auto sources = detector_->plane_sources();
+    const double delta = ctx.params.contact.repulsion_range;
+    // An unpinned rigid body on the other side answers with its generalized inverse mass at the
+    // closest point (its vertices' own masses would make it a light cloth). Its frame is taken at
+    // the anchor, where the regions were built.
+    const std::vector<RigidFrame> frames = rigid_.frames(anchor);
+    // The candidates as they are before enforce() overwrites the bodies' vertices (concurrently,
+    // while other bodies' solves ask for their planes' pairs).
+    candidates_.assign(x.begin(), x.end());
+    // Asked by the pose solve only for the planes that come within reach of acting (a pass over
+    // every plane of a pile's bodies cost a tenth of a landing frame).
+    auto plane_contact = [&](Index q) {
+      RigidPlaneContact pc;
+      pc.repel = delta;
+      if (sources.size() != regions_.total()) return pc;
+      const ContactPair& c = contacts_[static_cast<size_t>(sources[q] / 4)];
+      const int k = static_cast<int>(sources[q] % 4), na = c.side_a();
+      const int lo = k < na ? na : 0, hi = k < na ? c.size() : na;
+      Vec3 point = Vec3::Zero();
+      // The other side's closest point and its motion over the substep (x is every other
+      // body's candidate: a cloth's projected, an obstacle's scripted target, a rigid body's
+      // predicted position), for the friction on the relative slip.
+      for (int j = lo; j < hi; ++j) {
+        const Index u = c.v[j];
+        pc.other_w += c.w[j] * c.w[j] * state.inv_mass[u];
+        pc.other_motion += std::abs(c.w[j]) * (candidates_[u] - state.x_prev[u]);
+        point += std::abs(c.w[j]) * anchor[u];
+      }
+      const HalfSpace h = regions_.plane(q);
+      const Vec3 n = h.n;
+      pc.other_wt = pc.other_w;
+      pc.responds_w = pc.other_w;
+      const Index ob = rigid_.body_of(c.v[lo]);
+      if (ob >= 0 && frames[static_cast<size_t>(ob)].inv_mass > 0.0) {
+        const RigidFrame& f = frames[static_cast<size_t>(ob)];
+        pc.responds_w = 0.0;  // answered by its own pose solve
+        pc.other_w = f.inverse_mass_at(point, n);
+        // Against the tangential correction: the mean over the tangent plane's two axes.
+        const Vec3 t1 = n.unitOrthogonal(), t2 = n.cross(t1);
+        pc.other_wt = 0.5 * (f.inverse_mass_at(point, t1) + f.inverse_mass_at(point, t2));
+      }
+      const double gap = c.distance - c.offset;
+      pc.repel = delta - std::max(0.0, gap - h.d);
+      return pc;
+    };
+    auto plane_repel = [&](Index q) {
+      if (sources.size() != regions_.total()) return delta;
+      const ContactPair& c = contacts_[static_cast<size_t>(sources[q] / 4)];
+      return delta - std::max(0.0, c.distance - c.offset - regions_.plane(q).d);
+    };
+    RigidContactOptions options;
+    options.x_start = &state.x_prev;
+    options.repulsion_range = ctx.params.contact.repulsion_range;
+    options.repulsion_compliance = 1.0 / (ctx.params.contact.stiffness * ctx.dt * ctx.dt);
+    options.plane_contact = plane_contact;
+    options.plane_repel = plane_repel;
+    const RigidEnforceStats rs =
+        rigid_.enforce(x, anchor, regions_, *projector_, ctx.params.contact.radius, ctx.params.time.advance_tolerance,
+                       rigid_.predicted_cores(state, ctx.dt, ctx.params.time.gravity), options);
+    r.violations_detected += rs.vertices_violated;
+    r.halted_vertices += rs.vertices_halted;
+    r.bounded_vertices += rs.bodies_bounded;
+    if (rs.bodies_halted > 0)
+      for (const auto& o : ctx.topo.objects) {
+        if (o.kind != ObjectKind::rigid) continue;
+        bool at_anchor = true, moved = false;
+        for (Index v = o.vertex_begin; v < o.vertex_end; ++v) {
+          at_anchor = at_anchor && x[v] == anchor[v];
+          moved = moved || wanted[v];
+        }
+        if (at_anchor && moved)
+          for (Index v = o.vertex_begin; v < o.vertex_end; ++v) halted_[v] = 1;
+      }
+  }
+  r.halted_vertices_distinct = static_cast<Index>(std::count(halted_.begin(), halted_.end(), std::uint8_t{1}));
+  return r;
+}
+
+std::optional<Index> RegionProjectionSolver::count_outside(const Positions& x, const Positions& anchor,
+                                                           const SimState& state, StepContext& ctx) const {
+  // A rigid body is exact to round-off; 1e-9 of its extent is far above that and far below ξ.
+  return *DetectingSolver::count_outside(x, anchor, state, ctx) + (rigid_.empty() ? 0 : rigid_.count_deformed(x, 1e-9));
+}
+
+void RegionProjectionSolver::vertex_diagnostics(std::vector<std::int32_t>& half_spaces, std::vector<double>& distance,
+                                                std::vector<std::uint8_t>& halted) const {
+  DetectingSolver::vertex_diagnostics(half_spaces, distance, halted);
+  halted = halted_;
+  halted.resize(half_spaces.size(), 0);
+}
+
+ContactSolverRegistry::Entry region_projection_entry(const char* name, const char* projector, const char* description) {
+  // Each exposes its projector's own parameters under contact.<solver>.*.
+  return {name, description, projectors().at(projector).params,
+          [name = std::string(name), projector = std::string(projector)](const ParamValues& v) {
+            return std::make_unique<RegionProjectionSolver>(name, projector, v);
+          }};
+}
+
+}  // namespace ccfr
