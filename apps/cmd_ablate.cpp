@@ -156,7 +156,9 @@ int run_ablation(AblateOptions& o) {
 void register_ablate(CLI::App& app) {
   auto o = std::make_shared<AblateOptions>();
   auto log_level = std::make_shared<std::string>("info");
-  auto* cmd = app.add_subcommand("ablate", "Run one scene under several contact solvers, audit each run, compare them");
+  auto* cmd = app.add_subcommand("ablate",
+                                 "Run one scene under several contact solvers, audit each run, compare them "
+                                 "(ablation.csv, .md, .png; the solvers-only case of ccfr sweep)");
   cmd->add_option("config", o->run.config, "Scene file (YAML)")->required();
   std::string all;
   for (const auto& n : registered_contact_solvers()) all += (all.empty() ? "" : ",") + n;
@@ -164,11 +166,17 @@ void register_ablate(CLI::App& app) {
                   "Comma-separated contact solvers (default: every registered one: " + all + ")");
   cmd->add_option("--out", o->run.out, "Output directory (one sub-directory per solver)")->required();
   cmd->add_option("--audit-stride", o->audit_stride, "Audit every K-th frame")->check(CLI::PositiveNumber);
-  cmd->add_flag("!--no-plot", o->plot, "Do not draw ablation.png");
+  // A plain flag: CLI11 prints a negated one ("!--no-plot") as `--no-plot{false}` in --help.
+  auto no_plot = std::make_shared<bool>(false);
+  cmd->add_flag("--no-plot", *no_plot, "Do not draw ablation.png");
   // --log-level is the global option (main.cpp): checked there, and accepted after the subcommand.
   add_run_options(cmd, o->run);
-  cmd->callback([o, log_level] {
+  // --solver (from the run options) names one solver where ablate compares --solvers: hidden from
+  // --help and the docs, still parsed so that run_ablation refuses it with a hint.
+  cmd->get_option("--solver")->group("");
+  cmd->callback([o, log_level, no_plot] {
     init_logging(*log_level);
+    o->plot = !*no_plot;
     o->run.progress = false;
     guarded([o] { return run_ablation(*o); });
   });

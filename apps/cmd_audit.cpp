@@ -154,7 +154,9 @@ int run_audit(const AuditCliOptions& o) {
 void register_audit(CLI::App& app) {
   auto o = std::make_shared<AuditCliOptions>();
   auto* cmd = app.add_subcommand(
-      "audit", "Check every frame of a run directory for intersections and pairs closer than the offset xi");
+      "audit",
+      "Check every frame of a run directory (or any OBJ sequence, with --offset) for triangle intersections, "
+      "strands through triangles and pairs closer than the offset xi; report in DIR/audit.json");
   cmd->add_option("dir", o->dir, "Run directory (holding frames/frame_NNNNN.obj and, unless --offset, run.json)")
       ->required();
   cmd->add_option_function<double>(

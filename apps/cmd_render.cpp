@@ -111,7 +111,9 @@ int run_render(const RenderCliOptions& o) {
 
 void register_render(CLI::App& app) {
   auto o = std::make_shared<RenderCliOptions>();
-  auto* cmd = app.add_subcommand("render", "Draw the frames of a run directory as PNG images (Embree ray casting)");
+  auto* cmd = app.add_subcommand("render",
+                                 "Draw the frames of a run directory as PNG images (Embree ray casting); "
+                                 "a contact sheet and an MP4 (ffmpeg) on request");
   cmd->add_option("dir", o->dir, "Run directory (holding frames/frame_*.obj)")->required();
   cmd->add_option("--out", o->out, "Output folder (default: DIR/render)");
   cmd->add_option("--width", o->width, "Image width in pixels")->check(CLI::Range(8, 16384))->capture_default_str();

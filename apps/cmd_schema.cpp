@@ -7,8 +7,10 @@
 namespace ccfr::app {
 
 void register_schema(CLI::App& app) {
-  auto* cmd = app.add_subcommand(
-      "schema", "Print the reference of every scene-file key and every registered component (Markdown)");
+  auto* cmd =
+      app.add_subcommand("schema",
+                         "Print the reference of every scene-file key and every registered component (Markdown; the "
+                         "source of docs/config.md)");
   cmd->callback([] {
     guarded([] {
       std::fputs(io::config_reference_markdown().c_str(), stdout);

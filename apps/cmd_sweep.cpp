@@ -11,6 +11,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -521,6 +522,16 @@ std::string slurm_submit(const SweepLayout& s, const std::vector<size_t>& indice
   return job;
 }
 
+// Why squeue may have failed, for its messages: most often the cluster's SLURM_CONF is not set in
+// this shell (scripts/slurm-local prints the line that sets it).
+std::string slurm_conf_hint() {
+  const char* conf = std::getenv("SLURM_CONF");
+  if (!conf || !*conf)
+    return "SLURM_CONF is not set: set it as for the sbatch that submitted the sweep, e.g. "
+           "eval \"$(scripts/slurm-local env)\" for the single-machine cluster";
+  return std::string("SLURM_CONF is ") + conf + ": is that cluster running?";
+}
+
 // Slurm's view of the sweep's array tasks: cell index -> state (PENDING, RUNNING, COMPLETED,
 // CANCELLED, TIMEOUT, FAILED, ...) of its latest job; squeue for live tasks, sacct when accounting
 // is available (without it sacct fails and only run.json tells).
@@ -552,8 +563,8 @@ std::map<size_t, std::string> slurm_states(const fs::path& dir, bool* queue_know
   if (qc == 0)
     parse(squeue, ' ');
   else  // e.g. SLURM_CONF not set as for sbatch: queued cells would look not started, running ones lost
-    spdlog::warn("sweep: squeue failed (exit {}): {}; queued and running cells are not known as such", qc,
-                 squeue.substr(0, squeue.find('\n')));
+    spdlog::warn("sweep: squeue failed (exit {}): {}; queued and running cells are not known as such ({})", qc,
+                 squeue.substr(0, squeue.find('\n')), slurm_conf_hint());
   return st;
 }
 
@@ -867,7 +878,7 @@ int sweep_status(const fs::path& dir) {
   std::printf("%-60s %-14s %s\n", "cell", "state", "frames (latest checkpoint)");
   for (size_t i = 0; i < s.cells.size(); ++i) {
     const std::string st = cell_state(s, i, slurm);
-    ++counts[st.substr(0, st.find(' '))];
+    ++counts[st.substr(0, st.find(" ("))];  // "lost (CANCELLED, no run)" counts as lost; "not started" whole
     const fs::path out = dir / s.cells[i].id;
     const long n = std::min(frames_in_stats(out), totals[i]);
     done += n;
@@ -893,9 +904,6 @@ int resume(SweepOptions& o) {
       o.backend == "slurm" || (o.backend.empty() && j.contains("slurm_jobs") && !j.at("slurm_jobs").empty());
   bool queue_known = true;
   const auto states = slurm_states(o.dir, &queue_known);
-  if (!queue_known)
-    throw Error("cannot tell which cells of '" + o.dir.string() +
-                "' are queued or running (squeue failed, above); resuming now could run them twice");
   std::vector<size_t> to_resume;
   for (size_t i = 0; i < s.cells.size(); ++i)
     if (resumable(cell_state(s, i, states))) to_resume.push_back(i);
@@ -903,6 +911,13 @@ int resume(SweepOptions& o) {
     std::printf("sweep: nothing to resume: every cell completed, is queued or is running\n");
     return 0;
   }
+  // A completed cell is completed whatever Slurm says; any other may be queued or running there.
+  if (!queue_known)
+    throw Error(std::to_string(to_resume.size()) + " of the " + std::to_string(s.cells.size()) + " cells of '" +
+                o.dir.string() +
+                "' did not complete, and squeue failed (above), so whether they are queued or "
+                "running is unknown; " +
+                slurm_conf_hint() + ". Resuming now could run them twice");
   for (size_t i : to_resume) spdlog::info("sweep: resuming {} ({})", s.cells[i].id, cell_state(s, i, states));
   if (slurm_sweep) {
     write_sweep(s);
@@ -960,9 +975,12 @@ void register_sweep(CLI::App& app) {
   co->add_option("dir", o->dir, "Sweep directory")->required();
   co->add_option("--metric", o->metric, "Column of sweep.csv to plot")->capture_default_str();
   co->add_option("--against", o->against, "Swept parameter on the x axis (default: the first)");
-  co->add_flag("!--no-plot", o->plot, "Do not draw sweep_<metric>.png");
-  co->callback([o] {
+  // A plain flag: CLI11 prints a negated one ("!--no-plot") as `--no-plot{false}` in --help.
+  auto no_plot = std::make_shared<bool>(false);
+  co->add_flag("--no-plot", *no_plot, "Do not draw sweep_<metric>.png");
+  co->callback([o, no_plot] {
     init_logging("warn");
+    o->plot = !*no_plot;
     guarded([o] { return collect(o->dir, o->metric, o->against, o->plot); });
   });
 

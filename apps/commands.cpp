@@ -52,6 +52,7 @@ void register_commands(CLI::App& app) {
   register_plot(app);
   register_schema(app);
   register_export(app);
+  register_help_markdown(app);  // hidden: generates docs/cli.md from the definitions above
 }
 
 }  // namespace ccfr::app

@@ -25,5 +25,6 @@ void register_render(CLI::App& app);
 void register_schema(CLI::App& app);
 void register_export(CLI::App& app);
 void register_plot(CLI::App& app);
+void register_help_markdown(CLI::App& app);
 
 }  // namespace ccfr::app

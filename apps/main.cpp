@@ -78,8 +78,8 @@ void add_global_options(CLI::App& app, const std::shared_ptr<bool>& explicit_lev
            *explicit_level = true;
            ccfr::set_log_level_override(level);
          },
-         "Log level on stderr: trace, debug, info, warn, error or off (default: info for run and ablate, warn "
-         "for the others)")
+         "Log level on stderr: trace, debug, info, warn, error or off (default: warn for audit, bench, render, "
+         "plot and sweep collect; info for the others)")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "off"}))
       ->trigger_on_parse();
   app.add_flag_callback(

@@ -207,7 +207,7 @@ TEST(Sweep, LocalCellsEqualHandRunsAndResumeRunsWhatIsMissing) {
   // A lost cell: status says so, resume runs it (and only it) again.
   fs::remove_all(out / id);
   r = run_ccfr("sweep status '" + out.string() + "'");
-  EXPECT_NE(r.out.find("4 cells: 3 completed, 1 not"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("4 cells: 3 completed, 1 not started\n"), std::string::npos) << r.out;
   r = run_ccfr("sweep resume '" + out.string() + "'");
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("resuming " + id + " (not started)"), std::string::npos) << r.out;
@@ -239,4 +239,99 @@ TEST(Sweep, AblateIsTheSolversOnlySweepAndRefusesSolver) {
   EXPECT_TRUE(fs::exists(d / "a" / "ccfr" / "audit.json"));
   EXPECT_TRUE(fs::exists(d / "a" / "sweep.json"));
   EXPECT_EQ(nlohmann::json::parse(read_text(d / "a" / "ccfr" / "audit.json"))["verdict"], "pass");
+}
+
+namespace {
+
+// A stand-in for Slurm's commands in BIN: sbatch prints job 4242; squeue fails like the real one
+// when SLURM_CONF is unset and otherwise prints BIN/queue; sacct fails (no accounting).
+void write_fake_slurm(const fs::path& bin) {
+  fs::create_directories(bin);
+  write(bin / "sbatch", "#!/bin/sh\necho 4242\n");
+  write(bin / "squeue",
+        "#!/bin/sh\n[ -n \"$SLURM_CONF\" ] || { echo 'slurm_load_jobs error: Unable to contact slurm controller'; "
+        "exit 1; }\ncat \"$(dirname \"$0\")/queue\"\n");
+  write(bin / "sacct", "#!/bin/sh\necho 'Slurm accounting storage is disabled'; exit 1\n");
+  write(bin / "queue", "");
+  for (const char* n : {"sbatch", "squeue", "sacct"})
+    fs::permissions(bin / n, fs::perms::owner_all, fs::perm_options::replace);
+}
+
+// ccfr with BIN first on PATH and SLURM_CONF set to `conf` (unset when empty).
+ccfr::test::CliResult run_with_slurm(const fs::path& bin, const std::string& conf, const std::string& args) {
+  const std::string env = conf.empty() ? "env -u SLURM_CONF" : "env SLURM_CONF='" + conf + "'";
+  return ccfr::test::run_shell(env + " PATH='" + bin.string() + "':\"$PATH\" " + std::string(CCFR_EXE) + " " + args +
+                               " 2>&1");
+}
+
+}  // namespace
+
+// A Slurm sweep's status shows each cell's frames on disk, a running task's too (its progress is
+// otherwise only in its Slurm log); resume without SLURM_CONF exits 0 when every cell completed and
+// names SLURM_CONF when some cell might still be queued or running.
+TEST(Sweep, SlurmStatusShowsFramesAndResumeWithoutSlurmConf) {
+  const fs::path d = ccfr::test::scratch_dir("sweep_slurm_fake");
+  const fs::path bin = d / "bin", out = d / "sweep";
+  write_fake_slurm(bin);
+  write(d / "s.yaml", "configs: [" + cfg("stress/cloth_near_floor.yaml") +
+                          "]\nsolvers: [ccfr, none]\nframes: 3\nset: {contact.on_violation: warn}\n");
+  auto r = run_with_slurm(bin, "/fake/slurm.conf",
+                          "sweep '" + (d / "s.yaml").string() + "' --out '" + out.string() + "' --backend slurm");
+  ASSERT_EQ(r.code, 0) << r.out;
+  ASSERT_NE(r.out.find("submitted job 4242"), std::string::npos) << r.out;
+  // What the two array tasks would run.
+  for (int i = 0; i < 2; ++i) {
+    r = run_ccfr("sweep run-cell '" + out.string() + "' " + std::to_string(i) + " --threads 1");
+    ASSERT_EQ(r.code, 0) << r.out;
+  }
+  const std::string running_id = "cloth_near_floor__none", done_id = "cloth_near_floor__ccfr";
+
+  // Every cell completed: nothing to do, with or without SLURM_CONF.
+  r = run_with_slurm(bin, "", "sweep resume '" + out.string() + "'");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("nothing to resume"), std::string::npos) << r.out;
+  EXPECT_EQ(nlohmann::json::parse(read_text(out / "sweep.json"))["slurm_jobs"].size(), 1u) << "resubmitted";
+
+  // Cell 1 as its task is at frame 1 of 3: run.json says running, stats.csv holds one frame.
+  const std::string run_json = read_text(out / running_id / "run.json");
+  const std::string stats = read_text(out / running_id / "stats.csv");
+  nlohmann::json rj = nlohmann::json::parse(run_json);
+  rj["status"] = "running";
+  write(out / running_id / "run.json", rj.dump(2));
+  std::istringstream lines(stats);
+  std::string header, first;
+  std::getline(lines, header);
+  std::getline(lines, first);
+  write(out / running_id / "stats.csv", header + "\n" + first + "\n");
+  write(bin / "queue", "4242_1 RUNNING\n");
+
+  r = run_with_slurm(bin, "/fake/slurm.conf", "sweep status '" + out.string() + "'");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find(running_id), std::string::npos) << r.out;
+  const auto row = [&](const std::string& id) {
+    const size_t at = r.out.find(id + " ");
+    return at == std::string::npos ? std::string() : r.out.substr(at, r.out.find('\n', at) - at);
+  };
+  EXPECT_NE(row(running_id).find(" running "), std::string::npos) << r.out;
+  EXPECT_NE(row(running_id).find(" 1/3"), std::string::npos) << r.out;
+  EXPECT_NE(row(done_id).find(" completed "), std::string::npos) << r.out;
+  EXPECT_NE(row(done_id).find(" 3/3"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("frames: 4 of 6 (67 %)"), std::string::npos) << r.out;
+
+  // Without SLURM_CONF squeue fails: status warns naming it, resume refuses naming it.
+  r = run_with_slurm(bin, "", "sweep status '" + out.string() + "'");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("SLURM_CONF is not set"), std::string::npos) << r.out;
+  r = run_with_slurm(bin, "", "sweep resume '" + out.string() + "'");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("1 of the 2 cells"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("SLURM_CONF is not set"), std::string::npos) << r.out;
+  EXPECT_EQ(nlohmann::json::parse(read_text(out / "sweep.json"))["slurm_jobs"].size(), 1u) << "resubmitted";
+
+  // With SLURM_CONF and the task gone from the queue, resume resubmits the cell.
+  write(bin / "queue", "");
+  r = run_with_slurm(bin, "/fake/slurm.conf", "sweep resume '" + out.string() + "'");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("resuming " + running_id + " (lost)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("array 1, 1 cells"), std::string::npos) << r.out;
 }

@@ -103,7 +103,7 @@ TEST(SweepProgress, SweepAggregatesItsCellsAndStatusSumsTheirFrames) {
   ASSERT_EQ(r.code, 0) << r.out << r.err;
   EXPECT_TRUE(std::regex_search(r.out, std::regex("scene__ccfr +completed +3/3\n"))) << r.out;
   EXPECT_TRUE(std::regex_search(r.out, std::regex(lost + " +not started +0/3\n"))) << r.out;
-  EXPECT_TRUE(has(r.out, "3 cells: 2 completed, 1 not\nframes: 6 of 9 (67 %)\n")) << r.out;
+  EXPECT_TRUE(has(r.out, "3 cells: 2 completed, 1 not started\nframes: 6 of 9 (67 %)\n")) << r.out;
 
   // resume runs the lost cell: its progress counts its 3 frames only.
   r = run_ccfr_split("sweep resume " + out.string(), d);
@@ -143,7 +143,15 @@ TEST(SweepProgress, StatusWarnsAndResumeRefusesWhenSqueueFails) {
   EXPECT_EQ(r.code, 0) << r.out << r.err;
   EXPECT_TRUE(has(r.err, "squeue failed (exit 1): squeue: error: unable to contact the controller")) << r.err;
   EXPECT_TRUE(has(r.out, "1 cells: 1 completed\nframes: 3 of 3 (100 %)\n")) << r.out;
+  // Its one cell completed: nothing is left that could run twice (issue 35: this exited 2). With a
+  // cell left, resume refuses naming SLURM_CONF (Sweep.SlurmStatusShowsFramesAndResumeWithoutSlurmConf).
+  r = run_ccfr_split("sweep resume " + out.string(), d, env);
+  EXPECT_EQ(r.code, 0) << r.out << r.err;
+  EXPECT_TRUE(has(r.out, "nothing to resume")) << r.out;
+  fs::remove_all(out / "scene__ccfr");
   r = run_ccfr_split("sweep resume " + out.string(), d, env);
   EXPECT_EQ(r.code, 2) << r.out << r.err;
-  EXPECT_TRUE(has(r.err, "squeue failed, above); resuming now could run them twice")) << r.err;
+  EXPECT_TRUE(has(r.err, "squeue failed (above), so whether they are queued or running is unknown")) << r.err;
+  EXPECT_TRUE(has(r.err, "Resuming now could run them twice")) << r.err;
+  EXPECT_FALSE(fs::exists(out / "scene__ccfr")) << "resume ran the cell";
 }
