@@ -144,10 +144,10 @@ int run_ablation(AblateOptions& o) {
   }
   std::printf(
       "\nablate: %zu solvers, %zu frames in %s (%s/frame), %d failed to run, %zu of %zu passed the audit; "
-      "tables in %s\n",
+      "tables in %s; next: ccfr plot %s\n",
       rows.size(), frames, format_duration(secs).c_str(),
       format_duration(frames ? secs / static_cast<double>(frames) : NAN).c_str(), failed, passed, rows.size(),
-      (root / "ablation.md").string().c_str());
+      (root / "ablation.md").string().c_str(), shell_quote(root.string()).c_str());
   // A solver whose run failed (a bad override, a folder in the way, a stop) fails the ablation.
   return all_ran && failed == 0 ? 0 : 1;
 }

@@ -16,6 +16,7 @@
 #include "ccfr/io/run_audit.hpp"
 #include "commands.hpp"
 #include "progress.hpp"
+#include "run_driver.hpp"
 
 namespace ccfr::app {
 
@@ -109,31 +110,42 @@ int run_audit(const AuditCliOptions& o) {
     const std::string verdict = io::audit_verdict(res, o.partial);
     // 0, 1, 4, or 5 for a pass whose scene drives scripted objects into each other.
     const int code = io::audit_exit_code(res, verdict);
+    char line[8192];
     if (verdict == "fail") {
-      std::printf("FAIL (%s): %d violations in %zu frames; first at frame %ld%s%s\n", scope.c_str(), res.violations,
-                  res.bad_frames, res.first_bad_frame, res.first_example.empty() ? "" : ": ",
-                  res.first_example.c_str());
+      std::snprintf(line, sizeof line, "FAIL (%s): %d violations in %zu frames; first at frame %ld%s%s", scope.c_str(),
+                    res.violations, res.bad_frames, res.first_bad_frame, res.first_example.empty() ? "" : ": ",
+                    res.first_example.c_str());
     } else if (verdict == "incomplete") {
-      std::printf(
-          "INCOMPLETE (%s): the frames checked are clean, but the run did not complete; pass --partial to accept "
-          "the frames present\n",
-          scope.c_str());
+      std::snprintf(line, sizeof line,
+                    "INCOMPLETE (%s): the frames checked are clean, but the run did not complete; pass --partial to "
+                    "accept the frames present",
+                    scope.c_str());
     } else {
-      std::printf(
-          "PASS (%s): no intersection, crossing or pair closer than (1 - tol) xi; min distance %.10g (%.9f xi) in "
-          "%.2f s\n",
-          scope.c_str(), res.min_distance, std::isfinite(res.min_distance) ? res.min_distance / res.offset : INFINITY,
-          res.seconds);
+      std::snprintf(line, sizeof line,
+                    "PASS (%s): no intersection, crossing or pair closer than (1 - tol) xi; min distance %.10g (%.9f "
+                    "xi) in %.2f s",
+                    scope.c_str(), res.min_distance,
+                    std::isfinite(res.min_distance) ? res.min_distance / res.offset : INFINITY, res.seconds);
     }
+    std::string last = line;
     // Scripted objects driven into each other: no solver can move them, so the method's verdict
     // stands, and the scene is flagged with its own line and exit code.
     if (res.scene_error()) {
-      std::printf(
-          "SCENE ERROR: the scene drives scripted objects into each other (not the method's failure): %d pairs "
-          "in %zu frames; first at frame %ld%s%s\n",
-          res.scene_pairs, res.scene_frames, res.first_scene_frame, res.first_scene_example.empty() ? "" : ": ",
-          res.first_scene_example.c_str());
+      std::printf("%s\n", last.c_str());
+      std::snprintf(line, sizeof line,
+                    "SCENE ERROR: the scene drives scripted objects into each other (not the method's failure): %d "
+                    "pairs in %zu frames; first at frame %ld%s%s",
+                    res.scene_pairs, res.scene_frames, res.first_scene_frame,
+                    res.first_scene_example.empty() ? "" : ": ", res.first_scene_example.c_str());
+      last = line;
     }
+    // The last line ends with what to look at next: a failure's violations per frame, an
+    // unfinished run's frames, a clean run's pictures.
+    const std::string d = shell_quote(o.dir.string());
+    last += "; next: " + (verdict == "fail"         ? "ccfr plot " + d
+                          : verdict == "incomplete" ? "ccfr audit --partial " + d
+                                                    : "ccfr render " + d + " --sheet");
+    std::printf("%s\n", last.c_str());
     std::fflush(stdout);
     io::write_file_atomic(json, io::audit_report_json(res, verdict, code, unfinished && o.partial));
     return code;

@@ -71,7 +71,9 @@ int run_bench(const BenchOptions& o) {
   count("remaining", [](const FrameStats& f) { return f.violations_remaining; });
   count("halted", [](const FrameStats& f) { return f.halted_vertices; });
   count("outer iterations", [](const FrameStats& f) { return f.outer_iterations; });
-  std::printf("status: %s; %zu frames in %s\n", s.status.c_str(), s.frames.size(), format_duration(s.wall_s).c_str());
+  std::printf("status: %s; %zu frames in %s; next: ccfr run %s --out out/%s\n", s.status.c_str(), s.frames.size(),
+              format_duration(s.wall_s).c_str(), shell_quote(o.run.config.string()).c_str(),
+              shell_quote(o.run.config.stem().string()).c_str());
   return s.failed ? 1 : 0;
 }
 }  // namespace

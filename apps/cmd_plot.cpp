@@ -2,9 +2,11 @@
 // (ablation.png) with the plotting scripts shipped with ccfr. Exit codes: 0 drawn, 2 bad input
 // or no Python/matplotlib.
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -15,6 +17,8 @@
 #include "ccfr/io/user_file.hpp"
 #include "commands.hpp"
 #include "plot_script.hpp"
+#include "progress.hpp"
+#include "run_driver.hpp"
 
 namespace ccfr::app {
 
@@ -70,8 +74,18 @@ void check_stats_csv(const fs::path& csv) {
   if (header.empty()) throw Error(label + " is empty: not a ccfr stats.csv");
 }
 
+/// The first solver's run of an ablation (the first column of ablation.csv's first row).
+std::string first_ablation_run(const fs::path& csv) {
+  std::ifstream in(csv);
+  std::string line;
+  std::getline(in, line);  // the header
+  std::getline(in, line);
+  return line.substr(0, line.find(','));
+}
+
 int run_plot(const PlotOptions& o) {
   if (!fs::is_directory(o.dir)) throw Error("'" + o.dir.string() + "' is not a directory");
+  const auto t0 = std::chrono::steady_clock::now();
   const bool ablation = fs::is_regular_file(o.dir / "ablation.csv");
   if (!ablation && !fs::is_regular_file(o.dir / "stats.csv"))
     throw Error("'" + o.dir.string() + "' holds neither stats.csv (a run) nor ablation.csv (an ablation)");
@@ -84,7 +98,10 @@ int run_plot(const PlotOptions& o) {
   std::string message;
   if (!run_plot_script(ablation ? "plot_ablation.py" : "plot_stats.py", args, message, true))
     throw Error("no plot drawn: " + message);
-  std::printf("plot: %s\n", png.string().c_str());
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  // An ablation's next look is its runs' frames; a run's, its pictures.
+  std::printf("plot: %s in %s; next: ccfr render %s\n", png.string().c_str(), format_duration(secs).c_str(),
+              shell_quote((ablation ? o.dir / first_ablation_run(o.dir / "ablation.csv") : o.dir).string()).c_str());
   return 0;
 }
 }  // namespace

@@ -13,6 +13,7 @@
 #include "ccfr/render/render_run.hpp"
 #include "commands.hpp"
 #include "progress.hpp"
+#include "run_driver.hpp"
 
 namespace ccfr::app {
 
@@ -104,6 +105,7 @@ int run_render(const RenderCliOptions& o) {
   if (!s.sheet.empty()) std::printf("contact sheet: %s\n", s.sheet.string().c_str());
   if (!s.video.empty()) std::printf("video: %s\n", s.video.string().c_str());
   if (o.video && s.video.empty()) std::printf("%s\n", s.video_note.c_str());
+  std::printf("next: ccfr plot %s\n", shell_quote(o.dir.string()).c_str());
   return 0;
 }
 

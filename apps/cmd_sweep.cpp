@@ -892,6 +892,13 @@ int sweep_status(const fs::path& dir) {
   for (const auto& [k, n] : counts) summary += (summary.empty() ? "" : ", ") + std::to_string(n) + " " + k;
   std::printf("%zu cells: %s\n", s.cells.size(), summary.c_str());
   std::printf("frames: %ld of %ld (%.0f %%)\n", done, total, total > 0 ? 100.0 * done / total : 100.0);
+  // Every cell done: collect; some still running or queued: look again; otherwise resume the rest.
+  const std::string d = shell_quote(dir.string());
+  const bool waiting = counts.count("running") > 0 || counts.count("queued") > 0;
+  std::printf("next: %s\n", counts["completed"] == static_cast<int>(s.cells.size())
+                                ? ("ccfr sweep collect " + d).c_str()
+                            : waiting ? ("ccfr sweep status " + d).c_str()
+                                      : ("ccfr sweep resume " + d).c_str());
   return 0;
 }
 

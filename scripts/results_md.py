@@ -57,7 +57,8 @@ def audit_line(exe, d):
         out = subprocess.run([exe, "audit", d, "--stride", "1"], capture_output=True, text=True).stdout.strip().splitlines()
     else:
         return "not audited (no " + exe + ")"
-    return out[-1] if out else "audit failed"
+    # The verdict line, without the "; next: ..." the command appends for a person at a terminal.
+    return out[-1].split("; next: ")[0] if out else "audit failed"
 
 
 PAPER_CORES = 8  # Intel i9-11900: 8 cores, 16 hardware threads

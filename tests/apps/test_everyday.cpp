@@ -219,3 +219,34 @@ TEST(Everyday, RenderFramesTheSubjectNotTheFloor) {
   EXPECT_LT(std::abs(target_x("")), 0.1);
   EXPECT_GT(target_x(" --frame-all"), 2.0);
 }
+
+// The README's promise: every command's stdout ends with the command to run next, and that command
+// is one that works here (each is run in turn: audit -> render -> plot, ablate -> plot, sweep
+// status -> sweep collect, bench -> run).
+TEST(Everyday, EveryCommandEndsWithTheCommandToRunNext) {
+  const fs::path d = write_scene("next");
+  const std::string scene = (d / "scene.yaml").string();
+  const auto next_of = [](const std::string& out) {
+    std::string last = out.substr(0, out.find_last_not_of('\n') + 1);
+    last = last.substr(last.find_last_of('\n') + 1);
+    const size_t at = last.find("next: ccfr ");
+    EXPECT_NE(at, std::string::npos) << out;
+    return at == std::string::npos ? std::string() : last.substr(at + 11);
+  };
+  const auto run = [&](const std::string& args) {
+    const auto r = run_ccfr_split(args, d);
+    EXPECT_EQ(r.code, 0) << args << "\n" << r.out << r.err;
+    return r.out;
+  };
+  const std::string dir = (d / "r").string();
+  EXPECT_EQ(next_of(run("run '" + scene + "' --frames 2 --out '" + dir + "'")), "audit " + dir);
+  EXPECT_EQ(next_of(run("audit '" + dir + "'")), "render " + dir + " --sheet");
+  EXPECT_EQ(next_of(run("render '" + dir + "' --sheet --width 32 --height 24")), "plot " + dir);
+  EXPECT_EQ(next_of(run("plot '" + dir + "'")), "render " + dir);
+  const std::string ab = (d / "ab").string();
+  EXPECT_EQ(next_of(run("ablate '" + scene + "' --frames 1 --solvers none,ccfr --no-plot --out '" + ab + "'")),
+            "plot " + ab);
+  EXPECT_EQ(next_of(run("plot '" + ab + "'")), "render " + ab + "/none");  // the first solver's run
+  EXPECT_EQ(next_of(run("sweep status '" + ab + "'")), "sweep collect " + ab);
+  EXPECT_EQ(next_of(run("bench '" + scene + "' --frames 1")), "run " + scene + " --out out/scene");
+}
