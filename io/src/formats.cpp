@@ -9,10 +9,13 @@
 #include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <set>
 
@@ -487,14 +490,74 @@ std::string prim_name(const std::string& name, std::set<std::string>& used) {
   return u;
 }
 
+/// The USDA samples file of a run with neither obj nor pc2: "CCFRUSD1", the vertex count (uint32),
+/// then per frame its number (int32) and 3 n float32 positions, appended as the frames come.
+constexpr char kUsdaSamplesMagic[8] = {'C', 'C', 'F', 'R', 'U', 'S', 'D', '1'};
+fs::path usda_samples_path(const fs::path& dir) { return dir / "usd" / "scene.usda.samples"; }
+
+void start_usda_samples(const fs::path& dir, std::uint32_t n) {
+  make_dir(dir / "usd");
+  std::ofstream out(usda_samples_path(dir), std::ios::binary | std::ios::trunc);
+  out.write(kUsdaSamplesMagic, sizeof kUsdaSamplesMagic);
+  out.write(reinterpret_cast<const char*>(&n), sizeof n);
+  if (!out) throw Error("cannot write '" + usda_samples_path(dir).string() + "'");
+}
+
+/// The samples of `frames` from DIR's USDA samples file, in that order; throws naming the file if
+/// it is missing, of another vertex count, or lacks one of them.
+std::vector<std::vector<float>> read_usda_samples(const fs::path& dir, const std::vector<int>& frames,
+                                                  std::uint32_t n) {
+  const fs::path p = usda_samples_path(dir);
+  std::ifstream in(p, std::ios::binary);
+  char magic[8];
+  std::uint32_t count = 0;
+  if (!in || !in.read(magic, sizeof magic) || !std::equal(magic, magic + 8, kUsdaSamplesMagic) ||
+      !in.read(reinterpret_cast<char*>(&count), sizeof count))
+    throw Error("cannot resume '" + dir.string() + "': its USDA layer is rebuilt from '" + p.string() +
+                "' (output.formats has neither obj nor pc2), which is missing or not a ccfr samples file: run again");
+  if (count != n)
+    throw Error("cannot resume: '" + p.string() + "' holds " + std::to_string(count) + " vertices, the run has " +
+                std::to_string(n));
+  std::map<int, std::vector<float>> by_frame;
+  std::int32_t frame = 0;
+  std::vector<float> s(3 * static_cast<size_t>(n));
+  while (in.read(reinterpret_cast<char*>(&frame), sizeof frame) &&
+         in.read(reinterpret_cast<char*>(s.data()), static_cast<std::streamsize>(s.size() * sizeof(float))))
+    by_frame[frame] = s;  // a frame cut short by a kill is not whole and is left out
+  std::vector<std::vector<float>> out;
+  for (int f : frames) {
+    const auto it = by_frame.find(f);
+    if (it == by_frame.end())
+      throw Error("cannot resume: '" + p.string() + "' has no sample of frame " + std::to_string(f) +
+                  ", written before the checkpoint");
+    out.push_back(it->second);
+  }
+  return out;
+}
+
 class UsdaSink final : public FrameSink {
  public:
-  UsdaSink(const Topology& topo, double fps) : topo_(topo), fps_(fps) {}
-  void write(const fs::path&, int frame, double, const Positions& x, const VertexFields&) override {
+  UsdaSink(const Topology& topo, double fps, bool keep_samples) : topo_(topo), fps_(fps), keep_(keep_samples) {}
+  void write(const fs::path& dir, int frame, double, const Positions& x, const VertexFields&) override {
     frames_.push_back(frame);
     auto& s = samples_.emplace_back(3 * x.size());
     for (size_t v = 0; v < x.size(); ++v)
       for (int k = 0; k < 3; ++k) s[3 * v + k] = static_cast<float>(x[v][k]);
+    if (!keep_) return;
+    if (!started_) start_usda_samples(dir, static_cast<std::uint32_t>(x.size()));
+    started_ = true;
+    std::ofstream out(usda_samples_path(dir), std::ios::binary | std::ios::app);
+    const std::int32_t f = frame;
+    out.write(reinterpret_cast<const char*>(&f), sizeof f);
+    out.write(reinterpret_cast<const char*>(s.data()), static_cast<std::streamsize>(s.size() * sizeof(float)));
+    out.flush();
+    if (!out) throw Error("cannot write '" + usda_samples_path(dir).string() + "'");
+  }
+  void resume(const fs::path& dir, const ResumedFrames& before) override {
+    // The samples file is written again from the frames read back, as the uninterrupted run did.
+    if (keep_) start_usda_samples(dir, static_cast<std::uint32_t>(topo_.num_vertices()));
+    started_ = true;
+    FrameSink::resume(dir, before);
   }
   void finish(const fs::path& dir) override {
     if (frames_.empty()) return;
@@ -572,6 +635,8 @@ class UsdaSink final : public FrameSink {
   }
   const Topology& topo_;
   double fps_;
+  bool keep_ = false;     ///< keep the samples file (usda_keeps_samples)
+  bool started_ = false;  ///< the samples file was started by this sink
   std::vector<int> frames_;
   std::vector<std::vector<float>> samples_;
 };
@@ -611,11 +676,17 @@ void resume_frame_sinks(const std::vector<FrameSink*>& sinks, const fs::path& di
                         double fps) {
   ResumedFrames before{last, frames, {}, fps};
   auto has = [&](OutputFormat f) { return std::find(formats.begin(), formats.end(), f) != formats.end(); };
-  // Refused before any sink changes a file (the default FrameSink::resume would refuse it too, later).
-  if (has(OutputFormat::usda) && !has(OutputFormat::obj) && !has(OutputFormat::pc2) && !frames.empty())
-    throw Error("cannot resume '" + dir.string() +
-                "': its USDA layer is rebuilt from the frames written before the checkpoint, and output.formats has "
-                "neither obj nor pc2 to read them from: run again");
+  // Read before any sink changes a file: a USDA layer alone is rebuilt from its samples file.
+  if (usda_keeps_samples(formats) && !frames.empty()) {
+    auto samples = std::make_shared<std::vector<std::vector<float>>>(
+        read_usda_samples(dir, frames, static_cast<std::uint32_t>(topo.num_vertices())));
+    before.positions = [samples](size_t k, int) {
+      const std::vector<float>& s = (*samples)[k];
+      Positions x(s.size() / 3);
+      for (size_t v = 0; v < x.size(); ++v) x[v] = Vec3(s[3 * v], s[3 * v + 1], s[3 * v + 2]);
+      return x;
+    };
+  }
   // OBJ frames hold the exact positions; PC2 holds them as float, which is all USDA writes.
   if (has(OutputFormat::obj)) {
     before.positions = [dir, &topo](size_t, int frame) {
@@ -644,7 +715,13 @@ void resume_frame_sinks(const std::vector<FrameSink*>& sinks, const fs::path& di
   for (const auto& [rank, s] : order) s->resume(dir, before);
 }
 
-std::unique_ptr<FrameSink> make_frame_sink(OutputFormat format, const Topology& topo, double fps, int every) {
+bool usda_keeps_samples(const std::vector<OutputFormat>& formats) {
+  auto has = [&](OutputFormat f) { return std::find(formats.begin(), formats.end(), f) != formats.end(); };
+  return has(OutputFormat::usda) && !has(OutputFormat::obj) && !has(OutputFormat::pc2);
+}
+
+std::unique_ptr<FrameSink> make_frame_sink(OutputFormat format, const Topology& topo, double fps, int every,
+                                           const std::vector<OutputFormat>& formats) {
   switch (format) {
     case OutputFormat::ply:
       return std::make_unique<PlySink>(topo);
@@ -653,7 +730,7 @@ std::unique_ptr<FrameSink> make_frame_sink(OutputFormat format, const Topology& 
     case OutputFormat::pc2:
       return std::make_unique<Pc2Sink>(topo, fps, every);
     case OutputFormat::usda:
-      return std::make_unique<UsdaSink>(topo, fps);
+      return std::make_unique<UsdaSink>(topo, fps, usda_keeps_samples(formats));
     case OutputFormat::obj:
       break;
   }

@@ -293,7 +293,7 @@ RunWriter::RunWriter(fs::path dir, const Topology& topo, std::string resolved_co
   create_dirs(dir_ / "frames");
   remove_stale_temporaries(dir_);
   for (OutputFormat f : meta_.formats)
-    if (f != OutputFormat::obj) sinks_.push_back(make_frame_sink(f, topo_, meta_.fps, meta_.every));
+    if (f != OutputFormat::obj) sinks_.push_back(make_frame_sink(f, topo_, meta_.fps, meta_.every, meta_.formats));
 }
 
 RunWriter::RunWriter(fs::path dir, const Topology& topo, std::string resolved_config_json, RunMeta meta,
@@ -348,7 +348,7 @@ RunWriter::RunWriter(fs::path dir, const Topology& topo, std::string resolved_co
   std::vector<FrameSink*> sinks;
   for (OutputFormat f : meta_.formats)
     if (f != OutputFormat::obj)
-      sinks.push_back(sinks_.emplace_back(make_frame_sink(f, topo_, meta_.fps, meta_.every)).get());
+      sinks.push_back(sinks_.emplace_back(make_frame_sink(f, topo_, meta_.fps, meta_.every, meta_.formats)).get());
   resume_frame_sinks(sinks, final_, topo_, meta_.formats, resume.frame, before, meta_.fps);
   std::error_code ec;
   create_dirs(final_ / "frames");

@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -439,15 +440,14 @@ TEST_P(ResumeFormats, ResumedOutputIsByteIdenticalToAnUninterruptedRun) {
     EXPECT_EQ(a.count(file), formats.find(format) != std::string::npos ? 1u : 0u) << file;
 }
 
-INSTANTIATE_TEST_SUITE_P(Formats, ResumeFormats,
-                         ::testing::Values(FormatCase{"vtu", "[obj,vtu]", 1, SIGTERM},
-                                           FormatCase{"pc2", "[obj,pc2]", 2, SIGKILL},
-                                           FormatCase{"usda", "[obj,usda]", 1, SIGKILL},
-                                           FormatCase{"ply", "[obj,ply]", 1, SIGKILL},
-                                           FormatCase{"all", "[obj,ply,vtu,pc2,usda]", 2, SIGTERM},
-                                           FormatCase{"pc2_usda_no_obj", "[pc2,usda]", 1, SIGTERM},
-                                           FormatCase{"vtu_no_obj", "[vtu]", 1, SIGKILL}),
-                         [](const ::testing::TestParamInfo<FormatCase>& i) { return std::string(i.param.name); });
+INSTANTIATE_TEST_SUITE_P(
+    Formats, ResumeFormats,
+    ::testing::Values(FormatCase{"vtu", "[obj,vtu]", 1, SIGTERM}, FormatCase{"pc2", "[obj,pc2]", 2, SIGKILL},
+                      FormatCase{"usda", "[obj,usda]", 1, SIGKILL}, FormatCase{"ply", "[obj,ply]", 1, SIGKILL},
+                      FormatCase{"all", "[obj,ply,vtu,pc2,usda]", 2, SIGTERM},
+                      FormatCase{"pc2_usda_no_obj", "[pc2,usda]", 1, SIGTERM},
+                      FormatCase{"vtu_no_obj", "[vtu]", 1, SIGKILL}, FormatCase{"usda_only", "[usda]", 1, SIGKILL}),
+    [](const ::testing::TestParamInfo<FormatCase>& i) { return std::string(i.param.name); });
 
 // A run stopped without a checkpoint to resume from (output.checkpoint_every: 0) cannot be
 // resumed: its summary gives the same command again, not `ccfr audit` (exit 4 on a cut-short run).
@@ -473,20 +473,26 @@ TEST(InterruptedRun, WithoutCheckpointNamesTheSameCommandAgain) {
 
 // USDA alone: nothing the run wrote holds the frames before the checkpoint once a SIGKILL left no
 // layer, so the resume is refused, naming why, before any file changes.
-TEST(InterruptedRun, UsdaWithoutObjOrPc2IsRefusedNamingWhy) {
+TEST(InterruptedRun, UsdaAloneWithoutItsSamplesFileIsRefusedNamingIt) {
   const fs::path root = ccfr::test::scratch_dir("resume_formats_usda_only");
   const fs::path dir = root / "run";
   auto r = run_ccfr("run '" + config("stress/cloth_near_floor.yaml") +
                     "' --frames 5 --set output.checkpoint_every=2 --set 'output.formats=[usda]' --out '" +
                     dir.string() + "' --log-level warn");
   ASSERT_EQ(r.code, 0) << r.out;
+  // A layer alone keeps its samples (the only copy of the frames before a checkpoint): 6 frames.
+  const fs::path samples = dir / "usd" / "scene.usda.samples";
+  ASSERT_TRUE(fs::exists(samples));
+  const auto n = static_cast<std::uintmax_t>(nlohmann::json::parse(read(dir / "run.json"))["vertices"].get<long>());
+  EXPECT_EQ(fs::file_size(samples), 12 + 6 * (4 + 12 * n));
   auto rj = nlohmann::json::parse(read(dir / "run.json"));
   rj["status"] = "running";  // as if cut short after its checkpoint of frame 4
   write(dir / "run.json", rj.dump());
+  fs::remove(samples);
   const std::string layer = read(dir / "usd" / "scene.usda"), stats = read(dir / "stats.csv");
   r = run_ccfr("run --resume '" + dir.string() + "'");
   EXPECT_EQ(r.code, 2) << r.out;
-  EXPECT_NE(r.out.find("output.formats has neither obj nor pc2"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("scene.usda.samples"), std::string::npos) << r.out;
   EXPECT_EQ(read(dir / "usd" / "scene.usda"), layer);
   EXPECT_EQ(read(dir / "stats.csv"), stats);
 }

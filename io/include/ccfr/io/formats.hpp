@@ -73,14 +73,19 @@ void replay_frames(const std::vector<FrameSink*>& sinks, const std::filesystem::
 
 /// Resumes every sink of a run in `dir` after frame `last` (FrameSink::resume): the frames before
 /// are read back from the OBJ frames if `formats` has obj, else from the PC2 caches if it has
-/// pc2. `sinks` are those of `formats` but obj, in that order. Throws ccfr::Error naming the file
-/// that is missing or does not fit, before any file is changed where it can tell in advance.
+/// pc2, else from the USDA samples file. `sinks` are those of `formats` but obj, in that order. Throws ccfr::Error
+/// naming the file that is missing or does not fit, before any file is changed where it can tell in advance.
 void resume_frame_sinks(const std::vector<FrameSink*>& sinks, const std::filesystem::path& dir, const Topology& topo,
                         const std::vector<OutputFormat>& formats, int last, const std::vector<int>& frames, double fps);
 
 /// A sink for `format` (not obj: the OBJ frames are RunWriter's own). `every` is output.every
-/// (the PC2 sample rate in frames).
-std::unique_ptr<FrameSink> make_frame_sink(OutputFormat format, const Topology& topo, double fps, int every);
+/// (the PC2 sample rate in frames). `formats`: all the run writes; a USDA layer with neither obj
+/// nor pc2 beside it keeps its samples on disk as it goes (usd/scene.usda.samples), the only copy
+/// a resume can rebuild it from (a layer is written whole at the end).
+std::unique_ptr<FrameSink> make_frame_sink(OutputFormat format, const Topology& topo, double fps, int every,
+                                           const std::vector<OutputFormat>& formats = {});
+/// Whether a run writing `formats` keeps the USDA samples file (see make_frame_sink).
+bool usda_keeps_samples(const std::vector<OutputFormat>& formats);
 
 /// Folders a format writes into, relative to the run directory ("frames", "vtk", "blender", "usd").
 std::string format_folder(OutputFormat format);
