@@ -1,6 +1,6 @@
 // `ccfr ablate CONFIG --solvers a,b,c --out DIR`: the same scene once per contact solver, each run
 // audited, compared in DIR/ablation.csv, DIR/ablation.md and DIR/ablation.png. The solvers-only
-// case of `ccfr sweep` (sweep.hpp): the cells are DIR/<solver>, DIR/sweep.json describes them.
+// case of `ccfr sweep` (sweep_runner.hpp): the cells are DIR/<solver>, DIR/sweep.json describes them.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -22,7 +22,7 @@
 #include "plot_script.hpp"
 #include "progress.hpp"
 #include "run_driver.hpp"
-#include "sweep.hpp"
+#include "sweep_runner.hpp"
 
 namespace ccfr::app {
 

@@ -33,7 +33,7 @@
 #include "frame_summary.hpp"
 #include "progress.hpp"
 #include "run_driver.hpp"
-#include "sweep.hpp"
+#include "sweep_runner.hpp"
 
 namespace ccfr::app {
 

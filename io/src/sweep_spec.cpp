@@ -4,7 +4,7 @@
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/io/scene_loader.hpp"
-#include "ccfr/io/sweep.hpp"
+#include "ccfr/io/sweep_spec.hpp"
 #include "ccfr/io/user_file.hpp"
 #include "ccfr/solvers/contact_solver.hpp"
 #include "scene_schema.hpp"

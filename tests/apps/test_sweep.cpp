@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "ccfr/core/error.hpp"
-#include "ccfr/io/sweep.hpp"
+#include "ccfr/io/sweep_spec.hpp"
 #include "ccfr/solvers/contact_solver.hpp"
 #include "cli_support.hpp"
 

@@ -1,13 +1,14 @@
 #pragma once
 // Sweeps (`ccfr sweep`, `ccfr ablate`): cells of scene × solver × parameter values, each one run
 // directory DIR/<cell id>, run here (local backend) or as a Slurm job array, then collected into
-// one table. docs/cluster.md.
+// one table. docs/cluster.md. What the cells are (the SPEC.yaml parser and the expansion) is
+// ccfr/io/sweep_spec.hpp; how they run is here, implemented in cmd_sweep.cpp.
 #include <cmath>
 #include <filesystem>
 #include <string>
 #include <vector>
 
-#include "ccfr/io/sweep.hpp"
+#include "ccfr/io/sweep_spec.hpp"
 
 namespace ccfr::app {
 

@@ -1,5 +1,5 @@
 #pragma once
-/// @file sweep.hpp
+/// @file sweep_spec.hpp
 /// Sweep specifications (`ccfr sweep SPEC.yaml`, docs/cluster.md): base configs × contact solvers ×
 /// parameter values, expanded into cells with stable ids. Loaded strictly: unknown keys, wrong
 /// types and empty lists are ccfr::ConfigError naming the file, key path and line.
