@@ -9,7 +9,7 @@
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
 #include "ccfr/core/parallel.hpp"
-#include "ccfr/io/run_info.hpp"
+#include "ccfr/io/run_json.hpp"
 #include "ccfr/render/render_run.hpp"
 #include "commands.hpp"
 #include "progress.hpp"
@@ -62,7 +62,7 @@ int run_render(const RenderCliOptions& o) {
   opt.render.ground = !o.no_ground;
   opt.render.strand_radius = o.strand_radius;
   opt.render.point_radius = o.point_radius;
-  opt.render.offset_hint = info.offset;
+  opt.render.offset_hint = info.meta.contact.offset;
   opt.render.up = render::parse_axis(o.up);
   opt.render.fov_deg = o.fov;
   if (!o.camera.empty()) opt.camera = render::parse_camera(o.camera, opt.render.up);
@@ -72,7 +72,7 @@ int run_render(const RenderCliOptions& o) {
   opt.sheet_frames = o.sheet_frames;
   opt.sheet_columns = o.sheet_columns;
   opt.video = o.video;
-  opt.fps = o.fps > 0 ? o.fps : (info.fps > 0 ? info.fps : 30.0);
+  opt.fps = o.fps > 0 ? o.fps : (info.meta.fps > 0 ? info.meta.fps : 30.0);
 
   const size_t count = render::select_frames(info.frames.size(), o.every).size();
   std::printf("render %s: %zu of %zu frames at %dx%d, %d threads -> %s\n", o.dir.string().c_str(), count,

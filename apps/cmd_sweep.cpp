@@ -27,7 +27,7 @@
 #include "ccfr/io/obj.hpp"
 #include "ccfr/io/output.hpp"
 #include "ccfr/io/run_audit.hpp"
-#include "ccfr/io/run_info.hpp"
+#include "ccfr/io/run_json.hpp"
 #include "ccfr/io/scene_loader.hpp"
 #include "commands.hpp"
 #include "frame_summary.hpp"
@@ -185,7 +185,7 @@ int run_cell(const fs::path& dir, long index, int threads) {
   // rerun into the same directory with other --frames or --set starts the cell again instead of
   // reusing (or resuming) a run of the old one.
   std::string changed;
-  bool completed = io::is_ccfr_run(out) && io::read_run_info(out).status == "completed";
+  bool completed = io::is_ccfr_run(out) && io::read_run_info(out).progress.status == "completed";
   if (completed) {
     const Json run = read_json(out / "run.json");
     try {
@@ -453,7 +453,7 @@ int run_local(const SweepLayout& s, const std::vector<size_t>& indices, int jobs
     const int code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
     const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     const std::string status =
-        io::is_ccfr_run(s.dir / s.cells[i].id) ? io::read_run_info(s.dir / s.cells[i].id).status : "no run";
+        io::is_ccfr_run(s.dir / s.cells[i].id) ? io::read_run_info(s.dir / s.cells[i].id).progress.status : "no run";
     if (code != 0 && code != 3) ++failed;
     progress.clear();
     // A failed cell is worth a warning (shown under --quiet); its log says why.
@@ -578,7 +578,7 @@ std::string cell_state(const SweepLayout& s, size_t i, const std::map<size_t, st
   // A live process holds the cell's lock: it runs, whatever run.json says (its sweep may be gone).
   if (io::lock_holder(out)) return "running";
   if (!io::is_ccfr_run(out)) return it != slurm.end() ? "lost (" + it->second + ", no run)" : "not started";
-  const std::string status = io::read_run_info(out).status;
+  const std::string status = io::read_run_info(out).progress.status;
   if (status == "completed") return "completed";
   if (it != slurm.end() && it->second.rfind("CANCELLED", 0) == 0) return "cancelled";
   if (it != slurm.end() && it->second == "TIMEOUT") return "timeout";

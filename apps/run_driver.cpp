@@ -19,7 +19,7 @@
 #include "ccfr/io/checkpoint.hpp"
 #include "ccfr/io/dir_lock.hpp"
 #include "ccfr/io/obj.hpp"
-#include "ccfr/io/run_info.hpp"
+#include "ccfr/io/run_json.hpp"
 #include "ccfr/io/run_recorder.hpp"
 #include "ccfr/io/scene_loader.hpp"
 #include "progress.hpp"
@@ -257,7 +257,7 @@ RunSummary run_scene(const RunOptions& opts) {
 
   if (resume) {
     const io::RunInfo info = io::read_run_info(opts.resume);
-    if (info.status == "completed") {
+    if (info.progress.status == "completed") {
       summary.nothing_to_resume = true;
       summary.resumed_after = resume->ckpt.sim.frame;
       return summary;

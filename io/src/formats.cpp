@@ -22,7 +22,7 @@
 #include "ccfr/core/error.hpp"
 #include "ccfr/io/frame_topology.hpp"
 #include "ccfr/io/obj.hpp"
-#include "ccfr/io/run_info.hpp"
+#include "ccfr/io/run_json.hpp"
 
 namespace ccfr::io {
 
@@ -764,7 +764,7 @@ int export_run(const fs::path& run_dir, const std::vector<OutputFormat>& formats
   make_dir(out);
   const Frame first = read_frame_obj(info.frames.front());
   const Topology topo = topology_from_frame(first, info.frames.front());
-  const double fps = info.fps > 0 ? info.fps : 60.0;
+  const double fps = info.meta.fps > 0 ? info.meta.fps : 60.0;
   auto number = [](const fs::path& p) { return std::stoi(p.stem().string().substr(6)); };
   const int every = info.frames.size() > 1 ? std::max(1, number(info.frames[1]) - number(info.frames[0])) : 1;
   std::vector<std::unique_ptr<FrameSink>> sinks;

@@ -501,48 +501,16 @@ void RunWriter::finish(const std::string& status) {
 }
 
 void RunWriter::write_run_json(const std::string& status, bool finished) {
-  Json j;
-  j["ccfr"] = {{"version", version()}, {"git_commit", git_commit()}};
-  j["scene"] = meta_.scene;
-  j["solver"] = meta_.solver;
-  j["broad_phase"] = meta_.broad_phase;
-  j["radius"] = meta_.radius;
-  j["offset"] = meta_.offset;
-  j["repulsion_range"] = meta_.repulsion_range;
-  j["fps"] = meta_.fps;
-  j["threads"] = meta_.threads;
-  j["command_line"] = meta_.command_line;
-  if (!meta_.argv.empty()) j["argv"] = meta_.argv;
-  j["start_time"] = start_time_;
-  j["end_time"] = finished ? Json(utc_now()) : Json(nullptr);
-  j["status"] = status;
-  j["frames_written"] = frames_written_;
-  if (!resumed_json_.empty()) j["resumed"] = Json::parse(resumed_json_);
-  if (!stop_json_.empty()) j["stop"] = Json::parse(stop_json_);
-  j["vertices"] = topo_.num_vertices();
-  if (meta_.memory_estimate > 0)
-    j["memory"] = {{"estimate_bytes", meta_.memory_estimate},
-                   {"limit_bytes", meta_.memory_limit},
-                   {"peak_resident_bytes", peak_resident_bytes()}};
-  if (meta_.scene_fingerprint != 0) {
-    char fp[24];
-    std::snprintf(fp, sizeof fp, "%016llx", static_cast<unsigned long long>(meta_.scene_fingerprint));
-    j["scene_fingerprint"] = fp;
-  }
-  if (const auto& ip = meta_.initial_proximity) {
-    j["initial_proximity"] = {{"adjacent_excluded", ip->adjacent_excluded},
-                              {"adjacent_kept", ip->adjacent_kept},
-                              {"reduced_offset_pairs", ip->reduced_offset},
-                              {"min_reduced_offset", ip->min_reduced_offset},
-                              {"intersecting_pairs", ip->intersecting_pairs},
-                              {"intersecting_excluded", ip->intersecting_excluded},
-                              {"shortest_edge", std::isfinite(ip->shortest_edge) ? Json(ip->shortest_edge) : Json()}};
-  }
-  // The resolved configuration is already JSON: embed it as such (a string only if it is not).
-  Json config = Json::parse(config_json_, nullptr, /*allow_exceptions=*/false);
-  j["config"] = config.is_discarded() ? Json(config_json_) : std::move(config);
-  // Invalid UTF-8 (a byte string from the scene file) is replaced rather than aborting the run.
-  write_file_atomic(dir_ / "run.json", j.dump(2, ' ', false, Json::error_handler_t::replace) + "\n");
+  RunProgress p;
+  p.start_time = start_time_;
+  if (finished) p.end_time = utc_now();
+  p.status = status;
+  p.frames_written = frames_written_;
+  p.resumed_json = resumed_json_;
+  p.stop_json = stop_json_;
+  p.vertices = topo_.num_vertices();
+  if (meta_.memory_estimate > 0) p.peak_resident_bytes = peak_resident_bytes();
+  write_file_atomic(dir_ / "run.json", format_run_json(meta_, p, config_json_));
 }
 
 }  // namespace ccfr::io

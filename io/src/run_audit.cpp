@@ -12,7 +12,7 @@
 #include "ccfr/core/error.hpp"
 #include "ccfr/io/frame_topology.hpp"
 #include "ccfr/io/obj.hpp"
-#include "ccfr/io/run_info.hpp"
+#include "ccfr/io/run_json.hpp"
 
 namespace ccfr::io {
 
@@ -115,19 +115,20 @@ RunAuditResult audit_run(const fs::path& dir, const RunAuditOptions& o, const Fr
   RunAuditResult res;
   res.dir = dir;
   res.has_run_json = info.has_run_json;
-  res.status = info.status;
-  res.offset = o.offset ? *o.offset : info.offset;
+  res.status = info.progress.status;
+  res.offset = o.offset ? *o.offset : info.meta.contact.offset;
   res.offset_source = o.offset ? "--offset" : "run.json";
   res.tolerance = o.tolerance;
   res.stride = std::max(1, o.stride);
   if (!(res.offset > 0.0))
-    throw Error("no positive offset xi: run.json has offset " + std::to_string(info.offset) + "; pass --offset");
+    throw Error("no positive offset xi: run.json has offset " + std::to_string(info.meta.contact.offset) +
+                "; pass --offset");
   const std::vector<FrameFile> frames = frame_files(dir);
   if (frames.empty()) throw Error("no frames in '" + (dir / "frames").string() + "'");
   // run.json counts the frames at the end of a run (not while it is "running").
-  if (info.has_run_json && !info.status.empty() && info.status != "running" && info.frames_written >= 0 &&
-      static_cast<size_t>(info.frames_written) != frames.size())
-    throw Error("'" + (dir / "run.json").string() + "' records " + std::to_string(info.frames_written) +
+  if (info.has_run_json && !info.progress.status.empty() && info.progress.status != "running" &&
+      info.progress.frames_written >= 0 && static_cast<size_t>(info.progress.frames_written) != frames.size())
+    throw Error("'" + (dir / "run.json").string() + "' records " + std::to_string(info.progress.frames_written) +
                 " frames written, but '" + (dir / "frames").string() + "' holds " + std::to_string(frames.size()));
 
   // The exclusions come from frame 0 (or an explicit reference): a later frame as reference would
@@ -146,8 +147,8 @@ RunAuditResult audit_run(const fs::path& dir, const RunAuditOptions& o, const Fr
   // A sequence with a hole certifies nothing about the hole: refuse it, naming what is missing.
   {
     const long first = o.reference.empty() ? 0 : frames.front().number;
-    const std::vector<long> missing = missing_frames(
-        frames, first, info.has_run_json ? std::optional<long>(info.output_every) : std::optional<long>());
+    const std::vector<long> missing =
+        missing_frames(frames, first, info.has_run_json ? std::optional<long>(info.meta.every) : std::optional<long>());
     if (!missing.empty()) {
       std::string list;
       for (size_t i = 0; i < missing.size() && i < 20; ++i) list += (i ? ", " : "") + std::to_string(missing[i]);

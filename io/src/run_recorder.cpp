@@ -13,10 +13,15 @@ namespace ccfr::io {
 
 RunMeta make_run_meta(const Simulation& sim, std::string command_line, std::vector<std::string> argv) {
   const SimulationParams& p = sim.scene().params;
-  RunMeta meta{p.scene_name,     p.contact.solver, p.collision.broad_phase,
-               p.contact.radius, p.contact.offset, p.contact.repulsion_range,
-               p.time.fps,       thread_count(),   std::move(command_line),
-               std::move(argv),  std::nullopt};
+  RunMeta meta;
+  meta.scene = p.scene_name;
+  meta.solver = p.contact.solver;
+  meta.broad_phase = p.collision.broad_phase;
+  meta.contact = p.contact;  // the ContactModel part of ContactParams: r, ξ, δ, friction
+  meta.fps = p.time.fps;
+  meta.threads = thread_count();
+  meta.command_line = std::move(command_line);
+  meta.argv = std::move(argv);
   if (const CollisionDetector* det = sim.contact_solver().collision_detector())
     meta.initial_proximity = det->initial_proximity();
   if (!p.output.formats.empty()) meta.formats = parse_output_formats(p.output.formats);

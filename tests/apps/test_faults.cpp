@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "ccfr/io/obj.hpp"
-#include "ccfr/io/run_info.hpp"
+#include "ccfr/io/run_json.hpp"
 #include "cli_support.hpp"
 
 namespace fs = std::filesystem;
@@ -305,5 +305,5 @@ TEST(Faults, RunJsonIsValidJsonAndRecordsTheWholeCommandLine) {
   EXPECT_EQ(j["status"], "completed");
   EXPECT_EQ(j["frames_written"], 2);
   // The library reader used by audit and render reads it back.
-  EXPECT_EQ(ccfr::io::read_run_info(out).status, "completed");
+  EXPECT_EQ(ccfr::io::read_run_info(out).progress.status, "completed");
 }

@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "ccfr/io/dir_lock.hpp"
-#include "ccfr/io/run_info.hpp"
+#include "ccfr/io/run_json.hpp"
 #include "cli_support.hpp"
 
 namespace fs = std::filesystem;

@@ -205,6 +205,8 @@ struct InitialProximity {
   double min_reduced_offset = 0.0;  ///< smallest initial reduced offset (0 if none)
   /// Shortest edge at rest over deformable objects (cloth, shell, tet, strand); infinity if none.
   double shortest_edge = 0.0;
+
+  bool operator==(const InitialProximity&) const = default;
 };
 
 /// Collision detection for one scene. Owns the primitive set, the broad phase and the exclusions

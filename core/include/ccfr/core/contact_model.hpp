@@ -12,6 +12,8 @@ struct ContactModel {
   double repulsion_range = 0.0005;  ///< δ: repulsion acts while the gap beyond ξ is below δ; widens the boxes
   double friction_static = 0.0;     ///< μ_s
   double friction_kinetic = 0.0;    ///< μ_k
+
+  bool operator==(const ContactModel&) const = default;
 };
 
 }  // namespace ccfr

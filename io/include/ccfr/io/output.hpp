@@ -1,6 +1,7 @@
 #pragma once
 /// @file output.hpp
 /// The output directory contract: run.json, frames/frame_NNNNN.obj, stats.csv (docs/output.md).
+/// What run.json holds is RunMeta and RunProgress (run_json.hpp).
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -12,6 +13,7 @@
 #include "ccfr/core/topology.hpp"
 #include "ccfr/io/dir_lock.hpp"
 #include "ccfr/io/formats.hpp"
+#include "ccfr/io/run_json.hpp"
 #include "ccfr/solvers/simulation.hpp"
 
 namespace ccfr::io {
@@ -20,26 +22,6 @@ namespace ccfr::io {
 const std::string& stats_header();
 /// One stats.csv row (no trailing newline).
 std::string stats_row(const FrameStats& s);
-
-struct RunMeta {
-  std::string scene, solver, broad_phase;
-  double radius = 0, offset = 0, repulsion_range = 0, fps = 0;
-  int threads = 0;
-  std::string command_line;       ///< the command as typed (arguments shell-quoted where needed)
-  std::vector<std::string> argv;  ///< every argument, exactly; empty: not recorded
-  /// What the initial configuration did to contact (clarification 5), when the solver detects.
-  std::optional<InitialProximity> initial_proximity;
-  /// output.formats (docs/interop.md); obj writes frames/frame_NNNNN.obj.
-  std::vector<OutputFormat> formats{OutputFormat::obj};
-  int every = 1;       ///< output.every (the PC2 sample rate)
-  bool frames = true;  ///< output.frames: false writes no frame in any format
-  /// scene_fingerprint() of the run's initial scene, written to run.json so that a resume can tell
-  /// a checkpoint of this run from one copied from another (0: not recorded).
-  std::uint64_t scene_fingerprint = 0;
-  /// The loader's memory estimate and the limit the run is held to (bytes; 0: not recorded).
-  /// run.json's `memory` adds this process's peak resident memory so far.
-  double memory_estimate = 0, memory_limit = 0;
-};
 
 /// True if DIR/run.json is a JSON object with the ccfr marker (`"ccfr": {"version": ...}`).
 bool is_ccfr_run(const std::filesystem::path& dir);
