@@ -1,6 +1,7 @@
 // `ccfr ablate CONFIG --solvers a,b,c --out DIR`: the same scene once per contact solver, each run
 // audited, compared in DIR/ablation.csv, DIR/ablation.md and DIR/ablation.png. The solvers-only
 // case of `ccfr sweep` (sweep_runner.hpp): the cells are DIR/<solver>, DIR/sweep.json describes them.
+#include <spdlog/spdlog.h>
 #include <chrono>
 #include <cmath>
 #include <cstdio>

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <optional>
 
+#include <spdlog/spdlog.h>
 #include <nlohmann/json.hpp>
 
 #include "ccfr/core/error.hpp"

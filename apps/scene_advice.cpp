@@ -6,6 +6,7 @@
 #include "ccfr/geometry/distance.hpp"
 #include "ccfr/geometry_exact/predicates.hpp"
 
+#include <spdlog/spdlog.h>
 #include <algorithm>
 #include <cmath>
 #include <limits>

@@ -1,7 +1,5 @@
 #include "ccfr/collision/collision_detector.hpp"
 
-#include <spdlog/spdlog.h>
-
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -9,6 +7,7 @@
 
 #include "ccfr/core/block_cursors.hpp"
 #include "ccfr/core/error.hpp"
+#include "ccfr/core/log.hpp"
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/core/timer.hpp"
 #include "ccfr/geometry/adjacency.hpp"
@@ -696,7 +695,7 @@ void CollisionDetector::compute_exclusions(const Positions& initial) {
   }
 
   const InitialProximity& ip = proximity_;
-  spdlog::info(
+  log::info(
       "collision: {} primitives; initial configuration: {} sub-pairs closer than the offset {} ({} adjacent, "
       "kept with a fixed reduced offset; {} others kept with a rising reduced offset), {} intersecting primitive "
       "pairs ({} sub-pairs excluded)",
@@ -705,14 +704,14 @@ void CollisionDetector::compute_exclusions(const Positions& initial) {
                     [&](const CloseSubPair& c) { return c.distance < params_.offset; }),
       params_.offset, ip.adjacent_kept, ip.reduced_offset, ip.intersecting_pairs, ip.intersecting_excluded);
   if (ip.reduced_offset > 0)
-    spdlog::warn(
+    log::warn(
         "collision: {} sub-pairs that are not neighbours on a mesh start closer than the offset {} (closest "
         "{:.4g}); they keep contact with their initial distance less {:.0f}% as offset, raised toward {} as they "
         "separate",
         ip.reduced_offset, params_.offset, ip.min_reduced_offset / (1.0 - kInitialOffsetMargin),
         100.0 * kInitialOffsetMargin, params_.offset);
   if (ip.adjacent_kept > 0 && shortest_object >= 0)
-    spdlog::warn(
+    log::warn(
         "collision: the offset {} is large against the mesh (shortest edge {:.4g} in object '{}'): {} sub-pairs "
         "joined by a path of at most {:.4g} along the mesh start closer than the offset; they keep their rest "
         "distance less {:.0f}% as offset for the run, so the surface resists being compressed more than that "
@@ -720,7 +719,7 @@ void CollisionDetector::compute_exclusions(const Positions& initial) {
         params_.offset, ip.shortest_edge, topo_.objects[shortest_object].name, ip.adjacent_kept,
         kAdjacencyRadiusInOffsets * params_.offset, 100.0 * kInitialOffsetMargin);
   if (ip.intersecting_pairs > 0)
-    spdlog::warn(
+    log::warn(
         "collision: {} primitive pairs intersect in the initial configuration; their {} sub-pairs are excluded "
         "for the run",
         ip.intersecting_pairs, ip.intersecting_excluded);
@@ -745,15 +744,15 @@ void CollisionDetector::restore_reduced_offsets(std::span<const double> offsets)
   for (size_t i = 0; i < offsets.size(); ++i)
     if (!std::isfinite(offsets[i]) || offsets[i] < reduced_offset_[i] || offsets[i] > xi)
       throw Error(
-          fmt::format("collision state: reduced offset {} is {:.17g}, outside [{:.17g}, {:.17g}] (its initial "
-                      "value and the offset)",
-                      i, offsets[i], reduced_offset_[i], xi));
+          ccfr::format("collision state: reduced offset {} is {:.17g}, outside [{:.17g}, {:.17g}] (its initial "
+                       "value and the offset)",
+                       i, offsets[i], reduced_offset_[i], xi));
   for (size_t i = 0; i < offsets.size(); ++i)
     if (reduced_fixed_[i] && offsets[i] != reduced_offset_[i])
       throw Error(
-          fmt::format("collision state: reduced offset {} belongs to an adjacent sub-pair and is fixed at "
-                      "{:.17g}, got {:.17g}",
-                      i, reduced_offset_[i], offsets[i]));
+          ccfr::format("collision state: reduced offset {} belongs to an adjacent sub-pair and is fixed at "
+                       "{:.17g}, got {:.17g}",
+                       i, reduced_offset_[i], offsets[i]));
   reduced_offset_.assign(offsets.begin(), offsets.end());
   // Exactly the slots raise_reduced_offsets() would have kept: those still below ξ, ascending,
   // except the adjacent ones, which never rise.

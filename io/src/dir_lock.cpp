@@ -160,8 +160,8 @@ DirLock DirLock::acquire(const fs::path& dir, const std::string& command) {
     }
     const LockHolder old = read_record(fd);
     if (old.pid > 0)
-      spdlog::info("took over the stale lock of '{}' left by {} (that process no longer holds it)", dir.string(),
-                   old.describe());
+      log::info("took over the stale lock of '{}' left by {} (that process no longer holds it)", dir.string(),
+                old.describe());
     nlohmann::json rec = {{"pid", static_cast<long>(::getpid())},
                           {"host", host_name()},
                           {"command", command.empty() ? std::string("ccfr") : command},

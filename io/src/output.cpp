@@ -166,7 +166,7 @@ void recover_commit(const fs::path& dir) {
         if (const int err = rename_error(staged / n, dir / n))
           throw Error("cannot finish replacing the run in '" + dir.string() + "' that a killed ccfr left half done: " +
                       "cannot move '" + (staged / n).string() + "' into it: " + std::strerror(err));
-      spdlog::warn("finished replacing the run in '{}' that a killed ccfr left half done", dir.string());
+      log::warn("finished replacing the run in '{}' that a killed ccfr left half done", dir.string());
     } else if (!fs::exists(old / kCommitMarker, ec)) {
       // Killed while moving the previous run out: put it back.
       for (const auto& n : own_entries(old))
@@ -174,7 +174,7 @@ void recover_commit(const fs::path& dir) {
           if (const int err = rename_error(old / n, dir / n))
             throw Error("cannot restore '" + (dir / n).string() + "' from '" + (old / n).string() +
                         "' (a killed ccfr left it there): " + std::strerror(err));
-      spdlog::warn("restored the previous run in '{}' that a killed ccfr had begun to replace", dir.string());
+      log::warn("restored the previous run in '{}' that a killed ccfr had begun to replace", dir.string());
     }
     fs::remove_all(old, ec);
     if (ec) throw Error("cannot remove '" + old.string() + "' (left by a killed ccfr): " + ec.message());
@@ -371,9 +371,8 @@ RunWriter::~RunWriter() {
     std::error_code ec;
     fs::remove_all(staging_, ec);
     if (ec)
-      spdlog::error(
-          "cannot remove the unfinished run in '{}': {}; the previous run in '{}' is kept, remove it yourself",
-          staging_.string(), ec.message(), final_.string());
+      log::error("cannot remove the unfinished run in '{}': {}; the previous run in '{}' is kept, remove it yourself",
+                 staging_.string(), ec.message(), final_.string());
   }
 }
 
@@ -469,7 +468,7 @@ void RunWriter::commit() {
   if (ec) {
     cleanup_error_ = "the run is in '" + final_.string() + "', but the previous run's files could not be removed (" +
                      ec.message() + "): they are in '" + old.string() + "'; remove it yourself";
-    spdlog::error("{}", cleanup_error_);
+    log::error("{}", cleanup_error_);
   }
 }
 
@@ -482,7 +481,7 @@ void RunWriter::discard() {
   if (ec) {
     cleanup_error_ = "the unfinished run in '" + staging_.string() + "' could not be removed (" + ec.message() +
                      "); the previous run in '" + final_.string() + "' is kept; remove it yourself";
-    spdlog::error("{}", cleanup_error_);
+    log::error("{}", cleanup_error_);
   }
 }
 

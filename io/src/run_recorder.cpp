@@ -52,14 +52,14 @@ AuditHook make_audit_hook(const Topology& topo, const Positions& initial, const 
   opt.tolerance = params.debug.audit_tolerance;
   opt.object_roles = audit_object_roles(topo, params);
   if (opt.offset <= 0.0) {
-    spdlog::warn("debug.audit needs contact.offset > 0; the audit is off for this run");
+    log::warn("debug.audit needs contact.offset > 0; the audit is off for this run");
     return {};
   }
   auto audit = std::make_shared<exact::PenetrationAudit>(topo, initial, opt);
   if (audit_out) *audit_out = audit;
   return [audit](const Positions& x) {
     const exact::FrameAudit fa = audit->audit_next(x);  // in order: raises the reduced offsets
-    if (!fa.clean() && !fa.examples.empty()) spdlog::debug("audit: {}", fa.examples.front().describe());
+    if (!fa.clean() && !fa.examples.empty()) log::debug("audit: {}", fa.examples.front().describe());
     return fa.penetrations();
   };
 }

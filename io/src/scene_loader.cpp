@@ -247,17 +247,17 @@ class Builder {
       geoms.push_back(std::move(g));
     }
     charge_contact(total, reach(p), p.contact.offset);
-    if (spdlog::should_log(spdlog::level::debug)) {
+    if (log::enabled(log::Level::debug)) {
       std::string detail;
       for (const ObjectCost& c : costs_)
-        detail += fmt::format(
+        detail += ccfr::format(
             "; '{}' {} v={} sv={} f={} t={} e={} h={:.4g} area={:.4g} rho={:.4g} driven={:.0f} "
             "strand={:.0f} fine={:.0f} grains={:.0f} cross={:.0f} patch={:.0f}: {:.1f} MB",
             printable(c.name), to_string(c.kind), c.counts.v, c.counts.sv, c.counts.f, c.counts.t, c.counts.e,
             c.counts.h, c.counts.area, c.counts.rho, c.counts.driven, c.counts.strand, c.counts.fine, c.counts.grains,
             c.counts.cross, c.counts.patch, object_bytes(c.counts) / 1e6);
-      spdlog::debug("{}: estimated memory {:.1f} MB ({} vertices{}), limit {}", ctx_.file, estimate_bytes(total) / 1e6,
-                    count_str(total.v), detail, gigabytes(memory_limit_()));
+      log::debug("{}: estimated memory {:.1f} MB ({} vertices{}), limit {}", ctx_.file, estimate_bytes(total) / 1e6,
+                 count_str(total.v), detail, gigabytes(memory_limit_()));
     }
     // The contact term needs every object: the whole scene is held to the limit once more.
     check_total(total);
@@ -906,7 +906,7 @@ class Builder {
       const std::string msg = face(first_zero) + " has zero area (its vertices coincide or are collinear)" +
                               (zero_area > 1 ? "; " + std::to_string(zero_area) + " such faces in all" : std::string());
       if (kind != ObjectKind::obstacle) fail(msg);
-      spdlog::warn("{}: {}: {}: {}", ctx_.file, path, what, msg);
+      log::warn("{}: {}: {}: {}", ctx_.file, path, what, msg);
     }
     // Duplicate faces (the same three vertices in any order).
     std::vector<std::pair<std::array<Index, 3>, size_t>> sorted(faces.size());
@@ -942,7 +942,7 @@ class Builder {
           "edge " + edge_str(nm_edge) + " of " + face(first_nm) + " is shared by more than two faces (non-manifold)" +
           (non_manifold > 1 ? "; " + std::to_string(non_manifold) + " such edges in all" : std::string());
       if (solid) fail(msg);
-      spdlog::warn("{}: {}: {}: {}", ctx_.file, path, what, msg);
+      log::warn("{}: {}: {}: {}", ctx_.file, path, what, msg);
     }
     const std::string needs = rigid ? "a rigid body needs a closed surface (its mass comes from the enclosed volume)"
                                     : "a tet_solid from a surface needs a closed surface (tetgen fills the inside)";
@@ -970,11 +970,11 @@ class Builder {
     const double diagonal = (hi - lo).norm();
     if (!(props.volume > 1e-9 * diagonal * diagonal * diagonal))
       fail(
-          fmt::format("the closed surface encloses no volume ({:.3g} m³ inside a bounding box of diagonal {:.3g} m): "
-                      "a flat surface cannot be a solid",
-                      props.volume, diagonal));
+          ccfr::format("the closed surface encloses no volume ({:.3g} m³ inside a bounding box of diagonal {:.3g} m): "
+                       "a flat surface cannot be a solid",
+                       props.volume, diagonal));
     if (props.inverted)
-      spdlog::info("{}: {}: {}: faces wound inward; taken as the solid they enclose", ctx_.file, path, what);
+      log::info("{}: {}: {}: faces wound inward; taken as the solid they enclose", ctx_.file, path, what);
   }
 
   /// A rotation by a non-zero angle about the zero vector has no axis: it used to be skipped.
@@ -1007,7 +1007,7 @@ class Builder {
       if (!(v[i].cwiseAbs().maxCoeff() <= kMaxCoordinate))
         ctx_.fail(path + ".transform", in_node(path),
                   "object '" + name + "': vertex " + std::to_string(i + 1) + " lies at (" +
-                      fmt::format("{:g}, {:g}, {:g}", v[i].x(), v[i].y(), v[i].z()) +
+                      ccfr::format("{:g}, {:g}, {:g}", v[i].x(), v[i].y(), v[i].z()) +
                       ") once placed, beyond +-1e6 m, ccfr's bound on coordinates (check the mesh's unit and "
                       "transform.scale)");
   }
@@ -1103,7 +1103,7 @@ class Builder {
           const double turn = deg - sign * prev_deg;
           if (std::abs(turn) >= 180.0)
             ctx_.fail(p + ".rotate_deg", in_node(p + ".rotate_deg"),
-                      "turns " + fmt::format("{:g}", turn) +
+                      "turns " + ccfr::format("{:g}", turn) +
                           "° from the key before; keys are interpolated the "
                           "shorter way round (slerp, at most 180°), so this turn would not happen: split it into keys "
                           "less than 180° apart",
@@ -1206,7 +1206,7 @@ class Builder {
           const RigidVertexMasses m = rigid_vertex_masses(xs, local, rho, props);
           for (Index v = o.vertex_begin; v < o.vertex_end; ++v) st.mass[v] = m.vertex[v - o.vertex_begin];
           if (!m.exact)
-            spdlog::info(
+            log::info(
                 "{}: objects[{}] ('{}'): its {} vertices cannot carry the solid's inertia tensor (off by {:.1f}%, "
                 "e.g. every vertex on a cylinder's rim); mass {:.6g} kg and centre of mass are exact",
                 ctx_.file, oi, o.name, o.num_vertices(), 100.0 * m.inertia_error, rho * props.volume);

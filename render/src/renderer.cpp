@@ -71,7 +71,7 @@ double median_point_spacing(const io::Frame& frame) {
 }
 
 void embree_error(void* /*user*/, RTCError code, const char* message) {
-  spdlog::error("embree error {}: {}", static_cast<int>(code), message ? message : "");
+  log::error("embree error {}: {}", static_cast<int>(code), message ? message : "");
 }
 
 }  // namespace

@@ -182,8 +182,8 @@ std::optional<Index> DetectingSolver::count_outside(const Positions& x, const Po
     last_violation_ = std::string(kKind[static_cast<int>(c.kind)]) + " pair between " + obj(c.v[0]) + " (vertex " +
                       std::to_string(c.v[0]) + ") and " + obj(c.v[c.side_a()]) + " (vertex " +
                       std::to_string(c.v[c.side_a()]) + ") at distance " +
-                      fmt::format("{:.9g} ({:.6f} of its offset {:.6g})", pair_distance(c, x),
-                                  pair_distance(c, x) / c.offset, c.offset);
+                      ccfr::format("{:.9g} ({:.6f} of its offset {:.6g})", pair_distance(c, x),
+                                   pair_distance(c, x) / c.offset, c.offset);
   }
   return close.load();
 }

@@ -493,13 +493,13 @@ MaterialSystem::MaterialSystem(const Topology& topo, const SimState& state, cons
       Index skipped = 0;
       for (Index t = o.tet_begin; t < o.tet_end; ++t)
         if (!tets_.add(topo.tets[t], rest, mat.volume_compliance, mat.shear_compliance)) ++skipped;
-      if (skipped > 0) spdlog::warn("object '{}': {} degenerate rest tets get no material constraint", o.name, skipped);
+      if (skipped > 0) log::warn("object '{}': {} degenerate rest tets get no material constraint", o.name, skipped);
     } else if (o.kind == ObjectKind::rigid && o.num_vertices() > 0) {
       rigid_.add(o.vertex_begin, o.vertex_end, rest, inv_mass);
     }
   }
   if (skipped_bending > 0)
-    spdlog::warn("{} interior edges with degenerate rest triangles get no bending constraint", skipped_bending);
+    log::warn("{} interior edges with degenerate rest triangles get no bending constraint", skipped_bending);
 
   distance_.finalize(nv, inv_mass);
   bending_.finalize(nv, inv_mass);

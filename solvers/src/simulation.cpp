@@ -74,7 +74,7 @@ Simulation::Simulation(Scene scene) : scene_(std::move(scene)) {
   contact_->initialize(topo, st, params);
   check_finite(st.x, "initial state");
   const auto mc = materials_.counts();
-  spdlog::info(
+  log::info(
       "scene '{}': {} objects, {} vertices, {} faces, {} edges, {} tets; constraints: {} distance, {} bending, "
       "{} strand bending, {} tet, {} rigid bodies ({} colours); {} kinematic vertices; contact solver '{}'",
       params.scene_name, topo.objects.size(), topo.num_vertices(), topo.num_faces(), topo.num_edges(), topo.tets.size(),
@@ -309,11 +309,12 @@ int Simulation::subdivision(double dt) {
     if (worst_kin >= 0 && kin / tp.max_subdivision > r) {
       const auto& o = scene_.topo.object_of_vertex(worst_kin);
       const int needed = static_cast<int>(std::ceil(tp.substeps * kin / (0.9 * r)));
-      throw GuaranteeError(
-          frame_ + 1, "scripted vertices of object '" + o.name + "' move " + fmt::format("{:.4g}", kin) +
-                          " per substep, more than time.max_subdivision = " + std::to_string(tp.max_subdivision) +
-                          " pieces of r = " + fmt::format("{:.4g}", r) + " can absorb; set time.substeps to at least " +
-                          std::to_string(needed) + " or raise time.max_subdivision");
+      throw GuaranteeError(frame_ + 1,
+                           "scripted vertices of object '" + o.name + "' move " + ccfr::format("{:.4g}", kin) +
+                               " per substep, more than time.max_subdivision = " + std::to_string(tp.max_subdivision) +
+                               " pieces of r = " + ccfr::format("{:.4g}", r) +
+                               " can absorb; set time.substeps to at least " + std::to_string(needed) +
+                               " or raise time.max_subdivision");
     }
     pieces = tp.max_subdivision;  // dynamic speed beyond the cap: report_capped_speed names it
   }
@@ -327,7 +328,7 @@ void Simulation::report_capped_speed(Index vertex, double advance, double dt) {
   warned_capped_[oi] = true;
   const auto& p = scene_.params;
   const int n = p.time.iteration_bound();
-  spdlog::warn(
+  log::warn(
       "frame {}: object '{}' wants to move {:.4g} m in a substep piece ({:.3g} m/s) but the step bound allows "
       "{} iterations x r = {:.4g} m: it is slowed to {:.3g} m/s (counted in clamped_vertices). Raise "
       "time.max_iterations, time.substeps or time.max_subdivision, or contact.radius",
@@ -415,10 +416,10 @@ StopReport Simulation::diagnose_stop(Index remaining, int substep_index, int ite
     for (Index v = o.vertex_begin; v < o.vertex_end && static_cast<size_t>(v) < kinematic_step_.size(); ++v)
       if (!(st.inv_mass[v] > 0.0)) step = std::max(step, kinematic_step_[v].norm());
     if (step > fastest) fastest = step, fastest_object = o.name;
-    rep.held_by.push_back(fmt::format("'{}' ({}{})", o.name, to_string(o.kind),
-                                      step > 0.0
-                                          ? fmt::format(", scripted, {:.3g} m per substep piece", step)
-                                          : std::string(o.kind == ObjectKind::obstacle ? ", fixed" : ", pinned")));
+    rep.held_by.push_back(ccfr::format("'{}' ({}{})", o.name, to_string(o.kind),
+                                       step > 0.0
+                                           ? ccfr::format(", scripted, {:.3g} m per substep piece", step)
+                                           : std::string(o.kind == ObjectKind::obstacle ? ", fixed" : ", pinned")));
   }
   // The cause, most specific first.
   bool fixed_pair = false, empty = false, halted_any = false;
@@ -445,27 +446,27 @@ StopReport Simulation::diagnose_stop(Index remaining, int substep_index, int ite
   const double xi = p.contact.offset, r = p.contact.radius;
   if (!fastest_object.empty())
     rep.suggestions.push_back(
-        fmt::format("slow the scripted motion of '{}' ({:.3g} m per substep piece against "
-                    "r = {:.3g}) or stop it before it closes the gap",
-                    fastest_object, fastest, r));
+        ccfr::format("slow the scripted motion of '{}' ({:.3g} m per substep piece against "
+                     "r = {:.3g}) or stop it before it closes the gap",
+                     fastest_object, fastest, r));
   if (rep.cause == "iterations_ran_out" || !fastest_object.empty())
-    rep.suggestions.push_back(fmt::format("raise time.substeps (now {}) for smaller steps", p.time.substeps));
+    rep.suggestions.push_back(ccfr::format("raise time.substeps (now {}) for smaller steps", p.time.substeps));
   if (rep.cause == "iterations_ran_out")
     rep.suggestions.push_back(
-        fmt::format("raise time.max_iterations (now {}: all {} outer iterations ran with {} "
-                    "vertices still held back)",
-                    p.time.max_iterations, iterations, held_back));
+        ccfr::format("raise time.max_iterations (now {}: all {} outer iterations ran with {} "
+                     "vertices still held back)",
+                     p.time.max_iterations, iterations, held_back));
   if (rep.cause == "region_empty" || holders.size() >= 2 || rep.cause == "fixed_pair")
     rep.suggestions.push_back(
-        fmt::format("give the squeezed objects room: a gap narrower than their offsets "
-                    "(contact.offset = {:.3g} per pair) cannot hold them; lower the offset, or "
-                    "move the objects that cannot move apart",
-                    xi));
+        ccfr::format("give the squeezed objects room: a gap narrower than their offsets "
+                     "(contact.offset = {:.3g} per pair) cannot hold them; lower the offset, or "
+                     "move the objects that cannot move apart",
+                     xi));
   if (rep.cause == "halted" || rep.cause == "unresolved")
     rep.suggestions.push_back(
-        fmt::format("raise time.substeps (now {}) or contact.radius (r = {:.3g}) so that "
-                    "vertices can get away in time",
-                    p.time.substeps, r));
+        ccfr::format("raise time.substeps (now {}) or contact.radius (r = {:.3g}) so that "
+                     "vertices can get away in time",
+                     p.time.substeps, r));
   rep.suggestions.push_back(
       "contact.on_violation: warn continues past it (the frames then keep the violations; ccfr audit reports them)");
   return rep;
@@ -511,7 +512,7 @@ void Simulation::check_violations(Index remaining, int substep_index, int iterat
   if (!fatal) {
     if (!warned_violation_) {
       const std::string example = contact_->last_violation();
-      spdlog::error(
+      log::error(
           "frame {}: {} violation(s) remain at the end of substep {} under contact solver '{}'{}; continuing "
           "(contact.on_violation: warn)",
           frame_ + 1, remaining, substep_index + 1, contact_->name(),
@@ -532,7 +533,7 @@ void Simulation::check_violations(Index remaining, int substep_index, int iterat
     for (size_t i = 0; i < rep.pairs.size(); ++i) {
       const auto& pr = rep.pairs[i];
       what += (i ? "; " : "") + pr.kind + " " + describe_side(pr.a) + " - " + describe_side(pr.b) +
-              fmt::format(" at {:.6g} ({:.4f} of its offset {:.6g})", pr.distance, pr.distance / pr.offset, pr.offset);
+              ccfr::format(" at {:.6g} ({:.4f} of its offset {:.6g})", pr.distance, pr.distance / pr.offset, pr.offset);
     }
   }
   static const std::map<std::string, std::string> kCause = {
@@ -548,8 +549,8 @@ void Simulation::check_violations(Index remaining, int substep_index, int iterat
        "the regions were not empty and the iterations did not run out, yet the pair ended inside its "
        "offset"}};
   what += ". Cause: " + kCause.at(rep.cause) +
-          fmt::format(" ({} of {} outer iterations ran, {} vertices held back at the end)", rep.iterations,
-                      rep.iteration_bound, rep.held_back);
+          ccfr::format(" ({} of {} outer iterations ran, {} vertices held back at the end)", rep.iterations,
+                       rep.iteration_bound, rep.held_back);
   if (!rep.held_by.empty()) {
     what += ". Held by: ";
     for (size_t i = 0; i < rep.held_by.size(); ++i) what += (i ? ", " : "") + rep.held_by[i];
@@ -613,9 +614,9 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
   const bool kin_moves = kin_step > 0.0;
   if (kin_step > params.contact.radius * (1.0 + 1e-9) && contact_->clamps_to_radius())
     throw GuaranteeError(frame_ + 1,
-                         fmt::format("scripted vertices move {:.4g} in one substep piece, more than r = {:.4g}, "
-                                     "after subdivision; raise time.substeps",
-                                     kin_step, params.contact.radius));
+                         ccfr::format("scripted vertices move {:.4g} in one substep piece, more than r = {:.4g}, "
+                                      "after subdivision; raise time.substeps",
+                                      kin_step, params.contact.radius));
 
   anchor_ = st.x;
   StepContext ctx{scene_.topo, params, dt, frame_ + 1, substep_index, 0, fs.times};
@@ -801,7 +802,7 @@ void Simulation::check_audit(Index penetrations) {
   const std::string what = "the in-simulation audit (debug.audit) found " + std::to_string(penetrations) +
                            " penetration(s) under contact solver '" + std::string(contact_->name()) + "'";
   if (fatal) throw GuaranteeError(frame_ + 1, what + "; stopping before the frame is written");
-  spdlog::error("frame {}: {}; continuing (contact.on_violation: warn)", frame_ + 1, what);
+  log::error("frame {}: {}; continuing (contact.on_violation: warn)", frame_ + 1, what);
 }
 
 namespace {
