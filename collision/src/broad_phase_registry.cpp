@@ -1,23 +1,15 @@
-// The broad-phase registry and its built-in entries (docs/extending.md).
-#include "ccfr/collision/broad_phase.hpp"
+// The broad-phase registry (docs/extending.md): the built-in entries are the files of
+// collision/src/broad_phase/, registered in the order of their names.
+#include "builtin_broad_phases.hpp"
 
 namespace ccfr {
 
 BroadPhaseRegistry& broad_phases() {
   static BroadPhaseRegistry registry = [] {
     BroadPhaseRegistry r("broad phase");
-    r.add({"bvh",
-           "flat BVH over the primitive boxes, built at each frame's first pass and refitted in the others, parallel "
-           "self-query (default, fastest measured)",
-           {},
-           [](const ParamValues&) { return std::make_unique<BvhBroadPhase>(); }});
-    r.add({"fcl", "FCL's dynamic AABB tree (single-threaded)", {}, [](const ParamValues&) {
-             return std::make_unique<FclBroadPhase>();
-           }});
-    r.add({"brute_force",
-           "tests every pair of boxes, O(P²): a reference for tests and tiny scenes",
-           {},
-           [](const ParamValues&) { return std::make_unique<BruteForceBroadPhase>(); }});
+#define CCFR_BUILTIN_BROAD_PHASE(key) register_broad_phase_##key(r);
+#include "builtin_broad_phases.inc"
+#undef CCFR_BUILTIN_BROAD_PHASE
     return r;
   }();
   return registry;

@@ -67,7 +67,7 @@ TEST_P(EveryProjector, RandomRegionsEndFeasibleOrSayTheyDoNot) {
   EXPECT_GT(counts[1], 1000);  // the generator produces plenty of violations
 }
 
-INSTANTIATE_TEST_SUITE_P(Feasibility, EveryProjector, ::testing::Values("plesnik", "successive_projection", "exact"),
+INSTANTIATE_TEST_SUITE_P(Feasibility, EveryProjector, ::testing::ValuesIn(projector_names()),
                          [](const auto& info) { return info.param; });
 
 TEST(ExactProjector, AgreesWithBruteForceReferenceOnRandomRegions) {

@@ -3,7 +3,7 @@
 /// Broad phase: given one box per collision primitive, report every pair of overlapping boxes.
 /// Implementations are interchangeable behind this batch interface and selected by name
 /// (`collision.broad_phase` in YAML) through the registry broad_phases(). Adding one is one new
-/// source file and its registration (docs/extending.md).
+/// file, collision/src/broad_phase/<key>.cpp (docs/extending.md).
 #include <cstdint>
 #include <memory>
 #include <span>
