@@ -2,6 +2,8 @@
 // docs/config.md is generated from it (`ccfr schema`), and a test checks that they agree.
 #include "scene_schema.hpp"
 
+#include "scene/shapes.hpp"
+
 #include "ccfr/collision/broad_phase.hpp"
 #include "ccfr/core/topology.hpp"
 #include "ccfr/io/formats.hpp"
@@ -14,25 +16,6 @@ using namespace schema;
 
 namespace {
 
-// Bounds on physical magnitudes: a value beyond them is a typo (1e300 for 1e3), not a scene. They
-// are far beyond any scene ccfr is meant for and leave products such as velocity x time finite.
-constexpr double kMaxLength = 1e4;    ///< m: coordinates, sizes, lengths, translations
-constexpr double kMaxSpeed = 1e4;     ///< m/s: velocities
-constexpr double kMaxAngular = 1e4;   ///< rad/s
-constexpr double kMaxAccel = 1e4;     ///< m/s²: gravity
-constexpr double kMaxTime = 1e9;      ///< s: motion start/end
-constexpr double kMaxScale = 1e4;     ///< uniform scale
-constexpr double kMaxAngleDeg = 1e6;  ///< degrees
-constexpr double kMaxDensity = 1e6;   ///< kg/m³ (and the per-area, per-length, per-particle variants)
-constexpr double kMaxFps = 1e6;
-/// XPBD compliances (m/N, 1/(N m), 1/Pa): 1e6 is softer than any material (the defaults are 0 to
-/// 1e-3); 1e308 overflowed α / Δt² to inf and the run stopped on a non-finite position.
-constexpr double kMaxCompliance = 1e6;
-/// Repulsion stiffness k (its compliance is 1/k): both ends kept where 1/k and k Δt² stay finite.
-constexpr double kMinStiffness = 1e-6, kMaxStiffness = 1e12;
-/// Friction coefficients: a Coulomb coefficient of 100 already sticks every contact.
-constexpr double kMaxFriction = 100;
-
 NodePtr required_choice(std::function<std::vector<std::string>()> choices, std::string doc) {
   auto n = choice("", std::move(choices), std::move(doc));
   n->default_yaml.reset();
@@ -40,15 +23,14 @@ NodePtr required_choice(std::function<std::vector<std::string>()> choices, std::
   return n;
 }
 
-/// A vec3 the user must give (vec3 without a default is optional: `rotate_axis` and the like).
+}  // namespace
+
 NodePtr required_vec3(std::string doc, Range r) {
   auto n = vec3(std::nullopt, std::move(doc), r);
   n->optional_absent = false;
   n->required = true;
   return n;
 }
-
-}  // namespace
 
 // The choice tables: the one mapping between the schema's choice strings and the C++ values.
 const scene::ChoiceTable<TimeParams::Continuation>& continuation_choices() {
@@ -242,70 +224,8 @@ namespace {
 NodePtr motion_schema(std::string doc) { return optional_map(std::move(doc), motion_section().fields()); }
 
 NodePtr shape_schema() {
-  const Range pos = Range::positive_up_to(kMaxLength), nonneg = Range::up_to(kMaxLength), one = Range::at_least(1);
-  return variant(
-      "the object's geometry: a generator or a mesh file", "type",
-      {
-          {"grid", map("rectangular cloth in the x-z plane, normal +y",
-                       {{"size", vec2(std::nullopt, "side lengths [x, z] (m)", pos)},
-                        {"resolution", ivec2(std::nullopt, "cells per side [x, z]", one)}})},
-          {"strands",
-           map("straight or curly strands hanging along -y",
-               {{"count", integer(1, "number of strands", one)},
-                {"vertices", integer(20, "vertices per strand", Range::at_least(2))},
-                {"length", number(1.0, "strand length along -y (m)", pos)},
-                {"spread", number(0.0, "roots spread on a square of this side (m)", nonneg)},
-                {"coil_radius", number(0.0, "helix radius; 0 gives straight strands (m)", nonneg)},
-                {"turns", number(0.0, "helix turns per strand", nonneg)},
-                {"layout", choice(
-                               strand_layout_choices().name(false), [] { return strand_layout_choices().names(); },
-                               "roots on a square grid, or on one row along x")}})},
-          {"particles", map("a lattice block of free particles",
-                            {{"counts", ivec3(std::nullopt, "particles per axis [x, y, z]", one)},
-                             {"spacing", number(0.01, "lattice spacing (m)", pos)}})},
-          {"tet_box", map("a tetrahedralised box (6 tets per cell)",
-                          {{"size", required_vec3("box size [x, y, z] (m)", pos)},
-                           {"resolution", ivec3(std::array<long long, 3>{2, 2, 2}, "cells per axis", one)}})},
-          {"sphere", map("icosphere", {{"radius", number(0.5, "radius (m)", pos)},
-                                       {"subdivisions", integer(3, "icosahedron subdivisions", Range{0, 7})}})},
-          {"cylinder", map("cylinder along y", {{"radius", number(0.5, "radius (m)", pos)},
-                                                {"height", number(1.0, "height (m)", pos)},
-                                                {"segments", integer(32, "segments around", Range::at_least(3))},
-                                                {"capped", boolean(true, "close the ends")}})},
-          {"box", map("closed box, outward normals", {{"size", required_vec3("size [x, y, z] (m)", pos)}})},
-          {"open_box", map("floor and four walls, open at the top, normals inward",
-                           {{"size", required_vec3("size [x, y, z] (m)", pos)}})},
-          {"plane",
-           map("square plane in the x-z plane, normal +y",
-               {{"size", number(10.0, "side length (m)", pos)}, {"resolution", integer(1, "cells per side", one)}})},
-          {"octopus", map("procedural octopus-like tet solid: a cubic body with tentacles (the paper's octopus mesh is "
-                          "not published)",
-                          {{"cell", number(0.05, "edge of the voxel cells (m)", pos)},
-                           {"body", integer(4, "body cells per axis", Range::at_least(2))},
-                           {"legs", integer(8, "number of tentacles", nonneg)},
-                           {"leg_length", integer(8, "cells per tentacle", nonneg)}})},
-          {"comb", map("procedural comb: a spine box with teeth hanging below (the paper's comb mesh is not published)",
-                       {{"length", number(1.0, "spine length along x (m)", pos)},
-                        {"width", number(0.05, "thickness along z (m)", pos)},
-                        {"spine_height", number(0.1, "spine height (m)", pos)},
-                        {"teeth", integer(12, "number of teeth", one)},
-                        {"tooth_length", number(0.4, "tooth length below the spine (m)", pos)},
-                        {"tooth_width", number(0.02, "tooth width along x (m)", pos)}})},
-          // Mesh inputs (docs/interop.md).
-          {"mesh",
-           map("a mesh file: Wavefront .obj (triangles; `l` lines for strands; a closed surface makes a "
-               "tet_solid through the tetgen program), TetGen .node/.ele or Gmsh .msh (v2, v4 ASCII) tet "
-               "meshes for tet_solid",
-               {{"path", string(std::nullopt, "path, relative to the scene file")},
-                {"quality", number(2.0,
-                                   "tet_solid from a surface .obj or .off: tetgen's radius-edge ratio bound (-q); 0 "
-                                   "turns quality refinement off",
-                                   Range::up_to(100))},
-                {"max_volume", number(0.0,
-                                      "tet_solid from a surface .obj or .off: largest tet volume (m³ of "
-                                      "the placed object, after transform.scale; tetgen -a); 0 means no bound",
-                                      Range::up_to(kMaxLength))}})},
-      });
+  // The variants are declared with their readers (scene/shapes.cpp, scene/mesh_sources.cpp).
+  return variant("the object's geometry: a generator or a mesh file", "type", scene::shape_variants());
 }
 
 /// A registered parameter as a schema node: type, default, range and doc come from the registry.

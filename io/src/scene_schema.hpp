@@ -5,6 +5,29 @@
 #include "schema.hpp"
 
 namespace ccfr::io {
+
+// Bounds on physical magnitudes: a value beyond them is a typo (1e300 for 1e3), not a scene. They
+// are far beyond any scene ccfr is meant for and leave products such as velocity x time finite.
+inline constexpr double kMaxLength = 1e4;    ///< m: coordinates, sizes, lengths, translations
+inline constexpr double kMaxSpeed = 1e4;     ///< m/s: velocities
+inline constexpr double kMaxAngular = 1e4;   ///< rad/s
+inline constexpr double kMaxAccel = 1e4;     ///< m/s²: gravity
+inline constexpr double kMaxTime = 1e9;      ///< s: motion start/end
+inline constexpr double kMaxScale = 1e4;     ///< uniform scale
+inline constexpr double kMaxAngleDeg = 1e6;  ///< degrees
+inline constexpr double kMaxDensity = 1e6;   ///< kg/m³ (and the per-area, per-length, per-particle variants)
+inline constexpr double kMaxFps = 1e6;
+/// XPBD compliances (m/N, 1/(N m), 1/Pa): 1e6 is softer than any material (the defaults are 0 to
+/// 1e-3); 1e308 overflowed α / Δt² to inf and the run stopped on a non-finite position.
+inline constexpr double kMaxCompliance = 1e6;
+/// Repulsion stiffness k (its compliance is 1/k): both ends kept where 1/k and k Δt² stay finite.
+inline constexpr double kMinStiffness = 1e-6, kMaxStiffness = 1e12;
+/// Friction coefficients: a Coulomb coefficient of 100 already sticks every contact.
+inline constexpr double kMaxFriction = 100;
+
+/// A vec3 the user must give (vec3 without a default is optional: `rotate_axis` and the like).
+schema::NodePtr required_vec3(std::string doc, schema::Range r);
+
 /// The scene file schema (see docs/config.md).
 const schema::NodePtr& scene_schema();
 /// The schema of one entry of `materials`.

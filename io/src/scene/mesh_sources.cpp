@@ -3,13 +3,32 @@
 #include <algorithm>
 #include <cctype>
 
+#include "../scene_schema.hpp"
 #include "ccfr/core/error.hpp"
 #include "ccfr/io/obj.hpp"
 #include "ccfr/io/tet_mesh.hpp"
 #include "ccfr/io/user_file.hpp"
 #include "input.hpp"
+#include "shapes.hpp"
 
 namespace ccfr::io::scene {
+
+schema::NodePtr mesh_schema() {
+  using namespace schema;
+  return map(
+      "a mesh file: Wavefront .obj (triangles; `l` lines for strands; a closed surface makes a "
+      "tet_solid through the tetgen program), TetGen .node/.ele or Gmsh .msh (v2, v4 ASCII) tet "
+      "meshes for tet_solid",
+      {{"path", string(std::nullopt, "path, relative to the scene file")},
+       {"quality", number(2.0,
+                          "tet_solid from a surface .obj or .off: tetgen's radius-edge ratio bound (-q); 0 "
+                          "turns quality refinement off",
+                          Range::up_to(100))},
+       {"max_volume", number(0.0,
+                             "tet_solid from a surface .obj or .off: largest tet volume (m³ of "
+                             "the placed object, after transform.scale; tetgen -a); 0 means no bound",
+                             Range::up_to(kMaxLength))}});
+}
 
 RawGeometry read_mesh_file(const Input& in, const YAML::Node& s, ObjectKind kind, const std::string& path, double scale,
                            const std::function<void(bool, const std::string&)>& require) {
