@@ -2,6 +2,8 @@
 // docs/config.md is generated from it (`ccfr schema`), and a test checks that they agree.
 #include "scene_schema.hpp"
 
+#include "scene/shapes.hpp"
+
 #include "ccfr/collision/broad_phase.hpp"
 #include "ccfr/core/topology.hpp"
 #include "ccfr/io/formats.hpp"
@@ -14,25 +16,6 @@ using namespace schema;
 
 namespace {
 
-// Bounds on physical magnitudes: a value beyond them is a typo (1e300 for 1e3), not a scene. They
-// are far beyond any scene ccfr is meant for and leave products such as velocity x time finite.
-constexpr double kMaxLength = 1e4;    ///< m: coordinates, sizes, lengths, translations
-constexpr double kMaxSpeed = 1e4;     ///< m/s: velocities
-constexpr double kMaxAngular = 1e4;   ///< rad/s
-constexpr double kMaxAccel = 1e4;     ///< m/s²: gravity
-constexpr double kMaxTime = 1e9;      ///< s: motion start/end
-constexpr double kMaxScale = 1e4;     ///< uniform scale
-constexpr double kMaxAngleDeg = 1e6;  ///< degrees
-constexpr double kMaxDensity = 1e6;   ///< kg/m³ (and the per-area, per-length, per-particle variants)
-constexpr double kMaxFps = 1e6;
-/// XPBD compliances (m/N, 1/(N m), 1/Pa): 1e6 is softer than any material (the defaults are 0 to
-/// 1e-3); 1e308 overflowed α / Δt² to inf and the run stopped on a non-finite position.
-constexpr double kMaxCompliance = 1e6;
-/// Repulsion stiffness k (its compliance is 1/k): both ends kept where 1/k and k Δt² stay finite.
-constexpr double kMinStiffness = 1e-6, kMaxStiffness = 1e12;
-/// Friction coefficients: a Coulomb coefficient of 100 already sticks every contact.
-constexpr double kMaxFriction = 100;
-
 NodePtr required_choice(std::function<std::vector<std::string>()> choices, std::string doc) {
   auto n = choice("", std::move(choices), std::move(doc));
   n->default_yaml.reset();
@@ -40,7 +23,8 @@ NodePtr required_choice(std::function<std::vector<std::string>()> choices, std::
   return n;
 }
 
-/// A vec3 the user must give (vec3 without a default is optional: `rotate_axis` and the like).
+}  // namespace
+
 NodePtr required_vec3(std::string doc, Range r) {
   auto n = vec3(std::nullopt, std::move(doc), r);
   n->optional_absent = false;
@@ -48,89 +32,200 @@ NodePtr required_vec3(std::string doc, Range r) {
   return n;
 }
 
-NodePtr motion_schema(std::string doc) {
-  return optional_map(
-      std::move(doc),
-      {
-          {"velocity", vec3(std::array<double, 3>{0, 0, 0}, "translation velocity (m/s)", Range::within(kMaxSpeed))},
-          {"axis",
-           vec3(std::array<double, 3>{0, 1, 0}, "rotation axis (world frame, normalised)", Range::within(kMaxLength))},
-          {"center", vec3(std::array<double, 3>{0, 0, 0}, "a point on the rotation axis at rest (world frame)",
-                          Range::within(kMaxLength))},
-          {"angular_velocity",
-           number(0.0, "rotation rate about `axis` (rad/s, right-handed)", Range::within(kMaxAngular))},
-          {"start", number(0.0, "time (s) the motion starts", Range::up_to(kMaxTime))},
-          {"end", number(1e9, "time (s) the motion stops and holds", Range::up_to(kMaxTime))},
-      });
+// The choice tables: the one mapping between the schema's choice strings and the C++ values.
+const scene::ChoiceTable<TimeParams::Continuation>& continuation_choices() {
+  static const scene::ChoiceTable<TimeParams::Continuation> t{
+      {{"full", TimeParams::Continuation::full}, {"held_back", TimeParams::Continuation::held_back}}};
+  return t;
 }
 
+const scene::ChoiceTable<ViolationPolicy>& violation_choices() {
+  static const scene::ChoiceTable<ViolationPolicy> t{
+      {{"auto", ViolationPolicy::automatic}, {"error", ViolationPolicy::error}, {"warn", ViolationPolicy::warn}}};
+  return t;
+}
+
+const scene::ChoiceTable<AuditMode>& audit_choices() {
+  static const scene::ChoiceTable<AuditMode> t{
+      {{"off", AuditMode::off}, {"every_frame", AuditMode::every_frame}, {"every_substep", AuditMode::every_substep}}};
+  return t;
+}
+
+const scene::ChoiceTable<bool>& strand_layout_choices() {
+  static const scene::ChoiceTable<bool> t{{{"grid", false}, {"row", true}}};
+  return t;
+}
+
+// The sections read into parameter structs: key, type, default (the struct's) and reader, once.
+const scene::Section<TimeParams>& time_section() {
+  using S = TimeParams;
+  const Range one = Range::at_least(1);
+  static const scene::Section<S> s =
+      scene::Section<S>()
+          .field("fps", &S::fps, "frames per second", Range::positive_up_to(kMaxFps))
+          .field("frames", &S::frames, "frames to simulate", Range::non_negative())
+          .field("substeps", &S::substeps, "substeps per frame", one)
+          .field("iterations", &S::iterations,
+                 "nominal outer iterations per substep, each with collision detection: a substep ends after "
+                 "the first one in which no vertex was held back by the step bound r (fewer may run; stats.csv "
+                 "outer_iterations counts them), and goes on past it while one is (time.max_iterations)",
+                 one)
+          .field("max_iterations", &S::max_iterations,
+                 "outer iterations continue past `iterations` while a vertex has not reached its intended "
+                 "advance (held back by the step bound r), up to this many; 0 means 4 x iterations",
+                 Range{0, 4096, false, false})
+          .field("xpbd_sweeps", &S::xpbd_sweeps, "material constraint sweeps per outer iteration", one)
+          .field("gravity", &S::gravity, "gravity (m/s²)", Range::within(kMaxAccel))
+          .field("damping", &S::damping, "fraction of velocity removed per second", Range{0, 1e3, false, false})
+          .field("advance_tolerance", &S::advance_tolerance,
+                 "outer iterations stop when no vertex is held back by the step bound by more than tol · r (a "
+                 "vertex may thus arrive up to tol · r short per substep)",
+                 Range::unit())
+          .field("advance_shortfall", &S::advance_shortfall,
+                 "outer iterations also stop when the step bound cut at most this fraction of the pass's total "
+                 "intended advance (summed over movable vertices), even if a few vertices are held back: they "
+                 "keep their step of r (counted in clamped_vertices). 0 iterates while any vertex is held "
+                 "back",
+                 Range::unit())
+          .choice("continuation", &S::continuation, continuation_choices(),
+                  "what the outer iterations after a substep's first one solve: full, the whole scene again (the "
+                  "paper); held_back, only the vertices the step bound held back in the pass before (and those "
+                  "around pairs its recount found closer than their offset), every other vertex fixed where it "
+                  "stands for that pass, so detection skips pairs of two fixed vertices. Scenes with rigid bodies "
+                  "always run full passes")
+          .field("max_subdivision", &S::max_subdivision,
+                 "most pieces a substep is split into automatically when scripted vertices move more than r or "
+                 "the free-flight advance exceeds (max_iterations - 1) r; beyond it a scripted step is an "
+                 "error and a dynamic one a warning naming the object",
+                 Range{1, 4096, false, false});
+  return s;
+}
+
+const scene::Section<ContactParams>& contact_section() {
+  using S = ContactParams;
+  static const scene::Section<S> s =
+      scene::Section<S>()
+          .name("solver", &S::solver, registered_contact_solvers,
+                "contact solver: one of the registered methods (table of contact solvers below)")
+          .field("radius", &S::radius, "r: search radius and per-iteration step bound (m)",
+                 Range::positive_up_to(kMaxLength))
+          .field("offset", &S::offset, "ξ: minimum separation between primitives (m)", Range::up_to(kMaxLength))
+          .field("repulsion_range", &S::repulsion_range, "δ: repulsion acts while the gap beyond ξ is below δ (m)",
+                 Range::up_to(kMaxLength))
+          .field("stiffness", &S::stiffness, "k: repulsion stiffness; XPBD compliance 1/k",
+                 Range{kMinStiffness, kMaxStiffness, false, false})
+          .field("visibility_width", &S::visibility_width,
+                 "δ_v: occlusion smoothstep width of the visibility weights (m); 0 means δ", Range::up_to(kMaxLength))
+          .map("friction", "friction on active contacts (Macklin et al. 2014)",
+               scene::Section<S>()
+                   .field("static", &S::friction_static, "static coefficient μ_s", Range::up_to(kMaxFriction))
+                   .field("kinetic", &S::friction_kinetic, "kinetic coefficient μ_k", Range::up_to(kMaxFriction)))
+          .field("epsilon", &S::epsilon,
+                 "ε: retraction of a projected point toward its anchor, relative to ξ (the region-projection "
+                 "solvers use ε ξ; 1e-4 gives 1e-6 m at ξ = 0.01 as in the paper, and stays below the "
+                 "per-vertex share of a gap at small ξ)",
+                 Range{0, 0.1, false, false})
+          .field("analytic_obstacles", &S::analytic_obstacles,
+                 "obstacles with an analytic shape (sphere, plane, box, cylinder) also collide "
+                 "through their exact SDF")
+          .choice("on_violation", &S::on_violation, violation_choices(),
+                  "a substep that ends with pairs closer than their offset (or a deformed rigid body): "
+                  "`error` stops the run before the frame is written (non-zero exit), `warn` logs at error "
+                  "level and goes on, `auto` is error for the solvers that guarantee separation (ccfr, "
+                  "exact_projection) and warn for the baselines");
+  return s;
+}
+
+const scene::Section<DetectionParams>& collision_section() {
+  using S = DetectionParams;
+  static const scene::Section<S> s =
+      scene::Section<S>()
+          .name("broad_phase", &S::broad_phase, broad_phase_names, "broad phase")
+          .field("reuse_skin", &S::reuse_skin,
+                 "skin s of the sub-pair list kept between detection passes, in units of r: a pass that runs the "
+                 "broad phase lists every sub-pair within 2r + ξ + s r, and later passes evaluate only those while "
+                 "the motion since cannot have brought another into range: every vertex within s r / 2 of its "
+                 "listed position shifted by one common translation, and within max(s r, g - 2r - ξ) against "
+                 "obstacles at rest g away (same contacts, same order; docs/feasibility.md); 0 runs the broad "
+                 "phase in every pass",
+                 Range{0, 100, false, false});
+  return s;
+}
+
+const scene::Section<DebugParams>& debug_section() {
+  using S = DebugParams;
+  static const scene::Section<S> s =
+      scene::Section<S>()
+          .choice("audit", &S::audit, audit_choices(),
+                  "exact penetration audit during the run; fills the `penetrations` column of stats.csv")
+          .field("audit_tolerance", &S::audit_tolerance, "the audit flags pairs closer than (1 - tol) ξ",
+                 Range::unit());
+  return s;
+}
+
+const scene::Section<OutputParams>& output_section() {
+  using S = OutputParams;
+  static const scene::Section<S> s =
+      scene::Section<S>()
+          .field("frames", &S::frames, "write frames (in every format of `formats`)")
+          .field("every", &S::every, "write every k-th frame (frame 0 always)", Range::at_least(1))
+          .field("checkpoint_every", &S::checkpoint_every,
+                 "write a checkpoint every k-th frame, and when the run is "
+                 "interrupted (0: never); `ccfr run --resume DIR` continues from it",
+                 Range::at_least(0))
+          // interop (docs/interop.md): formats besides the OBJ frames; read by read_output (an empty
+          // list is refused there, with the key's line)
+          .other("formats", list("formats of the frames; absent: [obj]. obj: frames/frame_N.obj (exact, "
+                                 "what `ccfr audit` reads); ply: frames/frame_N.ply (binary, float); vtu: "
+                                 "vtk/frame_N.vtu + vtk/frames.pvd with per-vertex fields (ParaView); "
+                                 "pc2: blender/*.pc2 point caches + first_frame.obj (Blender Mesh Cache); "
+                                 "usda: usd/scene.usda, time-sampled points",
+                                 choice("obj", output_format_names, "an output format")));
+  return s;
+}
+
+const scene::Section<MaterialParams>& material_section() {
+  using S = MaterialParams;
+  const Range compliance = Range::up_to(kMaxCompliance);
+  static const scene::Section<S> s =
+      scene::Section<S>()
+          .field("density", &S::density,
+                 "kg/m² for cloth and shells, kg/m for strands, kg/m³ for solids and rigids, kg per particle",
+                 Range::positive_up_to(kMaxDensity))
+          .field("stretch_compliance", &S::stretch_compliance,
+                 "XPBD compliance of edge lengths (m/N); 0 is inextensible", compliance)
+          .field("bend_compliance", &S::bend_compliance,
+                 "XPBD compliance of bending (1/(N m)); cloth, shells and strands", compliance)
+          .field("volume_compliance", &S::volume_compliance,
+                 "tet solids: compliance of volume preservation, 1/λ (1/Pa)", compliance)
+          .field("shear_compliance", &S::shear_compliance,
+                 "tet solids: compliance of the deviatoric (shape) term, 1/μ (1/Pa)", compliance)
+          .field("friction", &S::friction, "friction coefficient of this material; < 0 uses contact.friction",
+                 Range::within(kMaxFriction));
+  return s;
+}
+
+const scene::Section<Motion>& motion_section() {
+  using S = Motion;
+  static const scene::Section<S> s =
+      scene::Section<S>()
+          .field("velocity", &S::velocity, "translation velocity (m/s)", Range::within(kMaxSpeed))
+          .field("axis", &S::axis, "rotation axis (world frame, normalised)", Range::within(kMaxLength))
+          .field("center", &S::center, "a point on the rotation axis at rest (world frame)", Range::within(kMaxLength))
+          .field("angular_velocity", &S::angular_velocity, "rotation rate about `axis` (rad/s, right-handed)",
+                 Range::within(kMaxAngular))
+          .field("start", &S::start, "time (s) the motion starts", Range::up_to(kMaxTime))
+          .field_default("end", &S::end, 1e9, "time (s) the motion stops and holds", Range::up_to(kMaxTime));
+  return s;
+}
+
+namespace {
+
+NodePtr motion_schema(std::string doc) { return optional_map(std::move(doc), motion_section().fields()); }
+
 NodePtr shape_schema() {
-  const Range pos = Range::positive_up_to(kMaxLength), nonneg = Range::up_to(kMaxLength), one = Range::at_least(1);
-  return variant(
-      "the object's geometry: a generator or a mesh file", "type",
-      {
-          {"grid", map("rectangular cloth in the x-z plane, normal +y",
-                       {{"size", vec2(std::nullopt, "side lengths [x, z] (m)", pos)},
-                        {"resolution", ivec2(std::nullopt, "cells per side [x, z]", one)}})},
-          {"strands", map("straight or curly strands hanging along -y",
-                          {{"count", integer(1, "number of strands", one)},
-                           {"vertices", integer(20, "vertices per strand", Range::at_least(2))},
-                           {"length", number(1.0, "strand length along -y (m)", pos)},
-                           {"spread", number(0.0, "roots spread on a square of this side (m)", nonneg)},
-                           {"coil_radius", number(0.0, "helix radius; 0 gives straight strands (m)", nonneg)},
-                           {"turns", number(0.0, "helix turns per strand", nonneg)},
-                           {"layout", choice(
-                                          "grid",
-                                          [] {
-                                            return std::vector<std::string>{"grid", "row"};
-                                          },
-                                          "roots on a square grid, or on one row along x")}})},
-          {"particles", map("a lattice block of free particles",
-                            {{"counts", ivec3(std::nullopt, "particles per axis [x, y, z]", one)},
-                             {"spacing", number(0.01, "lattice spacing (m)", pos)}})},
-          {"tet_box", map("a tetrahedralised box (6 tets per cell)",
-                          {{"size", required_vec3("box size [x, y, z] (m)", pos)},
-                           {"resolution", ivec3(std::array<long long, 3>{2, 2, 2}, "cells per axis", one)}})},
-          {"sphere", map("icosphere", {{"radius", number(0.5, "radius (m)", pos)},
-                                       {"subdivisions", integer(3, "icosahedron subdivisions", Range{0, 7})}})},
-          {"cylinder", map("cylinder along y", {{"radius", number(0.5, "radius (m)", pos)},
-                                                {"height", number(1.0, "height (m)", pos)},
-                                                {"segments", integer(32, "segments around", Range::at_least(3))},
-                                                {"capped", boolean(true, "close the ends")}})},
-          {"box", map("closed box, outward normals", {{"size", required_vec3("size [x, y, z] (m)", pos)}})},
-          {"open_box", map("floor and four walls, open at the top, normals inward",
-                           {{"size", required_vec3("size [x, y, z] (m)", pos)}})},
-          {"plane",
-           map("square plane in the x-z plane, normal +y",
-               {{"size", number(10.0, "side length (m)", pos)}, {"resolution", integer(1, "cells per side", one)}})},
-          {"octopus", map("procedural octopus-like tet solid: a cubic body with tentacles (the paper's octopus mesh is "
-                          "not published)",
-                          {{"cell", number(0.05, "edge of the voxel cells (m)", pos)},
-                           {"body", integer(4, "body cells per axis", Range::at_least(2))},
-                           {"legs", integer(8, "number of tentacles", nonneg)},
-                           {"leg_length", integer(8, "cells per tentacle", nonneg)}})},
-          {"comb", map("procedural comb: a spine box with teeth hanging below (the paper's comb mesh is not published)",
-                       {{"length", number(1.0, "spine length along x (m)", pos)},
-                        {"width", number(0.05, "thickness along z (m)", pos)},
-                        {"spine_height", number(0.1, "spine height (m)", pos)},
-                        {"teeth", integer(12, "number of teeth", one)},
-                        {"tooth_length", number(0.4, "tooth length below the spine (m)", pos)},
-                        {"tooth_width", number(0.02, "tooth width along x (m)", pos)}})},
-          // Mesh inputs (docs/interop.md).
-          {"mesh",
-           map("a mesh file: Wavefront .obj (triangles; `l` lines for strands; a closed surface makes a "
-               "tet_solid through the tetgen program), TetGen .node/.ele or Gmsh .msh (v2, v4 ASCII) tet "
-               "meshes for tet_solid",
-               {{"path", string(std::nullopt, "path, relative to the scene file")},
-                {"quality", number(2.0,
-                                   "tet_solid from a surface .obj or .off: tetgen's radius-edge ratio bound (-q); 0 "
-                                   "turns quality refinement off",
-                                   Range::up_to(100))},
-                {"max_volume", number(0.0,
-                                      "tet_solid from a surface .obj or .off: largest tet volume (m³ of "
-                                      "the placed object, after transform.scale; tetgen -a); 0 means no bound",
-                                      Range::up_to(kMaxLength))}})},
-      });
+  // The variants are declared with their readers (scene/shapes.cpp, scene/mesh_sources.cpp).
+  return variant("the object's geometry: a generator or a mesh file", "type", scene::shape_variants());
 }
 
 /// A registered parameter as a schema node: type, default, range and doc come from the registry.
@@ -167,87 +262,19 @@ void add_component_sections(std::vector<Field>& fields, const R& registry, const
 }
 
 std::vector<Field> contact_fields() {
-  const ContactParams d;  // defaults have one owner: the struct
-  std::vector<Field> f = {
-      {"solver", choice(d.solver, registered_contact_solvers,
-                        "contact solver: one of the registered methods (table of contact solvers below)")},
-      {"radius",
-       number(d.radius, "r: search radius and per-iteration step bound (m)", Range::positive_up_to(kMaxLength))},
-      {"offset", number(d.offset, "ξ: minimum separation between primitives (m)", Range::up_to(kMaxLength))},
-      {"repulsion_range",
-       number(d.repulsion_range, "δ: repulsion acts while the gap beyond ξ is below δ (m)", Range::up_to(kMaxLength))},
-      {"stiffness", number(d.stiffness, "k: repulsion stiffness; XPBD compliance 1/k",
-                           Range{kMinStiffness, kMaxStiffness, false, false})},
-      {"visibility_width",
-       number(d.visibility_width, "δ_v: occlusion smoothstep width of the visibility weights (m); 0 means δ",
-              Range::up_to(kMaxLength))},
-      {"friction",
-       map("friction on active contacts (Macklin et al. 2014)",
-           {{"static", number(d.friction_static, "static coefficient μ_s", Range::up_to(kMaxFriction))},
-            {"kinetic", number(d.friction_kinetic, "kinetic coefficient μ_k", Range::up_to(kMaxFriction))}})},
-      {"epsilon", number(d.epsilon,
-                         "ε: retraction of a projected point toward its anchor, relative to ξ (the region-projection "
-                         "solvers use ε ξ; 1e-4 gives 1e-6 m at ξ = 0.01 as in the paper, and stays below the "
-                         "per-vertex share of a gap at small ξ)",
-                         Range{0, 0.1, false, false})},
-      {"analytic_obstacles", boolean(d.analytic_obstacles,
-                                     "obstacles with an analytic shape (sphere, plane, box, cylinder) also collide "
-                                     "through their exact SDF")},
-      {"on_violation", choice(
-                           "auto",
-                           [] {
-                             return std::vector<std::string>{"auto", "error", "warn"};
-                           },
-                           "a substep that ends with pairs closer than their offset (or a deformed rigid body): "
-                           "`error` stops the run before the frame is written (non-zero exit), `warn` logs at error "
-                           "level and goes on, `auto` is error for the solvers that guarantee separation (ccfr, "
-                           "exact_projection) and warn for the baselines")},
-  };
+  std::vector<Field> f = contact_section().fields();
   add_component_sections(f, contact_solvers(), "contact.solver");
   return f;
 }
 
 std::vector<Field> collision_fields() {
-  const DetectionParams d;
-  std::vector<Field> f = {
-      {"broad_phase", choice(d.broad_phase, broad_phase_names, "broad phase")},
-      {"reuse_skin",
-       number(d.reuse_skin,
-              "skin s of the sub-pair list kept between detection passes, in units of r: a pass that runs the "
-              "broad phase lists every sub-pair within 2r + ξ + s r, and later passes evaluate only those while "
-              "the motion since cannot have brought another into range: every vertex within s r / 2 of its listed "
-              "position shifted by one common translation, and within max(s r, g - 2r - ξ) against obstacles at "
-              "rest g away (same contacts, same order; docs/feasibility.md); 0 runs the broad phase in every pass",
-              Range{0, 100, false, false})},
-  };
+  std::vector<Field> f = collision_section().fields();
   add_component_sections(f, broad_phases(), "collision.broad_phase");
   return f;
 }
 
 NodePtr build_scene_schema() {
-  const TimeParams td;
-  const DebugParams dd;
-  const OutputParams od;
-  const MaterialParams md;
-  const Range nonneg = Range::non_negative(), one = Range::at_least(1), compliance = Range::up_to(kMaxCompliance);
-  auto material = map(
-      "a material",
-      {
-          {"density",
-           number(md.density,
-                  "kg/m² for cloth and shells, kg/m for strands, kg/m³ for solids and rigids, kg per particle",
-                  Range::positive_up_to(kMaxDensity))},
-          {"stretch_compliance",
-           number(md.stretch_compliance, "XPBD compliance of edge lengths (m/N); 0 is inextensible", compliance)},
-          {"bend_compliance",
-           number(md.bend_compliance, "XPBD compliance of bending (1/(N m)); cloth, shells and strands", compliance)},
-          {"volume_compliance",
-           number(md.volume_compliance, "tet solids: compliance of volume preservation, 1/λ (1/Pa)", compliance)},
-          {"shear_compliance", number(md.shear_compliance,
-                                      "tet solids: compliance of the deviatoric (shape) term, 1/μ (1/Pa)", compliance)},
-          {"friction", number(md.friction, "friction coefficient of this material; < 0 uses contact.friction",
-                              Range::within(kMaxFriction))},
-      });
+  auto material = map("a material", material_section().fields());
   auto pin = map(
       "a group of pinned vertices, optionally moved by a script",
       {
@@ -304,92 +331,26 @@ NodePtr build_scene_schema() {
                      {"center", vec3(std::array<double, 3>{0, 0, 0}, "a point on the rotation axis (m)",
                                      Range::within(kMaxLength))}}))},
       });
-  return map(
-      "a ccfr scene",
-      {
-          {"scene", optional_string("scene name (default: the file name without extension)")},
-          {"max_memory",
-           number(0.0,
-                  "largest memory (GB) a scene may use: a scene estimated above it is refused while "
-                  "loading, naming what each object costs, and a run whose resident memory passes it stops "
-                  "after that frame (exit 1, frames whole, a checkpoint to resume from); 0 means the memory the "
-                  "machine has available (MemAvailable). Raise it knowingly (`ccfr run --max-memory GB`) when "
-                  "the estimate is pessimistic for the scene (docs/performance.md compares it with measured "
-                  "peaks)",
-                  Range{0, 1e6, false, false})},
-          {"time",
-           map("time stepping",
-               {{"fps", number(td.fps, "frames per second", Range::positive_up_to(kMaxFps))},
-                {"frames", integer(td.frames, "frames to simulate", nonneg)},
-                {"substeps", integer(td.substeps, "substeps per frame", one)},
-                {"iterations",
-                 integer(td.iterations,
-                         "nominal outer iterations per substep, each with collision detection: a substep ends after "
-                         "the first one in which no vertex was held back by the step bound r (fewer may run; stats.csv "
-                         "outer_iterations counts them), and goes on past it while one is (time.max_iterations)",
-                         one)},
-                {"max_iterations",
-                 integer(td.max_iterations,
-                         "outer iterations continue past `iterations` while a vertex has not reached its intended "
-                         "advance (held back by the step bound r), up to this many; 0 means 4 x iterations",
-                         Range{0, 4096, false, false})},
-                {"xpbd_sweeps", integer(td.xpbd_sweeps, "material constraint sweeps per outer iteration", one)},
-                {"gravity", vec3(std::array<double, 3>{td.gravity.x(), td.gravity.y(), td.gravity.z()},
-                                 "gravity (m/s²)", Range::within(kMaxAccel))},
-                {"damping", number(td.damping, "fraction of velocity removed per second", Range{0, 1e3, false, false})},
-                {"advance_tolerance",
-                 number(td.advance_tolerance,
-                        "outer iterations stop when no vertex is held back by the step bound by more than tol · r (a "
-                        "vertex may thus arrive up to tol · r short per substep)",
-                        Range::unit())},
-                {"advance_shortfall",
-                 number(td.advance_shortfall,
-                        "outer iterations also stop when the step bound cut at most this fraction of the pass's total "
-                        "intended advance (summed over movable vertices), even if a few vertices are held back: they "
-                        "keep their step of r (counted in clamped_vertices). 0 iterates while any vertex is held "
-                        "back",
-                        Range::unit())},
-                {"continuation",
-                 choice(
-                     "full", [] { return std::vector<std::string>{"full", "held_back"}; },
-                     "what the outer iterations after a substep's first one solve: full, the whole scene again (the "
-                     "paper); held_back, only the vertices the step bound held back in the pass before (and those "
-                     "around pairs its recount found closer than their offset), every other vertex fixed where it "
-                     "stands for that pass, so detection skips pairs of two fixed vertices. Scenes with rigid bodies "
-                     "always run full passes")},
-                {"max_subdivision",
-                 integer(td.max_subdivision,
-                         "most pieces a substep is split into automatically when scripted vertices move more than r or "
-                         "the free-flight advance exceeds (max_iterations - 1) r; beyond it a scripted step is an "
-                         "error and a dynamic one a warning naming the object",
-                         Range{1, 4096, false, false})}})},
-          {"contact", map("contact handling", contact_fields())},
-          {"collision", map("collision detection", collision_fields())},
-          {"debug",
-           map("diagnostics",
-               {{"audit", choice(
-                              "off", [] { return std::vector<std::string>{"off", "every_frame", "every_substep"}; },
-                              "exact penetration audit during the run; fills the `penetrations` column of stats.csv")},
-                {"audit_tolerance",
-                 number(dd.audit_tolerance, "the audit flags pairs closer than (1 - tol) ξ", Range::unit())}})},
-          {"output",
-           map("what is written",
-               {{"frames", boolean(od.frames, "write frames (in every format of `formats`)")},
-                {"every", integer(od.every, "write every k-th frame (frame 0 always)", one)},
-                {"checkpoint_every", integer(od.checkpoint_every,
-                                             "write a checkpoint every k-th frame, and when the run is "
-                                             "interrupted (0: never); `ccfr run --resume DIR` continues from it",
-                                             Range::at_least(0))},
-                // interop (docs/interop.md): formats besides the OBJ frames
-                {"formats", list("formats of the frames; absent: [obj]. obj: frames/frame_N.obj (exact, "
-                                 "what `ccfr audit` reads); ply: frames/frame_N.ply (binary, float); vtu: "
-                                 "vtk/frame_N.vtu + vtk/frames.pvd with per-vertex fields (ParaView); "
-                                 "pc2: blender/*.pc2 point caches + first_frame.obj (Blender Mesh Cache); "
-                                 "usda: usd/scene.usda, time-sampled points",
-                                 choice("obj", output_format_names, "an output format"))}})},
-          {"materials", dict("named materials; `default` exists unless redefined", material)},
-          {"objects", list("the objects of the scene", object)},
-      });
+  return map("a ccfr scene",
+             {
+                 {"scene", optional_string("scene name (default: the file name without extension)")},
+                 {"max_memory",
+                  number(0.0,
+                         "largest memory (GB) a scene may use: a scene estimated above it is refused while "
+                         "loading, naming what each object costs, and a run whose resident memory passes it stops "
+                         "after that frame (exit 1, frames whole, a checkpoint to resume from); 0 means the memory the "
+                         "machine has available (MemAvailable). Raise it knowingly (`ccfr run --max-memory GB`) when "
+                         "the estimate is pessimistic for the scene (docs/performance.md compares it with measured "
+                         "peaks)",
+                         Range{0, 1e6, false, false})},
+                 {"time", map("time stepping", time_section().fields())},
+                 {"contact", map("contact handling", contact_fields())},
+                 {"collision", map("collision detection", collision_fields())},
+                 {"debug", map("diagnostics", debug_section().fields())},
+                 {"output", map("what is written", output_section().fields())},
+                 {"materials", dict("named materials; `default` exists unless redefined", material)},
+                 {"objects", list("the objects of the scene", object)},
+             });
 }
 
 }  // namespace

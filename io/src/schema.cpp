@@ -482,7 +482,7 @@ YAML::Node resolve(const YAML::Node& in, const NodePtr& sch, const Context& ctx,
 
 namespace {
 /// Counts the documents of a YAML stream; stops at a document that starts where the last one did
-/// (yaml-cpp 0.7 then loops forever, see scene_loader.cpp).
+/// (yaml-cpp 0.7 then loops forever, see scene/yaml_text.cpp).
 class DocumentCount : public YAML::EventHandler {
  public:
   int count = 0;

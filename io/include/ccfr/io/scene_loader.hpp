@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "ccfr/solvers/scene.hpp"
@@ -113,5 +114,14 @@ LoadedScene load_scene_arrays(const std::string& yaml, const std::string& file_l
 void check_scene_keys(const std::filesystem::path& file, const std::vector<std::string>& overrides);
 /// Markdown table of every scene key (type, default, range, meaning), generated from the schema.
 std::string config_reference_markdown();
+
+/// The scene keys read into C++ enums and flags through a choice table (time.continuation,
+/// contact.on_violation, debug.audit, objects.shape.layout of strands), each with the choices the
+/// schema offers for it, in the schema's order (tests load each one and check its value).
+std::vector<std::pair<std::string, std::vector<std::string>>> table_choices();
+/// Where the scene readers and the schema disagree, one line each: a key read through a choice
+/// table whose schema choices are not the table's (or whose table repeats a string or a value),
+/// a shape type of the schema without a reader, a reader without a shape type. Empty: they agree.
+std::vector<std::string> reader_schema_mismatches();
 
 }  // namespace ccfr::io
