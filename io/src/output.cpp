@@ -297,6 +297,7 @@ RunWriter::RunWriter(fs::path dir, const Topology& topo, std::string resolved_co
   if (!std::getline(sin, line) || line != stats_header() || sin.eof())
     throw Error("cannot resume: '" + stats.string() + "' does not start with the stats.csv header of this ccfr");
   size = static_cast<long long>(line.size()) + 1;
+  static_assert(stats_column("frame") == 0, "the rows are matched to frames by their first cell");
   while (rows < resume.frame && std::getline(sin, line) && !sin.eof()) {
     if (line.rfind(std::to_string(rows + 1) + ",", 0) != 0)
       throw Error("cannot resume: row " + std::to_string(rows + 1) + " of '" + stats.string() + "' is not frame " +
