@@ -12,14 +12,10 @@
 #include "ccfr/core/topology.hpp"
 #include "ccfr/io/dir_lock.hpp"
 #include "ccfr/io/formats.hpp"
+#include "ccfr/io/stats_csv.hpp"
 #include "ccfr/solvers/simulation.hpp"
 
 namespace ccfr::io {
-
-/// The stats.csv header, in column order.
-const std::string& stats_header();
-/// One stats.csv row (no trailing newline).
-std::string stats_row(const FrameStats& s);
 
 struct RunMeta {
   std::string scene, solver, broad_phase;
