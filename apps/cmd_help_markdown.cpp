@@ -1,11 +1,13 @@
-// `ccfr help-markdown [--readme-table]` (hidden): the command reference, docs/cli.md, and the
+// `ccfr help-markdown [--readme-table | --stats-columns]` (hidden): the command reference, docs/cli.md, and the
 // README's command table, generated from the same CLI11 definitions `--help` prints, so that help and
-// docs cannot disagree (scripts/gen-cli-docs writes both; tests/apps/test_cli_docs.cpp checks them).
+// docs cannot disagree (scripts/gen-cli-docs writes both; tests/apps/test_cli_docs.cpp checks them);
+// `--stats-columns`: docs/output.md's stats.csv column table, from kStatsColumns (tests/io/test_stats_csv.cpp).
 #include <cstdio>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include "ccfr/io/stats_csv.hpp"
 #include "commands.hpp"
 
 namespace ccfr::app {
@@ -133,14 +135,16 @@ std::string readme_table(const CLI::App& root) {
 }  // namespace
 
 void register_help_markdown(CLI::App& app) {
-  auto table = std::make_shared<bool>(false);
+  auto table = std::make_shared<bool>(false), stats = std::make_shared<bool>(false);
   auto* cmd = app.add_subcommand("help-markdown", "Print the command reference (docs/cli.md) as Markdown");
-  cmd->group("");  // internal: the generator of docs/cli.md and the README's table
+  cmd->group("");  // internal: the generator of docs/cli.md, the README's table and docs/output.md's columns
   cmd->add_flag("--readme-table", *table, "Print the README's command table instead");
+  cmd->add_flag("--stats-columns", *stats, "Print docs/output.md's table of the stats.csv columns instead")
+      ->excludes("--readme-table");
   CLI::App* root = &app;
-  cmd->callback([root, table] {
-    guarded([root, table] {
-      const std::string md = *table ? readme_table(*root) : reference(*root);
+  cmd->callback([root, table, stats] {
+    guarded([root, table, stats] {
+      const std::string md = *stats ? io::stats_columns_markdown() : *table ? readme_table(*root) : reference(*root);
       std::fputs(md.c_str(), stdout);
       return 0;
     });

@@ -30,6 +30,7 @@
 #include "ccfr/io/run_audit.hpp"
 #include "ccfr/io/run_json.hpp"
 #include "ccfr/io/scene_loader.hpp"
+#include "ccfr/io/stats_csv.hpp"
 #include "commands.hpp"
 #include "frame_summary.hpp"
 #include "progress.hpp"
@@ -42,13 +43,6 @@ namespace fs = std::filesystem;
 using Json = nlohmann::ordered_json;
 
 namespace {
-
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 Json read_json(const fs::path& p) {
   std::ifstream in(p);
@@ -591,17 +585,9 @@ std::string cell_state(const SweepLayout& s, size_t i, const std::map<size_t, st
 
 bool resumable(const std::string& state) { return state != "completed" && state != "queued" && state != "running"; }
 
-// ---- collect ----------------------------------------------------------------------------------
-
-std::vector<std::string> split_csv(const std::string& line) {
-  std::vector<std::string> c;
-  std::stringstream ss(line);
-  for (std::string t; std::getline(ss, t, ',');) c.push_back(t);
-  if (!line.empty() && line.back() == ',') c.emplace_back();
-  return c;
-}
-
 }  // namespace
+
+// ---- collect ----------------------------------------------------------------------------------
 
 std::vector<CellRow> collect_rows(const SweepLayout& s) {
   std::vector<CellRow> rows;
@@ -621,40 +607,11 @@ std::vector<CellRow> collect_rows(const SweepLayout& s) {
     const Json run = read_json(out / "run.json");
     r.status = run.value("status", std::string());
     if (r.solver.empty()) r.solver = run.value("solver", std::string());
-    // stats.csv, by column name.
-    std::istringstream in(read_text(out / "stats.csv"));
-    std::string line;
-    std::getline(in, line);
-    const auto header = split_csv(line);
-    auto col = [&](const char* name) {
-      return static_cast<size_t>(std::find(header.begin(), header.end(), name) - header.begin());
-    };
-    const size_t c_frame = col("frame"), c_wall = col("wall_s"), c_x = col("xpbd_s"), c_b = col("broad_s"),
-                 c_n = col("narrow_s"), c_r = col("resolution_s"), c_d = col("violations_detected"),
-                 c_rem = col("violations_remaining"), c_h = col("halted_vertices"), c_cv = col("contact_vertices"),
-                 c_lm = col("lag_mean"), c_lx = col("lag_max"), c_cpu = col("cpu_s"), c_oi = col("outer_iterations");
-    const bool has_lag = c_lm < header.size() && c_lx < header.size();
-    const bool has_cpu = c_cpu < header.size(), has_iterations = c_oi < header.size();
-    std::vector<FrameStats> fsv;
-    while (std::getline(in, line)) {
-      const auto v = split_csv(line);
-      if (v.size() != header.size()) break;
-      FrameStats f;
-      f.frame = std::stoi(v[c_frame]);
-      f.wall_s = std::stod(v[c_wall]);
-      f.times.xpbd = std::stod(v[c_x]);
-      f.times.broad = std::stod(v[c_b]);
-      f.times.narrow = std::stod(v[c_n]);
-      f.times.resolution = std::stod(v[c_r]);
-      f.violations_detected = std::stoi(v[c_d]);
-      f.violations_remaining = std::stoi(v[c_rem]);
-      f.halted_vertices = std::stoi(v[c_h]);
-      f.contact_vertices = std::stoi(v[c_cv]);
-      if (has_lag) f.lag_mean = std::stod(v[c_lm]), f.lag_max = std::stod(v[c_lx]);
-      if (has_cpu) f.cpu_s = std::stod(v[c_cpu]);
-      if (has_iterations) f.outer_iterations = std::stoi(v[c_oi]);
-      fsv.push_back(f);
-    }
+    // stats.csv, by column name (kStatsColumns): a run of an older ccfr may lack the newer columns.
+    const io::StatsCsv stats = io::read_stats_csv(out / "stats.csv");
+    const bool has_lag = stats.has(stats_column("lag_mean")) && stats.has(stats_column("lag_max"));
+    const bool has_cpu = stats.has(stats_column("cpu_s")), has_iterations = stats.has(stats_column("outer_iterations"));
+    const std::vector<FrameStats>& fsv = stats.rows;
     r.frames = fsv.size();
     if (!fsv.empty()) {
       const auto wall = aggregate(fsv, [](const FrameStats& f) { return f.wall_s; });

@@ -37,37 +37,6 @@ std::string utc_now() {
   return buf;
 }
 
-const std::string& stats_header() {
-  static const std::string h =
-      "frame,sim_time,wall_s,xpbd_s,broad_s,narrow_s,resolution_s,candidates,constraints,violations_detected,"
-      "violations_remaining,halted_vertices,min_distance,penetrations,audit_s,outer_iterations,clamped_vertices,"
-      "check_s,contact_vertices,substeps_run,projector_fallbacks,halted_vertices_distinct,contact_vertices_distinct,"
-      "projector_rescues,candidates_total,detections_reused,cpu_s,lag_mean,lag_max";
-  return h;
-}
-
-std::string stats_row(const FrameStats& s) {
-  char buf[512];
-  // min_distance is empty when no pair was within range (nothing to measure).
-  char md[40] = "";
-  if (std::isfinite(s.min_distance)) std::snprintf(md, sizeof md, "%.9g", s.min_distance);
-  char pen[24] = "";
-  if (s.penetrations >= 0) std::snprintf(pen, sizeof pen, "%d", s.penetrations);
-  // The distinct counts are empty when the solver does not track them.
-  char hd[24] = "", cd[24] = "";
-  if (s.halted_vertices_distinct >= 0) std::snprintf(hd, sizeof hd, "%d", s.halted_vertices_distinct);
-  if (s.contact_vertices_distinct >= 0) std::snprintf(cd, sizeof cd, "%d", s.contact_vertices_distinct);
-  std::snprintf(
-      buf, sizeof buf,
-      "%d,%.9g,%.6f,%.6f,%.6f,%.6f,%.6f,%d,%d,%d,%d,%d,%s,%s,%.6f,%d,%d,%.6f,%d,%d,%d,%s,%s,%d,%lld,%d,%.6f,%.9g,%.9g",
-      s.frame, s.sim_time, s.wall_s, s.times.xpbd, s.times.broad, s.times.narrow, s.times.resolution, s.candidates,
-      s.constraints, s.violations_detected, s.violations_remaining, s.halted_vertices, md, pen, s.times.audit,
-      s.outer_iterations, s.clamped_vertices, s.times.check, s.contact_vertices, s.substeps_run, s.projector_fallbacks,
-      hd, cd, s.projector_rescues, static_cast<long long>(s.candidates_total), s.detections_reused, s.cpu_s, s.lag_mean,
-      s.lag_max);
-  return buf;
-}
-
 namespace {
 using Json = nlohmann::ordered_json;
 
@@ -328,6 +297,7 @@ RunWriter::RunWriter(fs::path dir, const Topology& topo, std::string resolved_co
   if (!std::getline(sin, line) || line != stats_header() || sin.eof())
     throw Error("cannot resume: '" + stats.string() + "' does not start with the stats.csv header of this ccfr");
   size = static_cast<long long>(line.size()) + 1;
+  static_assert(stats_column("frame") == 0, "the rows are matched to frames by their first cell");
   while (rows < resume.frame && std::getline(sin, line) && !sin.eof()) {
     if (line.rfind(std::to_string(rows + 1) + ",", 0) != 0)
       throw Error("cannot resume: row " + std::to_string(rows + 1) + " of '" + stats.string() + "' is not frame " +

@@ -158,37 +158,17 @@ auto require_existing(const fs::path& path, F&& f) {
   }
 }
 
+/// One stats.csv row as a dict, key by key from kStatsColumns (in file order): ints for integer
+/// columns, floats for the others, None for an unknown value where the table says so.
 py::dict frame_stats_dict(const FrameStats& s) {
   py::dict d;
-  d["frame"] = s.frame;
-  d["sim_time"] = s.sim_time;
-  d["wall_s"] = s.wall_s;
-  d["cpu_s"] = s.cpu_s;
-  d["xpbd_s"] = s.times.xpbd;
-  d["broad_s"] = s.times.broad;
-  d["narrow_s"] = s.times.narrow;
-  d["resolution_s"] = s.times.resolution;
-  d["candidates"] = s.candidates;
-  d["constraints"] = s.constraints;
-  d["violations_detected"] = s.violations_detected;
-  d["violations_remaining"] = s.violations_remaining;
-  d["halted_vertices"] = s.halted_vertices;
-  d["min_distance"] = s.min_distance;
-  d["penetrations"] = s.penetrations >= 0 ? py::object(py::int_(s.penetrations)) : py::object(py::none());
-  d["audit_s"] = s.times.audit;
-  d["outer_iterations"] = s.outer_iterations;
-  d["clamped_vertices"] = s.clamped_vertices;
-  d["check_s"] = s.times.check;
-  d["contact_vertices"] = s.contact_vertices;
-  d["substeps_run"] = s.substeps_run;
-  d["projector_fallbacks"] = s.projector_fallbacks;
-  d["halted_vertices_distinct"] = s.halted_vertices_distinct;
-  d["contact_vertices_distinct"] = s.contact_vertices_distinct;
-  d["projector_rescues"] = s.projector_rescues;
-  d["candidates_total"] = s.candidates_total;
-  d["detections_reused"] = s.detections_reused;
-  d["lag_mean"] = s.lag_mean;
-  d["lag_max"] = s.lag_max;
+  for (const StatsColumn& c : kStatsColumns) {
+    const py::str key(c.name.data(), c.name.size());
+    if (c.python == StatsPython::none && c.is_unknown(s))
+      d[key] = py::none();
+    else
+      c.visit(s, [&](auto v) { d[key] = v; });
+  }
   return d;
 }
 

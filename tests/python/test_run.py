@@ -75,6 +75,38 @@ def test_stats_dict_matches_stats_csv(tmp_path, data):
             assert f"{value:.9g}" == text, key
 
 
+# The columns stats.csv writes as floats (%.6f, %.9g); every other column is an integer.
+REAL = TIMING | {"sim_time", "min_distance", "lag_mean", "lag_max"}
+# What the dict holds where the CSV cell is empty (unknown): None for penetrations (audit off),
+# the markers themselves for the others, as before the column table.
+UNKNOWN = {"penetrations": None, "min_distance": float("inf"), "halted_vertices_distinct": -1,
+           "contact_vertices_distinct": -1}
+
+
+@pytest.mark.parametrize("solver", ["ccfr", "toi_clamp"])
+def test_stats_dict_has_the_csv_columns_in_order_with_their_types(tmp_path, data, solver):
+    sim = ccfr.Simulation(ccfr.load_scene(data / "small_drop.yaml", overrides={"time.frames": 1}), solver=solver,
+                          threads=2)
+    with ccfr.Run(sim, tmp_path / "r") as run:
+        run.step()
+    header, row = list(csv.reader(io.StringIO((tmp_path / "r" / "stats.csv").read_text())))
+    stats = sim.stats
+    assert list(stats) == header
+    empty = set()
+    for key, text in zip(header, row):
+        value = stats[key]
+        if text == "":
+            empty.add(key)
+            assert key in UNKNOWN and value == UNKNOWN[key] and type(value) is type(UNKNOWN[key]), key
+        elif key in REAL:
+            assert type(value) is float and f"{value:{'.6f' if key in TIMING else '.9g'}}" == text, key
+        else:
+            assert type(value) is int and value == int(text), key
+    assert "penetrations" in empty  # debug.audit is off
+    # toi_clamp does not track the distinct counts: their cells are empty, the dict holds -1.
+    assert ({"halted_vertices_distinct", "contact_vertices_distinct"} <= empty) == (solver == "toi_clamp")
+
+
 def test_failed_run_records_the_error(tmp_path, data):
     sim = ccfr.Simulation(ccfr.load_scene(data / "small_drop.yaml"), threads=2)
     with pytest.raises(RuntimeError, match="stop here"):

@@ -14,14 +14,10 @@
 #include "ccfr/io/dir_lock.hpp"
 #include "ccfr/io/formats.hpp"
 #include "ccfr/io/run_json.hpp"
+#include "ccfr/io/stats_csv.hpp"
 #include "ccfr/solvers/simulation.hpp"
 
 namespace ccfr::io {
-
-/// The stats.csv header, in column order.
-const std::string& stats_header();
-/// One stats.csv row (no trailing newline).
-std::string stats_row(const FrameStats& s);
 
 /// True if DIR/run.json is a JSON object with the ccfr marker (`"ccfr": {"version": ...}`).
 bool is_ccfr_run(const std::filesystem::path& dir);

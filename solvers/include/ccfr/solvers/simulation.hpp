@@ -12,59 +12,12 @@
 #include <vector>
 
 #include "ccfr/solvers/contact_solver.hpp"
+#include "ccfr/solvers/frame_stats.hpp"
 #include "ccfr/solvers/materials.hpp"
 #include "ccfr/solvers/scene.hpp"
 #include "ccfr/solvers/xpbd.hpp"
 
 namespace ccfr {
-
-/// One row of stats.csv.
-struct FrameStats {
-  int frame = 0;
-  double sim_time = 0.0;
-  double wall_s = 0.0;
-  /// CPU seconds of the whole process during the frame, summed over its threads (at most about
-  /// wall_s times the thread count): the work of the frame independent of how many cores ran it.
-  double cpu_s = 0.0;
-  StageTimes times;
-  Index candidates = 0;            ///< largest broad-phase pair count of the frame
-  Index constraints = 0;           ///< largest half-space / contact-constraint count of the frame
-  Index violations_detected = 0;   ///< summed over all resolution passes of the frame
-  Index violations_remaining = 0;  ///< largest count left after a substep's last pass
-  Index halted_vertices = 0;       ///< summed over all resolution passes (halting events)
-  /// Vertices with at least one contact (half-space or contact pair), summed over all resolution
-  /// passes: the paper's "collision points"; halting in percent is 100 halted / contact_vertices.
-  Index contact_vertices = 0;
-  double min_distance = std::numeric_limits<double>::infinity();  ///< closest pair seen by detection
-  Index penetrations = -1;                                        ///< audit count (-1: audit off)
-  Index clamped_vertices = 0;                                     ///< vertices held back by the step bound r (summed)
-  int outer_iterations = 0;  ///< outer iterations run in the frame (summed over substeps)
-  int substeps_run = 0;      ///< substeps actually run, after automatic subdivision
-  /// Plesník projections replaced by the exact projection because they landed farther from the
-  /// candidate than the anchor (summed over the resolution passes; 0 for other projectors).
-  Index projector_fallbacks = 0;
-  /// Vertices whose unconverged Plesník passes took the exact projection instead of halting
-  /// (summed over the resolution passes; 0 for other projectors or with exact_fallback off).
-  Index projector_rescues = 0;
-  /// Distinct vertices that halted at least once in the frame (-1: the solver does not track it).
-  Index halted_vertices_distinct = -1;
-  /// Distinct movable vertices with a contact in at least one of the frame's passes (-1: not
-  /// tracked). The per-frame halting ratio is halted_vertices_distinct / contact_vertices_distinct.
-  Index contact_vertices_distinct = -1;
-  /// Broad-phase pairs summed over the frame's detection passes (one per outer iteration of every
-  /// substep): the work of a frame, where `candidates` is its largest single pass.
-  std::int64_t candidates_total = 0;
-  /// Detection passes of the frame that evaluated the kept sub-pair list instead of running the
-  /// broad phase (collision.reuse_skin); they add nothing to candidates_total.
-  int detections_reused = 0;
-  /// How far the contact handling kept vertices from their unconstrained step: per substep and
-  /// movable vertex, |x_end - x_material|, x_material the material (XPBD) solve from the prediction
-  /// and x_end where the substep left it. Mean over the movable vertices, averaged over the frame's
-  /// substeps (m). It includes the contact response every solver shares (repulsion, friction);
-  /// what differs between solvers is what their resolution holds back (stalling, damping).
-  double lag_mean = 0.0;
-  double lag_max = 0.0;  ///< the largest such distance of one vertex in the frame (m)
-};
 
 /// Why a run stopped because pairs could not be separated (contact.on_violation): the error's
 /// message, and the same facts for run.json's `stop` and stats.csv (docs/output.md).
