@@ -106,5 +106,16 @@ void write(Level level, std::string_view message) {
   spdlog::log(to_spdlog(level), "{}", message);
 }
 
+void write_formatted(Level level, std::string_view f, std::span<const FormatArg> args) noexcept {
+  try {
+    write(level, vformat(f, args));
+  } catch (const std::exception& e) {
+    try {
+      write(level, std::string(f) + " [not formatted: " + e.what() + "]");
+    } catch (...) {  // the sink itself failed (out of memory): nothing left to tell
+    }
+  }
+}
+
 }  // namespace log
 }  // namespace ccfr

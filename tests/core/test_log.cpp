@@ -79,9 +79,15 @@ TEST(Log, WritesThroughTheDefaultLoggerAtItsLevel) {
   log::write(log::Level::warn, "{} taken as it is");  // no formatting of a finished message
   EXPECT_EQ(sink.last, "{} taken as it is");
 
+  // A field that does not fit its argument must not stop a run from a log line: the format string
+  // is written with a note instead of throwing.
+  EXPECT_NO_THROW(log::warn("{:d} vertices", "many"));
+  EXPECT_EQ(sink.warnings, 4);
+  EXPECT_EQ(sink.last.rfind("{:d} vertices [not formatted: ", 0), 0u) << sink.last;
+
   init_logging("off");
   log::error("not written at off");
-  EXPECT_EQ(sink.warnings, 3);
+  EXPECT_EQ(sink.warnings, 4);
   init_logging("info");  // spdlog's own default, which the other tests of this binary run with
 }
 

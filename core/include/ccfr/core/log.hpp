@@ -147,26 +147,39 @@ enum class Level { trace, debug, info, warn, error, off };
 bool enabled(Level level);
 /// Writes one finished message at `level`.
 void write(Level level, std::string_view message);
+/// Formats and writes one message at `level`. Never throws: a field that does not fit its
+/// argument is written as the format string with a note, because a log line must not stop a run.
+void write_formatted(Level level, std::string_view f, std::span<const FormatArg> args) noexcept;
 
 template <class... Args>
 void trace(FormatString<std::type_identity_t<Args>...> f, const Args&... args) {
-  if (enabled(Level::trace)) write(Level::trace, format<Args...>(f, args...));
+  if (!enabled(Level::trace)) return;
+  const std::array<FormatArg, sizeof...(Args)> a{FormatArg(args)...};
+  write_formatted(Level::trace, f.text, a);
 }
 template <class... Args>
 void debug(FormatString<std::type_identity_t<Args>...> f, const Args&... args) {
-  if (enabled(Level::debug)) write(Level::debug, format<Args...>(f, args...));
+  if (!enabled(Level::debug)) return;
+  const std::array<FormatArg, sizeof...(Args)> a{FormatArg(args)...};
+  write_formatted(Level::debug, f.text, a);
 }
 template <class... Args>
 void info(FormatString<std::type_identity_t<Args>...> f, const Args&... args) {
-  if (enabled(Level::info)) write(Level::info, format<Args...>(f, args...));
+  if (!enabled(Level::info)) return;
+  const std::array<FormatArg, sizeof...(Args)> a{FormatArg(args)...};
+  write_formatted(Level::info, f.text, a);
 }
 template <class... Args>
 void warn(FormatString<std::type_identity_t<Args>...> f, const Args&... args) {
-  if (enabled(Level::warn)) write(Level::warn, format<Args...>(f, args...));
+  if (!enabled(Level::warn)) return;
+  const std::array<FormatArg, sizeof...(Args)> a{FormatArg(args)...};
+  write_formatted(Level::warn, f.text, a);
 }
 template <class... Args>
 void error(FormatString<std::type_identity_t<Args>...> f, const Args&... args) {
-  if (enabled(Level::error)) write(Level::error, format<Args...>(f, args...));
+  if (!enabled(Level::error)) return;
+  const std::array<FormatArg, sizeof...(Args)> a{FormatArg(args)...};
+  write_formatted(Level::error, f.text, a);
 }
 
 }  // namespace log
