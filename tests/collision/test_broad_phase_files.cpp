@@ -3,35 +3,22 @@
 // names, each registering the key it is named by, and each builds a broad phase of that name.
 #include <gtest/gtest.h>
 
-#include <algorithm>
-#include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
-#include <vector>
 
 #include "ccfr/collision/broad_phase.hpp"
-
-namespace fs = std::filesystem;
+#include "component_files.hpp"
 
 TEST(BroadPhaseFiles, EveryFileUnderBroadPhaseIsTheRegisteredBroadPhaseOfItsName) {
-  std::vector<std::string> keys;
-  for (const auto& e : fs::directory_iterator(fs::path(CCFR_SOURCE_DIR) / "collision" / "src" / "broad_phase")) {
-    if (e.path().extension() != ".cpp") continue;
-    const std::string key = e.path().stem().string();
-    keys.push_back(key);
-    std::ifstream in(e.path());
-    std::stringstream text;
-    text << in.rdbuf();
-    EXPECT_NE(text.str().find("void register_broad_phase_" + key + "("), std::string::npos) << e.path();
-    EXPECT_NE(text.str().find("{\"" + key + "\""), std::string::npos) << e.path();
+  const auto files = ccfr::test::component_files("collision/src/broad_phase");
+  ASSERT_FALSE(files.empty());
+  for (const auto& f : files) {
+    EXPECT_NE(f.text.find("void register_broad_phase_" + f.key + "("), std::string::npos) << f.path;
+    EXPECT_NE(f.text.find("{\"" + f.key + "\""), std::string::npos) << f.path;
   }
-  ASSERT_FALSE(keys.empty());
-  std::sort(keys.begin(), keys.end());
-  EXPECT_EQ(ccfr::broad_phase_names(), keys);
-  for (const std::string& key : keys) {
-    const auto bp = ccfr::make_broad_phase(key, {});
-    ASSERT_NE(bp, nullptr) << key;
-    EXPECT_EQ(bp->name(), key);
+  EXPECT_EQ(ccfr::broad_phase_names(), ccfr::test::keys_of(files));
+  for (const auto& f : files) {
+    const auto bp = ccfr::make_broad_phase(f.key, {});
+    ASSERT_NE(bp, nullptr) << f.key;
+    EXPECT_EQ(bp->name(), f.key);
   }
 }

@@ -3,32 +3,20 @@
 // order of their names, each registering the key it is named by.
 #include <gtest/gtest.h>
 
-#include <algorithm>
-#include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
-#include <vector>
 
 #include "ccfr/solvers/contact_solver.hpp"
-
-namespace fs = std::filesystem;
+#include "component_files.hpp"
 
 TEST(SolverFiles, EveryFileUnderContactIsTheRegisteredSolverOfItsName) {
-  std::vector<std::string> keys;
-  for (const auto& e : fs::directory_iterator(fs::path(CCFR_SOURCE_DIR) / "solvers" / "src" / "contact")) {
-    if (e.path().extension() != ".cpp") continue;
-    const std::string key = e.path().stem().string();
-    keys.push_back(key);
-    std::ifstream in(e.path());
-    std::stringstream text;
-    text << in.rdbuf();
+  const auto files = ccfr::test::component_files("solvers/src/contact");
+  ASSERT_FALSE(files.empty());
+  for (const auto& f : files) {
     // The file defines its registration function and registers its own key (directly or through
     // region_projection_entry).
-    EXPECT_NE(text.str().find("void register_contact_solver_" + key + "("), std::string::npos) << e.path();
-    EXPECT_NE(text.str().find("\"" + key + "\""), std::string::npos) << e.path();
+    EXPECT_NE(f.text.find("void register_contact_solver_" + f.key + "("), std::string::npos) << f.path;
+    EXPECT_NE(f.text.find("\"" + f.key + "\""), std::string::npos) << f.path;
   }
-  std::sort(keys.begin(), keys.end());
-  EXPECT_EQ(ccfr::registered_contact_solvers(), keys);
-  for (const std::string& key : keys) EXPECT_NE(ccfr::make_contact_solver(key, {}), nullptr) << key;
+  EXPECT_EQ(ccfr::registered_contact_solvers(), ccfr::test::keys_of(files));
+  for (const auto& f : files) EXPECT_NE(ccfr::make_contact_solver(f.key, {}), nullptr) << f.key;
 }
