@@ -210,7 +210,10 @@ int run_cell(const fs::path& dir, long index, int threads) {
     ro.out = out;
   }
   ro.command_line = command;
-  spdlog::info("sweep cell {} ({}): {}", index, c.id, ro.resume.empty() ? "from the start" : "resuming");
+  spdlog::info("sweep cell {} ({}): {}", index, c.id,
+               completed           ? "completed earlier with this configuration; auditing its frames again"
+               : ro.resume.empty() ? "from the start"
+                                   : "resuming");
   int code = 0, stop_signal = 0;
   std::string status;
   if (completed) {
@@ -403,7 +406,8 @@ int run_local(const SweepLayout& s, const std::vector<size_t>& indices, int jobs
       ::signal(SIGINT, SIG_DFL);
       ::signal(SIGTERM, SIG_DFL);
       ::sigprocmask(SIG_SETMASK, &previous, nullptr);
-      const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+      // Appended: a resumed or rerun cell keeps the log of its earlier attempts above its own.
+      const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
       if (fd >= 0) ::dup2(fd, 1), ::dup2(fd, 2);
       const std::string dir = s.dir.string(), idx = std::to_string(i), th = std::to_string(threads);
       ::execl(exe.c_str(), exe.c_str(), "sweep", "run-cell", dir.c_str(), idx.c_str(), "--threads", th.c_str(),

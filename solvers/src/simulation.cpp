@@ -273,6 +273,29 @@ Index Simulation::carry_isolated_objects() {
   return carried;
 }
 
+std::string Simulation::kinematic_overrun(double kin_step) {
+  const double r = scene_.params.contact.radius;
+  // Where the script wanted its vertices at the start of this piece, against where they are: a
+  // solver that moves scripted vertices with the rest (toi_clamp interpolates the whole system)
+  // leaves them behind, and the lag, not the substep, makes the next step too long.
+  Positions scripted = scene_.state.x;
+  kinematic_targets(scene_.state.time, scripted);
+  double lag = 0.0;
+  Index worst = -1;
+  for (Index v : kinematic_)
+    if (const double d = (scripted[v] - scene_.state.x[v]).norm(); d > lag) lag = d, worst = v;
+  if (lag > 0.1 * r)
+    return ccfr::format(
+        "scripted vertices of object '{}' lag their script by {:.4g} (contact solver '{}' held them back with the "
+        "rest of the scene), so their next substep piece is {:.4g}, more than r = {:.4g}: this solver cannot follow "
+        "the scene's scripted motion; use a solver that leaves scripted vertices on their path (ccfr, ogc, dat, ...)",
+        scene_.topo.object_of_vertex(worst).name, lag, contact_->name(), kin_step, r);
+  return ccfr::format(
+      "scripted vertices move {:.4g} in one substep piece, more than r = {:.4g}, after subdivision; "
+      "raise time.substeps",
+      kin_step, r);
+}
+
 int Simulation::subdivision(double dt) {
   const auto& st = scene_.state;
   const auto& tp = scene_.params.time;
@@ -613,10 +636,7 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
   const double kin_step = kinematic_targets(t1, predicted_);
   const bool kin_moves = kin_step > 0.0;
   if (kin_step > params.contact.radius * (1.0 + 1e-9) && contact_->clamps_to_radius())
-    throw GuaranteeError(frame_ + 1,
-                         ccfr::format("scripted vertices move {:.4g} in one substep piece, more than r = {:.4g}, "
-                                      "after subdivision; raise time.substeps",
-                                      kin_step, params.contact.radius));
+    throw GuaranteeError(frame_ + 1, kinematic_overrun(kin_step));
 
   anchor_ = st.x;
   StepContext ctx{scene_.topo, params, dt, frame_ + 1, substep_index, 0, fs.times};

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <random>
 
+#include "ccfr/core/error.hpp"
 #include "ccfr/geometry/generators.hpp"
 #include "ccfr/solvers/contact_solver.hpp"
 #include "ccfr/solvers/simulation.hpp"
@@ -102,4 +103,32 @@ TEST(ToiClamp, NoPairCloserThanTheOffsetAfterResolveFromFeasibleAnchors) {
       dmin = std::min(dmin,
                       sub_pair_distance(ContactKind::vf, {x[c0 + static_cast<Index>(i)], x[f[0]], x[f[1]], x[f[2]]}));
   EXPECT_GE(dmin, 0.01 * (1.0 - 1e-9));
+}
+
+TEST(ToiClamp, ScriptedVerticesHeldBackWithTheSystemStopNamingTheSolver) {
+  // The clamp interpolates the whole system, the scripted floor too: with the puck touching, t* = 0
+  // every substep, the floor falls behind its script by its whole step, and the next piece is
+  // longer than r. The stop must blame the solver, not time.substeps; under ccfr the floor keeps
+  // to its script exactly (rest + v t).
+  const double xi = 0.01, floor_speed = 3.0;  // 5 mm per substep of 1/600 s, within r = 10 mm
+  for (const std::string solver : {"toi_clamp", "ccfr"}) {
+    Scene s = puck_scene(xi * (1.0 + 1e-9), 0.0, solver);
+    s.params.objects[0].motion.velocity = Vec3(floor_speed, 0, 0);
+    Simulation sim(std::move(s));
+    if (solver == "toi_clamp") {
+      try {
+        for (int f = 0; f < 5; ++f) sim.step_frame();
+        ADD_FAILURE() << "toi_clamp followed a script it halts";
+      } catch (const GuaranteeError& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find("lag their script"), std::string::npos) << what;
+        EXPECT_NE(what.find("'toi_clamp'"), std::string::npos) << what;
+        EXPECT_EQ(what.find("raise time.substeps"), std::string::npos) << what;
+      }
+    } else {
+      for (int f = 0; f < 5; ++f) sim.step_frame();
+      const double t = 5.0 / 60.0;
+      EXPECT_NEAR(sim.positions()[0].x(), sim.scene().state.rest[0].x() + floor_speed * t, 1e-9);
+    }
+  }
 }

@@ -153,6 +153,9 @@ class Simulation {
   /// Writes each moving kinematic vertex's target at time t into `target` and its step into
   /// kinematic_step_; returns the largest step.
   double kinematic_targets(double t, Positions& target);
+  /// The stop message for a scripted step longer than r after subdivision: names the solver when
+  /// it, not the script, made the step long (the vertices lag their script).
+  std::string kinematic_overrun(double kin_step);
   void check_finite(const Positions& x, const char* stage) const;
   void collide_analytic(Positions& x, double t) const;
   /// Carries every isolated deformable body's (tet solid, cloth, shell) anchors along its best rigid motion toward the
