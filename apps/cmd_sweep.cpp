@@ -158,6 +158,28 @@ SweepLayout read_sweep(const fs::path& dir) {
 
 namespace {
 
+/// DIR/logs/<id>.json: how the cell's last attempt ended (read by `sweep status`, the local runner
+/// and `sweep collect`).
+void write_cell_record(const fs::path& dir, const io::SweepCell& c, long index, int code, const std::string& status,
+                       const std::string& verdict) {
+  Json rec = {{"cell", c.id},
+              {"index", index},
+              {"exit_code", code},
+              {"status", status},
+              {"audit", verdict},
+              {"host",
+               [] {
+                 char h[256] = "";
+                 ::gethostname(h, sizeof h - 1);
+                 return std::string(h);
+               }()},
+              {"end_time", io::utc_now()}};
+  if (const char* job = std::getenv("SLURM_ARRAY_JOB_ID")) rec["slurm_job"] = job;
+  if (const char* task = std::getenv("SLURM_ARRAY_TASK_ID")) rec["slurm_task"] = task;
+  fs::create_directories(dir / "logs");
+  io::write_file_atomic(dir / "logs" / (c.id + ".json"), rec.dump(2) + "\n");
+}
+
 // `ccfr sweep run-cell DIR INDEX`: what one array task (or one local job) does. Continues from the
 // cell's checkpoint when it has one and has not completed, runs it from the start otherwise,
 // audits the frames into audit.json and records the outcome in DIR/logs/<id>.json.
@@ -173,6 +195,9 @@ int run_cell(const fs::path& dir, long index, int threads) {
   // One writer per cell for the run, its audit and its record: a cell still running (its sweep
   // was killed, or a resume raced it) is refused here, naming the process that runs it.
   const io::DirLock lock = io::DirLock::acquire(out, command);
+  // An earlier attempt's record would outlive this one if it ends without writing its own (killed).
+  std::error_code gone;
+  fs::remove(dir / "logs" / (c.id + ".json"), gone);
   RunOptions ro;
   ro.threads = threads;
   ro.progress = true;
@@ -219,10 +244,17 @@ int run_cell(const fs::path& dir, long index, int threads) {
   if (completed) {
     status = "completed";
   } else {
-    const RunSummary r = run_scene(ro);
-    code = run_exit_code(r);
-    status = r.status;
-    stop_signal = r.stop_signal;
+    try {
+      const RunSummary r = run_scene(ro);
+      code = run_exit_code(r);
+      status = r.status;
+      stop_signal = r.stop_signal;
+    } catch (const Error& e) {
+      // Refused before or while running (a checkpoint of another build, a scene that no longer
+      // loads): the record says so, not the status an earlier attempt left in run.json.
+      write_cell_record(dir, c, index, 2, std::string("error: ") + e.what(), "not audited (the run did not start)");
+      throw;
+    }
   }
   // The audit of the frames written: pass, fail, or incomplete (clean frames of an unfinished run).
   // A cell stopped by a signal is not audited now: whoever stopped it wants it to end; `sweep
@@ -240,22 +272,7 @@ int run_cell(const fs::path& dir, long index, int threads) {
       spdlog::error("sweep cell {}: audit failed: {}", c.id, e.what());
     }
   }
-  Json rec = {{"cell", c.id},
-              {"index", index},
-              {"exit_code", code},
-              {"status", status},
-              {"audit", verdict},
-              {"host",
-               [] {
-                 char h[256] = "";
-                 ::gethostname(h, sizeof h - 1);
-                 return std::string(h);
-               }()},
-              {"end_time", io::utc_now()}};
-  if (const char* job = std::getenv("SLURM_ARRAY_JOB_ID")) rec["slurm_job"] = job;
-  if (const char* task = std::getenv("SLURM_ARRAY_TASK_ID")) rec["slurm_task"] = task;
-  fs::create_directories(dir / "logs");
-  io::write_file_atomic(dir / "logs" / (c.id + ".json"), rec.dump(2) + "\n");
+  write_cell_record(dir, c, index, code, status, verdict);
   return code;
 }
 
@@ -451,8 +468,18 @@ int run_local(const SweepLayout& s, const std::vector<size_t>& indices, int jobs
     const size_t i = indices[k];
     const int code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
     const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    const std::string status =
-        io::is_ccfr_run(s.dir / s.cells[i].id) ? io::read_run_info(s.dir / s.cells[i].id).progress.status : "no run";
+    // The cell's own record of this attempt first: a run refused before it started leaves run.json
+    // as an earlier attempt wrote it.
+    std::string status = "no run";
+    const fs::path record = s.dir / "logs" / (s.cells[i].id + ".json");
+    try {
+      if (const Json r = read_json(record); r.is_object() && r.contains("status"))
+        status = r["status"].get<std::string>();
+      else if (io::is_ccfr_run(s.dir / s.cells[i].id))
+        status = io::read_run_info(s.dir / s.cells[i].id).progress.status;
+    } catch (const Error& e) {
+      status = std::string("unreadable record: ") + e.what();
+    }
     if (code != 0 && code != 3) ++failed;
     progress.clear();
     // A failed cell is worth a warning (shown under --quiet); its log says why.

@@ -241,6 +241,50 @@ TEST(Sweep, AblateIsTheSolversOnlySweepAndRefusesSolver) {
   EXPECT_EQ(nlohmann::json::parse(read_text(d / "a" / "ccfr" / "audit.json"))["verdict"], "pass");
 }
 
+// A cell whose scene stopped loading after it completed: run-cell runs it again, is refused, and
+// says so in its record instead of leaving the earlier attempt's "completed" there; its frames stay
+// whole, and its log keeps both attempts (appended).
+TEST(Sweep, ACellRefusedOnRerunRecordsTheErrorAndKeepsItsFrames) {
+  const fs::path d = ccfr::test::scratch_dir("sweep_refused_rerun");
+  const std::string scene = read_text(cfg("stress/cloth_near_floor.yaml"));
+  write(d / "scene.yaml", scene);
+  const fs::path out = d / "a";
+  auto r = run_ccfr("ablate '" + (d / "scene.yaml").string() + "' --frames 2 --solvers post_process --no-plot --out '" +
+                    out.string() + "'");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string frame = read_text(out / "post_process" / "frames" / "frame_00002.obj");
+  ASSERT_FALSE(frame.empty());
+  const fs::path record = out / "logs" / "post_process.json", log = out / "logs" / "post_process.log";
+  EXPECT_EQ(nlohmann::json::parse(read_text(record))["status"], "completed");
+  // Run directly, as a Slurm task would; the ablation's own cell log is appended to by the runner.
+  r = run_ccfr("sweep run-cell '" + out.string() + "' 0 --threads 1");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("completed earlier with this configuration; auditing its frames again"), std::string::npos)
+      << r.out;
+
+  write(d / "scene.yaml", scene + "\nnot_a_section: 1\n");
+  r = run_ccfr("sweep run-cell '" + out.string() + "' 0 --threads 1");
+  EXPECT_EQ(r.code, 2) << r.out;
+  const auto rec = nlohmann::json::parse(read_text(record));
+  const std::string status = rec["status"];
+  EXPECT_EQ(status.rfind("error: ", 0), 0u) << status;
+  EXPECT_NE(status.find("not_a_section"), std::string::npos) << status;
+  EXPECT_EQ(rec["exit_code"], 2);
+  EXPECT_EQ(read_text(out / "post_process" / "frames" / "frame_00002.obj"), frame);
+
+  // The runner appends: an ablation rerun (with the scene repaired) keeps the first attempt's lines.
+  const std::string first_log = read_text(log);
+  ASSERT_FALSE(first_log.empty());
+  write(d / "scene.yaml", scene);
+  r = run_ccfr("ablate '" + (d / "scene.yaml").string() + "' --frames 2 --solvers post_process --no-plot --out '" +
+               out.string() + "'");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string both = read_text(log);
+  EXPECT_EQ(both.rfind(first_log, 0), 0u) << both;
+  EXPECT_GT(both.size(), first_log.size());
+  EXPECT_EQ(nlohmann::json::parse(read_text(record))["status"], "completed");
+}
+
 namespace {
 
 // A stand-in for Slurm's commands in BIN: sbatch prints job 4242; squeue fails like the real one
