@@ -101,6 +101,7 @@ void write_sweep(const SweepLayout& s) {
   j["spec"] = s.spec.empty() ? Json(nullptr) : Json(s.spec.string());
   j["parameters"] = s.parameter_keys;
   j["audit_stride"] = s.audit_stride;
+  if (s.cell_time_limit_s > 0.0) j["cell_time_limit_s"] = s.cell_time_limit_s;
   j["resources"] = {{"cpus_per_task", s.resources.cpus_per_task},
                     {"time", s.resources.time},
                     {"memory", s.resources.memory},
@@ -134,6 +135,7 @@ SweepLayout read_sweep(const fs::path& dir) {
     s.spec = j.at("spec").is_string() ? fs::path(j.at("spec").get<std::string>()) : fs::path();
     s.parameter_keys = j.at("parameters").get<std::vector<std::string>>();
     s.audit_stride = j.at("audit_stride").get<int>();
+    s.cell_time_limit_s = j.value("cell_time_limit_s", 0.0);  // absent in sweeps before it existed
     const Json& r = j.at("resources");
     s.resources = {r.at("cpus_per_task").get<int>(), r.at("time").get<std::string>(), r.at("memory").get<std::string>(),
                    r.at("partition").get<std::string>(), r.at("account").get<std::string>()};
@@ -200,6 +202,7 @@ int run_cell(const fs::path& dir, long index, int threads) {
   fs::remove(dir / "logs" / (c.id + ".json"), gone);
   RunOptions ro;
   ro.threads = threads;
+  ro.time_limit_s = s.cell_time_limit_s;
   ro.progress = true;
   // The cell's earlier run counts only if it ran this cell's configuration: an ablation or sweep
   // rerun into the same directory with other --frames or --set starts the cell again instead of
@@ -610,6 +613,7 @@ std::string cell_state(const SweepLayout& s, size_t i, const std::map<size_t, st
   if (it != slurm.end() && it->second == "TIMEOUT") return "timeout";
   if (status.rfind("terminated", 0) == 0) return "terminated";
   if (status.rfind("interrupted", 0) == 0) return "interrupted";
+  if (status.rfind("stopped at its time limit", 0) == 0) return "timeout";  // the spec's cell_time_limit
   if (status.rfind("failed", 0) == 0) return "failed";
   return "lost";  // run.json says running but nothing runs it: the node or process died
 }
@@ -829,7 +833,8 @@ int run_and_summarize(const SweepLayout& s, const std::vector<size_t>& indices, 
 
 int start_sweep(SweepOptions& o) {
   io::SweepSpec spec = io::load_sweep_spec(o.spec);
-  SweepLayout s{o.out, spec.cells, spec.parameter_keys, spec.audit_stride, spec.resources, spec.file};
+  SweepLayout s{o.out,          spec.cells, spec.parameter_keys,   spec.audit_stride,
+                spec.resources, spec.file,  spec.cell_time_limit_s};
   apply_flags(s.resources, o.slurm);
   // One sweep process per sweep directory (its cells are locked apart by their run-cell).
   const io::DirLock lock = io::DirLock::acquire(o.out, invocation_string());

@@ -345,8 +345,12 @@ RunSummary run_scene(const RunOptions& opts) {
   std::optional<ProgressReporter> progress;
   if (opts.progress) progress.emplace(opts.progress_label, total - first_frame + 1);
   const auto started = std::chrono::steady_clock::now();
+  const auto over_time = [&] {
+    return opts.time_limit_s > 0.0 &&
+           std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count() >= opts.time_limit_s;
+  };
   for (int f = first_frame; f <= total && !summary.failed; ++f) {
-    if (const int sig = g_stop_signal) {
+    if (const int sig = g_stop_signal; sig || (f > first_frame && over_time())) {
       // Interrupted (Ctrl-C, scancel, a job's time limit): keep what was computed since the last
       // checkpoint, so that --resume loses nothing.
       if (writer && params.output.checkpoint_every > 0 && f - 1 > summary.last_checkpoint && f > first_frame) {
@@ -356,9 +360,15 @@ RunSummary run_scene(const RunOptions& opts) {
           spdlog::error("{}", e.what());
         }
       }
-      summary.status =
-          (sig == SIGTERM ? "terminated after frame " : "interrupted after frame ") + std::to_string(f - 1);
-      if (sig == SIGTERM) summary.status += " (SIGTERM)";
+      if (sig) {
+        summary.status =
+            (sig == SIGTERM ? "terminated after frame " : "interrupted after frame ") + std::to_string(f - 1);
+        if (sig == SIGTERM) summary.status += " (SIGTERM)";
+      } else {
+        summary.status = "stopped at its time limit of " + format_duration(opts.time_limit_s) + " after frame " +
+                         std::to_string(f - 1);
+        summary.time_limited = true;
+      }
       summary.failed = true;
       summary.stop_signal = sig;
       spdlog::warn("{}", summary.status);

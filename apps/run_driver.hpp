@@ -27,6 +27,9 @@ struct RunOptions {
   /// --resume DIR: continue the run in DIR from its latest checkpoint (config, overrides, frames
   /// and solver come from the checkpoint; `config` and `out` are ignored).
   std::filesystem::path resume;
+  /// Wall seconds of simulation after which the run stops at the end of its frame, like a signal
+  /// (checkpoint, status "stopped at its time limit ..."), but is audited; 0: none (sweep cells).
+  double time_limit_s = 0.0;
 };
 
 struct RunSummary {
@@ -50,6 +53,7 @@ struct RunSummary {
   bool nothing_to_resume = false;  ///< --resume of a run that had already completed
   int last_checkpoint = -1;        ///< frame of the last checkpoint written (-1: none)
   int stop_signal = 0;             ///< SIGINT or SIGTERM when a signal stopped the run, else 0
+  bool time_limited = false;       ///< RunOptions::time_limit_s stopped the run
   /// The run is in place but the previous run's files could not all be removed (where they are
   /// and why); the exit code is then non-zero.
   std::string cleanup_error;

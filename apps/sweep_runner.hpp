@@ -18,7 +18,8 @@ struct SweepLayout {
   std::vector<std::string> parameter_keys;
   int audit_stride = 1;
   io::SweepResources resources;
-  std::filesystem::path spec;  ///< empty for ablate
+  std::filesystem::path spec;      ///< empty for ablate
+  double cell_time_limit_s = 0.0;  ///< spec cell_time_limit; 0: none
 };
 
 /// Writes DIR/sweep.json (the cells and how to run them) and creates DIR/logs.

@@ -123,6 +123,43 @@ std::vector<SweepCell> expand_sweep(const std::vector<fs::path>& configs, const 
   return cells;
 }
 
+double parse_slurm_duration(const std::string& text) {
+  // Fields as unsigned integers; any other character, an empty field or a missing one is invalid.
+  const auto fields = [](const std::string& t, char sep) {
+    std::vector<long> out;
+    size_t b = 0;
+    while (true) {
+      const size_t e = t.find(sep, b);
+      const std::string f = t.substr(b, e == std::string::npos ? std::string::npos : e - b);
+      if (f.empty() || f.size() > 9 || f.find_first_not_of("0123456789") != std::string::npos)
+        return std::vector<long>{};
+      out.push_back(std::stol(f));
+      if (e == std::string::npos) return out;
+      b = e + 1;
+    }
+  };
+  const size_t dash = text.find('-');
+  if (dash != std::string::npos) {  // D-H, D-H:MM, D-H:MM:SS
+    const auto d = fields(text.substr(0, dash), ':');
+    const auto h = fields(text.substr(dash + 1), ':');
+    if (d.size() != 1 || h.empty() || h.size() > 3) return -1.0;
+    const double hms[3] = {static_cast<double>(h[0]), h.size() > 1 ? double(h[1]) : 0.0,
+                           h.size() > 2 ? double(h[2]) : 0.0};
+    return ((d[0] * 24.0 + hms[0]) * 60.0 + hms[1]) * 60.0 + hms[2];
+  }
+  const auto f = fields(text, ':');
+  switch (f.size()) {
+    case 1:
+      return f[0] * 60.0;  // minutes
+    case 2:
+      return f[0] * 60.0 + f[1];  // MM:SS
+    case 3:
+      return (f[0] * 60.0 + f[1]) * 60.0 + f[2];  // H:MM:SS
+    default:
+      return -1.0;
+  }
+}
+
 SweepSpec load_sweep_spec(const fs::path& file) {
   SweepSpec s;
   s.file = fs::absolute(file).lexically_normal();
@@ -131,7 +168,8 @@ SweepSpec load_sweep_spec(const fs::path& file) {
       parse_bounded_yaml(read_user_file(s.file, "sweep spec", kMaxSceneFileBytes), s.file.string(), "sweep spec");
   r.no_duplicate_keys(root, "");
   r.only(root, "",
-         {"configs", "solvers", "parameters", "combine", "cases", "set", "frames", "audit_stride", "resources"});
+         {"configs", "solvers", "parameters", "combine", "cases", "set", "frames", "audit_stride", "cell_time_limit",
+          "resources"});
   if (!root["configs"]) r.fail(root, "configs", "is required: the scene files of the sweep");
   for (const auto& c : r.list(root["configs"], "configs")) {
     fs::path p = fs::path(c).is_absolute() ? fs::path(c) : s.file.parent_path() / c;
@@ -209,6 +247,15 @@ SweepSpec load_sweep_spec(const fs::path& file) {
   }
   if (root["frames"]) s.frames = r.integer(root["frames"], "frames", 0);
   if (root["audit_stride"]) s.audit_stride = r.integer(root["audit_stride"], "audit_stride", 1);
+  if (const YAML::Node t = root["cell_time_limit"]) {
+    const std::string text = r.scalar(t, "cell_time_limit");
+    s.cell_time_limit_s = parse_slurm_duration(text);
+    if (!(s.cell_time_limit_s > 0.0))
+      r.fail(t, "cell_time_limit",
+             "expected a positive duration as Slurm writes it (45 minutes: 45, 45:00 or 0:45:00; also D-H:MM:SS), "
+             "got '" +
+                 text + "'");
+  }
   if (const YAML::Node res = root["resources"]) {
     r.only(res, "resources", {"cpus_per_task", "time", "memory", "partition", "account"});
     if (res["cpus_per_task"]) s.resources.cpus_per_task = r.integer(res["cpus_per_task"], "resources.cpus_per_task", 1);

@@ -98,6 +98,7 @@ TEST(SweepSpec, TheMethodsSweepRunsEverySolverThatKeepsPairsApartToTheEnd) {
   for (const auto& c : s.configs) EXPECT_TRUE(fs::exists(c)) << c;
   EXPECT_EQ(s.frames, -1);
   EXPECT_EQ(s.audit_stride, 1);
+  EXPECT_EQ(s.cell_time_limit_s, 45 * 60.0);  // the comparison's budget per cell (docs/results.md)
   EXPECT_NE(std::find(s.set.begin(), s.set.end(), "contact.on_violation=warn"), s.set.end());
   EXPECT_EQ(s.cells.size(), 6 * expected.size());
 }
@@ -127,6 +128,26 @@ TEST(SweepSpec, BadSpecsNameFileKeyAndLine) {
   expect_refused(spec, c + "frames: -1\n", {"frames", "must be >= 0"});
   expect_refused(spec, "", {"expected a map"});
   expect_refused(spec, c + "solvers: [ccfr, ccfr]\n", {"share the id"});
+  expect_refused(spec, c + "cell_time_limit: 1:2:3:4\n", {spec.string() + ":2:", "cell_time_limit", "'1:2:3:4'"});
+  expect_refused(spec, c + "cell_time_limit: 0\n", {"cell_time_limit", "positive duration"});
+}
+
+// Slurm's --time forms, each against its value in seconds worked out by hand; anything else is -1.
+TEST(SweepSpec, CellTimeLimitReadsSlurmDurations) {
+  using ccfr::io::parse_slurm_duration;
+  EXPECT_EQ(parse_slurm_duration("45"), 2700.0);
+  EXPECT_EQ(parse_slurm_duration("45:30"), 2730.0);
+  EXPECT_EQ(parse_slurm_duration("1:30:00"), 5400.0);
+  EXPECT_EQ(parse_slurm_duration("0:00:01"), 1.0);
+  EXPECT_EQ(parse_slurm_duration("2-3"), 183600.0);        // (2 x 24 + 3) h
+  EXPECT_EQ(parse_slurm_duration("2-3:04"), 183840.0);     // + 4 min
+  EXPECT_EQ(parse_slurm_duration("2-3:04:05"), 183845.0);  // + 5 s
+  EXPECT_EQ(parse_slurm_duration("0"), 0.0);               // valid form; the spec refuses it as not positive
+  for (const char* bad : {"", "a", "1.5", "-5", "1-", "-1:00", "1:2:3:4", "1::2", "1-2:3:4:5", " 5", "5 ", "1-2-3"})
+    EXPECT_EQ(parse_slurm_duration(bad), -1.0) << "'" << bad << "'";
+  const fs::path d = ccfr::test::scratch_dir("sweep_spec_time_limit");
+  write(d / "s.yaml", "configs: [" + cfg("drape.yaml") + "]\ncell_time_limit: \"0:45:00\"\n");
+  EXPECT_EQ(ccfr::io::load_sweep_spec(d / "s.yaml").cell_time_limit_s, 2700.0);
 }
 
 TEST(Sweep, LocalCellsEqualHandRunsAndResumeRunsWhatIsMissing) {
@@ -283,6 +304,34 @@ TEST(Sweep, ACellRefusedOnRerunRecordsTheErrorAndKeepsItsFrames) {
   EXPECT_EQ(both.rfind(first_log, 0), 0u) << both;
   EXPECT_GT(both.size(), first_log.size());
   EXPECT_EQ(nlohmann::json::parse(read_text(record))["status"], "completed");
+}
+
+// cell_time_limit: a cell still running at the limit stops at the end of its frame, keeps a
+// checkpoint, and is audited as far as it ran; status and `sweep status` say it timed out.
+TEST(Sweep, ACellStopsAtTheSpecsTimeLimitAndIsAuditedAsFarAsItRan) {
+  const fs::path d = ccfr::test::scratch_dir("sweep_time_limit");
+  const int frames = 5000;  // far more than one second of cloth_near_floor on any machine
+  write(d / "s.yaml", "configs: [" + cfg("stress/cloth_near_floor.yaml") + "]\nsolvers: [ccfr]\nframes: " +
+                          std::to_string(frames) + "\ncell_time_limit: \"0:01\"\nset: {output.checkpoint_every: 1}\n");
+  const fs::path out = d / "sweep";
+  auto r = run_ccfr("sweep '" + (d / "s.yaml").string() + "' --out '" + out.string() + "' --threads 1");
+  EXPECT_EQ(r.code, 1) << r.out;
+  const std::string id = "cloth_near_floor__ccfr";
+  EXPECT_EQ(nlohmann::json::parse(read_text(out / "sweep.json"))["cell_time_limit_s"], 1.0);
+  const auto run = nlohmann::json::parse(read_text(out / id / "run.json"));
+  const std::string status = run["status"];
+  EXPECT_EQ(status.rfind("stopped at its time limit of 1.00 s after frame ", 0), 0u) << status;
+  const int last = std::stoi(status.substr(status.rfind(' ') + 1));
+  EXPECT_GE(last, 1);
+  EXPECT_LT(last, frames);
+  EXPECT_EQ(run["frames_written"], last + 1);
+  const auto rec = nlohmann::json::parse(read_text(out / "logs" / (id + ".json")));
+  EXPECT_EQ(rec["status"], status);
+  EXPECT_EQ(rec["audit"], "incomplete");  // clean as far as it ran
+  EXPECT_TRUE(fs::exists(out / id / "audit.json"));
+  EXPECT_FALSE(fs::is_empty(out / id / "checkpoints"));
+  r = run_ccfr("sweep status '" + out.string() + "'");
+  EXPECT_NE(r.out.find("timeout"), std::string::npos) << r.out;
 }
 
 namespace {

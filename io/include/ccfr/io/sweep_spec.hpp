@@ -36,12 +36,19 @@ struct SweepSpec {
   std::vector<std::string> set;                 ///< key.path=value applied to every cell
   int frames = -1;                              ///< -1: each scene's time.frames
   int audit_stride = 1;
+  /// cell_time_limit: wall seconds after which a cell stops at the end of its frame, writes its
+  /// checkpoint and is audited as far as it ran (both backends); 0: no limit.
+  double cell_time_limit_s = 0.0;
   SweepResources resources;
   std::vector<SweepCell> cells;  ///< configs × solvers × cases, in that nesting order
 };
 
+/// A duration as Slurm writes --time: minutes ("45"), "MM:SS", "H:MM:SS", "D-H", "D-H:MM" or
+/// "D-H:MM:SS"; returns seconds, or -1 when `text` is none of these.
+double parse_slurm_duration(const std::string& text);
+
 /// Reads SPEC.yaml (keys: configs, solvers, parameters, combine: product|zip, cases, set, frames,
-/// audit_stride, resources{cpus_per_task, time, memory, partition, account}) and expands its cells.
+/// audit_stride, cell_time_limit, resources{cpus_per_task, time, memory, partition, account}) and expands its cells.
 /// Config paths are relative to the spec file. Throws ccfr::ConfigError / ccfr::Error.
 SweepSpec load_sweep_spec(const std::filesystem::path& file);
 
