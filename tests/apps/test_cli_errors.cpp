@@ -234,7 +234,8 @@ TEST(CliErrors, PlotRefusesAForeignStatsCsvAndPrintsTheFileItWrote) {
 TEST(CliErrors, InaccessiblePathsAreExit2NamingThePath) {
   if (::geteuid() != 0 || std::system("command -v runuser > /dev/null 2>&1") != 0)
     GTEST_SKIP() << "needs root and runuser to run ccfr as nobody";
-  const fs::path d = ccfr::test::scratch_dir("cli_errors_eacces");
+  const fs::path d = ccfr::test::nobody_scratch_dir("cli_errors_eacces");
+  const fs::path exe = ccfr::test::nobody_exe(d);
   fs::permissions(d, fs::perms::owner_all | fs::perms::others_read | fs::perms::others_exec);
   scene(d);
   fs::create_directories(d / "closed");
@@ -244,7 +245,7 @@ TEST(CliErrors, InaccessiblePathsAreExit2NamingThePath) {
            "run " + q(d / "closed" / "s.yaml") + " --out /tmp/ccfr_eacces_never", "audit " + q(d / "closed" / "x"),
            "plot " + q(d / "closed" / "x"), "render " + q(d / "closed" / "x"), "bench " + q(d / "closed" / "s.yaml")}) {
     SCOPED_TRACE(cmd);
-    const CliResult r = run_shell("runuser -u nobody -- " + std::string(CCFR_EXE) + " " + cmd + " 2>&1");
+    const CliResult r = run_shell("runuser -u nobody -- " + exe.string() + " " + cmd + " 2>&1");
     EXPECT_EQ(r.code, 2) << r.out;
     EXPECT_TRUE(has(r, "Permission denied")) << r.out;
     EXPECT_TRUE(has(r, (d / "closed").string())) << r.out;

@@ -36,8 +36,8 @@ struct Result {
 
 // `ccfr args...` in its own process group (so that a test can end whatever it leaves running),
 // stdout + stderr into `log`; as user `uid` when >= 0 (root's permission checks pass everything).
-pid_t spawn(const std::vector<std::string>& args, const fs::path& log, int uid = -1) {
-  std::vector<std::string> all{CCFR_EXE};
+pid_t spawn(const std::vector<std::string>& args, const fs::path& log, int uid = -1, const fs::path& exe = CCFR_EXE) {
+  std::vector<std::string> all{exe.string()};
   all.insert(all.end(), args.begin(), args.end());
   const pid_t pid = fork();
   if (pid == 0) {
@@ -81,8 +81,8 @@ struct Reaper {
   }
 };
 
-Result run(const std::vector<std::string>& args, const fs::path& log, int uid = -1) {
-  return finish(spawn(args, log, uid), log);
+Result run(const std::vector<std::string>& args, const fs::path& log, int uid = -1, const fs::path& exe = CCFR_EXE) {
+  return finish(spawn(args, log, uid, exe), log);
 }
 
 bool wait_until(const std::function<bool()>& done, int seconds = 120) {
@@ -228,17 +228,20 @@ TEST(RunDir, AnEmptyOutIsAnErrorNotTheDefaultFolder) {
 // A read-only frames/ of the previous run (as a user that permissions apply to: root passes them
 // all, so the runs are made as `nobody` then): refused before anything is written, exit 2.
 TEST(RunDir, APreviousRunThatCannotBeRemovedIsRefusedUpFrontAndNothingStaysBehind) {
-  const fs::path d = ccfr::test::scratch_dir("rundir_readonly");
   const int uid = ::geteuid() == 0 ? 65534 : -1;
+  const fs::path d =
+      uid >= 0 ? ccfr::test::nobody_scratch_dir("rundir_readonly") : ccfr::test::scratch_dir("rundir_readonly");
+  const fs::path exe = uid >= 0 ? ccfr::test::nobody_exe(d) : fs::path(CCFR_EXE);
   if (uid >= 0) fs::permissions(d, fs::perms::all);  // nobody writes here; the test's own files are read only
   const fs::path sc = d / "scene.yaml";
   write(sc, scene());
   const fs::path out = d / "out";
-  ASSERT_EQ(run({"run", sc.string(), "--out", out.string(), "-q"}, d / "log1", uid).code, 0) << read_text(d / "log1");
+  ASSERT_EQ(run({"run", sc.string(), "--out", out.string(), "-q"}, d / "log1", uid, exe).code, 0)
+      << read_text(d / "log1");
   const std::string start = run_json(out)["start_time"];
   fs::permissions(out / "frames", fs::perms::owner_read | fs::perms::owner_exec | fs::perms::group_read |
                                       fs::perms::group_exec | fs::perms::others_read | fs::perms::others_exec);
-  const Result r = run({"run", sc.string(), "--out", out.string(), "--frames", "1"}, d / "log2", uid);
+  const Result r = run({"run", sc.string(), "--out", out.string(), "--frames", "1"}, d / "log2", uid, exe);
   fs::permissions(out / "frames", fs::perms::owner_write, fs::perm_options::add);
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_TRUE(contains(r.out, "'" + (out / "frames").string() + "' is not writable")) << r.out;

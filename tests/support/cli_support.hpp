@@ -9,6 +9,7 @@
 
 #include <array>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -94,6 +95,41 @@ inline std::filesystem::path scratch_dir(const std::string& name) {
   std::filesystem::remove_all(d);
   std::filesystem::create_directories(d);
   return d;
+}
+
+/// Whether `nobody` passes `test FLAG PATH` (run through runuser, so only as root): PATH and every
+/// directory above it must let others through.
+inline bool nobody_can(const char* flag, const std::filesystem::path& path) {
+  return std::system(
+             ("runuser -u nobody -- test " + std::string(flag) + " '" + path.string() + "' 2>/dev/null").c_str()) == 0;
+}
+
+/// A scratch directory for tests that run ccfr as `nobody` (root passes every permission check):
+/// BUILD/test-scratch/NAME when nobody can reach the build tree, else one under /tmp private to
+/// this build tree, since a checkout inside `mktemp -d` (mode 700) keeps nobody out.
+inline std::filesystem::path nobody_scratch_dir(const std::string& name) {
+  namespace fs = std::filesystem;
+  if (nobody_can("-x", CCFR_BINARY_DIR)) return scratch_dir(name);
+  const fs::path root =
+      fs::path("/tmp") / ("ccfr-test-nobody-" + std::to_string(std::hash<std::string>{}(CCFR_BINARY_DIR)));
+  const fs::path d = root / name;
+  fs::remove_all(d);
+  fs::create_directories(d);
+  fs::permissions(root, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec | fs::perms::others_read |
+                            fs::perms::others_exec);
+  return d;
+}
+
+/// The ccfr executable as `nobody` can run it: the build's own, or a copy in `dir` (a
+/// nobody_scratch_dir) when nobody cannot reach the build tree.
+inline std::filesystem::path nobody_exe(const std::filesystem::path& dir) {
+  namespace fs = std::filesystem;
+  if (nobody_can("-x", CCFR_EXE)) return CCFR_EXE;
+  const fs::path copy = dir / "ccfr";
+  fs::copy_file(CCFR_EXE, copy, fs::copy_options::overwrite_existing);
+  fs::permissions(copy, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec | fs::perms::others_read |
+                            fs::perms::others_exec);
+  return copy;
 }
 
 inline std::string read_text(const std::filesystem::path& p) {
