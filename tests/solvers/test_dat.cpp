@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 
+#include "ccfr/geometry/distance.hpp"
 #include "ccfr/geometry/generators.hpp"
 #include "ccfr/geometry_exact/audit.hpp"
 #include "ccfr/solvers/dat.hpp"
@@ -137,6 +138,87 @@ TEST(Dat, ObliquePlanesThatTheSweepsCannotSettleFallBackAlongTheRay) {
   Vec3 z(0.03, 0.04, 0.0);
   DivideAndTruncateSolver::truncate_against(c, {}, 0.01, z);
   EXPECT_NEAR((z - Vec3(0.006, 0.008, 0)).norm(), 0.0, 1e-15);
+}
+
+namespace {
+
+/// The smallest distance between the vertices, edges and faces of different objects, by brute
+/// force over every vertex-face and edge-edge pair (independent of the solver's detection).
+double closest_between_objects(const Topology& topo, const Positions& x) {
+  double best = std::numeric_limits<double>::infinity();
+  auto obj = [&](Index v) { return &topo.object_of_vertex(v); };
+  for (Index v = 0; v < topo.num_vertices(); ++v)
+    for (const Vec3i& f : topo.faces)
+      if (obj(v) != obj(f[0]))
+        best = std::min(best, std::sqrt(point_triangle(x[v], x[f[0]], x[f[1]], x[f[2]]).distance_sq));
+  for (const auto& a : topo.edges)
+    for (const auto& b : topo.edges)
+      if (obj(a[0]) != obj(b[0]))
+        best = std::min(best, std::sqrt(edge_edge(x[a[0]], x[a[1]], x[b[0]], x[b[1]]).distance_sq));
+  return best;
+}
+
+}  // namespace
+
+TEST(Dat, SqueezedVertexFromFeasibleAnchorsKeepsEveryPairAtTheOffset) {
+  // The card stack's bottom card (configs/card_stack_xi0_001.yaml): a vertex resting at exactly ξ
+  // on a fixed 0.4 m table triangle, a slightly tilted movable triangle ξ (1 + 1e-6) above it. The
+  // anchors are feasible, yet the table pair's gap along its computed normal, ℓ_A − h_B, reads a
+  // few 1e-15 below ξ (the normal's rounding times the table's 0.2 m corners); DAT used to take
+  // that for a push and put the vertex's limit past its centre, then the sweeps zig-zagged between
+  // the two nearly opposite planes and the ray fallback skipped the limit the centre crossed,
+  // leaving the vertex up to 1e-3 ξ inside the table's offset.
+  const double xi = 0.001, r = 0.0005, tilt = 0.003;
+  int cases = 0;
+  for (const double x0 : {-0.045, -0.0283, -0.0121, 0.0047, 0.0196, 0.0321, 0.045})
+    for (const double z0 : {-0.0315, -0.0101, 0.0157, 0.0299})
+      for (const double dir : {-1.0, 1.0}) {
+        const Part table = test::square("table", Vec3::Zero(), Vec3::UnitX(), Vec3::UnitZ(), 0.2);
+        // The upper triangle's plane y = y0 + tilt (X − x0), at distance ξ (1 + 1e-6) from the vertex.
+        const double y0 = xi + xi * (1.0 + 1e-6) * std::sqrt(1.0 + tilt * tilt);
+        auto at = [&](double dx, double dz) { return Vec3(x0 + dx, y0 + tilt * dx, z0 + dz); };
+        const Part upper{
+            "upper", ObjectKind::cloth, {at(-0.01, -0.01), at(0.01, -0.01), at(0.0, 0.012)}, {Vec3i(0, 1, 2)}};
+        test::Probe<DivideAndTruncateSolver> p{test::build_case({table, particle(Vec3(x0, xi, z0)), upper}, xi, r),
+                                               std::make_unique<DivideAndTruncateSolver>()};
+        const Topology& topo = p.scene.topo;
+        ASSERT_GE(closest_between_objects(topo, p.scene.state.x), xi) << "feasible anchors";
+        p.detect();
+        // The premise of the ray fallback: every centre satisfies its own limits.
+        for (Index v = 4; v < 8; ++v)
+          for (const DivisionLimit& l : p.solver->limits(v))
+            EXPECT_GE(l.normal.dot(p.scene.state.x[v]), l.limit) << v << " " << x0 << " " << z0;
+        // Gravity-like candidates: the vertex 0.2 mm down and 0.3 mm along x (toward the upper
+        // plane's low side for dir = -1), the upper triangle 0.1 mm down.
+        Positions x = p.scene.state.x;
+        x[4] += Vec3(0.0003 * dir, -0.0002, 0.0001);
+        for (Index v = 5; v < 8; ++v) x[v] += Vec3(0.0, -0.0001, 0.0);
+        p.resolve(x);
+        EXPECT_GE(closest_between_objects(topo, x), xi * (1.0 - 1e-9)) << x0 << " " << z0 << " " << dir;
+        ++cases;
+      }
+  EXPECT_EQ(cases, 56);
+}
+
+TEST(Dat, APairInsideItsOffsetIsPushedOutOneWithinTheAuditToleranceIsNot) {
+  // The particle starts 2 cm above the floor (offset ξ = 1 cm) and is then found at height h.
+  // Below (1 − debug.audit_tolerance) ξ the limit is the bound ξ itself (a push); within the
+  // tolerance the pair is feasible and the limit is the particle's own height (no push, no
+  // approach); a degenerate h = ξ exactly is the boundary case of the relaxed limit.
+  const double tol = 1e-6;
+  for (const double h : {0.5 * kXi, kXi * (1.0 - 2 * tol), kXi * (1.0 - 0.5 * tol), kXi}) {
+    auto p = probe({floor_square(), particle(Vec3(0.15, 0.02, -0.1))});
+    ASSERT_EQ(p.scene.params.debug.audit_tolerance, tol);
+    p.scene.state.x[4].y() = h;
+    p.detect();
+    ASSERT_EQ(p.solver->limits(4).size(), 1u) << h;
+    const double expect = h < kXi * (1.0 - tol) ? kXi : h;
+    EXPECT_NEAR(p.solver->limits(4)[0].limit, expect, 1e-14) << h;  // the normal's rounding
+    Positions x = p.scene.state.x;
+    x[4] += Vec3(0.001, -0.001, 0.0);
+    p.resolve(x);
+    EXPECT_NEAR((x[4] - Vec3(0.151, expect, -0.1)).norm(), 0.0, 1e-14) << h;
+  }
 }
 
 TEST(Dat, RestingContactKeepsSlidingWhereOgcStalls) {

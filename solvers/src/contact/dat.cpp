@@ -26,10 +26,11 @@ void DivideAndTruncateSolver::build_limits(std::span<const double> inv_mass, std
     // The same over the vertices that cannot move (scripted or fixed), which no limit can hold.
     const double inf = std::numeric_limits<double>::infinity();
     double lo_a = inf, hi_b = -inf, lo_a_fixed = inf, hi_b_fixed = -inf;
+    bool scripted = false;
     for (int k = 0; k < n; ++k) {
       const Vec3& p = centers_[c.v[k]];
       double s0 = c.n.dot(p), s1 = s0;
-      if (!kinematic.empty()) s1 = c.n.dot(p + kinematic[c.v[k]]);
+      if (!kinematic.empty()) s1 = c.n.dot(p + kinematic[c.v[k]]), scripted = scripted || s1 != s0;
       const bool fixed = !(inv_mass[c.v[k]] > 0.0);
       if (k < na) {
         lo_a = std::min({lo_a, s0, s1});
@@ -44,6 +45,11 @@ void DivideAndTruncateSolver::build_limits(std::span<const double> inv_mass, std
     double mid = 0.5 * (lo_a + hi_b);
     const double lowest = hi_b_fixed + 0.5 * c.offset, highest = lo_a_fixed - 0.5 * c.offset;
     if (lowest <= highest) mid = std::clamp(mid, lowest, highest);
+    // A push only where the pair needs one: a scripted step along n, or a pair the audit counts as
+    // inside its offset. Otherwise ℓ_A − h_B below ξ_c is the normal's error (its rounding times a
+    // 0.4 m table's corners: 1e-14; an edge-edge pair's inexact closest points: up to 6e-10 on the
+    // card stack), and a limit past a feasible centre breaks the ray fallback (it then skips it).
+    const bool push = scripted || c.distance < c.offset * (1.0 - feasible_tolerance_);
     for (int k = 0; k < n; ++k) {
       const Index u = c.v[k];
       if (!(inv_mass[u] > 0.0)) continue;
@@ -54,8 +60,9 @@ void DivideAndTruncateSolver::build_limits(std::span<const double> inv_mass, std
       const double bound = a ? mid + 0.5 * c.offset : -(mid - 0.5 * c.offset);  // how far it may come
       // Beyond the bound already (a scripted side's known step moved the plane past it, or the
       // pair starts inside its offset): the limit is the bound itself, so the cut pushes u out
-      // along ν, as CCFR's half-space with a known Δx_B does.
-      l.limit = own >= bound ? own - two_gp * (own - bound) : bound;
+      // along ν, as CCFR's half-space with a known Δx_B does. Without a push: u's centre, which
+      // keeps the pair's gap along n as it is.
+      l.limit = own >= bound ? own - two_gp * (own - bound) : (push ? bound : own);
       limits_[static_cast<size_t>(cursor[u]++)] = l;
     }
   }
