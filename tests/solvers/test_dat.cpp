@@ -221,6 +221,22 @@ TEST(Dat, APairInsideItsOffsetIsPushedOutOneWithinTheAuditToleranceIsNot) {
   }
 }
 
+TEST(Dat, AFloorSlidingAlongItselfUnderAVertexAtTheOffsetPushesNothing) {
+  // A scripted step along the floor's own plane closes nothing along n: the vertex resting at ξ
+  // keeps its centre as its limit (within the normal's rounding), whatever the step's length.
+  for (const double step : {1e-4, 0.003, 0.009})
+    for (const double x0 : {0.0123, 0.15, -0.1731}) {
+      auto p = probe({floor_square(), particle(Vec3(x0, kXi, -0.1))});
+      p.kinematic.assign(5, Vec3::Zero());
+      for (Index v = 0; v < 4; ++v) p.kinematic[v] = Vec3(step, 0, 0);
+      p.detect();
+      ASSERT_EQ(p.solver->limits(4).size(), 1u);
+      const DivisionLimit& l = p.solver->limits(4)[0];
+      EXPECT_GE(l.normal.dot(p.scene.state.x[4]), l.limit) << step << " " << x0;
+      EXPECT_NEAR(l.limit, kXi, 1e-14) << step << " " << x0;
+    }
+}
+
 TEST(Dat, RestingContactKeepsSlidingWhereOgcStalls) {
   const double speed = 0.5, free_x = speed * 10 / 60.0;
   Simulation dat(test::floor_puck_scene(kXi * (1.0 + 1e-3), speed, "dat"));

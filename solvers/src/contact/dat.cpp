@@ -25,18 +25,19 @@ void DivideAndTruncateSolver::build_limits(std::span<const double> inv_mass, std
     // ends of its straight step (n·x is linear along it).
     // The same over the vertices that cannot move (scripted or fixed), which no limit can hold.
     const double inf = std::numeric_limits<double>::infinity();
-    double lo_a = inf, hi_b = -inf, lo_a_fixed = inf, hi_b_fixed = -inf;
-    bool scripted = false;
+    double lo_a = inf, hi_b = -inf, lo_a_fixed = inf, hi_b_fixed = -inf, lo_a_now = inf, hi_b_now = -inf;
     for (int k = 0; k < n; ++k) {
       const Vec3& p = centers_[c.v[k]];
       double s0 = c.n.dot(p), s1 = s0;
-      if (!kinematic.empty()) s1 = c.n.dot(p + kinematic[c.v[k]]), scripted = scripted || s1 != s0;
+      if (!kinematic.empty()) s1 = c.n.dot(p + kinematic[c.v[k]]);
       const bool fixed = !(inv_mass[c.v[k]] > 0.0);
       if (k < na) {
         lo_a = std::min({lo_a, s0, s1});
+        lo_a_now = std::min(lo_a_now, s0);
         if (fixed) lo_a_fixed = std::min({lo_a_fixed, s0, s1});
       } else {
         hi_b = std::max({hi_b, s0, s1});
+        hi_b_now = std::max(hi_b_now, s0);
         if (fixed) hi_b_fixed = std::max({hi_b_fixed, s0, s1});
       }
     }
@@ -45,11 +46,13 @@ void DivideAndTruncateSolver::build_limits(std::span<const double> inv_mass, std
     double mid = 0.5 * (lo_a + hi_b);
     const double lowest = hi_b_fixed + 0.5 * c.offset, highest = lo_a_fixed - 0.5 * c.offset;
     if (lowest <= highest) mid = std::clamp(mid, lowest, highest);
-    // A push only where the pair needs one: a scripted step along n, or a pair the audit counts as
-    // inside its offset. Otherwise ℓ_A − h_B below ξ_c is the normal's error (its rounding times a
-    // 0.4 m table's corners: 1e-14; an edge-edge pair's inexact closest points: up to 6e-10 on the
-    // card stack), and a limit past a feasible centre breaks the ray fallback (it then skips it).
-    const bool push = scripted || c.distance < c.offset * (1.0 - feasible_tolerance_);
+    // A push only where the pair needs one: its distance, less what the scripted steps close along
+    // n, below what the audit counts as clean. Otherwise ℓ_A − h_B below ξ_c is the normal's error
+    // (its rounding times a 0.4 m table's corners: 1e-14; an edge-edge pair's inexact closest
+    // points: up to 6e-10 on the card stack), and a limit past a feasible centre breaks the ray
+    // fallback (it then skips that limit).
+    const double closed = (lo_a_now - hi_b_now) - (lo_a - hi_b);
+    const bool push = c.distance - closed < c.offset * (1.0 - feasible_tolerance_);
     for (int k = 0; k < n; ++k) {
       const Index u = c.v[k];
       if (!(inv_mass[u] > 0.0)) continue;

@@ -42,8 +42,8 @@ struct DivisionLimit {
 /// scripted vertices were counted in ℓ_A, h_B, so when \f$\ell_A - h_B \ge \xi_c\f$ at detection
 /// (a feasible anchor, \f$\ell_A - h_B = d_c\f$ for the exact closest-point normal) nothing
 /// crosses. Undetected pairs are kept apart by the isotropic bound, as for `ogc`. A vertex already
-/// beyond its bound where the pair needs a push (a scripted side's known step along n, or a pair
-/// closer than (1 − debug.audit_tolerance) ξ_c at detection) gets the bound itself as its limit,
+/// beyond its bound where the pair needs a push (its distance at detection, less what the scripted
+/// steps close along n, below (1 − debug.audit_tolerance) ξ_c) gets the bound itself as its limit,
 /// so the cut pushes it out along the normal, as CCFR's half-space with a known
 /// \f$\Delta\mathbf{x}_B\f$ does (Eq. 3); the ray fallback then skips that limit (the centre does
 /// not satisfy it). Any other vertex beyond its bound keeps its centre as its limit: the pair is
