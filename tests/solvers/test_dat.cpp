@@ -237,6 +237,31 @@ TEST(Dat, AFloorSlidingAlongItselfUnderAVertexAtTheOffsetPushesNothing) {
     }
 }
 
+TEST(Dat, APushedLimitTheSweepsCannotSettleIsMetFromTheNearestAllowedPoint) {
+  // The centre is 0.1 mm below a pushed limit y ≥ 1 mm (a pair inside its offset), and a plane
+  // tilted by 3 mrad leaves a slab of 0.5 µm above it. The sweeps zig-zag between the two; the
+  // ray from the centre cannot meet the pushed limit, so it starts at the exact projection of the
+  // centre onto both, (0, 1 mm, 0), and the result meets every limit.
+  const double a = 0.003;
+  const Vec3 c(0.0, 0.0009, 0.0);
+  const Vec3 n2(-std::sin(a), -std::cos(a), 0.0);
+  const std::vector<DivisionLimit> limits = {{Vec3::UnitY(), 0.001}, {n2, n2.dot(Vec3(0, 0.0010005, 0))}};
+  for (const Vec3& step : {Vec3(0.0003, -0.0002, 0.0), Vec3(0.0003, 0.0, 0.0001), Vec3(0.0001, -0.0001, 0.0)}) {
+    Vec3 x = c + step;
+    DivideAndTruncateSolver::truncate_against(c, limits, 1.0, x);
+    for (const DivisionLimit& l : limits) EXPECT_GE(l.normal.dot(x), l.limit - 1e-15) << step.transpose();
+    // On the segment from the nearest allowed point to the swept candidate: z keeps its share.
+    EXPECT_GE(x.y(), 0.001 - 1e-15);
+    EXPECT_LE(x.y(), 0.0010005 + a * 0.0003);
+  }
+  // An empty intersection (the tilted plane below the pushed one): nothing meets both, the pushed
+  // limit is left to the sweeps as before and the result stays finite.
+  const std::vector<DivisionLimit> empty = {{Vec3::UnitY(), 0.001}, {n2, n2.dot(Vec3(0, 0.0009, 0))}};
+  Vec3 x = c + Vec3(0.0003, -0.0002, 0.0);
+  DivideAndTruncateSolver::truncate_against(c, empty, 1.0, x);
+  EXPECT_TRUE(x.allFinite());
+}
+
 TEST(Dat, RestingContactKeepsSlidingWhereOgcStalls) {
   const double speed = 0.5, free_x = speed * 10 / 60.0;
   Simulation dat(test::floor_puck_scene(kXi * (1.0 + 1e-3), speed, "dat"));
