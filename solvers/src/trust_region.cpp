@@ -30,6 +30,7 @@ void TrustRegionSolver::initialize(const Topology& topo, const SimState& state, 
                   "' truncates each vertex's step on its own, which would deform a rigid body; use contact.solver "
                   "ccfr or exact_projection (docs/methods.md)");
   offset_ = params.contact.offset;
+  feasible_tolerance_ = params.debug.audit_tolerance;
   const double range = params.contact.offset + 2.0 * params.contact.radius;
   query_radius_ = params_.query_radius > 0.0 ? params_.query_radius : range;
   if (!(query_radius_ > offset_) || query_radius_ > range * (1.0 + 1e-12))

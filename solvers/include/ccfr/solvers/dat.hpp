@@ -42,10 +42,16 @@ struct DivisionLimit {
 /// scripted vertices were counted in ℓ_A, h_B, so when \f$\ell_A - h_B \ge \xi_c\f$ at detection
 /// (a feasible anchor, \f$\ell_A - h_B = d_c\f$ for the exact closest-point normal) nothing
 /// crosses. Undetected pairs are kept apart by the isotropic bound, as for `ogc`. A vertex already
-/// beyond its bound (a scripted side's known step moved the plane past it, or the pair is inside
-/// its offset) gets the bound itself as its limit, so the cut pushes it out along the normal, as
-/// CCFR's half-space with a known \f$\Delta\mathbf{x}_B\f$ does (Eq. 3); the ray fallback then
-/// skips that limit (the centre does not satisfy it).
+/// beyond its bound where the pair needs a push (its distance at detection, less what the scripted
+/// steps close along n, below (1 − debug.audit_tolerance) ξ_c) gets the bound itself as its limit,
+/// so the cut pushes it out along the normal, as CCFR's half-space with a known
+/// \f$\Delta\mathbf{x}_B\f$ does (Eq. 3); the centre does not satisfy that limit, so the ray
+/// fallback then starts from the exact projection of the centre onto all of the vertex's limits
+/// (if they admit a point; else the pushed limit is left to the sweeps). Any other vertex beyond
+/// its bound keeps its centre as its limit: the pair is feasible there and only the computed
+/// normal's error (\f$\ell_A - h_B\f$ a few 1e-15 below \f$d_c\f$ over a large triangle) put it
+/// past, so every centre satisfies its own limits and
+/// the pair keeps \f$\min(\xi_c, \ell_A - h_B)\f$ along n (docs/methods.md, the card stack).
 class DivideAndTruncateSolver final : public TrustRegionSolver {
  public:
   explicit DivideAndTruncateSolver(TrustRegionParams params = {}) : TrustRegionSolver(params) {}

@@ -78,6 +78,8 @@ class TrustRegionSolver : public DetectingSolver {
   TrustRegionParams params_;
   Positions centers_;
   double query_radius_ = 0.0, offset_ = 0.0;
+  /// debug.audit_tolerance: a pair at least (1 − this) times its offset apart counts as feasible.
+  double feasible_tolerance_ = 0.0;
 
  private:
   bool redetect_ = true;
