@@ -84,7 +84,7 @@ void BM_Broad(benchmark::State& state, std::string name) {
   state.counters["candidates"] = static_cast<double>(pairs.size());
 }
 
-/// FNV-1a over every field of the regions (offsets, planes) and the contacts in order: equal
+/// FNV-1a over every field of the regions (row starts, planes) and the contacts in order: equal
 /// hashes before and after an optimisation show that the output is bit-identical.
 std::uint64_t output_hash(const RegionSet& regions, const std::vector<ContactPair>& contacts) {
   std::uint64_t h = 1469598103934665603ull;
@@ -93,7 +93,7 @@ std::uint64_t output_hash(const RegionSet& regions, const std::vector<ContactPai
     std::memcpy(bytes, &value, sizeof value);
     for (unsigned char b : bytes) h = (h ^ b) * 1099511628211ull;
   };
-  for (Index o : regions.offsets) mix(o);
+  for (Index o : regions.row_start) mix(o);
   for (const HalfSpace& p : regions.rows()) {
     for (int k = 0; k < 3; ++k) mix(p.n[k]);
     mix(p.d);
@@ -110,9 +110,9 @@ std::uint64_t output_hash(const RegionSet& regions, const std::vector<ContactPai
   return h;
 }
 
-/// Bytes a pass writes into the RegionSet: offsets, per-contact records and per-slot references.
+/// Bytes a pass writes into the RegionSet: row starts, per-contact records and per-slot references.
 size_t region_bytes(const RegionSet& r) {
-  return r.offsets.size() * sizeof(Index) + r.records.size() * sizeof(RegionRecord) +
+  return r.row_start.size() * sizeof(Index) + r.records.size() * sizeof(RegionRecord) +
          r.refs.size() * sizeof(std::uint32_t);
 }
 
@@ -180,7 +180,7 @@ void BM_Screen(benchmark::State& state) {
     const ContactPair& c = contacts[i];
     compact[i].n = c.n;
     for (int k = 0; k < c.size(); ++k) {
-      const HalfSpace h = regions.plane(regions.offsets[c.v[k]] + seen[c.v[k]]++);
+      const HalfSpace h = regions.plane(regions.row_start[c.v[k]] + seen[c.v[k]]++);
       compact[i].d[k < c.side_a() ? 0 : 1] = h.d;
     }
   }
@@ -239,16 +239,16 @@ void BM_Screen(benchmark::State& state) {
   };
   // What the compact layout saves: writing the per-vertex rows (count, prefix sum, fill), serially.
   struct {
-    std::vector<Index> offsets;
+    std::vector<Index> row_start;
     std::vector<HalfSpace> planes;
   } rows;
   auto build_rows = [&] {
-    rows.offsets.assign(static_cast<size_t>(nv) + 1, 0);
+    rows.row_start.assign(static_cast<size_t>(nv) + 1, 0);
     for (const Packed& r : packed)
-      for (int k = 0; k < (r.size_na >> 2); ++k) ++rows.offsets[static_cast<size_t>(r.v[k]) + 1];
-    for (Index v = 0; v < nv; ++v) rows.offsets[v + 1] += rows.offsets[v];
-    seen.assign(rows.offsets.begin(), rows.offsets.end() - 1);
-    rows.planes.resize(static_cast<size_t>(rows.offsets.back()));
+      for (int k = 0; k < (r.size_na >> 2); ++k) ++rows.row_start[static_cast<size_t>(r.v[k]) + 1];
+    for (Index v = 0; v < nv; ++v) rows.row_start[v + 1] += rows.row_start[v];
+    seen.assign(rows.row_start.begin(), rows.row_start.end() - 1);
+    rows.planes.resize(static_cast<size_t>(rows.row_start.back()));
     for (const Packed& r : packed) {
       const int size = r.size_na >> 2, na = r.size_na & 3;
       for (int k = 0; k < size; ++k) {
@@ -264,7 +264,7 @@ void BM_Screen(benchmark::State& state) {
   const bool same1 = outside == reference;
   packed_screen();
   build_rows();
-  if (rows.offsets != regions.offsets ||
+  if (rows.row_start != regions.row_start ||
       std::memcmp(rows.planes.data(), regions.rows().data(), rows.planes.size() * sizeof(HalfSpace)) != 0) {
     state.SkipWithError("the rebuilt rows differ");
     return;

@@ -41,7 +41,7 @@ void InitialPairTable::assign(std::vector<std::pair<std::uint64_t, Index>> entri
   excluded_ = 0;
   constexpr std::uint64_t kMask = (std::uint64_t{1} << 31) - 1;
   for (auto& r : rows_) {
-    r.offsets.assign(1, 0);
+    r.row_start.assign(1, 0);
     r.cols.clear();
     r.slots.clear();
   }
@@ -49,10 +49,10 @@ void InitialPairTable::assign(std::vector<std::pair<std::uint64_t, Index>> entri
   for (const auto& [k, slot] : entries) {
     Rows& r = rows_[k >> 62];
     const Index a = static_cast<Index>((k >> 31) & kMask), b = static_cast<Index>(k & kMask);
-    while (static_cast<Index>(r.offsets.size()) <= a + 1) r.offsets.push_back(static_cast<Index>(r.cols.size()));
+    while (static_cast<Index>(r.row_start.size()) <= a + 1) r.row_start.push_back(static_cast<Index>(r.cols.size()));
     r.cols.push_back(b);
     r.slots.push_back(slot);
-    r.offsets.back() = static_cast<Index>(r.cols.size());
+    r.row_start.back() = static_cast<Index>(r.cols.size());
     excluded_ += slot == kExcluded;
   }
 }
@@ -1117,7 +1117,7 @@ void CollisionDetector::assemble(std::span<const double> inv_mass, std::span<con
   std::vector<size_t> start(static_cast<size_t>(chunks) + 1, 0);
   for (Index c = 0; c < chunks; ++c) start[c + 1] = start[c] + contact_buffers_[c].size();
   contacts.resize(start.back());
-  regions.offsets.assign(static_cast<size_t>(nv) + 1, 0);
+  regions.row_start.assign(static_cast<size_t>(nv) + 1, 0);
   if (start.back() > std::numeric_limits<std::uint32_t>::max() / 2)
     throw Error("CollisionDetector::detect: " + std::to_string(start.back()) +
                 " contacts exceed the region's 32-bit plane references");
@@ -1139,8 +1139,8 @@ void CollisionDetector::assemble(std::span<const double> inv_mass, std::span<con
         for (int k = 0; k < c.size(); ++k)
           if (inv_mass[c.v[k]] > 0.0) ++count[c.v[k]];
   });
-  counts_to_block_cursors(nv, blocks, block_cursor_, regions.offsets);
-  regions.refs.resize(static_cast<size_t>(regions.offsets.back()));
+  counts_to_block_cursors(nv, blocks, block_cursor_, regions.row_start);
+  regions.refs.resize(static_cast<size_t>(regions.row_start.back()));
   // Every entry is written below: resizing without clearing first skips zero-filling them.
   plane_sources_.resize(record_sources_ ? regions.refs.size() : 0);
   parallel_chunks(chunks, blocks, [&](Index b, Index chunk_begin, Index chunk_end) {

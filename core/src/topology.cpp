@@ -138,7 +138,7 @@ Topology TopologyBuilder::finish() {
   }
   for (const auto& pl : polylines_) {
     t.polylines.indices.insert(t.polylines.indices.end(), pl.begin(), pl.end());
-    t.polylines.offsets.push_back(static_cast<Index>(t.polylines.indices.size()));
+    t.polylines.row_start.push_back(static_cast<Index>(t.polylines.indices.size()));
     for (size_t i = 1; i < pl.size(); ++i) {
       t.edges.emplace_back(std::min(pl[i - 1], pl[i]), std::max(pl[i - 1], pl[i]));
       t.edge_object.push_back(t.vertex_object[pl[i]]);

@@ -22,7 +22,7 @@ TopologicalAdjacency::TopologicalAdjacency(const Topology& topo, const Positions
     throw Error("TopologicalAdjacency: " + std::to_string(rest.size()) + " positions for " + std::to_string(nv) +
                 " vertices");
   if (!(radius >= 0.0)) throw Error("TopologicalAdjacency: radius must be >= 0");
-  near_.offsets.assign(static_cast<size_t>(nv) + 1, 0);
+  near_.row_start.assign(static_cast<size_t>(nv) + 1, 0);
   near_.indices.clear();
   if (radius == 0.0) return;
   // Bounded Dijkstra from every vertex over its incident edges. `dist` is reset only where it was
@@ -33,7 +33,7 @@ TopologicalAdjacency::TopologicalAdjacency(const Topology& topo, const Positions
   std::priority_queue<Item, std::vector<Item>, std::greater<>> heap;
   for (Index s = 0; s < nv; ++s) {
     if (!sources.empty() && !sources[s]) {
-      near_.offsets[s + 1] = static_cast<Index>(near_.indices.size());
+      near_.row_start[s + 1] = static_cast<Index>(near_.indices.size());
       continue;
     }
     dist[s] = 0.0;
@@ -58,7 +58,7 @@ TopologicalAdjacency::TopologicalAdjacency(const Topology& topo, const Positions
     }
     std::sort(found.begin(), found.end());
     near_.indices.insert(near_.indices.end(), found.begin(), found.end());
-    near_.offsets[s + 1] = static_cast<Index>(near_.indices.size());
+    near_.row_start[s + 1] = static_cast<Index>(near_.indices.size());
     for (Index t : touched) dist[t] = -1.0;
     touched.clear();
     found.clear();
@@ -67,7 +67,7 @@ TopologicalAdjacency::TopologicalAdjacency(const Topology& topo, const Positions
 
 bool TopologicalAdjacency::vertices_adjacent(Index a, Index b) const {
   if (a == b) return true;
-  if (near_.offsets.size() <= 1) return false;
+  if (near_.row_start.size() <= 1) return false;
   const auto ra = near_.row(a), rb = near_.row(b);
   return std::binary_search(ra.begin(), ra.end(), b) || std::binary_search(rb.begin(), rb.end(), a);
 }

@@ -114,17 +114,17 @@ void visibility_weights(std::span<const ContactPair> contacts, double width, std
       256);
 }
 
-void visibility_weights(std::span<const ContactPair> contacts, std::span<const Index> offsets,
+void visibility_weights(std::span<const ContactPair> contacts, std::span<const Index> row_start,
                         std::span<const Index> slots, double width, std::vector<double>& vis, VisibilityWorkspace& ws,
                         std::span<const double> movable) {
   const Index n = static_cast<Index>(contacts.size());
   vis.assign(static_cast<size_t>(n), 1.0);
   if (width <= 0.0 || n == 0) return;
-  if (offsets.empty() || static_cast<size_t>(offsets.back()) != slots.size())
+  if (row_start.empty() || static_cast<size_t>(row_start.back()) != slots.size())
     throw Error("visibility_weights: the incidence has " + std::to_string(slots.size()) +
-                " slots, its offsets end at " +
-                (offsets.empty() ? std::string("nothing") : std::to_string(offsets.back())));
-  const Index nv = static_cast<Index>(offsets.size()) - 1;
+                " slots, its row starts end at " +
+                (row_start.empty() ? std::string("nothing") : std::to_string(row_start.back())));
+  const Index nv = static_cast<Index>(row_start.size()) - 1;
   // Nothing movable (a pile of rigid bodies on an obstacle): apply() uses no weight.
   if (!movable.empty() && std::none_of(movable.begin(), movable.end(), [](double w) { return w > 0.0; })) return;
   // A listed vertex's slots of k = 0 are exactly its contacts as query vertex, in contact order:
@@ -137,7 +137,7 @@ void visibility_weights(std::span<const ContactPair> contacts, std::span<const I
         for (Index v = vb; v < ve; ++v) {
           group.clear();
           bool moves = movable.empty();
-          for (Index q = offsets[v]; q < offsets[v + 1]; ++q)
+          for (Index q = row_start[v]; q < row_start[v + 1]; ++q)
             if (slots[q] % 4 == 0) {
               const Index ci = slots[q] / 4;
               group.push_back(ci);
@@ -154,7 +154,7 @@ void visibility_weights(std::span<const ContactPair> contacts, std::span<const I
   parallel_chunks(n, blocks, [&](Index b, Index lo, Index hi) {
     for (Index i = lo; i < hi; ++i) {
       const Index v = contacts[i].v[0];
-      if (v >= nv || offsets[v + 1] == offsets[v]) found[b].push_back(i);
+      if (v >= nv || row_start[v + 1] == row_start[v]) found[b].push_back(i);
     }
   });
   std::vector<Index>& rest = ws.order;
@@ -171,16 +171,16 @@ void visibility_weights(std::span<const ContactPair> contacts, std::span<const I
 }
 
 void ContactResponse::prepare_common(std::span<const ContactPair> contacts, const ContactParams& params,
-                                     std::span<const Index> offsets, std::span<const Index> slots,
+                                     std::span<const Index> row_start, std::span<const Index> slots,
                                      std::span<const double> movable) {
   contacts_ = contacts;
   prepared_repulsion_ = params.repulsion_range > 0.0;
   if (!prepared_repulsion_) return;  // apply() does nothing without a repulsion range
   const double width = params.visibility_width > 0.0 ? params.visibility_width : params.repulsion_range;
-  if (offsets.empty())
+  if (row_start.empty())
     visibility_weights(contacts, width, visibility_, visibility_ws_);
   else
-    visibility_weights(contacts, offsets, slots, width, visibility_, visibility_ws_, movable);
+    visibility_weights(contacts, row_start, slots, width, visibility_, visibility_ws_, movable);
   // No zeroing: apply() writes every used slot of an active contact, and its gather reads only
   // the slots of active contacts.
   corr_.resize(contacts.size() * 4);
@@ -188,28 +188,28 @@ void ContactResponse::prepare_common(std::span<const ContactPair> contacts, cons
 
 void ContactResponse::prepare(std::span<const ContactPair> contacts, Index num_vertices, const ContactParams& params) {
   prepare_common(contacts, params, {}, {});
-  vertex_offsets_.assign(static_cast<size_t>(num_vertices) + 1, 0);
+  vertex_row_start_.assign(static_cast<size_t>(num_vertices) + 1, 0);
   for (const auto& c : contacts)
-    for (int k = 0; k < c.size(); ++k) ++vertex_offsets_[c.v[k] + 1];
-  std::partial_sum(vertex_offsets_.begin(), vertex_offsets_.end(), vertex_offsets_.begin());
-  vertex_contacts_.resize(static_cast<size_t>(vertex_offsets_.back()));
+    for (int k = 0; k < c.size(); ++k) ++vertex_row_start_[c.v[k] + 1];
+  std::partial_sum(vertex_row_start_.begin(), vertex_row_start_.end(), vertex_row_start_.begin());
+  vertex_contacts_.resize(static_cast<size_t>(vertex_row_start_.back()));
   std::vector<Index>& cursor = visibility_ws_.cursor;
-  cursor.assign(vertex_offsets_.begin(), vertex_offsets_.end() - 1);
+  cursor.assign(vertex_row_start_.begin(), vertex_row_start_.end() - 1);
   for (Index ci = 0; ci < static_cast<Index>(contacts.size()); ++ci)
     for (int k = 0; k < contacts[ci].size(); ++k) vertex_contacts_[cursor[contacts[ci].v[k]]++] = ci * 4 + k;
-  offsets_ = vertex_offsets_;
+  row_start_ = vertex_row_start_;
   slots_ = vertex_contacts_;
 }
 
-void ContactResponse::prepare(std::span<const ContactPair> contacts, std::span<const Index> offsets,
+void ContactResponse::prepare(std::span<const ContactPair> contacts, std::span<const Index> row_start,
                               std::span<const Index> slots, const ContactParams& params,
                               std::span<const double> movable) {
-  if (offsets.empty() || static_cast<size_t>(offsets.back()) != slots.size())
+  if (row_start.empty() || static_cast<size_t>(row_start.back()) != slots.size())
     throw Error("ContactResponse::prepare: the incidence has " + std::to_string(slots.size()) +
-                " slots, its offsets end at " +
-                (offsets.empty() ? std::string("nothing") : std::to_string(offsets.back())));
-  prepare_common(contacts, params, offsets, slots, movable);
-  offsets_ = offsets;
+                " slots, its row starts end at " +
+                (row_start.empty() ? std::string("nothing") : std::to_string(row_start.back())));
+  prepare_common(contacts, params, row_start, slots, movable);
+  row_start_ = row_start;
   slots_ = slots;
 }
 
@@ -271,10 +271,10 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
   active_ = static_cast<Index>(std::count(is_active.begin(), is_active.end(), 1));
   // Gather: each vertex takes the average of its contacts' corrections.
   parallel_for(
-      std::min(static_cast<Index>(x.size()), static_cast<Index>(offsets_.size()) - 1),
+      std::min(static_cast<Index>(x.size()), static_cast<Index>(row_start_.size()) - 1),
       [&](Index b, Index e) {
         for (Index v = b; v < e; ++v) {
-          const Index s = offsets_[v], t = offsets_[v + 1];
+          const Index s = row_start_[v], t = row_start_[v + 1];
           if (s == t || inv_mass[v] == 0.0) continue;
           Vec3 sum = Vec3::Zero();
           int cnt = 0;

@@ -67,7 +67,7 @@ DetectResult DetectingSolver::detect(const Positions& anchor, const SimState& st
   ctx.times.narrow += ds.narrow_s;
   {
     ScopedTimer t(ctx.times.narrow);  // contact bookkeeping for the response belongs to the narrow phase
-    response_.prepare(contacts_, regions_.offsets, detector_->plane_sources(), ctx.params.contact,
+    response_.prepare(contacts_, regions_.row_start, detector_->plane_sources(), ctx.params.contact,
                       response_mass(state));
   }
   DetectResult s;
@@ -207,7 +207,7 @@ std::vector<ContactSolver::ClosePair> DetectingSolver::close_pairs(const Positio
 }
 
 std::optional<bool> DetectingSolver::region_empty(Index v, const Positions& anchor) const {
-  if (v < 0 || static_cast<size_t>(v) + 1 >= regions_.offsets.size() || regions_.count(v) == 0) return std::nullopt;
+  if (v < 0 || static_cast<size_t>(v) + 1 >= regions_.row_start.size() || regions_.count(v) == 0) return std::nullopt;
   std::vector<HalfSpace> buf;
   const auto planes = regions_.of(v, buf);
   if (!falls_below(anchor[v], anchor[v], planes, 0.0)) return false;  // the anchor is a feasible point

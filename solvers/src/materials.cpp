@@ -213,7 +213,7 @@ template <class Batch>
 void solve_coloured(Batch& batch, const Colouring& col, Positions& x, std::span<const double> w, double dt) {
   const std::span<const Index> order(col.order);
   for (Index k = 0; k < col.colours(); ++k) {
-    const Index b = col.offsets[k], e = col.offsets[k + 1];
+    const Index b = col.row_start[k], e = col.row_start[k + 1];
     parallel_for(
         e - b,
         [&](Index lo, Index hi) {
@@ -341,7 +341,7 @@ void TetBatch::solve_in_order(std::span<const Index> order, Positions& x, std::s
 // ---- ShapeMatchingBatch -------------------------------------------------------------------------
 
 void ShapeMatchingBatch::add(Index first, Index last, const Positions& rest, std::span<const double> inv_mass) {
-  if (offset.empty()) offset.push_back(0);
+  if (row_start.empty()) row_start.push_back(0);
   begin.push_back(first);
   end.push_back(last);
   double max_mass = 0.0;
@@ -363,7 +363,7 @@ void ShapeMatchingBatch::add(Index first, Index last, const Positions& rest, std
   }
   centre /= total > 0.0 ? total : 1.0;
   for (Index i = first; i < last; ++i) rest_offset.push_back(rest[i] - centre);
-  offset.push_back(static_cast<Index>(base) + (last - first));
+  row_start.push_back(static_cast<Index>(base) + (last - first));
 }
 
 void ShapeMatchingBatch::solve(Positions& x, std::span<const double> w) const {
@@ -372,7 +372,7 @@ void ShapeMatchingBatch::solve(Positions& x, std::span<const double> w) const {
       [&](Index lo, Index hi) {
         for (Index b = lo; b < hi; ++b) {
           const size_t n = static_cast<size_t>(end[b] - begin[b]);
-          const size_t o = static_cast<size_t>(offset[b]);
+          const size_t o = static_cast<size_t>(row_start[b]);
           xpbd::solve_shape_matching(
               std::span<Vec3>(x.data() + begin[b], n), w.subspan(static_cast<size_t>(begin[b]), n),
               std::span<const Vec3>(rest_offset.data() + o, n), std::span<const double>(weight.data() + o, n));
@@ -388,7 +388,7 @@ void ShapeMatchingBatch::predict(const Positions& x, const Positions& v, std::sp
       [&](Index lo, Index hi) {
         for (Index b = lo; b < hi; ++b) {
           const size_t n = static_cast<size_t>(end[b] - begin[b]);
-          const size_t o = static_cast<size_t>(offset[b]);
+          const size_t o = static_cast<size_t>(row_start[b]);
           bool dynamic = true;
           for (Index i = begin[b]; i < end[b] && dynamic; ++i) dynamic = inv_mass[i] > 0.0;
           if (!dynamic) continue;  // pinned bodies follow their pins through shape matching
@@ -563,7 +563,7 @@ void MaterialSystem::build_schedule(Index nv, std::span<const double> inv_mass) 
     const Colouring& col = batch.colouring;
     for (Index k = 0; k < col.colours(); ++k) {
       std::vector<Index> touched;
-      for (Index t = col.offsets[k]; t < col.offsets[k + 1]; ++t) {
+      for (Index t = col.row_start[k]; t < col.row_start[k + 1]; ++t) {
         Index& id = island_of_key[key(batch, col.order[t])];
         if (id < 0) {
           id = num_islands++;
@@ -600,19 +600,19 @@ void MaterialSystem::build_schedule(Index nv, std::span<const double> inv_mass) 
 
   auto split = [&](const auto& batch, IslandOrder& by_island, Colouring& large_col) {
     const Colouring& col = batch.colouring;
-    by_island.offsets.assign(static_cast<size_t>(small_islands_) + 1, 0);
+    by_island.row_start.assign(static_cast<size_t>(small_islands_) + 1, 0);
     by_island.order.clear();
     large_col = Colouring{};
-    large_col.offsets.push_back(0);
+    large_col.row_start.push_back(0);
     for (Index t = 0; t < static_cast<Index>(col.order.size()); ++t) {
       const Index s = small_index[island_of_key[key(batch, col.order[t])]];
-      if (s >= 0) ++by_island.offsets[s + 1];
+      if (s >= 0) ++by_island.row_start[s + 1];
     }
-    for (Index s = 0; s < small_islands_; ++s) by_island.offsets[s + 1] += by_island.offsets[s];
-    by_island.order.resize(static_cast<size_t>(by_island.offsets.back()));
-    std::vector<Index> cursor(by_island.offsets.begin(), by_island.offsets.end() - 1);
+    for (Index s = 0; s < small_islands_; ++s) by_island.row_start[s + 1] += by_island.row_start[s];
+    by_island.order.resize(static_cast<size_t>(by_island.row_start.back()));
+    std::vector<Index> cursor(by_island.row_start.begin(), by_island.row_start.end() - 1);
     for (Index k = 0; k < col.colours(); ++k) {
-      for (Index t = col.offsets[k]; t < col.offsets[k + 1]; ++t) {
+      for (Index t = col.row_start[k]; t < col.row_start[k + 1]; ++t) {
         const Index c = col.order[t];
         const Index s = small_index[island_of_key[key(batch, c)]];
         if (s >= 0)
@@ -621,7 +621,7 @@ void MaterialSystem::build_schedule(Index nv, std::span<const double> inv_mass) 
           large_col.order.push_back(c);
       }
       const Index n = static_cast<Index>(large_col.order.size());
-      if (n > large_col.offsets.back()) large_col.offsets.push_back(n);
+      if (n > large_col.row_start.back()) large_col.row_start.push_back(n);
     }
   };
   split(distance_, small_distance_, large_distance_);

@@ -192,7 +192,7 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
           const size_t n = b.rest.size();
           const std::span<const Vec3> rest(b.rest);
           // The body's planes are one contiguous range of the RegionSet.
-          const Index q_begin = regions.offsets[b.begin], q_end = regions.offsets[b.end];
+          const Index q_begin = regions.row_start[b.begin], q_end = regions.row_start[b.end];
           auto place = [&](const Pose& p, std::vector<Vec3>& out) {
             const Eigen::Matrix3d r = p.q.toRotationMatrix();
             out.resize(n);
@@ -280,7 +280,7 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
             live.clear();
             for (size_t i = 0; i < n; ++i) {
               const Index v = b.begin + static_cast<Index>(i);
-              const Index q0 = regions.offsets[v], q1 = regions.offsets[v + 1];
+              const Index q0 = regions.row_start[v], q1 = regions.row_start[v + 1];
               if (q0 == q1) continue;
               const Vec3 at = r * b.rest[i] + pose.c;
               for (Index q = q0; q < q1; ++q) {

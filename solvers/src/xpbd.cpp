@@ -35,11 +35,11 @@ Colouring colour_constraints(Index num_vertices, std::span<const Index> vertices
     }
   }
   Colouring out;
-  out.offsets.assign(static_cast<size_t>(num_colours) + 1, 0);
-  for (Index c = 0; c < n; ++c) ++out.offsets[colour[c] + 1];
-  for (Index k = 0; k < num_colours; ++k) out.offsets[k + 1] += out.offsets[k];
+  out.row_start.assign(static_cast<size_t>(num_colours) + 1, 0);
+  for (Index c = 0; c < n; ++c) ++out.row_start[colour[c] + 1];
+  for (Index k = 0; k < num_colours; ++k) out.row_start[k + 1] += out.row_start[k];
   out.order.resize(static_cast<size_t>(n));
-  std::vector<Index> cursor(out.offsets.begin(), out.offsets.end() - 1);
+  std::vector<Index> cursor(out.row_start.begin(), out.row_start.end() - 1);
   for (Index c = 0; c < n; ++c) out.order[cursor[colour[c]]++] = c;
   return out;
 }
@@ -60,7 +60,7 @@ void DistanceBatch::reset_multipliers() { std::fill(lambda.begin(), lambda.end()
 
 void DistanceBatch::solve(const Colouring& col, Positions& x, std::span<const double> w, double dt) {
   for (Index k = 0; k < col.colours(); ++k) {
-    const Index b = col.offsets[k], e = col.offsets[k + 1];
+    const Index b = col.row_start[k], e = col.row_start[k + 1];
     parallel_for(
         e - b,
         [&](Index lo, Index hi) {

@@ -239,7 +239,7 @@ TEST_P(NarrowPhaseScenes, HalfSpacesAreConsistentWithContacts) {
     if (s.inv_mass[v] == 0) EXPECT_EQ(d.regions.count(v), 0) << "kinematic vertex " << v << " got half-spaces";
   // A vertex's planes appear in contact order: walk the contacts with a cursor per vertex and
   // check each plane against the contact it came from (Alg. NarrowPhase lines 10/26/41).
-  std::vector<Index> cursor(d.regions.offsets.begin(), d.regions.offsets.end() - 1);
+  std::vector<Index> cursor(d.regions.row_start.begin(), d.regions.row_start.end() - 1);
   for (const auto& c : d.contacts) {
     const double phi = c.distance - c.offset;
     EXPECT_LT(phi, 2 * kR);
@@ -250,7 +250,7 @@ TEST_P(NarrowPhaseScenes, HalfSpacesAreConsistentWithContacts) {
       for (int k = side == 0 ? 0 : c.side_a(); k < (side == 0 ? c.side_a() : c.size()); ++k) {
         const Index v = c.v[k];
         if (!(s.inv_mass[v] > 0)) continue;
-        ASSERT_LT(cursor[v], d.regions.offsets[v + 1]) << "vertex " << v << " has fewer planes than contacts";
+        ASSERT_LT(cursor[v], d.regions.row_start[v + 1]) << "vertex " << v << " has fewer planes than contacts";
         const HalfSpace& h = d.regions.plane(static_cast<size_t>(cursor[v]++));
         // The normal points from the other primitive toward the vertex (clarification 3).
         EXPECT_EQ(h.n, side == 0 ? c.n : Vec3(-c.n));
@@ -269,7 +269,7 @@ TEST_P(NarrowPhaseScenes, HalfSpacesAreConsistentWithContacts) {
     if (sides_movable == 2 && phi != 0.0) EXPECT_NEAR(share_sum, 1.0, 1e-12);
   }
   for (Index v = 0; v < s.topo.num_vertices(); ++v)
-    EXPECT_EQ(cursor[v], d.regions.offsets[v + 1]) << "vertex " << v << " has planes no contact explains";
+    EXPECT_EQ(cursor[v], d.regions.row_start[v + 1]) << "vertex " << v << " has planes no contact explains";
 }
 
 TEST_P(NarrowPhaseScenes, DeterministicForAnyThreadCountAndBroadPhase) {
@@ -307,7 +307,7 @@ TEST_P(NarrowPhaseScenes, DeterministicForAnyThreadCountAndBroadPhase) {
     if (i % 2 == 1) {
       // One broad phase at 1 and 2 threads: bit-identical regions and contact lists.
       const Detection& one = results[i - 1];
-      EXPECT_EQ(d.regions.offsets, one.regions.offsets) << "run " << i;
+      EXPECT_EQ(d.regions.row_start, one.regions.row_start) << "run " << i;
       ASSERT_EQ(d.regions.total(), one.regions.total()) << "run " << i;
       for (size_t k = 0; k < d.regions.total(); ++k) {
         EXPECT_EQ(d.regions.plane(k).n, one.regions.plane(k).n);
@@ -316,7 +316,7 @@ TEST_P(NarrowPhaseScenes, DeterministicForAnyThreadCountAndBroadPhase) {
       EXPECT_EQ(names_of(d), names_of(one)) << "contact order depends on the thread count";
     }
     // Across broad phases: the same planes per vertex and the same contacts, as sets.
-    EXPECT_EQ(d.regions.offsets, results.front().regions.offsets) << "run " << i;
+    EXPECT_EQ(d.regions.row_start, results.front().regions.row_start) << "run " << i;
     EXPECT_TRUE(plane_sets(d) == ref_sets) << "run " << i;
     auto names = names_of(d);
     std::sort(names.begin(), names.end());
@@ -363,7 +363,7 @@ TEST_P(NarrowPhaseScenes, ReusedListGivesTheFreshPassExactly) {
                     ca.offset == cb.offset)
             << where << ": contact " << k << " differs";
       }
-      EXPECT_EQ(a.regions.offsets, b.regions.offsets) << where;
+      EXPECT_EQ(a.regions.row_start, b.regions.row_start) << where;
       ASSERT_EQ(a.regions.total(), b.regions.total()) << where;
       for (size_t k = 0; k < a.regions.total(); ++k)
         ASSERT_TRUE(a.regions.plane(k).n == b.regions.plane(k).n && a.regions.plane(k).d == b.regions.plane(k).d)
@@ -387,7 +387,7 @@ TEST_P(NarrowPhaseScenes, ReusedListGivesTheFreshPassExactly) {
           ca.offset == cb.offset))
       return ::testing::AssertionFailure() << "contact " << k << " differs";
   }
-  if (a.regions.offsets != b.regions.offsets) return ::testing::AssertionFailure() << "plane counts differ";
+  if (a.regions.row_start != b.regions.row_start) return ::testing::AssertionFailure() << "plane counts differ";
   for (size_t k = 0; k < a.regions.total(); ++k)
     if (!(a.regions.plane(k).n == b.regions.plane(k).n && a.regions.plane(k).d == b.regions.plane(k).d))
       return ::testing::AssertionFailure() << "plane " << k << " differs";
@@ -628,7 +628,7 @@ TEST_P(NarrowPhaseScenes, RebuiltBroadPhaseFindsTheSameContacts) {
       for (const auto& c : b.contacts) fb.insert(name_of(c));
       EXPECT_EQ(fa, fb) << where;
       EXPECT_EQ(fb, brute_force_contacts(s, x, rebuilt)) << where;
-      ASSERT_EQ(a.regions.offsets, b.regions.offsets) << where;
+      ASSERT_EQ(a.regions.row_start, b.regions.row_start) << where;
       for (Index v = 0; v < a.regions.num_vertices(); ++v) {
         auto planes = [](std::span<const HalfSpace> r) {
           std::vector<std::array<double, 4>> out;
@@ -672,7 +672,7 @@ TEST(NarrowPhaseReuse, MassChangesRebuildAndBadSkinsAreRefused) {
   for (const auto& c : a.contacts) na.push_back(name_of(c));
   for (const auto& c : b.contacts) nb.push_back(name_of(c));
   EXPECT_EQ(na, nb);
-  EXPECT_EQ(a.regions.offsets, b.regions.offsets);
+  EXPECT_EQ(a.regions.row_start, b.regions.row_start);
   kept.invalidate_reuse();
   EXPECT_FALSE(run(kept, x, w).stats.reused);
   // restart_reuse: the given step decides whether the next pass lists, not the previous pass.

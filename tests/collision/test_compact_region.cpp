@@ -83,7 +83,7 @@ void check_scene(const test::TestScene& s, const Positions& x, std::uint64_t see
     for (const HalfSpace& h : regions.planes_of(v)) {
       EXPECT_TRUE(same_bits(span[k], row[k])) << "vertex " << v << ", plane " << k;
       EXPECT_TRUE(same_bits(h, row[k])) << "vertex " << v << ", plane " << k;
-      EXPECT_TRUE(same_bits(regions.plane(regions.offsets[v] + static_cast<Index>(k)), row[k]));
+      EXPECT_TRUE(same_bits(regions.plane(regions.row_start[v] + static_cast<Index>(k)), row[k]));
       ++k;
     }
     EXPECT_EQ(k, row.size());

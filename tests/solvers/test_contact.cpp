@@ -221,12 +221,12 @@ TEST(ContactResponse, VisibilityWeightsFromTheIncidenceEqualTheGroupedOnes) {
   const std::vector<ContactPair> cs = random_contacts(23, 900, true);
   std::vector<std::uint8_t> movable(900);
   for (Index v = 0; v < 900; ++v) movable[v] = v % 3 != 0;
-  std::vector<Index> offsets(901, 0), slots;
+  std::vector<Index> row_start(901, 0), slots;
   for (const auto& c : cs)
-    for (int k = 0; k < 4; ++k) offsets[c.v[k] + 1] += movable[c.v[k]];
-  for (size_t v = 0; v < 900; ++v) offsets[v + 1] += offsets[v];
-  slots.resize(static_cast<size_t>(offsets.back()));
-  std::vector<Index> at(offsets.begin(), offsets.end() - 1);
+    for (int k = 0; k < 4; ++k) row_start[c.v[k] + 1] += movable[c.v[k]];
+  for (size_t v = 0; v < 900; ++v) row_start[v + 1] += row_start[v];
+  slots.resize(static_cast<size_t>(row_start.back()));
+  std::vector<Index> at(row_start.begin(), row_start.end() - 1);
   for (size_t i = 0; i < cs.size(); ++i)
     for (int k = 0; k < 4; ++k)
       if (movable[cs[i].v[k]]) slots[at[cs[i].v[k]]++] = static_cast<Index>(4 * i + k);
@@ -239,7 +239,7 @@ TEST(ContactResponse, VisibilityWeightsFromTheIncidenceEqualTheGroupedOnes) {
     set_thread_count(threads);
     std::vector<double> w;
     VisibilityWorkspace ws;
-    visibility_weights(cs, offsets, slots, width, w, ws);
+    visibility_weights(cs, row_start, slots, width, w, ws);
     ASSERT_EQ(w.size(), cs.size());
     for (size_t c = 0; c < cs.size(); ++c)
       ASSERT_EQ(w[c], expect[c]) << "contact " << c << ", " << threads << " threads";
@@ -247,8 +247,8 @@ TEST(ContactResponse, VisibilityWeightsFromTheIncidenceEqualTheGroupedOnes) {
   set_thread_count(0);
   std::vector<double> w;
   VisibilityWorkspace ws;
-  const std::vector<Index> short_offsets(offsets.begin(), offsets.end() - 1);
-  EXPECT_THROW(visibility_weights(cs, short_offsets, slots, width, w, ws), Error);
+  const std::vector<Index> short_row_start(row_start.begin(), row_start.end() - 1);
+  EXPECT_THROW(visibility_weights(cs, short_row_start, slots, width, w, ws), Error);
 }
 
 TEST(ContactResponse, VisibilityWeightsSkipOnlyGroupsTheResponseCannotMove) {
@@ -263,12 +263,12 @@ TEST(ContactResponse, VisibilityWeightsSkipOnlyGroupsTheResponseCannotMove) {
   for (auto& c : cs)
     if (c.v[0] >= 600)
       for (int k = 1; k < 4; ++k) c.v[k] = 600 + (c.v[0] - 600 + 7 * k) % 300;
-  std::vector<Index> offsets(901, 0), slots;
+  std::vector<Index> row_start(901, 0), slots;
   for (const auto& c : cs)
-    for (int k = 0; k < 4; ++k) ++offsets[c.v[k] + 1];
-  for (size_t v = 0; v < 900; ++v) offsets[v + 1] += offsets[v];
-  slots.resize(static_cast<size_t>(offsets.back()));
-  std::vector<Index> at(offsets.begin(), offsets.end() - 1);
+    for (int k = 0; k < 4; ++k) ++row_start[c.v[k] + 1];
+  for (size_t v = 0; v < 900; ++v) row_start[v + 1] += row_start[v];
+  slots.resize(static_cast<size_t>(row_start.back()));
+  std::vector<Index> at(row_start.begin(), row_start.end() - 1);
   for (size_t i = 0; i < cs.size(); ++i)
     for (int k = 0; k < 4; ++k) slots[at[cs[i].v[k]]++] = static_cast<Index>(4 * i + k);
   std::vector<double> inv_mass(900);
@@ -280,7 +280,7 @@ TEST(ContactResponse, VisibilityWeightsSkipOnlyGroupsTheResponseCannotMove) {
     for (int k = 0; k < 4; ++k) group_moves[c.v[0]] |= inv_mass[c.v[k]] > 0.0;
   std::vector<double> w;
   VisibilityWorkspace ws;
-  visibility_weights(cs, offsets, slots, width, w, ws, inv_mass);
+  visibility_weights(cs, row_start, slots, width, w, ws, inv_mass);
   ASSERT_EQ(w.size(), cs.size());
   size_t skipped = 0;
   for (size_t c = 0; c < cs.size(); ++c) {
@@ -296,11 +296,11 @@ TEST(ContactResponse, VisibilityWeightsSkipOnlyGroupsTheResponseCannotMove) {
   for (size_t c = 0; c < cs.size(); ++c) partial += group_moves[cs[c].v[0]] && expect[c] > 0.0 && expect[c] < 1.0;
   EXPECT_GT(partial, 500u) << "the test wants many exact weights strictly between 0 and 1";
   const std::vector<double> none(900, 0.0);
-  visibility_weights(cs, offsets, slots, width, w, ws, none);
+  visibility_weights(cs, row_start, slots, width, w, ws, none);
   for (size_t c = 0; c < cs.size(); ++c) ASSERT_EQ(w[c], 1.0) << "contact " << c;
   std::fill(inv_mass.begin(), inv_mass.end(), 0.0);
   inv_mass[cs[0].v[1]] = 1.0;  // one movable vertex: only groups with a contact on it are weighed
-  visibility_weights(cs, offsets, slots, width, w, ws, inv_mass);
+  visibility_weights(cs, row_start, slots, width, w, ws, inv_mass);
   EXPECT_EQ(w[0], expect[0]);
 }
 
@@ -340,7 +340,7 @@ TEST(ContactResponse, DetectorIncidenceGivesTheResponseOfItsOwnIndex) {
   ASSERT_EQ(sources.size(), regions.total());
   for (Index v = 0; v < regions.num_vertices(); ++v) {
     Index previous = -1;
-    for (Index i = regions.offsets[v]; i < regions.offsets[v + 1]; ++i) {
+    for (Index i = regions.row_start[v]; i < regions.row_start[v + 1]; ++i) {
       const Index s = sources[i], ci = s / 4, k = s % 4;
       ASSERT_LT(static_cast<size_t>(ci), contacts.size());
       const ContactPair& c = contacts[ci];
@@ -357,7 +357,7 @@ TEST(ContactResponse, DetectorIncidenceGivesTheResponseOfItsOwnIndex) {
     if (inv_mass[i] > 0.0) moved[i].y() -= 0.003 * static_cast<double>(i % 2);
   ContactResponse own, recorded;
   own.prepare(contacts, topo.num_vertices(), params);
-  recorded.prepare(contacts, regions.offsets, sources, params);
+  recorded.prepare(contacts, regions.row_start, sources, params);
   Positions a = moved, b = moved;
   own.apply(a, x, inv_mass, params, 1.0 / 240.0, {});
   recorded.apply(b, x, inv_mass, params, 1.0 / 240.0, {});
@@ -370,13 +370,13 @@ TEST(ContactResponse, DetectorIncidenceGivesTheResponseOfItsOwnIndex) {
   }
   EXPECT_GT(moved_count, 50u);
 
-  // An incidence whose offsets do not span its slots is refused.
-  std::vector<Index> short_offsets(regions.offsets.begin(), regions.offsets.end() - 1);
-  EXPECT_THROW(recorded.prepare(contacts, short_offsets, sources, params), Error);
+  // An incidence whose row starts do not span its slots is refused.
+  std::vector<Index> short_row_start(regions.row_start.begin(), regions.row_start.end() - 1);
+  EXPECT_THROW(recorded.prepare(contacts, short_row_start, sources, params), Error);
   // Prepared without a repulsion range, the response has no weights: applying one is refused.
   ContactParams no_repulsion = params;
   no_repulsion.repulsion_range = 0.0;
-  recorded.prepare(contacts, regions.offsets, sources, no_repulsion);
+  recorded.prepare(contacts, regions.row_start, sources, no_repulsion);
   Positions c = moved;
   recorded.apply(c, x, inv_mass, no_repulsion, 1.0 / 240.0, {});  // nothing to do
   EXPECT_EQ(c, moved);

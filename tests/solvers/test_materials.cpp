@@ -642,12 +642,12 @@ TEST(MaterialSystem, CountsFollowObjectKinds) {
 template <int N>
 void expect_valid_colouring(const std::vector<Eigen::Matrix<Index, N, 1>>& ids, const Colouring& col,
                             std::span<const double> w) {
-  ASSERT_EQ(static_cast<size_t>(col.offsets.back()), ids.size());
+  ASSERT_EQ(static_cast<size_t>(col.row_start.back()), ids.size());
   std::set<Index> seen(col.order.begin(), col.order.end());
   EXPECT_EQ(seen.size(), ids.size());
   for (Index k = 0; k < col.colours(); ++k)
-    for (Index a = col.offsets[k]; a < col.offsets[k + 1]; ++a)
-      for (Index b = a + 1; b < col.offsets[k + 1]; ++b)
+    for (Index a = col.row_start[k]; a < col.row_start[k + 1]; ++a)
+      for (Index b = a + 1; b < col.row_start[k + 1]; ++b)
         for (int i = 0; i < N; ++i)
           for (int j = 0; j < N; ++j) {
             const Index va = ids[col.order[a]][i], vb = ids[col.order[b]][j];

@@ -9,13 +9,13 @@
 namespace ccfr {
 
 void RegionSet::clear(Index num_vertices) {
-  offsets.assign(static_cast<size_t>(num_vertices) + 1, 0);
+  row_start.assign(static_cast<size_t>(num_vertices) + 1, 0);
   records.clear();
   refs.clear();
 }
 
 std::span<const HalfSpace> RegionSet::of(Index v, std::vector<HalfSpace>& buf) const {
-  const Index b = offsets[v], e = offsets[v + 1];
+  const Index b = row_start[v], e = row_start[v + 1];
   buf.resize(static_cast<size_t>(e - b));
   for (Index q = b; q < e; ++q) buf[static_cast<size_t>(q - b)] = plane(q);
   return {buf.data(), buf.size()};
@@ -30,7 +30,7 @@ std::vector<HalfSpace> RegionSet::rows() const {
 bool RegionSet::falls_below(Index v, const Vec3& x_anchor, const Vec3& x, double level) const {
   // The free falls_below's arithmetic on the planes as of() would gather them.
   const Vec3 q = x - x_anchor;
-  const Index b = offsets[v], e = offsets[v + 1];
+  const Index b = row_start[v], e = row_start[v + 1];
   for (Index s = b; s < e; ++s) {
     const HalfSpace h = plane(s);
     if (!(h.n.dot(q) + h.d >= level)) return true;
@@ -39,14 +39,14 @@ bool RegionSet::falls_below(Index v, const Vec3& x_anchor, const Vec3& x, double
 }
 
 void build_region_set(Index num_vertices, std::span<const std::vector<TaggedHalfSpace>> buffers, RegionSet& out) {
-  out.offsets.assign(static_cast<size_t>(num_vertices) + 1, 0);
+  out.row_start.assign(static_cast<size_t>(num_vertices) + 1, 0);
   for (const auto& buf : buffers)
-    for (const auto& t : buf) ++out.offsets[t.vertex + 1];
-  std::partial_sum(out.offsets.begin(), out.offsets.end(), out.offsets.begin());
-  std::vector<HalfSpace> planes(static_cast<size_t>(out.offsets.back()));
+    for (const auto& t : buf) ++out.row_start[t.vertex + 1];
+  std::partial_sum(out.row_start.begin(), out.row_start.end(), out.row_start.begin());
+  std::vector<HalfSpace> planes(static_cast<size_t>(out.row_start.back()));
 
   std::vector<std::uint64_t> keys(planes.size());
-  std::vector<Index> cursor(out.offsets.begin(), out.offsets.end() - 1);
+  std::vector<Index> cursor(out.row_start.begin(), out.row_start.end() - 1);
   for (const auto& buf : buffers)
     for (const auto& t : buf) {
       const Index slot = cursor[t.vertex]++;
@@ -60,7 +60,7 @@ void build_region_set(Index num_vertices, std::span<const std::vector<TaggedHalf
     std::vector<HalfSpace> tmp;
     std::vector<std::uint64_t> tmp_keys;
     for (Index v = begin; v < end; ++v) {
-      const Index b = out.offsets[v], e = out.offsets[v + 1];
+      const Index b = out.row_start[v], e = out.row_start[v + 1];
       if (e - b < 2) continue;
       perm.resize(static_cast<size_t>(e - b));
       std::iota(perm.begin(), perm.end(), b);

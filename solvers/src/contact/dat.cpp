@@ -15,13 +15,13 @@ void DivideAndTruncateSolver::build_limits(std::span<const double> inv_mass, std
   const double two_gp = 2.0 * params_.gamma_p;
   const size_t nv = centers_.size();
   // Two sweeps over the contacts (count, then fill) into a CSR by vertex, in contact order.
-  offsets_.assign(nv + 1, 0);
+  row_start_.assign(nv + 1, 0);
   for (const ContactPair& c : contacts_)
     for (int k = 0; k < c.size(); ++k)
-      if (inv_mass[c.v[k]] > 0.0) ++offsets_[static_cast<size_t>(c.v[k]) + 1];
-  for (size_t v = 0; v < nv; ++v) offsets_[v + 1] += offsets_[v];
-  limits_.resize(static_cast<size_t>(offsets_[nv]));
-  std::vector<Index> cursor(offsets_.begin(), offsets_.end() - 1);
+      if (inv_mass[c.v[k]] > 0.0) ++row_start_[static_cast<size_t>(c.v[k]) + 1];
+  for (size_t v = 0; v < nv; ++v) row_start_[v + 1] += row_start_[v];
+  limits_.resize(static_cast<size_t>(row_start_[nv]));
+  std::vector<Index> cursor(row_start_.begin(), row_start_.end() - 1);
   for (const ContactPair& c : contacts_) {
     const int na = c.side_a(), n = c.size();
     // The gap along n: side A's lowest and side B's highest vertex, a scripted vertex at both

@@ -133,10 +133,10 @@ class InitialPairTable {
   /// or edge), so a linear scan of the sorted row beats a binary search up to a few dozen entries.
   Index find(ContactKind kind, Index a, Index b) const {
     const Rows& r = rows_[static_cast<size_t>(kind)];
-    if (a + 1 >= static_cast<Index>(r.offsets.size())) return kAbsent;
+    if (a + 1 >= static_cast<Index>(r.row_start.size())) return kAbsent;
     const Index* base = r.cols.data();
-    const Index* first = base + r.offsets[a];
-    const Index* last = base + r.offsets[a + 1];
+    const Index* first = base + r.row_start[a];
+    const Index* last = base + r.row_start[a + 1];
     if (last - first > kLinearScan) {
       first = std::lower_bound(first, last, b);
     } else {
@@ -151,7 +151,7 @@ class InitialPairTable {
 
  private:
   struct Rows {
-    std::vector<Index> offsets, cols, slots;
+    std::vector<Index> row_start, cols, slots;
   };
   static constexpr std::ptrdiff_t kLinearScan = 32;
   std::array<Rows, 4> rows_;

@@ -10,28 +10,29 @@
 namespace ccfr {
 
 /// `cursor` holds, for each of `blocks` consecutive input blocks, how many items it has per key
-/// (#blocks by #keys, block-major). On return `offsets` (#keys + 1) is the CSR of the keys'
+/// (#blocks by #keys, block-major). On return `row_start` (#keys + 1) is the CSR of the keys'
 /// groups, and `cursor` holds each block's first write position per key: block b writes its items
-/// of key k from offsets[k] plus the counts of blocks 0..b-1. Scattering each block in input order
+/// of key k from row_start[k] plus the counts of blocks 0..b-1. Scattering each block in input order
 /// then lists every group in input order, whatever the thread count.
-inline void counts_to_block_cursors(Index keys, Index blocks, std::vector<Index>& cursor, std::vector<Index>& offsets) {
-  offsets.assign(static_cast<size_t>(keys) + 1, 0);
+inline void counts_to_block_cursors(Index keys, Index blocks, std::vector<Index>& cursor,
+                                    std::vector<Index>& row_start) {
+  row_start.assign(static_cast<size_t>(keys) + 1, 0);
   parallel_for(
       keys,
       [&](Index lo, Index hi) {
         for (Index k = lo; k < hi; ++k) {
           Index total = 0;
           for (Index b = 0; b < blocks; ++b) total += cursor[static_cast<size_t>(b) * keys + k];
-          offsets[k + 1] = total;
+          row_start[k + 1] = total;
         }
       },
       4096);
-  std::partial_sum(offsets.begin(), offsets.end(), offsets.begin());
+  std::partial_sum(row_start.begin(), row_start.end(), row_start.begin());
   parallel_for(
       keys,
       [&](Index lo, Index hi) {
         for (Index k = lo; k < hi; ++k) {
-          Index at = offsets[k];
+          Index at = row_start[k];
           for (Index b = 0; b < blocks; ++b) {
             Index& slot = cursor[static_cast<size_t>(b) * keys + k];
             const Index count = slot;

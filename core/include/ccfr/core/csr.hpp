@@ -1,6 +1,6 @@
 #pragma once
 /// @file csr.hpp
-/// Compressed sparse rows: `offsets` has #rows+1 entries, row i is indices[offsets[i], offsets[i+1]).
+/// Compressed sparse rows: `row_start` has #rows+1 entries, row i is indices[row_start[i], row_start[i+1]).
 #include <span>
 #include <vector>
 
@@ -9,12 +9,12 @@
 namespace ccfr {
 
 struct Csr {
-  std::vector<Index> offsets{0};
+  std::vector<Index> row_start{0};
   std::vector<Index> indices;
 
-  Index rows() const { return static_cast<Index>(offsets.size()) - 1; }
+  Index rows() const { return static_cast<Index>(row_start.size()) - 1; }
   std::span<const Index> row(Index i) const {
-    return {indices.data() + offsets[i], static_cast<size_t>(offsets[i + 1] - offsets[i])};
+    return {indices.data() + row_start[i], static_cast<size_t>(row_start[i + 1] - row_start[i])};
   }
 
   /// Builds the transpose-style incidence "row -> items" from items that each name up to
@@ -23,12 +23,12 @@ struct Csr {
   template <int Arity>
   static Csr incidence(Index num_rows, const std::vector<Eigen::Matrix<Index, Arity, 1>>& items) {
     Csr c;
-    c.offsets.assign(static_cast<size_t>(num_rows) + 1, 0);
+    c.row_start.assign(static_cast<size_t>(num_rows) + 1, 0);
     for (const auto& it : items)
-      for (int k = 0; k < Arity; ++k) ++c.offsets[it[k] + 1];
-    for (Index i = 0; i < num_rows; ++i) c.offsets[i + 1] += c.offsets[i];
-    c.indices.resize(static_cast<size_t>(c.offsets.back()));
-    std::vector<Index> cursor(c.offsets.begin(), c.offsets.end() - 1);
+      for (int k = 0; k < Arity; ++k) ++c.row_start[it[k] + 1];
+    for (Index i = 0; i < num_rows; ++i) c.row_start[i + 1] += c.row_start[i];
+    c.indices.resize(static_cast<size_t>(c.row_start.back()));
+    std::vector<Index> cursor(c.row_start.begin(), c.row_start.end() - 1);
     for (Index j = 0; j < static_cast<Index>(items.size()); ++j)
       for (int k = 0; k < Arity; ++k) c.indices[cursor[items[j][k]]++] = j;
     return c;

@@ -40,11 +40,11 @@ void visibility_weights(std::span<const ContactPair> contacts, double width, std
 /// lists every contact (slot 4·c + k) under each of its movable vertices in contact order, as
 /// CollisionDetector::plane_sources() does: vertex v's group is its slots with k = 0. Contacts whose
 /// query vertex lists nothing (an immovable one) are grouped by a scan. Throws ccfr::Error if the
-/// offsets do not end at the slot count. With `movable` (#V inverse masses, those apply() will
+/// row starts do not end at the slot count. With `movable` (#V inverse masses, those apply() will
 /// be given), a listed vertex's group none of whose contacts has a vertex with inverse mass > 0
 /// keeps weight 1: apply() skips those contacts, and in a pile of rigid bodies (all masked) they
 /// are every group.
-void visibility_weights(std::span<const ContactPair> contacts, std::span<const Index> offsets,
+void visibility_weights(std::span<const ContactPair> contacts, std::span<const Index> row_start,
                         std::span<const Index> slots, double width, std::vector<double>& out, VisibilityWorkspace& ws,
                         std::span<const double> movable = {});
 
@@ -53,11 +53,11 @@ class ContactResponse {
   /// Indexes the contacts of a new detection pass (#V vertices).
   void prepare(std::span<const ContactPair> contacts, Index num_vertices, const ContactParams& params);
   /// The same with the vertex -> contact incidence given: vertex v's corrections come from the
-  /// slots `slots[offsets[v], offsets[v+1])` (4·c + k for vertex contacts[c].v[k]), in contact
-  /// order, as CollisionDetector::plane_sources() lists them beside its RegionSet's offsets. Only
+  /// slots `slots[row_start[v], row_start[v+1])` (4·c + k for vertex contacts[c].v[k]), in contact
+  /// order, as CollisionDetector::plane_sources() lists them beside its RegionSet's row starts. Only
   /// listed vertices are moved (the detector lists the movable ones). The spans must outlive apply().
   /// `movable`: the inverse masses apply() will get (see visibility_weights); empty: any.
-  void prepare(std::span<const ContactPair> contacts, std::span<const Index> offsets, std::span<const Index> slots,
+  void prepare(std::span<const ContactPair> contacts, std::span<const Index> row_start, std::span<const Index> slots,
                const ContactParams& params, std::span<const double> movable = {});
   /// One Jacobi pass of repulsion then friction on candidate positions `x`; `x_start` are the
   /// positions at the start of the substep (friction acts on the substep's tangential motion).
@@ -71,17 +71,17 @@ class ContactResponse {
   Index active() const { return active_; }
 
  private:
-  /// Keeps the contacts and computes their visibility weights (grouped through `offsets`/`slots`
+  /// Keeps the contacts and computes their visibility weights (grouped through `row_start`/`slots`
   /// when given).
   void prepare_common(std::span<const ContactPair> contacts, const ContactParams& params,
-                      std::span<const Index> offsets, std::span<const Index> slots,
+                      std::span<const Index> row_start, std::span<const Index> slots,
                       std::span<const double> movable = {});
 
   std::span<const ContactPair> contacts_;
   std::vector<double> visibility_;
   VisibilityWorkspace visibility_ws_;
-  std::vector<Index> vertex_offsets_, vertex_contacts_;  ///< CSR vertex -> contact slots (first prepare())
-  std::span<const Index> offsets_, slots_;               ///< the CSR in use: the vectors above or the caller's
+  std::vector<Index> vertex_row_start_, vertex_contacts_;  ///< CSR vertex -> contact slots (first prepare())
+  std::span<const Index> row_start_, slots_;               ///< the CSR in use: the vectors above or the caller's
   std::vector<Vec3> corr_;               ///< per contact slot: correction of each vertex (4 per contact)
   std::vector<std::uint8_t> is_active_;  ///< per contact, in apply()
   bool prepared_repulsion_ = false;      ///< the last prepare() computed weights and buffers

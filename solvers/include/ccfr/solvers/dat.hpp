@@ -58,8 +58,8 @@ class DivideAndTruncateSolver final : public TrustRegionSolver {
   std::string_view name() const override { return "dat"; }
   /// Vertex v's limits of the last detection.
   std::span<const DivisionLimit> limits(Index v) const {
-    return {limits_.data() + offsets_[static_cast<size_t>(v)],
-            static_cast<size_t>(offsets_[static_cast<size_t>(v) + 1] - offsets_[static_cast<size_t>(v)])};
+    return {limits_.data() + row_start_[static_cast<size_t>(v)],
+            static_cast<size_t>(row_start_[static_cast<size_t>(v) + 1] - row_start_[static_cast<size_t>(v)])};
   }
   /// Truncates the candidate `x` of a vertex whose centre is `c` against `limits` and the ball of
   /// radius `ball` around c (the resolve() rule above, exposed for tests). Returns whether x changed.
@@ -71,7 +71,7 @@ class DivideAndTruncateSolver final : public TrustRegionSolver {
   bool within(Index v, const Vec3& p) const override;
 
  private:
-  std::vector<Index> offsets_;  ///< CSR: vertex v's limits are limits_[offsets_[v], offsets_[v+1])
+  std::vector<Index> row_start_;  ///< CSR: vertex v's limits are limits_[row_start_[v], row_start_[v+1])
   std::vector<DivisionLimit> limits_;
 };
 

@@ -239,11 +239,11 @@ struct TetBatch {
 };
 
 /// Shape matching of rigid bodies; body b owns the contiguous vertices [begin[b], end[b]) and the
-/// entries [offset[b], offset[b+1]) of `rest_offset` and `weight`. Bodies are disjoint, so they are
+/// entries [row_start[b], row_start[b+1]) of `rest_offset` and `weight`. Bodies are disjoint, so they are
 /// solved in parallel, each one sequentially.
 struct ShapeMatchingBatch {
   std::vector<Index> begin, end;  ///< #B vertex ranges
-  std::vector<Index> offset;      ///< #B + 1
+  std::vector<Index> row_start;   ///< #B + 1
   std::vector<Vec3> rest_offset;  ///< q_i = rest_i - weighted rest centre (m)
   std::vector<double> weight;     ///< m_i: mass 1/w_i of dynamic vertices; kinematic vertices dominate (see docs)
 
@@ -307,13 +307,13 @@ class MaterialSystem {
 
  private:
   /// The constraints of one batch that belong to small islands, grouped by island (colour order kept
-  /// within an island): island i owns order[offsets[i], offsets[i+1]).
+  /// within an island): island i owns order[row_start[i], row_start[i+1]).
   struct IslandOrder {
     std::vector<Index> order;
-    std::vector<Index> offsets;  ///< #small islands + 1
+    std::vector<Index> row_start;  ///< #small islands + 1
     std::span<const Index> island(Index i) const {
-      return std::span<const Index>(order).subspan(static_cast<size_t>(offsets[i]),
-                                                   static_cast<size_t>(offsets[i + 1] - offsets[i]));
+      return std::span<const Index>(order).subspan(static_cast<size_t>(row_start[i]),
+                                                   static_cast<size_t>(row_start[i + 1] - row_start[i]));
     }
   };
   void build_schedule(Index num_vertices, std::span<const double> inv_mass);

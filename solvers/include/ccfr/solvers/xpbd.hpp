@@ -34,11 +34,11 @@ inline void solve_distance(Vec3& xi, Vec3& xj, double wi, double wj, double rest
 }  // namespace xpbd
 
 /// Greedy colouring of constraints given by their vertex lists (`arity` vertices each, flat array).
-/// Returns colour offsets into `order` (constraints grouped by colour).
+/// Returns the colours' row starts into `order` (constraints grouped by colour).
 struct Colouring {
-  std::vector<Index> order;    ///< constraint ids grouped by colour
-  std::vector<Index> offsets;  ///< #colours + 1
-  Index colours() const { return static_cast<Index>(offsets.size()) - 1; }
+  std::vector<Index> order;      ///< constraint ids grouped by colour
+  std::vector<Index> row_start;  ///< #colours + 1
+  Index colours() const { return static_cast<Index>(row_start.size()) - 1; }
 };
 Colouring colour_constraints(Index num_vertices, std::span<const Index> vertices, int arity,
                              std::span<const double> inv_mass);

@@ -33,16 +33,16 @@ struct RegionRecord {
 };
 
 /// Per-vertex half-space sets in CSR form over shared per-contact records (the compact region,
-/// issue 38): vertex v owns the planes at slots [offsets[v], offsets[v+1]); slot q is
+/// issue 38): vertex v owns the planes at slots [row_start[v], row_start[v+1]); slot q is
 /// `refs[q] = 2 · record + side`, the record's normal negated on side 1. A plane is built from
 /// its record when read, with exactly the values a per-vertex copy would hold (negation is exact).
 struct RegionSet {
-  std::vector<Index> offsets{0};      ///< #V+1
+  std::vector<Index> row_start{0};    ///< #V+1
   std::vector<RegionRecord> records;  ///< one per contact (or per plane, see add_plane)
   std::vector<std::uint32_t> refs;    ///< per slot: 2 · record + side, grouped by vertex
 
-  Index num_vertices() const { return static_cast<Index>(offsets.size()) - 1; }
-  Index count(Index v) const { return offsets[v + 1] - offsets[v]; }
+  Index num_vertices() const { return static_cast<Index>(row_start.size()) - 1; }
+  Index count(Index v) const { return row_start[v + 1] - row_start[v]; }
   size_t total() const { return refs.size(); }
   /// The plane at slot q.
   HalfSpace plane(Index q) const { return plane_of_ref(refs[static_cast<size_t>(q)]); }
@@ -84,7 +84,7 @@ struct RegionSet {
   };
   PlaneRange planes_of(Index v) const {
     const std::uint32_t* base = refs.data();
-    return {this, base + offsets[v], base + offsets[v + 1]};
+    return {this, base + row_start[v], base + row_start[v + 1]};
   }
 };
 
