@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "ccfr/io/export_run.hpp"
 #include "ccfr/io/formats.hpp"
 #include "commands.hpp"
 #include "plot_script.hpp"

@@ -7,7 +7,7 @@ find_package(CGAL REQUIRED)           # CGAL::CGAL (adds -frounding-math: geomet
 find_package(yaml-cpp REQUIRED)       # 0.7: plain `yaml-cpp`, no namespace
 find_package(CLI11 CONFIG REQUIRED)
 find_package(nlohmann_json 3 REQUIRED)  # run.json: nlohmann_json::nlohmann_json
-find_package(ZLIB REQUIRED)           # compressed VTU frames (io/src/formats.cpp): ZLIB::ZLIB
+find_package(ZLIB REQUIRED)           # compressed VTU frames (io/formats/src/formats.cpp): ZLIB::ZLIB
 if(CCFR_BUILD_TESTS)
   find_package(GTest REQUIRED)
   include(GoogleTest)

@@ -100,7 +100,8 @@ def read_table(path):
     return public, private
 
 
-MODULES = {"core", "geometry", "geometry/exact", "feasibility", "collision", "solvers", "io", "render"}
+MODULES = {"core", "geometry", "geometry/exact", "feasibility", "collision", "solvers", "formats", "scene", "run", "io",
+           "render"}
 
 
 def diagram_name(name):

@@ -1,5 +1,10 @@
 # Installs the build tree into WORK_DIR/install, then configures, builds and runs a separate
-# project that uses find_package(ccfr CONFIG REQUIRED) and links ccfr::solvers.
+# project, tests/consumer/PROJECT (default: project, which uses find_package(ccfr CONFIG REQUIRED)
+# and links ccfr::io). DISABLE: packages (comma-separated) the project is configured without
+# (CMAKE_DISABLE_FIND_PACKAGE_<name>), to show that the components it asks for do not need them.
+if(NOT PROJECT)
+  set(PROJECT project)
+endif()
 file(REMOVE_RECURSE ${WORK_DIR})
 file(MAKE_DIRECTORY ${WORK_DIR})
 function(step)
@@ -9,11 +14,16 @@ function(step)
   endif()
   set(step_output "${out}" PARENT_SCOPE)
 endfunction()
+set(_disabled "")
+string(REPLACE "," ";" _packages "${DISABLE}")
+foreach(_p IN LISTS _packages)
+  list(APPEND _disabled -DCMAKE_DISABLE_FIND_PACKAGE_${_p}=ON)
+endforeach()
 step(${CMAKE_COMMAND} --install ${BINARY_DIR} --prefix ${WORK_DIR}/install)
-step(${CMAKE_COMMAND} -S ${SOURCE_DIR}/tests/consumer/project -B ${WORK_DIR}/build
-     -DCMAKE_PREFIX_PATH=${WORK_DIR}/install -DCMAKE_BUILD_TYPE=Release)
+step(${CMAKE_COMMAND} -S ${SOURCE_DIR}/tests/consumer/${PROJECT} -B ${WORK_DIR}/build
+     -DCMAKE_PREFIX_PATH=${WORK_DIR}/install -DCMAKE_BUILD_TYPE=Release ${_disabled})
 step(${CMAKE_COMMAND} --build ${WORK_DIR}/build)
-step(${WORK_DIR}/build/consumer)
+step(${WORK_DIR}/build/consumer ${WORK_DIR})
 message(STATUS "consumer output: ${step_output}")
 if(NOT step_output MATCHES "consumer ok")
   message(FATAL_ERROR "consumer did not report success")

@@ -28,15 +28,6 @@ namespace fs = std::filesystem;
 std::string version() { return CCFR_VERSION; }
 std::string git_commit() { return detail::kGitCommit; }
 
-std::string utc_now() {
-  std::time_t t = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&t, &tm);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return buf;
-}
-
 namespace {
 using Json = nlohmann::ordered_json;
 

@@ -51,4 +51,7 @@ std::optional<LockHolder> lock_holder(const std::filesystem::path& dir);
 /// True when `dir` is missing or holds nothing but ccfr's lock file.
 bool dir_is_empty(const std::filesystem::path& dir);
 
+/// ISO-8601 UTC timestamp of now (the lock record's start time; run.json's times).
+std::string utc_now();
+
 }  // namespace ccfr::io

@@ -93,10 +93,4 @@ std::string format_folder(OutputFormat format);
 /// Reads a binary PLY frame written by the `ply` sink (float x y z), for tests and export.
 Positions read_ply_positions(const std::filesystem::path& path);
 
-/// Re-exports a run directory's OBJ frames into `formats` (written into `out`, by default the run
-/// directory itself). Velocities are backward differences of consecutive frames on disk. Returns
-/// the number of frames exported. Throws ccfr::Error on a missing run or unreadable frame.
-int export_run(const std::filesystem::path& run_dir, const std::vector<OutputFormat>& formats,
-               const std::filesystem::path& out = {});
-
 }  // namespace ccfr::io

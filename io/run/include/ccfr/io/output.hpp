@@ -108,8 +108,6 @@ class RunWriter {
   std::string stop_json_;  ///< run.json `stop` (JSON object), empty unless set_stop()
 };
 
-/// ISO-8601 UTC timestamp of now.
-std::string utc_now();
 /// Library version and git commit baked in at build time.
 std::string version();
 std::string git_commit();

@@ -1,0 +1,18 @@
+#pragma once
+/// @file export_run.hpp
+/// `ccfr export`: a run directory's OBJ frames written again in other formats (docs/interop.md).
+/// Apart from formats.hpp because it reads the run's run.json (run_json.hpp, ccfr::run).
+#include <filesystem>
+#include <vector>
+
+#include "ccfr/io/formats.hpp"
+
+namespace ccfr::io {
+
+/// Re-exports a run directory's OBJ frames into `formats` (written into `out`, by default the run
+/// directory itself). Velocities are backward differences of consecutive frames on disk. Returns
+/// the number of frames exported. Throws ccfr::Error on a missing run or unreadable frame.
+int export_run(const std::filesystem::path& run_dir, const std::vector<OutputFormat>& formats,
+               const std::filesystem::path& out = {});
+
+}  // namespace ccfr::io
