@@ -11,7 +11,11 @@ parentheses). Fails (exit 1) naming every disagreement of either: a dependency t
 target missing from either side, and a public header that includes a third-party header its
 target does not link publicly (directly or through a public ccfr dependency).
 
-Usage: check-architecture.py GRAPH ARCHITECTURE_MD
+With CONFIG (cmake/ccfrConfig.cmake.in), also checks its per-component package lists
+(`set(_ccfr_needs_<component> ...)`, what find_package(ccfr COMPONENTS ...) looks for) against the
+same graph: a component needs every target it links, public or private (static libraries).
+
+Usage: check-architecture.py GRAPH ARCHITECTURE_MD [CONFIG]
 """
 import pathlib
 import re
@@ -45,6 +49,10 @@ INCLUDES = {
     "stb": ("stb_image", "stb/"),
     "CLI11": ("CLI/",),
 }
+# Those packages as ccfrConfig.cmake.in names them (find_dependency / pkg_check_modules).
+CONFIG_NAMES = {"Eigen": "Eigen3", "spdlog": "spdlog", "oneTBB": "TBB", "FCL": "fcl", "CGAL": "CGAL",
+                "yaml-cpp": "yaml-cpp", "nlohmann-json": "nlohmann_json", "zlib": "ZLIB", "Embree": "embree",
+                "stb": "stb", "CLI11": "CLI11"}
 HEADER = re.compile(r"^\|\s*target\s*\|\s*links \(public\)\s*\|\s*links \(private\)\s*\|\s*$")
 
 
@@ -177,11 +185,40 @@ def check(graph_path, doc_path):
     return problems
 
 
+def check_config(graph_path, config_path):
+    """The config's `_ccfr_needs_<c>` lists and `_ccfr_all` against the graph's library targets."""
+    g_pub, g_priv, _ = read_graph(graph_path)
+    text = pathlib.Path(config_path).read_text()
+    lists = {m.group(1): set(m.group(2).split())
+             for m in re.finditer(r"^set\(_ccfr_(needs_\w+|all)\s+([^)]*)\)", text, re.M)}
+    problems = []
+    libraries = {t[len("ccfr::"):] for t in g_pub if t.startswith("ccfr::")}
+    listed = lists.get("all", set())
+    for c in sorted(libraries - listed):
+        problems.append(f"{config_path}: _ccfr_all lacks the library {c}")
+    for c in sorted(listed - libraries):
+        problems.append(f"{config_path}: _ccfr_all lists {c}, which is no library target")
+    for c in sorted(libraries):
+        t = "ccfr::" + c
+        want = {d[len("ccfr::"):] if d.startswith("ccfr::") else CONFIG_NAMES.get(d, d) for d in g_pub[t] | g_priv[t]}
+        have = lists.get("needs_" + c)
+        if have is None:
+            problems.append(f"{config_path}: no _ccfr_needs_{c} for the library {c}")
+            continue
+        for d in sorted(want - have):
+            problems.append(f"{config_path}: {c} links {d}; _ccfr_needs_{c} lacks it")
+        for d in sorted(have - want):
+            problems.append(f"{config_path}: _ccfr_needs_{c} lists {d}; {c} does not link it")
+    return problems
+
+
 def main(argv):
-    if len(argv) != 3:
+    if len(argv) not in (3, 4):
         print(__doc__, file=sys.stderr)
         return 2
     problems = check(argv[1], argv[2])
+    if len(argv) == 4:
+        problems += check_config(argv[1], argv[3])
     for p in problems:
         print(p)
     if problems:
