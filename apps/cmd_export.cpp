@@ -22,22 +22,17 @@ struct ExportOptions {
   std::vector<std::string> formats;
 };
 // The program that shows what was exported (docs/interop.md): the first format with a viewer.
-std::string viewer_command(const std::vector<io::OutputFormat>& formats, const std::filesystem::path& run,
+std::string viewer_command(const std::vector<std::string>& formats, const std::filesystem::path& run,
                            const std::filesystem::path& out) {
-  for (io::OutputFormat f : formats) switch (f) {
-      case io::OutputFormat::vtu:
-        return "paraview " + shell_quote((out / "vtk" / "frames.pvd").string());
-      case io::OutputFormat::pc2: {
-        const auto script = find_script("import_blender.py");
-        return "blender --python " + shell_quote(script ? script->string() : "scripts/import_blender.py") + " -- " +
-               shell_quote(out.string());
-      }
-      case io::OutputFormat::usda:
-        return "usdview " + shell_quote((out / "usd" / "scene.usda").string());
-      case io::OutputFormat::obj:
-      case io::OutputFormat::ply:
-        break;
+  for (const std::string& f : formats) {
+    if (f == "vtu") return "paraview " + shell_quote((out / "vtk" / "frames.pvd").string());
+    if (f == "pc2") {
+      const auto script = find_script("import_blender.py");
+      return "blender --python " + shell_quote(script ? script->string() : "scripts/import_blender.py") + " -- " +
+             shell_quote(out.string());
     }
+    if (f == "usda") return "usdview " + shell_quote((out / "usd" / "scene.usda").string());
+  }
   return "ccfr render " + shell_quote(run.string());
 }
 }  // namespace

@@ -64,7 +64,7 @@ TEST(RunJson, WhatIsWrittenIsReadBackEqual) {
   ip.min_reduced_offset = 0.00123;
   ip.shortest_edge = 0.0375;
   m.initial_proximity = ip;
-  m.formats = {OutputFormat::obj, OutputFormat::vtu, OutputFormat::usda};
+  m.formats = {"obj", "vtu", "usda"};
   m.every = 3;
   m.frames = true;
   m.scene_fingerprint = 0x00f1e2d3c4b5a697ULL;
@@ -150,7 +150,7 @@ TEST(RunJson, FilesWrittenByMainAreReadAndRewrittenByteForByte) {
   EXPECT_EQ(drape.obstacles, (std::vector<std::string>{"ball"}));
   EXPECT_EQ(drape.objects, (std::vector<RunInfo::RigidObject>{{"ball", true, true}}));
   EXPECT_EQ(drape.meta.every, 1);
-  EXPECT_EQ(drape.meta.formats, (std::vector<OutputFormat>{OutputFormat::obj}));
+  EXPECT_EQ(drape.meta.formats, (std::vector<std::string>{"obj"}));
 }
 
 TEST(RunJson, OlderFilesWithoutTheNewerKeysAreRead) {

@@ -16,7 +16,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// The same helper as formats.cpp's (file-local there).
 void make_dir(const fs::path& d) {
   std::error_code ec;
   fs::create_directories(d, ec);
@@ -25,7 +24,7 @@ void make_dir(const fs::path& d) {
 
 }  // namespace
 
-int export_run(const fs::path& run_dir, const std::vector<OutputFormat>& formats, const fs::path& out_dir) {
+int export_run(const fs::path& run_dir, const std::vector<std::string>& formats, const fs::path& out_dir) {
   const RunInfo info = read_run_info(run_dir, /*require_run_json=*/true);
   if (info.frames.empty()) throw Error("run '" + run_dir.string() + "' has no frames/frame_*.obj to export");
   const fs::path out = out_dir.empty() ? run_dir : out_dir;
@@ -37,11 +36,14 @@ int export_run(const fs::path& run_dir, const std::vector<OutputFormat>& formats
   const int every = info.frames.size() > 1 ? std::max(1, number(info.frames[1]) - number(info.frames[0])) : 1;
   std::vector<std::unique_ptr<FrameSink>> sinks;
   std::vector<FrameSink*> raw;
-  const bool copy_obj = std::find(formats.begin(), formats.end(), OutputFormat::obj) != formats.end() &&
+  // The OBJ frames are what is exported: copied as they are, not written again from the topology
+  // read back.
+  const bool copy_obj = std::find(formats.begin(), formats.end(), "obj") != formats.end() &&
                         !fs::equivalent(out, run_dir);  // in the run directory they are already there
   if (copy_obj) make_dir(out / "frames");
-  for (OutputFormat f : formats)
-    if (f != OutputFormat::obj) raw.push_back(sinks.emplace_back(make_frame_sink(f, topo, fps, every)).get());
+  for (const std::string& f : formats)
+    if (f != "obj")
+      raw.push_back(sinks.emplace_back(make_frame_sink(f, FrameSinkContext{topo, fps, every, {}, false})).get());
   std::vector<int> numbers;
   for (const fs::path& p : info.frames) numbers.push_back(number(p));
   replay_frames(

@@ -184,8 +184,12 @@ bool is_run_entry(const std::string& n) {
   static const char* const kNames[] = {"run.json", "stats.csv", "frames",  "checkpoints", "audit.json",
                                        "render",   "vtk",       "blender", "usd",         "stats.png"};
   if (n == kLockFileName) return true;
+  auto is = [&](const std::string& k) { return n == k || (n.rfind(k + ".tmp", 0) == 0 && n.size() > k.size() + 4); };
   for (const char* k : kNames)
-    if (n == k || (n.rfind(std::string(k) + ".tmp", 0) == 0 && n.size() > std::strlen(k) + 4)) return true;
+    if (is(k)) return true;
+  // A frame writer added to the registry writes into the folder named by its key (docs/extending.md).
+  for (const auto& k : output_format_names())
+    if (is(k)) return true;
   return false;
 }
 
@@ -252,8 +256,45 @@ RunWriter::RunWriter(fs::path dir, const Topology& topo, std::string resolved_co
   }
   create_dirs(dir_ / "frames");
   remove_stale_temporaries(dir_);
-  for (OutputFormat f : meta_.formats)
-    if (f != OutputFormat::obj) sinks_.push_back(make_frame_sink(f, topo_, meta_.fps, meta_.every, meta_.formats));
+  make_sinks();
+}
+
+void RunWriter::make_sinks() {
+  // A writer's parameters are its section of the resolved configuration, `output.<format>`
+  // (checked by the scene schema); keys absent there take their defaults.
+  const Json config = Json::parse(config_json_, nullptr, /*allow_exceptions=*/false);
+  const Json* output =
+      config.is_object() && config.contains("output") && config["output"].is_object() ? &config["output"] : nullptr;
+  for (const std::string& f : meta_.formats) {
+    std::vector<std::string> others;
+    for (const std::string& g : meta_.formats)
+      if (g != f) others.push_back(g);
+    ParamValues params;
+    const auto& entry = frame_writers().at(f);
+    if (output && output->contains(f) && (*output)[f].is_object())
+      for (const ParamSpec& spec : entry.params) {
+        const Json& section = (*output)[f];
+        if (!section.contains(spec.key)) continue;
+        const Json& v = section[spec.key];
+        const bool fits = spec.type == ParamType::boolean   ? v.is_boolean()
+                          : spec.type == ParamType::integer ? v.is_number_integer()
+                          : spec.type == ParamType::number  ? v.is_number()
+                                                            : v.is_string();
+        if (!fits)
+          throw Error("config.output." + f + "." + spec.key + ": " + v.dump() + " is not of the parameter's type");
+        if (spec.type == ParamType::boolean) params.set(spec.key, v.get<bool>());
+        if (spec.type == ParamType::integer) params.set(spec.key, v.get<long long>());
+        if (spec.type == ParamType::number) params.set(spec.key, v.get<double>());
+        if (spec.type == ParamType::choice) params.set(spec.key, v.get<std::string>());
+      }
+    sinks_.push_back(make_frame_sink(f, FrameSinkContext{topo_, meta_.fps, meta_.every, std::move(others)}, params));
+  }
+}
+
+bool RunWriter::wants_fields() const {
+  for (const auto& s : sinks_)
+    if (s->wants_fields()) return true;
+  return false;
 }
 
 RunWriter::RunWriter(fs::path dir, const Topology& topo, std::string resolved_config_json, RunMeta meta,
@@ -306,23 +347,19 @@ RunWriter::RunWriter(fs::path dir, const Topology& topo, std::string resolved_co
   // files are kept, PC2 caches cut back to them, USDA and the VTU collection rebuilt with them.
   std::vector<int> before;
   for (int f = 0; meta_.frames && f <= resume.frame; f += std::max(1, meta_.every)) before.push_back(f);
+  make_sinks();
   std::vector<FrameSink*> sinks;
-  for (OutputFormat f : meta_.formats)
-    if (f != OutputFormat::obj)
-      sinks.push_back(sinks_.emplace_back(make_frame_sink(f, topo_, meta_.fps, meta_.every, meta_.formats)).get());
-  resume_frame_sinks(sinks, final_, topo_, meta_.formats, resume.frame, before, meta_.fps);
-  std::error_code ec;
+  for (const auto& s : sinks_) sinks.push_back(s.get());
+  resume_frame_sinks(sinks, final_, resume.frame, before, meta_.fps);
   create_dirs(final_ / "frames");
-  for (const auto& p : list_frame_files(final_ / "frames")) {
-    if (p.first > resume.frame) {
-      fs::remove(p.second, ec);
-      if (ec) throw Error("cannot remove '" + p.second.string() + "': " + ec.message());
-    } else {
-      ++frames_written_;
-    }
-  }
-  if (std::find(meta_.formats.begin(), meta_.formats.end(), OutputFormat::obj) == meta_.formats.end())
+  // frames_written: the OBJ frames left on disk (the obj sink removed those after the checkpoint),
+  // else the frames the other formats hold.
+  if (std::find(meta_.formats.begin(), meta_.formats.end(), "obj") != meta_.formats.end()) {
+    for (const auto& p : list_frame_files(final_ / "frames"))
+      if (p.first <= resume.frame) ++frames_written_;
+  } else {
     frames_written_ = static_cast<int>(before.size());
+  }
 }
 
 RunWriter::~RunWriter() {
@@ -356,11 +393,6 @@ void RunWriter::start() {
 }
 
 void RunWriter::write_frame(int frame, const Positions& x, const VertexFields& fields) {
-  if (std::find(meta_.formats.begin(), meta_.formats.end(), OutputFormat::obj) != meta_.formats.end()) {
-    char name[32];
-    std::snprintf(name, sizeof name, "frame_%05d.obj", frame);
-    write_frame_obj(dir_ / "frames" / name, topo_, x);
-  }
   const double time = meta_.fps > 0 ? frame / meta_.fps : 0.0;
   for (auto& s : sinks_) s->write(dir_, frame, time, x, fields);
   ++frames_written_;

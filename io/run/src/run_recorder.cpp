@@ -64,26 +64,22 @@ AuditHook make_audit_hook(const Topology& topo, const Positions& initial, const 
   };
 }
 
-namespace {
-bool writes_vtu(const RunMeta& meta) {
-  return std::find(meta.formats.begin(), meta.formats.end(), OutputFormat::vtu) != meta.formats.end();
-}
-}  // namespace
-
 RunRecorder::RunRecorder(std::filesystem::path dir, const Simulation& sim, std::string resolved_config_json,
                          RunMeta meta, int last_frame, bool force)
     : sim_(sim),
-      want_fields_(writes_vtu(meta)),
       writer_(std::move(dir), sim.topology(), std::move(resolved_config_json), std::move(meta), force),
-      last_frame_(last_frame) {}
+      last_frame_(last_frame) {
+  want_fields_ = writer_.wants_fields();
+}
 
 RunRecorder::RunRecorder(std::filesystem::path dir, const Simulation& sim, std::string resolved_config_json,
                          RunMeta meta, int last_frame, RunWriter::ResumeAt resume)
     : sim_(sim),
-      want_fields_(writes_vtu(meta)),
       writer_(std::move(dir), sim.topology(), std::move(resolved_config_json), std::move(meta), resume),
       last_frame_(last_frame),
-      resumed_(true) {}
+      resumed_(true) {
+  want_fields_ = writer_.wants_fields();
+}
 
 void RunRecorder::start() {
   writer_.start();

@@ -9,6 +9,7 @@
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
 #include "ccfr/feasibility/projector.hpp"
+#include "ccfr/io/formats.hpp"
 #include "ccfr/io/user_file.hpp"
 #include "ccfr/solvers/contact_solver.hpp"
 #include "scene/input.hpp"
@@ -238,6 +239,7 @@ std::string config_reference_markdown() {
   // The registered components, read from the registries like the schema above.
   component_table(o, contact_solvers(), "contact.");
   component_table(o, broad_phases(), "collision.");
+  component_table(o, frame_writers(), "output.");
   // Projectors are chosen through the contact solver built on them, which exposes their keys.
   component_table(o, projectors(), "");
   return o;

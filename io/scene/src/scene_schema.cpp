@@ -175,11 +175,8 @@ const scene::Section<OutputParams>& output_section() {
                  Range::at_least(0))
           // interop (docs/interop.md): formats besides the OBJ frames; read by read_output (an empty
           // list is refused there, with the key's line)
-          .other("formats", list("formats of the frames; absent: [obj]. obj: frames/frame_N.obj (exact, "
-                                 "what `ccfr audit` reads); ply: frames/frame_N.ply (binary, float); vtu: "
-                                 "vtk/frame_N.vtu + vtk/frames.pvd with per-vertex fields (ParaView); "
-                                 "pc2: blender/*.pc2 point caches + first_frame.obj (Blender Mesh Cache); "
-                                 "usda: usd/scene.usda, time-sampled points",
+          .other("formats", list("formats of the frames; absent: [obj]; each one of the registered frame "
+                                 "writers (table of output formats below)",
                                  choice("obj", output_format_names, "an output format")));
   return s;
 }
@@ -250,20 +247,29 @@ NodePtr param_node(const ParamSpec& spec) {
 /// One map per registered component that has parameters of its own, keyed by its name: the
 /// section `<selector's parent>.<name>.*`, valid only while `selector` names that component.
 template <class R>
-void add_component_sections(std::vector<Field>& fields, const R& registry, const std::string& selector) {
+void add_component_sections(std::vector<Field>& fields, const R& registry, const std::string& selector,
+                            bool selector_is_list = false) {
   for (const auto& e : registry.entries()) {
     if (e.params.empty()) continue;
     std::vector<Field> keys;
     for (const auto& spec : e.params) keys.push_back({spec.key, param_node(spec)});
-    fields.push_back({e.name, map("parameters of " + registry.kind() + " `" + e.name + "` (" + e.description +
-                                      "); only with `" + selector + ": " + e.name + "`",
-                                  std::move(keys))});
+    const std::string only = selector_is_list ? "only while `" + selector + "` lists `" + e.name + "`"
+                                              : "only with `" + selector + ": " + e.name + "`";
+    fields.push_back(
+        {e.name, map("parameters of " + registry.kind() + " `" + e.name + "` (" + e.description + "); " + only,
+                     std::move(keys))});
   }
 }
 
 std::vector<Field> contact_fields() {
   std::vector<Field> f = contact_section().fields();
   add_component_sections(f, contact_solvers(), "contact.solver");
+  return f;
+}
+
+std::vector<Field> output_fields() {
+  std::vector<Field> f = output_section().fields();
+  add_component_sections(f, frame_writers(), "output.formats", true);
   return f;
 }
 
@@ -347,7 +353,7 @@ NodePtr build_scene_schema() {
                  {"contact", map("contact handling", contact_fields())},
                  {"collision", map("collision detection", collision_fields())},
                  {"debug", map("diagnostics", debug_section().fields())},
-                 {"output", map("what is written", output_section().fields())},
+                 {"output", map("what is written", output_fields())},
                  {"materials", dict("named materials; `default` exists unless redefined", material)},
                  {"objects", list("the objects of the scene", object)},
              });
@@ -359,7 +365,8 @@ const NodePtr& scene_schema() {
   // Rebuilt when a component was registered since (downstream code may register after a first load).
   static NodePtr s;
   static size_t built_for = 0;
-  const size_t n = contact_solvers().entries().size() + broad_phases().entries().size();
+  const size_t n =
+      contact_solvers().entries().size() + broad_phases().entries().size() + frame_writers().entries().size();
   if (!s || n != built_for) s = build_scene_schema(), built_for = n;
   return s;
 }

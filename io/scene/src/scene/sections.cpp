@@ -1,6 +1,8 @@
 // The readers of the global sections (time, contact, collision, debug, output) and of materials:
 // each fills its parameter struct through the section bound in scene_schema.cpp, then checks what
 // spans keys (a component's own section, friction's order, an empty format list).
+#include <algorithm>
+
 #include "../scene_schema.hpp"
 #include "ccfr/collision/broad_phase.hpp"
 #include "ccfr/io/formats.hpp"
@@ -70,6 +72,19 @@ void read_output(const Input& in, OutputParams& o) {
       for (const auto& n : output_format_names()) names += (names.empty() ? "" : ", ") + n;
       in.ctx.fail("output.formats", in.in_node("output.formats"), "list at least one format (" + names + ")");
     }
+  }
+  // A writer's section (output.<format>.*) for a format the run does not write would do nothing.
+  // Its values reach the writer through the resolved configuration (RunWriter).
+  const std::vector<std::string> chosen = o.formats.empty() ? std::vector<std::string>{"obj"} : o.formats;
+  const YAML::Node given = in.in["output"];
+  for (const auto& e : frame_writers().entries()) {
+    if (e.params.empty() || !given || !given.IsMap() || !given[e.name]) continue;
+    if (std::find(chosen.begin(), chosen.end(), e.name) != chosen.end()) continue;
+    const std::string path = "output." + e.name;
+    in.ctx.fail(path, in.in_node(path),
+                "parameters of output format '" + e.name + "' are set, but output.formats does not list it; " +
+                    "remove the section or add " + e.name + " to output.formats",
+                {"output.formats"});
   }
 }
 

@@ -9,10 +9,11 @@
 
 namespace ccfr::io {
 
-/// Re-exports a run directory's OBJ frames into `formats` (written into `out`, by default the run
-/// directory itself). Velocities are backward differences of consecutive frames on disk. Returns
-/// the number of frames exported. Throws ccfr::Error on a missing run or unreadable frame.
-int export_run(const std::filesystem::path& run_dir, const std::vector<OutputFormat>& formats,
+/// Re-exports a run directory's OBJ frames into `formats` (keys of frame_writers(), each with its
+/// parameters' defaults), written into `out`, by default the run directory itself. Velocities are
+/// backward differences of consecutive frames on disk. Returns the number of frames exported.
+/// Throws ccfr::Error on a missing run or unreadable frame.
+int export_run(const std::filesystem::path& run_dir, const std::vector<std::string>& formats,
                const std::filesystem::path& out = {});
 
 }  // namespace ccfr::io

@@ -26,8 +26,9 @@ bool is_ccfr_run(const std::filesystem::path& dir);
 std::string run_json_problem(const std::filesystem::path& dir);
 
 /// True if `name` is an entry ccfr writes into a run directory (run.json, stats.csv, frames/,
-/// checkpoints/, audit.json, render/, vtk/, blender/, usd/, stats.png, their temporaries) or the
-/// directory's lock file: what a rerun replaces. Anything else in a run directory is the user's.
+/// checkpoints/, audit.json, render/, vtk/, blender/, usd/, stats.png, a folder named by a
+/// registered frame writer's key, their temporaries) or the directory's lock file: what a rerun
+/// replaces. Anything else in a run directory is the user's.
 bool is_run_entry(const std::string& name);
 
 /// Writes a run directory (docs/output.md). Frames and run.json are written atomically (temporary
@@ -65,6 +66,8 @@ class RunWriter {
   /// Writes the frame in every format of RunMeta::formats (frames/frame_NNNNN.obj, ...), then
   /// rewrites run.json with the new frames_written. `fields` feed the VTU point data.
   void write_frame(int frame, const Positions& x, const VertexFields& fields = {});
+  /// True if a format of the run reads the VertexFields beyond the positions (vtu).
+  bool wants_fields() const;
   /// Appends one stats row; the first row puts a staged run in place of the previous one.
   void write_stats(const FrameStats& s);
   /// Rewrites run.json with the end time, the number of frames written and a status
@@ -86,6 +89,7 @@ class RunWriter {
 
  private:
   void write_run_json(const std::string& status, bool finished);
+  void make_sinks();  ///< one FrameSink per format of meta_.formats, in that order
   void write_stats_line(const std::string& line);
   void commit();
   void discard();

@@ -28,9 +28,9 @@ struct RunMeta {
   std::vector<std::string> argv;  ///< every argument, exactly; empty: not recorded
   /// What the initial configuration did to contact (clarification 5), when the solver detects.
   std::optional<InitialProximity> initial_proximity;
-  /// output.formats (docs/interop.md); obj writes frames/frame_NNNNN.obj. Like `every` and
-  /// `frames`, written inside `config.output` and read back from there.
-  std::vector<OutputFormat> formats{OutputFormat::obj};
+  /// output.formats (docs/interop.md): keys of frame_writers(); obj writes frames/frame_NNNNN.obj.
+  /// Like `every` and `frames`, written inside `config.output` and read back from there.
+  std::vector<std::string> formats{"obj"};
   int every = 1;       ///< output.every (the PC2 sample rate; the frames written are 0, every, 2 every, ...)
   bool frames = true;  ///< output.frames: false writes no frame in any format
   /// scene_fingerprint() of the run's initial scene, written to run.json so that a resume can tell
