@@ -2,20 +2,57 @@
 // cloth falls onto a kinematic plane under the CCFR contact solver and stops above it by at least
 // the offset. (2) Runs its own contact solver `ground_plane` (ground_plane_solver.cpp, registered
 // there) from scene.yaml: the cloth rests at level + ξ; the solver's keys appear in the generated
-// reference, and its section is refused under another solver.
+// reference, and its section is refused under another solver. (3) Writes that scene's run with its
+// own output format `csv` (csv_writer.cpp), selected and set up in scene.yaml: its files hold the
+// positions of the run's OBJ frames to 9 digits.
 #include <ccfr/core/error.hpp>
 #include <ccfr/core/topology.hpp>
 #include <ccfr/geometry/generators.hpp>
+#include <ccfr/io/obj.hpp>
+#include <ccfr/io/run_recorder.hpp>
 #include <ccfr/io/scene_loader.hpp>
 #include <ccfr/solvers/simulation.hpp>
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
+
+#include "csv_writer.hpp"
 
 static int fail(const char* what) {
   std::printf("FAILED: %s\n", what);
   return 1;
+}
+
+static int run_own_writer(const std::filesystem::path& work) {
+  using namespace ccfr;
+  io::LoadedScene loaded = io::load_scene(CONSUMER_SCENE, {"time.frames=2"});
+  Simulation sim(std::move(loaded.scene));
+  const std::filesystem::path dir = work / "csv_run";
+  std::filesystem::remove_all(dir);
+  {
+    io::RunRecorder rec(dir, sim, loaded.resolved_json, io::make_run_meta(sim, "consumer", {}), 2);
+    rec.start();
+    for (int f = 1; f <= 2; ++f) rec.record(sim.step_frame());
+    rec.finish("completed");
+  }
+  for (int frame = 0; frame <= 2; ++frame) {
+    char obj[32];
+    std::snprintf(obj, sizeof obj, "frame_%05d.obj", frame);
+    std::string expected;
+    for (const Vec3& p : io::read_frame_obj(dir / "frames" / obj).v) expected += csv_line(p, 9);
+    std::ifstream in(dir / "csv" / ("frame_" + std::to_string(frame) + ".csv"));
+    std::stringstream text;
+    text << in.rdbuf();
+    if (expected.empty() || text.str() != expected) return fail("csv frame differs from the OBJ frame");
+  }
+  std::printf("csv: 3 frames written by the downstream output format\n");
+  if (io::config_reference_markdown().find("`output.csv.digits`") == std::string::npos)
+    return fail("the reference does not list output.csv.digits");
+  return 0;
 }
 
 static int run_own_solver() {
@@ -55,11 +92,10 @@ objects:
   } catch (const Error& e) {
     std::printf("expected error: %s\n", e.what());
   }
-  std::printf("consumer ok\n");
   return 0;
 }
 
-int main() {
+int main(int argc, char** argv) {
   using namespace ccfr;
   const auto cloth = gen::grid(0.4, 0.4, 8, 8);
   const auto floor = gen::plane(1.0, 2);
@@ -85,5 +121,8 @@ int main() {
   for (Index v = 0; v < static_cast<Index>(cloth.v.size()); ++v) min_y = std::min(min_y, sim.positions()[v].y());
   std::printf("lowest cloth vertex at y = %.6f\n", min_y);
   if (min_y < 0.01 - 1e-9 || min_y > 0.02) return 1;
-  return run_own_solver();
+  if (const int rc = run_own_solver()) return rc;
+  if (const int rc = run_own_writer(argc > 1 ? argv[1] : ".")) return rc;
+  std::printf("consumer ok\n");
+  return 0;
 }
