@@ -90,7 +90,7 @@ void append_compressed(std::string& out, const char* bytes, size_t size) {
 // VTK XML UnstructuredGrid, zlib-compressed binary appended data (UInt64 headers), and a PVD collection.
 class VtuSink final : public FrameSink {
  public:
-  explicit VtuSink(const Topology& topo) : topo_(topo), cells_(make_cells(topo)) {
+  explicit VtuSink(const Topology& topo) : cells_(make_cells(topo)) {
     for (Index v = 0; v < topo.num_vertices(); ++v) object_.push_back(static_cast<std::int32_t>(topo.vertex_object[v]));
   }
   void write(const fs::path& dir, int frame, double time, const Positions& x, const VertexFields& f) override {
@@ -167,7 +167,6 @@ class VtuSink final : public FrameSink {
     entries_ +=
         std::string("    <DataSet timestep=\"") + t + "\" part=\"0\" file=\"" + frame_name(frame, "vtu") + "\"/>\n";
   }
-  const Topology& topo_;
   Cells cells_;
   std::vector<std::int32_t> object_;
   std::string entries_;
