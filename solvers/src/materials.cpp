@@ -9,7 +9,7 @@
 #include <Eigen/LU>
 #include <Eigen/SVD>
 
-#include "ccfr/core/log.hpp"
+#include "ccfr/core/error.hpp"
 #include "ccfr/core/parallel.hpp"
 
 namespace ccfr {
@@ -201,36 +201,6 @@ void solve_shape_matching(std::span<Vec3> x, std::span<const double> w, std::spa
 
 }  // namespace xpbd
 
-namespace {
-
-/// A colour of a bending, strand-bending or tet batch is split into parallel tasks only beyond
-/// this many constraints; smaller colours run inline on the calling thread.
-constexpr Index kConstraintGrain = 256;
-
-/// One sweep of `batch` over `col`: colours in sequence, each colour's constraints (which share no
-/// dynamic vertex) in parallel.
-template <class Batch>
-void solve_coloured(Batch& batch, const Colouring& col, Positions& x, std::span<const double> w, double dt) {
-  const std::span<const Index> order(col.order);
-  for (Index k = 0; k < col.colours(); ++k) {
-    const Index b = col.row_start[k], e = col.row_start[k + 1];
-    parallel_for(
-        e - b,
-        [&](Index lo, Index hi) {
-          batch.solve_in_order(order.subspan(static_cast<size_t>(b + lo), static_cast<size_t>(hi - lo)), x, w, dt);
-        },
-        kConstraintGrain);
-  }
-}
-
-template <int N>
-Colouring colour(const std::vector<Eigen::Matrix<Index, N, 1>>& ids, Index num_vertices,
-                 std::span<const double> inv_mass) {
-  return colour_constraints(num_vertices, {ids.empty() ? nullptr : ids.front().data(), ids.size() * N}, N, inv_mass);
-}
-
-}  // namespace
-
 // ---- BendingBatch -------------------------------------------------------------------------------
 
 void BendingBatch::add(const Vec4i& v, double theta0, double alpha) {
@@ -240,15 +210,7 @@ void BendingBatch::add(const Vec4i& v, double theta0, double alpha) {
   lambda.push_back(0.0);
 }
 
-void BendingBatch::finalize(Index num_vertices, std::span<const double> inv_mass) {
-  colouring = colour<4>(ids, num_vertices, inv_mass);
-}
-
 void BendingBatch::reset_multipliers() { std::fill(lambda.begin(), lambda.end(), 0.0); }
-
-void BendingBatch::solve(const Colouring& col, Positions& x, std::span<const double> w, double dt) {
-  solve_coloured(*this, col, x, w, dt);
-}
 
 void BendingBatch::solve_in_order(std::span<const Index> order, Positions& x, std::span<const double> w, double dt) {
   const double inv_dt2 = 1.0 / (dt * dt);
@@ -268,15 +230,7 @@ void StrandBendingBatch::add(const Vec3i& v, double phi0, double alpha) {
   lambda.push_back(0.0);
 }
 
-void StrandBendingBatch::finalize(Index num_vertices, std::span<const double> inv_mass) {
-  colouring = colour<3>(ids, num_vertices, inv_mass);
-}
-
 void StrandBendingBatch::reset_multipliers() { std::fill(lambda.begin(), lambda.end(), 0.0); }
-
-void StrandBendingBatch::solve(const Colouring& col, Positions& x, std::span<const double> w, double dt) {
-  solve_coloured(*this, col, x, w, dt);
-}
 
 void StrandBendingBatch::solve_in_order(std::span<const Index> order, Positions& x, std::span<const double> w,
                                         double dt) {
@@ -314,17 +268,9 @@ bool TetBatch::add(const Vec4i& v, const Positions& rest, double volume_complian
   return true;
 }
 
-void TetBatch::finalize(Index num_vertices, std::span<const double> inv_mass) {
-  colouring = colour<4>(ids, num_vertices, inv_mass);
-}
-
 void TetBatch::reset_multipliers() {
   std::fill(lambda_volume.begin(), lambda_volume.end(), 0.0);
   std::fill(lambda_deviatoric.begin(), lambda_deviatoric.end(), 0.0);
-}
-
-void TetBatch::solve(const Colouring& col, Positions& x, std::span<const double> w, double dt) {
-  solve_coloured(*this, col, x, w, dt);
 }
 
 void TetBatch::solve_in_order(std::span<const Index> order, Positions& x, std::span<const double> w, double dt) {
@@ -420,92 +366,55 @@ void ShapeMatchingBatch::predict(const Positions& x, const Positions& v, std::sp
 
 // ---- MaterialSystem -----------------------------------------------------------------------------
 
+MaterialSystem::MaterialSystem(MaterialSystem&&) noexcept = default;
+MaterialSystem& MaterialSystem::operator=(MaterialSystem&&) noexcept = default;
+MaterialSystem::~MaterialSystem() = default;
+
 MaterialSystem::MaterialSystem(const Topology& topo, const SimState& state, const SimulationParams& params) {
   if (params.objects.size() != topo.objects.size())
     throw std::logic_error("MaterialSystem: params.objects has " + std::to_string(params.objects.size()) +
                            " entries for " + std::to_string(topo.objects.size()) + " objects");
-  const auto& rest = state.rest;
-  const std::span<const double> inv_mass = state.inv_mass;
+  const MaterialConstraintRegistry& registry = material_constraints();
+  // A material may only enable registered constraints that take parameters (the scene loader's
+  // schema checks the same; scenes built in code come here directly).
+  for (size_t oi = 0; oi < topo.objects.size(); ++oi)
+    for (const auto& [name, values] : params.objects[oi].material.constraints) {
+      const auto* e = registry.find(name);
+      if (!e || e->params.empty()) {
+        std::string known;
+        for (const auto& k : registry.entries())
+          if (!k.params.empty()) known += (known.empty() ? "" : ", ") + k.name;
+        throw Error("object '" + topo.objects[oi].name + "': its material enables " +
+                    (e ? "material constraint '" + name + "', which takes no parameters and is always on"
+                       : "unknown material constraint '" + name + "'") +
+                    " (constraints set per material: " + (known.empty() ? std::string("none") : known) + ")");
+      }
+    }
+
   const Index nv = topo.num_vertices();
-
-  // Edges by object kind, one pass over the global edge array (edge order kept for determinism).
-  for (Index e = 0; e < topo.num_edges(); ++e) {
-    const Index oi = topo.edge_object[e];
-    switch (topo.objects[oi].kind) {
-      case ObjectKind::cloth:
-      case ObjectKind::shell:
-      case ObjectKind::strand: {
-        const Index i = topo.edges[e][0], j = topo.edges[e][1];
-        distance_.add(i, j, (rest[i] - rest[j]).norm(), params.objects[oi].material.stretch_compliance);
-        break;
-      }
-      default:
-        break;
+  for (const auto& e : registry.entries()) {
+    std::vector<ParamValues> complete(topo.objects.size());
+    MaterialContext ctx{topo, state, params, std::vector<const ParamValues*>(topo.objects.size(), nullptr)};
+    for (size_t oi = 0; oi < topo.objects.size(); ++oi) {
+      const auto& given = params.objects[oi].material.constraints;
+      const auto it = given.find(e.name);
+      if (it == given.end()) continue;
+      complete[oi] = complete_params(e.params, it->second,
+                                     "material constraint '" + e.name + "' of object '" + topo.objects[oi].name + "'");
+      ctx.object_params[oi] = &complete[oi];
     }
+    auto batch = e.make(complete_params(e.params, {}, "material constraint '" + e.name + "'"), ctx);
+    if (!batch) continue;
+    batch->finalize(nv, state.inv_mass);
+    stages_.push_back({e.name, std::move(batch), {}, {}});
   }
+  std::stable_sort(stages_.begin(), stages_.end(),
+                   [](const Stage& a, const Stage& b) { return a.batch->sweep_rank() < b.batch->sweep_rank(); });
 
-  // Interior edges of cloth and shells: the two faces incident to an edge, from face_edges.
-  // Boundary edges (one face) get no bending; non-manifold edges (three or more faces) are skipped
-  // because no single dihedral angle describes them.
-  std::vector<Index> edge_face_count(static_cast<size_t>(topo.num_edges()), 0);
-  std::vector<Vec2i> edge_faces(static_cast<size_t>(topo.num_edges()), Vec2i(-1, -1));
-  for (Index f = 0; f < topo.num_faces(); ++f) {
-    const auto kind = topo.objects[topo.face_object[f]].kind;
-    if (kind != ObjectKind::cloth && kind != ObjectKind::shell) continue;
-    for (int k = 0; k < 3; ++k) {
-      const Index e = topo.face_edges[f][k];
-      if (edge_face_count[e] < 2) edge_faces[e][edge_face_count[e]] = f;
-      ++edge_face_count[e];
-    }
-  }
-  Index skipped_bending = 0;
-  for (Index e = 0; e < topo.num_edges(); ++e) {
-    if (edge_face_count[e] != 2) continue;
-    const Index a = topo.edges[e][0], b = topo.edges[e][1];
-    auto opposite = [&](Index f) {
-      const Vec3i& t = topo.faces[f];
-      for (int k = 0; k < 3; ++k)
-        if (t[k] != a && t[k] != b) return t[k];
-      return Index{-1};
-    };
-    const Index c = opposite(edge_faces[e][0]), d = opposite(edge_faces[e][1]);
-    std::array<Vec3, 4> g;
-    double theta0 = 0.0;
-    if (c < 0 || d < 0 || c == d || !xpbd::dihedral_angle_gradient(rest[a], rest[b], rest[c], rest[d], theta0, g)) {
-      ++skipped_bending;
-      continue;
-    }
-    bending_.add(Vec4i(a, b, c, d), theta0, params.objects[topo.edge_object[e]].material.bend_compliance);
-  }
-
-  for (size_t oi = 0; oi < topo.objects.size(); ++oi) {
-    const auto& o = topo.objects[oi];
-    const auto& mat = params.objects[oi].material;
-    if (o.kind == ObjectKind::strand) {
-      for (Index p = o.polyline_begin; p < o.polyline_end; ++p) {
-        const auto row = topo.polylines.row(p);
-        for (size_t k = 1; k + 1 < row.size(); ++k) {
-          const Vec3i v(row[k - 1], row[k], row[k + 1]);
-          strand_bending_.add(v, xpbd::turning_angle(rest[v[0]], rest[v[1]], rest[v[2]]), mat.bend_compliance);
-        }
-      }
-    } else if (o.kind == ObjectKind::tet_solid) {
-      Index skipped = 0;
-      for (Index t = o.tet_begin; t < o.tet_end; ++t)
-        if (!tets_.add(topo.tets[t], rest, mat.volume_compliance, mat.shear_compliance)) ++skipped;
-      if (skipped > 0) log::warn("object '{}': {} degenerate rest tets get no material constraint", o.name, skipped);
-    } else if (o.kind == ObjectKind::rigid && o.num_vertices() > 0) {
-      rigid_.add(o.vertex_begin, o.vertex_end, rest, inv_mass);
-    }
-  }
-  if (skipped_bending > 0)
-    log::warn("{} interior edges with degenerate rest triangles get no bending constraint", skipped_bending);
-
-  distance_.finalize(nv, inv_mass);
-  bending_.finalize(nv, inv_mass);
-  strand_bending_.finalize(nv, inv_mass);
-  tets_.finalize(nv, inv_mass);
-  build_schedule(nv, inv_mass);
+  for (const auto& o : topo.objects)
+    if (o.kind == ObjectKind::rigid && o.num_vertices() > 0)
+      rigid_.add(o.vertex_begin, o.vertex_end, state.rest, state.inv_mass);
+  build_schedule(nv, state.inv_mass);
 }
 
 namespace {
@@ -532,25 +441,27 @@ void MaterialSystem::build_schedule(Index nv, std::span<const double> inv_mass) 
   // Islands: dynamic vertices joined by constraints. Kinematic vertices are never written, so they
   // join nothing; a constraint with only kinematic vertices belongs to the key of its first vertex.
   Islands uf(nv);
-  auto link = [&](const auto& batch) {
-    for (Index c = 0; c < batch.size(); ++c) {
-      const auto& v = batch.ids[c];
+  for (const Stage& s : stages_) {
+    const std::span<const Index> ids = s.batch->vertex_ids();
+    const int arity = s.batch->arity();
+    for (Index c = 0; c < s.batch->size(); ++c) {
       Index first = -1;
-      for (int a = 0; a < static_cast<int>(v.size()); ++a) {
-        if (inv_mass[v[a]] == 0.0) continue;
+      for (int a = 0; a < arity; ++a) {
+        const Index v = ids[c * arity + a];
+        if (inv_mass[v] == 0.0) continue;
         if (first < 0)
-          first = v[a];
+          first = v;
         else
-          uf.unite(first, v[a]);
+          uf.unite(first, v);
       }
     }
-  };
-  link(distance_), link(bending_), link(strand_bending_), link(tets_);
-  auto key = [&](const auto& batch, Index c) {
-    const auto& v = batch.ids[c];
-    for (int a = 0; a < static_cast<int>(v.size()); ++a)
-      if (inv_mass[v[a]] != 0.0) return uf.find(v[a]);
-    return v[0];
+  }
+  auto key = [&](const ConstraintBatch& batch, Index c) {
+    const std::span<const Index> ids = batch.vertex_ids();
+    const int arity = batch.arity();
+    for (int a = 0; a < arity; ++a)
+      if (inv_mass[ids[c * arity + a]] != 0.0) return uf.find(ids[c * arity + a]);
+    return ids[c * arity];
   };
 
   // Island ids in order of first appearance (batches in sweep order, constraints in colour order).
@@ -559,8 +470,11 @@ void MaterialSystem::build_schedule(Index nv, std::span<const double> inv_mass) 
   std::vector<char> large;
   std::vector<double> cost;
   std::vector<Index> colour_count;  // per island, constraints in the current colour
-  auto scan = [&](const auto& batch, Index grain, double unit_cost) {
+  for (const Stage& s : stages_) {
+    const ConstraintBatch& batch = *s.batch;
     const Colouring& col = batch.colouring;
+    const Index grain = batch.grain();
+    const double unit_cost = batch.unit_cost();
     for (Index k = 0; k < col.colours(); ++k) {
       std::vector<Index> touched;
       for (Index t = col.row_start[k]; t < col.row_start[k + 1]; ++t) {
@@ -580,12 +494,7 @@ void MaterialSystem::build_schedule(Index nv, std::span<const double> inv_mass) 
         colour_count[id] = 0;
       }
     }
-  };
-  // Unit costs: rough relative kernel costs, used only to start the largest small islands first.
-  scan(distance_, kDistanceGrain, 1.0);
-  scan(bending_, kConstraintGrain, 4.0);
-  scan(strand_bending_, kConstraintGrain, 3.0);
-  scan(tets_, kConstraintGrain, 10.0);
+  }
 
   // Small islands numbered by decreasing cost (ties by first appearance): the order does not change
   // the result, only the load balance.
@@ -598,43 +507,39 @@ void MaterialSystem::build_schedule(Index nv, std::span<const double> inv_mass) 
   small_islands_ = static_cast<Index>(small.size());
   large_islands_ = num_islands - small_islands_;
 
-  auto split = [&](const auto& batch, IslandOrder& by_island, Colouring& large_col) {
+  for (Stage& s : stages_) {
+    const ConstraintBatch& batch = *s.batch;
     const Colouring& col = batch.colouring;
+    IslandOrder& by_island = s.small;
+    Colouring& large_col = s.large;
     by_island.row_start.assign(static_cast<size_t>(small_islands_) + 1, 0);
     by_island.order.clear();
     large_col = Colouring{};
     large_col.row_start.push_back(0);
     for (Index t = 0; t < static_cast<Index>(col.order.size()); ++t) {
-      const Index s = small_index[island_of_key[key(batch, col.order[t])]];
-      if (s >= 0) ++by_island.row_start[s + 1];
+      const Index si = small_index[island_of_key[key(batch, col.order[t])]];
+      if (si >= 0) ++by_island.row_start[si + 1];
     }
-    for (Index s = 0; s < small_islands_; ++s) by_island.row_start[s + 1] += by_island.row_start[s];
+    for (Index si = 0; si < small_islands_; ++si) by_island.row_start[si + 1] += by_island.row_start[si];
     by_island.order.resize(static_cast<size_t>(by_island.row_start.back()));
     std::vector<Index> cursor(by_island.row_start.begin(), by_island.row_start.end() - 1);
     for (Index k = 0; k < col.colours(); ++k) {
       for (Index t = col.row_start[k]; t < col.row_start[k + 1]; ++t) {
         const Index c = col.order[t];
-        const Index s = small_index[island_of_key[key(batch, c)]];
-        if (s >= 0)
-          by_island.order[cursor[s]++] = c;
+        const Index si = small_index[island_of_key[key(batch, c)]];
+        if (si >= 0)
+          by_island.order[cursor[si]++] = c;
         else
           large_col.order.push_back(c);
       }
       const Index n = static_cast<Index>(large_col.order.size());
       if (n > large_col.row_start.back()) large_col.row_start.push_back(n);
     }
-  };
-  split(distance_, small_distance_, large_distance_);
-  split(bending_, small_bending_, large_bending_);
-  split(strand_bending_, small_strand_, large_strand_);
-  split(tets_, small_tets_, large_tets_);
+  }
 }
 
 void MaterialSystem::reset_multipliers() {
-  distance_.reset_multipliers();
-  bending_.reset_multipliers();
-  strand_bending_.reset_multipliers();
-  tets_.reset_multipliers();
+  for (Stage& s : stages_) s.batch->reset_multipliers();
 }
 
 void MaterialSystem::solve(Positions& x, std::span<const double> inv_mass, double dt) {
@@ -643,39 +548,51 @@ void MaterialSystem::solve(Positions& x, std::span<const double> inv_mass, doubl
   parallel_for(
       small_islands_,
       [&](Index lo, Index hi) {
-        for (Index i = lo; i < hi; ++i) {
-          distance_.solve_in_order(small_distance_.island(i), x, inv_mass, dt);
-          bending_.solve_in_order(small_bending_.island(i), x, inv_mass, dt);
-          strand_bending_.solve_in_order(small_strand_.island(i), x, inv_mass, dt);
-          tets_.solve_in_order(small_tets_.island(i), x, inv_mass, dt);
-        }
+        for (Index i = lo; i < hi; ++i)
+          for (Stage& s : stages_) s.batch->solve_in_order(s.small.island(i), x, inv_mass, dt);
       },
       1);
-  distance_.solve(large_distance_, x, inv_mass, dt);
-  bending_.solve(large_bending_, x, inv_mass, dt);
-  strand_bending_.solve(large_strand_, x, inv_mass, dt);
-  tets_.solve(large_tets_, x, inv_mass, dt);
+  for (Stage& s : stages_) s.batch->solve(s.large, x, inv_mass, dt);
   rigid_.solve(x, inv_mass);
 }
 
 void MaterialSystem::solve_by_colour(Positions& x, std::span<const double> inv_mass, double dt) {
-  distance_.solve(x, inv_mass, dt);
-  bending_.solve(x, inv_mass, dt);
-  strand_bending_.solve(x, inv_mass, dt);
-  tets_.solve(x, inv_mass, dt);
+  for (Stage& s : stages_) s.batch->solve(x, inv_mass, dt);
   rigid_.solve(x, inv_mass);
 }
 
+const ConstraintBatch* MaterialSystem::batch(std::string_view name) const {
+  for (const Stage& s : stages_)
+    if (s.name == name) return s.batch.get();
+  return nullptr;
+}
+
+template <class B>
+const B& MaterialSystem::builtin(std::string_view name) const {
+  static const B empty;
+  const auto* b = dynamic_cast<const B*>(batch(name));
+  return b ? *b : empty;
+}
+
+const DistanceBatch& MaterialSystem::distance() const { return builtin<DistanceBatch>("stretch"); }
+const BendingBatch& MaterialSystem::bending() const { return builtin<BendingBatch>("dihedral_bending"); }
+const StrandBendingBatch& MaterialSystem::strand_bending() const {
+  return builtin<StrandBendingBatch>("strand_bending");
+}
+const TetBatch& MaterialSystem::tets() const { return builtin<TetBatch>("tet_elasticity"); }
+
 MaterialSystem::Counts MaterialSystem::counts() const {
   Counts c;
-  c.distance = distance_.size();
-  c.bending = bending_.size();
-  c.strand_bending = strand_bending_.size();
-  c.tet_volume = tets_.size();
-  c.tet_deviatoric = tets_.size();
+  c.distance = distance().size();
+  c.bending = bending().size();
+  c.strand_bending = strand_bending().size();
+  c.tet_volume = tets().size();
+  c.tet_deviatoric = tets().size();
   c.rigid_bodies = rigid_.size();
-  c.colours = distance_.colouring.colours() + bending_.colouring.colours() + strand_bending_.colouring.colours() +
-              tets_.colouring.colours();
+  for (const Stage& s : stages_) {
+    c.colours += s.batch->colouring.colours();
+    c.by_name.emplace_back(s.name, s.batch->size());
+  }
   c.small_islands = small_islands_;
   c.large_islands = large_islands_;
   return c;

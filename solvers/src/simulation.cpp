@@ -74,12 +74,13 @@ Simulation::Simulation(Scene scene) : scene_(std::move(scene)) {
   contact_->initialize(topo, st, params);
   check_finite(st.x, "initial state");
   const auto mc = materials_.counts();
+  std::string constraints;  // every material constraint's batch, by registered name
+  for (const auto& [name, n] : mc.by_name) constraints += std::to_string(n) + " " + name + ", ";
   log::info(
-      "scene '{}': {} objects, {} vertices, {} faces, {} edges, {} tets; constraints: {} distance, {} bending, "
-      "{} strand bending, {} tet, {} rigid bodies ({} colours); {} kinematic vertices; contact solver '{}'",
+      "scene '{}': {} objects, {} vertices, {} faces, {} edges, {} tets; constraints: {}{} rigid bodies ({} colours); "
+      "{} kinematic vertices; contact solver '{}'",
       params.scene_name, topo.objects.size(), topo.num_vertices(), topo.num_faces(), topo.num_edges(), topo.tets.size(),
-      mc.distance, mc.bending, mc.strand_bending, mc.tet_volume, mc.rigid_bodies, mc.colours, kinematic_.size(),
-      contact_->name());
+      constraints, mc.rigid_bodies, mc.colours, kinematic_.size(), contact_->name());
 }
 
 Simulation::~Simulation() = default;

@@ -51,26 +51,7 @@ void DistanceBatch::add(Index i, Index j, double rest_length, double alpha) {
   lambda.push_back(0.0);
 }
 
-void DistanceBatch::finalize(Index num_vertices, std::span<const double> inv_mass) {
-  colouring =
-      colour_constraints(num_vertices, {ids.empty() ? nullptr : ids.front().data(), ids.size() * 2}, 2, inv_mass);
-}
-
 void DistanceBatch::reset_multipliers() { std::fill(lambda.begin(), lambda.end(), 0.0); }
-
-void DistanceBatch::solve(const Colouring& col, Positions& x, std::span<const double> w, double dt) {
-  for (Index k = 0; k < col.colours(); ++k) {
-    const Index b = col.row_start[k], e = col.row_start[k + 1];
-    parallel_for(
-        e - b,
-        [&](Index lo, Index hi) {
-          solve_in_order(
-              std::span<const Index>(col.order).subspan(static_cast<size_t>(b + lo), static_cast<size_t>(hi - lo)), x,
-              w, dt);
-        },
-        kDistanceGrain);
-  }
-}
 
 void DistanceBatch::solve_in_order(std::span<const Index> order, Positions& x, std::span<const double> w, double dt) {
   const double inv_dt2 = 1.0 / (dt * dt);

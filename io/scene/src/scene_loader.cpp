@@ -12,6 +12,7 @@
 #include "ccfr/io/formats.hpp"
 #include "ccfr/io/user_file.hpp"
 #include "ccfr/solvers/contact_solver.hpp"
+#include "ccfr/solvers/material_constraint.hpp"
 #include "scene/input.hpp"
 #include "scene/memory.hpp"
 #include "scene/shapes.hpp"
@@ -240,6 +241,7 @@ std::string config_reference_markdown() {
   component_table(o, contact_solvers(), "contact.");
   component_table(o, broad_phases(), "collision.");
   component_table(o, frame_writers(), "output.");
+  component_table(o, material_constraints(), "materials.<material>.");
   // Projectors are chosen through the contact solver built on them, which exposes their keys.
   component_table(o, projectors(), "");
   return o;

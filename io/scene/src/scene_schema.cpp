@@ -4,10 +4,14 @@
 
 #include "scene/shapes.hpp"
 
+#include <functional>
+
 #include "ccfr/collision/broad_phase.hpp"
+#include "ccfr/core/error.hpp"
 #include "ccfr/core/topology.hpp"
 #include "ccfr/io/formats.hpp"
 #include "ccfr/solvers/contact_solver.hpp"
+#include "ccfr/solvers/material_constraint.hpp"
 #include "ccfr/solvers/params.hpp"
 
 namespace ccfr::io {
@@ -246,41 +250,56 @@ NodePtr param_node(const ParamSpec& spec) {
 
 /// One map per registered component that has parameters of its own, keyed by its name: the
 /// section `<selector's parent>.<name>.*`, valid only while `selector` names that component.
-template <class R>
-void add_component_sections(std::vector<Field>& fields, const R& registry, const std::string& selector,
-                            bool selector_is_list = false) {
+/// `when` says when the section applies, e.g. "only with `contact.solver: ccfr`".
+template <class R, class When>
+void add_component_sections(std::vector<Field>& fields, const R& registry, When when) {
   for (const auto& e : registry.entries()) {
     if (e.params.empty()) continue;
+    for (const auto& f : fields)
+      if (f.key == e.name)
+        throw Error(registry.kind() + " '" + e.name + "': its name is already a key of the section its parameters " +
+                    "would go in; register it under another name");
     std::vector<Field> keys;
     for (const auto& spec : e.params) keys.push_back({spec.key, param_node(spec)});
-    const std::string only = selector_is_list ? "only while `" + selector + "` lists `" + e.name + "`"
-                                              : "only with `" + selector + ": " + e.name + "`";
     fields.push_back(
-        {e.name, map("parameters of " + registry.kind() + " `" + e.name + "` (" + e.description + "); " + only,
+        {e.name, map("parameters of " + registry.kind() + " `" + e.name + "` (" + e.description + "); " + when(e.name),
                      std::move(keys))});
   }
 }
 
+std::function<std::string(const std::string&)> only_with(const std::string& selector) {
+  return [selector](const std::string& name) { return "only with `" + selector + ": " + name + "`"; };
+}
+
 std::vector<Field> contact_fields() {
   std::vector<Field> f = contact_section().fields();
-  add_component_sections(f, contact_solvers(), "contact.solver");
+  add_component_sections(f, contact_solvers(), only_with("contact.solver"));
   return f;
 }
 
 std::vector<Field> output_fields() {
   std::vector<Field> f = output_section().fields();
-  add_component_sections(f, frame_writers(), "output.formats", true);
+  add_component_sections(f, frame_writers(),
+                         [](const std::string& name) { return "only while `output.formats` lists `" + name + "`"; });
+  return f;
+}
+
+std::vector<Field> material_fields() {
+  std::vector<Field> f = material_section().fields();
+  add_component_sections(f, material_constraints(), [](const std::string&) {
+    return std::string("setting the section switches the constraint on for the objects of this material");
+  });
   return f;
 }
 
 std::vector<Field> collision_fields() {
   std::vector<Field> f = collision_section().fields();
-  add_component_sections(f, broad_phases(), "collision.broad_phase");
+  add_component_sections(f, broad_phases(), only_with("collision.broad_phase"));
   return f;
 }
 
 NodePtr build_scene_schema() {
-  auto material = map("a material", material_section().fields());
+  auto material = map("a material", material_fields());
   auto pin = map(
       "a group of pinned vertices, optionally moved by a script",
       {
@@ -365,8 +384,8 @@ const NodePtr& scene_schema() {
   // Rebuilt when a component was registered since (downstream code may register after a first load).
   static NodePtr s;
   static size_t built_for = 0;
-  const size_t n =
-      contact_solvers().entries().size() + broad_phases().entries().size() + frame_writers().entries().size();
+  const size_t n = contact_solvers().entries().size() + broad_phases().entries().size() +
+                   frame_writers().entries().size() + material_constraints().entries().size();
   if (!s || n != built_for) s = build_scene_schema(), built_for = n;
   return s;
 }

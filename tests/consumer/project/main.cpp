@@ -4,7 +4,9 @@
 // there) from scene.yaml: the cloth rests at level + ξ; the solver's keys appear in the generated
 // reference, and its section is refused under another solver. (3) Writes that scene's run with its
 // own output format `csv` (csv_writer.cpp), selected and set up in scene.yaml: its files hold the
-// positions of the run's OBJ frames to 9 digits.
+// positions of the run's OBJ frames to 9 digits. (4) Runs its own material constraint `tether`
+// (tether_constraint.cpp) from tether.yaml: tethered particles hang exactly `length` below their
+// rest positions while the untethered ones fall freely.
 #include <ccfr/core/error.hpp>
 #include <ccfr/core/topology.hpp>
 #include <ccfr/geometry/generators.hpp>
@@ -13,6 +15,7 @@
 #include <ccfr/io/scene_loader.hpp>
 #include <ccfr/solvers/simulation.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -95,6 +98,39 @@ objects:
   return 0;
 }
 
+static int run_own_material() {
+  using namespace ccfr;
+  io::LoadedScene loaded = io::load_scene(CONSUMER_TETHER_SCENE);
+  const Topology& topo = loaded.scene.topo;
+  const ObjectInfo hanging = topo.objects[0], falling = topo.objects[1];
+  const Positions rest = loaded.scene.state.rest;
+  Simulation sim(std::move(loaded.scene));
+  Index tethers = -1;
+  for (const auto& [name, n] : sim.materials().counts().by_name)
+    if (name == "tether") tethers = n;
+  if (tethers != hanging.num_vertices()) return fail("the tether batch does not hold the hanging particles");
+  for (int f = 0; f < 30; ++f) sim.step_frame();
+  double worst = 0.0;
+  for (Index v = hanging.vertex_begin; v < hanging.vertex_end; ++v)
+    worst = std::max(worst, (sim.positions()[v] - (rest[v] - Vec3(0, 0.03, 0))).norm());
+  std::printf("tether: hanging particles %.3g m from rest - 0.03 y\n", worst);
+  if (!(worst < 1e-12)) return fail("tethered particles are not hanging at their tether's length");
+  // Free fall for 0.5 s: 1.226 m (XPBD's implicit Euler drops a little further).
+  for (Index v = falling.vertex_begin; v < falling.vertex_end; ++v)
+    if (!(rest[v].y() - sim.positions()[v].y() > 1.2)) return fail("untethered particles did not fall");
+  if (io::config_reference_markdown().find("`materials.<material>.tether.length`") == std::string::npos)
+    return fail("the reference does not list materials.<material>.tether.length");
+  try {
+    io::load_scene(CONSUMER_TETHER_SCENE, {"materials.tethered.tether.length=-1"});
+    return fail("a negative tether length was accepted");
+  } catch (const Error& e) {
+    std::printf("expected error: %s\n", e.what());
+    if (std::string(e.what()).find("materials.tethered.tether.length") == std::string::npos)
+      return fail("error without the key path");
+  }
+  return 0;
+}
+
 int main(int argc, char** argv) {
   using namespace ccfr;
   const auto cloth = gen::grid(0.4, 0.4, 8, 8);
@@ -123,6 +159,7 @@ int main(int argc, char** argv) {
   if (min_y < 0.01 - 1e-9 || min_y > 0.02) return 1;
   if (const int rc = run_own_solver()) return rc;
   if (const int rc = run_own_writer(argc > 1 ? argv[1] : ".")) return rc;
+  if (const int rc = run_own_material()) return rc;
   std::printf("consumer ok\n");
   return 0;
 }

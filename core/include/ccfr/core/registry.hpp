@@ -1,10 +1,11 @@
 #pragma once
 /// @file registry.hpp
 /// The one registry pattern of ccfr's pluggable components (contact solvers, broad phases,
-/// projectors). Each implementation registers its name, a one-line description, the schema of
-/// its own parameters (keys, types, defaults, ranges, docs) and a factory built from those
-/// parameters. YAML validation, `ccfr schema`, docs/config.md, `--help`, `ccfr ablate` and the
-/// tests read the registries; downstream code adds entries through the installed headers.
+/// projectors, output formats, material constraints). Each implementation registers its name, a
+/// one-line description, the schema of its own parameters (keys, types, defaults, ranges, docs)
+/// and a factory built from those parameters. YAML validation, `ccfr schema`, docs/config.md,
+/// `--help`, `ccfr ablate` and the tests read the registries; downstream code adds entries through
+/// the installed headers.
 ///
 /// The libraries are static, so an implementation that registers itself through a global object
 /// would be dropped by the linker unless something references it. Built-in entries are therefore

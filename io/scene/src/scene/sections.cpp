@@ -8,11 +8,35 @@
 #include "ccfr/io/formats.hpp"
 #include "ccfr/io/user_file.hpp"
 #include "ccfr/solvers/contact_solver.hpp"
+#include "ccfr/solvers/material_constraint.hpp"
 #include "input.hpp"
 
 namespace ccfr::io::scene {
 
 namespace {
+
+/// The values of `specs` from `node`, a section the schema resolved (every key present).
+ParamValues read_params(std::span<const ParamSpec> specs, const YAML::Node& node) {
+  ParamValues v;
+  for (const auto& spec : specs) {
+    const YAML::Node n = node[spec.key];
+    switch (spec.type) {
+      case ParamType::boolean:
+        v.set(spec.key, n.as<bool>());
+        break;
+      case ParamType::integer:
+        v.set(spec.key, n.as<long long>());
+        break;
+      case ParamType::number:
+        v.set(spec.key, n.as<double>());
+        break;
+      case ParamType::choice:
+        v.set(spec.key, n.as<std::string>());
+        break;
+    }
+  }
+  return v;
+}
 
 /// The parameters of the component that `section.selector` names, from its section
 /// `section.<name>.*`. A section set in the input for another component is an error: its values
@@ -30,27 +54,9 @@ ParamValues component_params(const Input& in, const R& registry, const std::stri
                     " is '" + chosen + "'; remove the section or set " + section + "." + selector + ": " + e.name,
                 {section + "." + selector});
   }
-  ParamValues v;
   const auto* entry = registry.find(chosen);
-  if (!entry) return v;  // the schema's choice already rejected unknown names
-  for (const auto& spec : entry->params) {
-    const YAML::Node n = in.cfg[section][chosen][spec.key];
-    switch (spec.type) {
-      case ParamType::boolean:
-        v.set(spec.key, n.template as<bool>());
-        break;
-      case ParamType::integer:
-        v.set(spec.key, n.template as<long long>());
-        break;
-      case ParamType::number:
-        v.set(spec.key, n.template as<double>());
-        break;
-      case ParamType::choice:
-        v.set(spec.key, n.template as<std::string>());
-        break;
-    }
-  }
-  return v;
+  if (!entry) return {};  // the schema's choice already rejected unknown names
+  return read_params(entry->params, in.cfg[section][chosen]);
 }
 
 void read_contact(const Input& in, ContactParams& c) {
@@ -123,6 +129,11 @@ MaterialParams read_material(const Input& in, const std::string& name, const std
   }
   MaterialParams mp;
   material_section().read(mp, m);
+  // A registered constraint is on for this material when its section is in the input.
+  const YAML::Node given = in.in["materials"] ? in.in["materials"][name] : YAML::Node();
+  if (given && given.IsMap())
+    for (const auto& e : material_constraints().entries())
+      if (!e.params.empty() && given[e.name]) mp.constraints[e.name] = read_params(e.params, m[e.name]);
   return mp;
 }
 

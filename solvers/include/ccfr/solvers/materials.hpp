@@ -2,7 +2,8 @@
 /// @file materials.hpp
 /// XPBD material constraints beyond edge lengths: dihedral bending of cloth and shells, turning-angle
 /// bending of strands, volume and deviatoric terms of tetrahedral solids, and shape matching of rigid
-/// bodies; plus `MaterialSystem`, which builds every batch of a scene from its object kinds.
+/// bodies; plus `MaterialSystem`, which builds the batch of every registered material constraint
+/// (material_constraint.hpp) for a scene and sweeps them.
 ///
 /// Every constraint type is a batch (struct of arrays) solved by a stateless kernel in `ccfr::xpbd`.
 /// A kernel applies one XPBD update (Macklin et al. 2016, Eq. 18)
@@ -14,7 +15,11 @@
 /// identical for any thread count. Degenerate configurations (zero-area triangles, collinear strand
 /// points, collapsed tets) skip the update instead of producing NaN. See docs/materials.md.
 #include <array>
+#include <memory>
 #include <span>
+#include <string>
+#include <string_view>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -172,70 +177,52 @@ void solve_shape_matching(std::span<Vec3> x, std::span<const double> w, std::spa
 // -------------------------------------------------------------------------------------------------
 // Batches
 
-/// Dihedral bending on interior edges: ids(c) = (edge v0, edge v1, wing of face 1, wing of face 2).
-struct BendingBatch {
-  std::vector<Vec4i> ids;          ///< #C by 4, vertex order of `xpbd::dihedral_angle`
+/// Dihedral bending on interior edges (the material constraint `dihedral_bending`):
+/// ids(c) = (edge v0, edge v1, wing of face 1, wing of face 2), the vertex order of `xpbd::dihedral_angle`.
+struct BendingBatch final : FixedArityBatch<4> {
   std::vector<double> rest_angle;  ///< #C, θ_0 (rad) from the rest state
   std::vector<double> compliance;  ///< #C, α (1/(N·m))
   std::vector<double> lambda;      ///< #C
-  Colouring colouring;
 
   void add(const Vec4i& v, double theta0, double alpha);
-  void finalize(Index num_vertices, std::span<const double> inv_mass);
-  void reset_multipliers();
-  /// One sweep over `colouring`: colours in sequence, each colour a parallel loop.
-  void solve(Positions& x, std::span<const double> inv_mass, double dt) { solve(colouring, x, inv_mass, dt); }
-  /// The same over `col`, a colouring of any subset of the constraints (grouped as in `colouring`).
-  void solve(const Colouring& col, Positions& x, std::span<const double> inv_mass, double dt);
-  /// The constraints `order` one after another on the calling thread (the kernel loop of every schedule).
-  void solve_in_order(std::span<const Index> order, Positions& x, std::span<const double> inv_mass, double dt);
-  Index size() const { return static_cast<Index>(ids.size()); }
+  void reset_multipliers() override;
+  void solve_in_order(std::span<const Index> order, Positions& x, std::span<const double> inv_mass, double dt) override;
+  double unit_cost() const override { return 4.0; }
+  int sweep_rank() const override { return 20; }
 };
 
-/// Turning-angle bending at interior polyline vertices: ids(c) = (x_{i-1}, x_i, x_{i+1}).
-struct StrandBendingBatch {
-  std::vector<Vec3i> ids;          ///< #C by 3
+/// Turning-angle bending at interior polyline vertices (the material constraint `strand_bending`):
+/// ids(c) = (x_{i-1}, x_i, x_{i+1}).
+struct StrandBendingBatch final : FixedArityBatch<3> {
   std::vector<double> rest_angle;  ///< #C, φ_0 (rad) from the rest state
   std::vector<double> compliance;  ///< #C, α (1/(N·m))
   std::vector<double> lambda;      ///< #C
-  Colouring colouring;
 
   void add(const Vec3i& v, double phi0, double alpha);
-  void finalize(Index num_vertices, std::span<const double> inv_mass);
-  void reset_multipliers();
-  /// One sweep over `colouring`: colours in sequence, each colour a parallel loop.
-  void solve(Positions& x, std::span<const double> inv_mass, double dt) { solve(colouring, x, inv_mass, dt); }
-  /// The same over `col`, a colouring of any subset of the constraints (grouped as in `colouring`).
-  void solve(const Colouring& col, Positions& x, std::span<const double> inv_mass, double dt);
-  /// The constraints `order` one after another on the calling thread (the kernel loop of every schedule).
-  void solve_in_order(std::span<const Index> order, Positions& x, std::span<const double> inv_mass, double dt);
-  Index size() const { return static_cast<Index>(ids.size()); }
+  void reset_multipliers() override;
+  void solve_in_order(std::span<const Index> order, Positions& x, std::span<const double> inv_mass, double dt) override;
+  double unit_cost() const override { return 3.0; }
+  int sweep_rank() const override { return 30; }
 };
 
-/// Volume and deviatoric constraints per tet, solved back to back (deviatoric first, volume last so
-/// the incompressibility term has the final word within a sweep); both share one colouring.
-struct TetBatch {
-  std::vector<Vec4i> ids;                                ///< #T by 4
+/// Volume and deviatoric constraints per tet (the material constraint `tet_elasticity`; ids(t): its
+/// four vertices), solved back to back (deviatoric first, volume last so the incompressibility term
+/// has the final word within a sweep); both share one colouring.
+struct TetBatch final : FixedArityBatch<4> {
   std::vector<double> rest_volume;                       ///< #T, V_0 (m³)
   std::vector<Eigen::Matrix3d> rest_inverse;             ///< #T, D_m^{-1} (1/m)
   std::vector<double> volume_compliance;                 ///< #T, α_V = 36 V_0 / λ (m⁶/J)
   std::vector<double> deviatoric_compliance;             ///< #T, α_D = 1 / (μ V_0) (1/J)
   std::vector<double> lambda_volume, lambda_deviatoric;  ///< #T each
-  Colouring colouring;
 
   /// Adds a tet with per-volume compliances (1/λ and 1/μ, 1/Pa) from its rest positions `rest` (#V).
   /// Returns false and adds nothing when the rest tet is degenerate (|6 V_0| tiny against its edges³).
   bool add(const Vec4i& v, const Positions& rest, double volume_compliance_per_volume,
            double shear_compliance_per_volume);
-  void finalize(Index num_vertices, std::span<const double> inv_mass);
-  void reset_multipliers();
-  /// One sweep over `colouring`: colours in sequence, each colour a parallel loop.
-  void solve(Positions& x, std::span<const double> inv_mass, double dt) { solve(colouring, x, inv_mass, dt); }
-  /// The same over `col`, a colouring of any subset of the constraints (grouped as in `colouring`).
-  void solve(const Colouring& col, Positions& x, std::span<const double> inv_mass, double dt);
-  /// The constraints `order` one after another on the calling thread (the kernel loop of every schedule).
-  void solve_in_order(std::span<const Index> order, Positions& x, std::span<const double> inv_mass, double dt);
-  Index size() const { return static_cast<Index>(ids.size()); }
+  void reset_multipliers() override;
+  void solve_in_order(std::span<const Index> order, Positions& x, std::span<const double> inv_mass, double dt) override;
+  double unit_cost() const override { return 10.0; }
+  int sweep_rank() const override { return 40; }
 };
 
 /// Shape matching of rigid bodies; body b owns the contiguous vertices [begin[b], end[b]) and the
@@ -260,14 +247,17 @@ struct ShapeMatchingBatch {
   Index size() const { return static_cast<Index>(begin.size()); }
 };
 
-/// Every material constraint of a scene, built from the object kinds:
-/// - cloth, shell: edge lengths (stretch_compliance) + dihedral bending on interior edges (bend_compliance);
-/// - strand: segment lengths (stretch_compliance) + turning-angle bending (bend_compliance);
-/// - tet_solid: volume (volume_compliance) + deviatoric (shear_compliance) per tet, no edge springs;
+/// Every material constraint of a scene: one batch per entry of `material_constraints()` that has
+/// constraints in the scene, plus shape matching of rigid bodies. The built-in entries cover
+/// - cloth, shell: edge lengths (`stretch`, stretch_compliance) + dihedral bending on interior edges
+///   (`dihedral_bending`, bend_compliance);
+/// - strand: segment lengths (`stretch`) + turning-angle bending (`strand_bending`, bend_compliance);
+/// - tet_solid: volume (volume_compliance) + deviatoric (shear_compliance) per tet (`tet_elasticity`);
 /// - rigid: shape matching only (edge constraints would be redundant with the exact projection);
 /// - particles, obstacle: none.
-/// One `solve` is one sweep: distance, bending, strand bending, tets, then shape matching last so that
-/// rigid bodies leave every sweep exactly rigid.
+/// One `solve` is one sweep: the batches by `ConstraintBatch::sweep_rank` (stretch, bending, strand
+/// bending, tets, then registered ones), then shape matching last so that rigid bodies leave every
+/// sweep exactly rigid.
 ///
 /// Schedule. Constraints that share no dynamic vertex, directly or through other constraints, form
 /// separate islands (connected components; in practice the objects). A small island (no colour of
@@ -282,7 +272,12 @@ class MaterialSystem {
   MaterialSystem() = default;  ///< an empty system (no constraints)
   /// `params.objects` must be parallel to `topo.objects`; rest shapes are `state.rest`, and kinematic
   /// vertices are those with `state.inv_mass == 0` at construction (the colouring depends on them).
+  /// Throws ccfr::Error when a material enables a constraint that is not registered or sets
+  /// parameters it does not accept.
   MaterialSystem(const Topology& topo, const SimState& state, const SimulationParams& params);
+  MaterialSystem(MaterialSystem&&) noexcept;
+  MaterialSystem& operator=(MaterialSystem&&) noexcept;
+  ~MaterialSystem();
 
   void reset_multipliers();
   /// One sweep over all batches (island schedule, see above). x, inv_mass: #V.
@@ -296,13 +291,18 @@ class MaterialSystem {
     Index colours = 0;        ///< colours summed over the coloured batches
     Index small_islands = 0;  ///< islands solved as one serial task each (in parallel with each other)
     Index large_islands = 0;  ///< islands solved colour by colour
+    /// Constraints of every batch in sweep order, by registered name (built-ins included).
+    std::vector<std::pair<std::string, Index>> by_name;
   };
   Counts counts() const;
 
-  const DistanceBatch& distance() const { return distance_; }
-  const BendingBatch& bending() const { return bending_; }
-  const StrandBendingBatch& strand_bending() const { return strand_bending_; }
-  const TetBatch& tets() const { return tets_; }
+  /// The batch of the material constraint `name`, or nullptr when the scene has none.
+  const ConstraintBatch* batch(std::string_view name) const;
+  /// The built-in batches (empty when the scene has no such constraint).
+  const DistanceBatch& distance() const;
+  const BendingBatch& bending() const;
+  const StrandBendingBatch& strand_bending() const;
+  const TetBatch& tets() const;
   const ShapeMatchingBatch& rigid() const { return rigid_; }
 
  private:
@@ -316,18 +316,20 @@ class MaterialSystem {
                                                    static_cast<size_t>(row_start[i + 1] - row_start[i]));
     }
   };
+  /// One registered constraint's batch with its share of the island schedule.
+  struct Stage {
+    std::string name;
+    std::unique_ptr<ConstraintBatch> batch;
+    IslandOrder small;  ///< its constraints in small islands
+    Colouring large;    ///< its colouring restricted to the constraints of large islands
+  };
   void build_schedule(Index num_vertices, std::span<const double> inv_mass);
+  template <class B>
+  const B& builtin(std::string_view name) const;
 
-  DistanceBatch distance_;
-  BendingBatch bending_;
-  StrandBendingBatch strand_bending_;
-  TetBatch tets_;
+  std::vector<Stage> stages_;  ///< in sweep order
   ShapeMatchingBatch rigid_;
-
   Index small_islands_ = 0, large_islands_ = 0;
-  IslandOrder small_distance_, small_bending_, small_strand_, small_tets_;
-  /// Each batch's colouring restricted to the constraints of large islands.
-  Colouring large_distance_, large_bending_, large_strand_, large_tets_;
 };
 
 }  // namespace ccfr

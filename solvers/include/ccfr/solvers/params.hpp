@@ -4,6 +4,7 @@
 /// io/ fills them from a scene file (defaults documented in docs/config.md, generated from the schema).
 #include <algorithm>
 #include <limits>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -99,6 +100,10 @@ struct MaterialParams {
   double volume_compliance = 0.0;   ///< tet volume compliance
   double shear_compliance = 1e-6;   ///< tet deviatoric (shape) compliance
   double friction = -1.0;           ///< per-object friction override (<0: use contact.friction)
+  /// Registered material constraints with parameters of their own that this material switches on
+  /// (`materials.<name>.<constraint>` in YAML), by constraint name; values missing here take their
+  /// defaults (material_constraint.hpp).
+  std::map<std::string, ParamValues> constraints;
 };
 
 /// Analytic shape of an obstacle, used for SDF collision when contact.analytic_obstacles is on.

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "ccfr/core/types.hpp"
+#include "ccfr/solvers/material_constraint.hpp"
 
 namespace ccfr {
 
@@ -33,39 +34,21 @@ inline void solve_distance(Vec3& xi, Vec3& xj, double wi, double wj, double rest
 
 }  // namespace xpbd
 
-/// Greedy colouring of constraints given by their vertex lists (`arity` vertices each, flat array).
-/// Returns the colours' row starts into `order` (constraints grouped by colour).
-struct Colouring {
-  std::vector<Index> order;      ///< constraint ids grouped by colour
-  std::vector<Index> row_start;  ///< #colours + 1
-  Index colours() const { return static_cast<Index>(row_start.size()) - 1; }
-};
-Colouring colour_constraints(Index num_vertices, std::span<const Index> vertices, int arity,
-                             std::span<const double> inv_mass);
-
 /// A colour of a distance batch is split into parallel tasks only beyond this many constraints;
 /// smaller colours run inline on the calling thread.
 inline constexpr Index kDistanceGrain = 512;
 
-/// Edge length constraints.
-struct DistanceBatch {
-  std::vector<Vec2i> ids;
+/// Edge length constraints (the material constraint `stretch`).
+struct DistanceBatch final : FixedArityBatch<2> {
   std::vector<double> rest;
   std::vector<double> compliance;
   std::vector<double> lambda;
-  Colouring colouring;
 
   void add(Index i, Index j, double rest_length, double alpha);
-  /// Colours the batch (call after the last add()).
-  void finalize(Index num_vertices, std::span<const double> inv_mass);
-  void reset_multipliers();
-  /// One sweep over `colouring`: colours in sequence, each colour a parallel loop.
-  void solve(Positions& x, std::span<const double> inv_mass, double dt) { solve(colouring, x, inv_mass, dt); }
-  /// The same over `col`, a colouring of any subset of the constraints (grouped as in `colouring`).
-  void solve(const Colouring& col, Positions& x, std::span<const double> inv_mass, double dt);
-  /// The constraints `order` one after another on the calling thread (the kernel loop of every schedule).
-  void solve_in_order(std::span<const Index> order, Positions& x, std::span<const double> inv_mass, double dt);
-  Index size() const { return static_cast<Index>(ids.size()); }
+  void reset_multipliers() override;
+  void solve_in_order(std::span<const Index> order, Positions& x, std::span<const double> inv_mass, double dt) override;
+  Index grain() const override { return kDistanceGrain; }
+  int sweep_rank() const override { return 10; }
 };
 
 }  // namespace ccfr

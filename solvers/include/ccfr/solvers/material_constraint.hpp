@@ -1,0 +1,113 @@
+#pragma once
+/// @file material_constraint.hpp
+/// Material constraints as registered components. A material constraint is a batch of XPBD
+/// constraints of one type (`ConstraintBatch`: the vertices of each constraint and the kernel that
+/// solves a list of them), built for a scene by the factory registered under its name in
+/// `material_constraints()`. `MaterialSystem` (materials.hpp) builds every registered batch,
+/// colours them, groups them into islands and sweeps them; it knows no constraint type by name.
+///
+/// The built-in entries (solvers/src/materials/, one file each, named by its key) are `stretch`
+/// (edge lengths), `dihedral_bending`, `strand_bending` and `tet_elasticity`; they read the material
+/// keys they always had (`stretch_compliance`, ...). A constraint that declares parameters is
+/// switched on per material by its section `materials.<material>.<name>` (docs/extending.md):
+///   static ccfr::Registration<ccfr::MaterialConstraintRegistry> reg(ccfr::material_constraints(), {...});
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "ccfr/core/registry.hpp"
+#include "ccfr/core/state.hpp"
+#include "ccfr/core/topology.hpp"
+#include "ccfr/core/types.hpp"
+
+namespace ccfr {
+
+struct SimulationParams;
+struct MaterialParams;
+
+/// Greedy colouring of constraints given by their vertex lists (`arity` vertices each, flat array).
+/// Returns the colours' row starts into `order` (constraints grouped by colour).
+struct Colouring {
+  std::vector<Index> order;      ///< constraint ids grouped by colour
+  std::vector<Index> row_start;  ///< #colours + 1
+  Index colours() const { return static_cast<Index>(row_start.size()) - 1; }
+};
+/// Constraints sharing a vertex with `inv_mass > 0` get different colours; kinematic vertices
+/// (never written by a kernel) do not separate constraints.
+Colouring colour_constraints(Index num_vertices, std::span<const Index> vertices, int arity,
+                             std::span<const double> inv_mass);
+
+/// A colour of a batch is split into parallel tasks only beyond this many constraints (its
+/// `grain()`); smaller colours run inline on the calling thread.
+inline constexpr Index kConstraintGrain = 256;
+
+/// A batch of XPBD constraints of one type. Its kernel (`solve_in_order`) applies one XPBD update
+/// per constraint and writes only vertices with w > 0, so constraints of one colour (which share
+/// no dynamic vertex) may run on different threads.
+class ConstraintBatch {
+ public:
+  virtual ~ConstraintBatch() = default;
+
+  virtual Index size() const = 0;  ///< number of constraints
+  virtual int arity() const = 0;   ///< vertices per constraint
+  /// The vertices of every constraint, one after another (#C × arity): colouring and islands.
+  virtual std::span<const Index> vertex_ids() const = 0;
+  virtual void reset_multipliers() = 0;
+  /// The constraints `order` one after another on the calling thread (the kernel loop of every
+  /// schedule). x, inv_mass: #V.
+  virtual void solve_in_order(std::span<const Index> order, Positions& x, std::span<const double> inv_mass,
+                              double dt) = 0;
+  /// Parallel grain of a colour (see kConstraintGrain).
+  virtual Index grain() const { return kConstraintGrain; }
+  /// Rough cost of one constraint relative to an edge length, used only to start the largest
+  /// islands first (load balance; never the result).
+  virtual double unit_cost() const { return 1.0; }
+  /// Place in each Gauss-Seidel sweep: lower ranks run first, ties in registration order. The
+  /// built-ins use 10 (stretch), 20 (dihedral bending), 30 (strand bending), 40 (tets); rigid
+  /// shape matching always runs last.
+  virtual int sweep_rank() const { return 100; }
+
+  /// Colours the batch (call after the last constraint was added).
+  void finalize(Index num_vertices, std::span<const double> inv_mass);
+  /// One sweep over `colouring`: colours in sequence, each colour a parallel loop.
+  void solve(Positions& x, std::span<const double> inv_mass, double dt) { solve(colouring, x, inv_mass, dt); }
+  /// The same over `col`, a colouring of any subset of the constraints (grouped as in `colouring`).
+  void solve(const Colouring& col, Positions& x, std::span<const double> inv_mass, double dt);
+
+  Colouring colouring;
+};
+
+/// A batch whose constraints act on N vertices each, stored as `ids` (#C by N).
+template <int N>
+struct FixedArityBatch : ConstraintBatch {
+  std::vector<Eigen::Matrix<Index, N, 1>> ids;
+
+  Index size() const override { return static_cast<Index>(ids.size()); }
+  int arity() const override { return N; }
+  std::span<const Index> vertex_ids() const override {
+    return {ids.empty() ? nullptr : ids.front().data(), ids.size() * N};
+  }
+};
+
+/// What a material constraint's factory builds its batch from.
+struct MaterialContext {
+  const Topology& topo;
+  const SimState& state;  ///< rest shapes are `state.rest`; kinematic vertices have inv_mass 0
+  const SimulationParams& params;
+  /// Per object: this constraint's parameters from its material's section
+  /// `materials.<material>.<name>` (complete, checked), or nullptr when the material does not set
+  /// the section. Constraints without parameters of their own see nullptr everywhere.
+  std::vector<const ParamValues*> object_params;
+
+  const MaterialParams& material(Index object) const;
+};
+
+/// Factory arguments: the parameters' defaults (per-object values are in the context), the scene.
+using MaterialConstraintRegistry = Registry<ConstraintBatch, const MaterialContext&>;
+
+/// The registry of material constraints (kind "material constraint"). A factory may return
+/// nullptr when the scene has nothing for it.
+MaterialConstraintRegistry& material_constraints();
+
+}  // namespace ccfr
