@@ -3,11 +3,16 @@
 configs/sweeps/methods.yaml: one table per scene with a row per solver, and with --pictures one
 image per scene of every solver's last frame side by side (each panel titled with its audit).
 
-Usage: /usr/bin/python3 scripts/methods_md.py SWEEP_DIR [--pictures IMAGE_DIR] [--ccfr EXE] > methods.md
+Usage: /usr/bin/python3 scripts/methods_md.py SWEEP_DIR [--store DIR] [--pictures IMAGE_DIR] [--ccfr EXE] > methods.md
   SWEEP_DIR  run by `ccfr sweep configs/sweeps/methods.yaml --out SWEEP_DIR`; its sweep.csv is
              written by `ccfr sweep collect SWEEP_DIR` (run here when missing, with --ccfr).
-  --pictures renders the last frame of every cell (`ccfr render`, one camera per scene, fitted to
-             the first solver's last frame) and writes IMAGE_DIR/methods_<scene>.png.
+  --store    a folder that keeps every cell collected so far (docs/data/methods: cells.csv, the
+             panels' cameras and captions), so that a sweep too long for one machine's lifetime can
+             be run in parts: the cells this sweep ran replace the stored ones that ran less far,
+             and the tables and pictures show every stored cell.
+  --pictures renders the last frame of every cell that has frames (`ccfr render`, one camera per
+             scene, fitted to the first of its cells that ran) into IMAGE_DIR/methods/<cell>.png,
+             and writes IMAGE_DIR/methods_<scene>.png: the panels of the scene's cells side by side.
 Uses Debian's python3 only (matplotlib for --pictures). Exit codes: 0 written, 2 bad input.
 """
 import argparse
@@ -102,36 +107,96 @@ def moving_bounds(cell_dir, frame):
     return obj_bounds(os.path.join(cell_dir, "frames", f"frame_{frame:05d}.obj"), still)
 
 
-def pictures(sweep_dir, scenes, image_dir, exe):
-    """IMAGE_DIR/methods_<scene>.png for every scene; returns {scene: path}."""
-    made = {}
-    os.makedirs(image_dir, exist_ok=True)
-    for scene, rows in scenes.items():
-        cells = [(r, os.path.join(sweep_dir, r["cell"])) for r in rows]
-        cells = [(r, d) for r, d in cells if os.path.isdir(os.path.join(d, "frames"))]
-        if len(cells) < 2:
+def ran(row):
+    """Whether a sweep.csv row is a cell that ran (a row of a queued cell has no frames)."""
+    return (number(row.get("frames")) or 0) > 0
+
+
+def merge(store_rows, rows):
+    """The stored cells in their order, each replaced by the sweep's row of the same scene and
+    solver unless the stored one ran further; cells new to the store follow, in the sweep's order."""
+    fresh = {(r["scene"], r["solver"]): r for r in rows}
+    out = []
+    for old in store_rows:
+        r = fresh.pop((old["scene"], old["solver"]), None)
+        keep = r is None or (ran(old) and (number(old["frames"]) or 0) > (number(r["frames"]) or 0))
+        out.append(old if keep else r)
+    return out + [r for r in rows if (r["scene"], r["solver"]) in fresh]
+
+
+def load_store(store):
+    rows = read_rows(store) if os.path.isfile(os.path.join(store, "sweep.csv")) else []
+    meta_path = os.path.join(store, "panels.json")
+    meta = json.load(open(meta_path)) if os.path.isfile(meta_path) else {"cameras": {}, "captions": {}}
+    return rows, meta
+
+
+def save_store(store, rows, meta):
+    os.makedirs(store, exist_ok=True)
+    fields = []
+    for r in rows:
+        fields += [k for k in r if k not in fields]
+    with open(os.path.join(store, "sweep.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=fields, lineterminator="\n")
+        w.writeheader()
+        w.writerows(rows)
+    with open(os.path.join(store, "panels.json"), "w") as f:
+        json.dump(meta, f, indent=1, sort_keys=True)
+        f.write("\n")
+
+
+def render_panels(sweep_dir, rows, image_dir, exe, meta):
+    """IMAGE_DIR/methods/<cell>.png: the last frame of every cell of this sweep that has frames,
+    seen by its scene's camera (kept in meta so that later parts of the sweep use the same one);
+    meta["captions"][cell] = [text, colour] from its run.json and audit.json."""
+    sys.path.insert(0, HERE)
+    from side_by_side import caption  # the same panel titles as the other side-by-side pictures
+    os.makedirs(os.path.join(image_dir, "methods"), exist_ok=True)
+    for r in rows:
+        d = os.path.join(sweep_dir, r["cell"])
+        frame = last_frame(d) if os.path.isdir(os.path.join(d, "frames")) else None
+        if frame is None or not os.path.isfile(os.path.join(d, "audit.json")):
             continue
-        frame = min(last_frame(d) for _, d in cells)
-        cam = camera_for(*moving_bounds(cells[0][1], frame))
+        cam = meta["cameras"].setdefault(r["scene"], camera_for(*moving_bounds(d, frame)))
         with tempfile.TemporaryDirectory() as tmp:
-            args = []
-            for r, d in cells:
-                out = os.path.join(tmp, r["solver"])
-                subprocess.run([exe, "render", d, "--out", out, "--camera", cam, "--width", "480", "--height", "360",
-                                "--every", str(max(frame, 1)), "--samples", "4"], check=True,
-                               stdout=subprocess.DEVNULL)
-                args += ["--run", d, os.path.join(out, f"frame_{frame:05d}.png")]
-            target = os.path.join(image_dir, f"methods_{scene}.png")
-            subprocess.run([PYTHON, os.path.join(HERE, "side_by_side.py"), *args, "--frame", str(frame),
-                            "--out", target, "--title", f"{scene}, frame {frame}"], check=True,
-                           stdout=subprocess.DEVNULL)
-        made[scene] = target
-    return made
+            subprocess.run([exe, "render", d, "--out", tmp, "--camera", cam, "--width", "480", "--height", "360",
+                            "--every", str(max(frame, 1)), "--samples", "4"], check=True, stdout=subprocess.DEVNULL)
+            os.replace(os.path.join(tmp, f"frame_{frame:05d}.png"), os.path.join(image_dir, "methods", f"{r['cell']}.png"))
+        meta["captions"][r["cell"]] = list(caption(d, frame))
+
+
+def compose(scene, rows, image_dir, meta):
+    """IMAGE_DIR/methods_<scene>.png from the panels of the scene's cells that ran. None (the
+    picture is left as it is) while a cell that ran has no panel (its frames were on a machine that
+    kept no panel) or fewer than two cells have one."""
+    panels = [(os.path.join(image_dir, "methods", f"{r['cell']}.png"), r["cell"]) for r in rows if ran(r)]
+    if len(panels) < 2 or not all(os.path.isfile(p) and c in meta["captions"] for p, c in panels):
+        return None
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.image as mpimg
+    import matplotlib.pyplot as plt
+    images = [mpimg.imread(p) for p, _ in panels]
+    h, w = images[0].shape[:2]
+    lines = max(meta["captions"][c][0].count("\n") + 1 for _, c in panels) + 1
+    fig, axes = plt.subplots(1, len(panels), figsize=(len(panels) * w / 100, h / 100 + 0.25 * lines + 0.2), dpi=100,
+                             constrained_layout=True)
+    for ax, img, (_, c) in zip(axes, images, panels):
+        ax.imshow(img)
+        ax.set_axis_off()
+        text, colour = meta["captions"][c]
+        ax.set_title(text, fontsize=10, color=colour)
+    fig.suptitle(f"{scene}: the last frame of every cell", fontsize=11)
+    target = os.path.join(image_dir, f"methods_{scene}.png")
+    fig.savefig(target)
+    plt.close(fig)
+    return target
 
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("sweep_dir")
+    p.add_argument("--store", metavar="DIR")
     p.add_argument("--pictures", metavar="IMAGE_DIR")
     p.add_argument("--ccfr", default=os.path.join(HERE, "..", "build", "apps", "ccfr"))
     a = p.parse_args(argv)
@@ -144,13 +209,27 @@ def main(argv=None):
             return 2
         subprocess.run([a.ccfr, "sweep", "collect", a.sweep_dir, "--no-plot"], check=True, stdout=subprocess.DEVNULL)
     rows = read_rows(a.sweep_dir)
+    for r in rows:  # which part of the sweep a stored cell came from
+        r["part"] = os.path.basename(os.path.normpath(a.sweep_dir))
+    store_rows, meta = load_store(a.store) if a.store else ([], {"cameras": {}, "captions": {}})
+    if a.pictures:
+        render_panels(a.sweep_dir, [r for r in rows if ran(r)], a.pictures, a.ccfr, meta)
+    rows = merge(store_rows, rows)
+    if a.store:
+        save_store(a.store, rows, meta)
     scenes = {}
     for r in rows:
         scenes.setdefault(r["scene"], []).append(r)
-    made = pictures(a.sweep_dir, scenes, a.pictures, a.ccfr) if a.pictures else {}
+    made = {}
+    if a.pictures:
+        for scene, srows in scenes.items():
+            target = compose(scene, srows, a.pictures, meta) or os.path.join(a.pictures, f"methods_{scene}.png")
+            if os.path.isfile(target):
+                made[scene] = target
     spec = json.load(open(os.path.join(a.sweep_dir, "sweep.json")))
     stride = spec.get("audit_stride", 1)
-    print(f"{len(rows)} cells of `{os.path.basename(os.path.normpath(a.sweep_dir))}`; every run audited by "
+    done = sum(1 for r in rows if ran(r))
+    print(f"{done} of {len(rows)} cells run; every run audited by "
           f"`ccfr audit` (stride {stride}). s/frame is the mean wall time, CPU s/frame the mean of stats.csv "
           "`cpu_s`; every solver runs one detection pass per outer iteration. The lag is how far the contact "
           "handling kept vertices from their unconstrained (material) step: the mean over movable vertices "

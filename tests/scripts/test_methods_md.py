@@ -79,3 +79,59 @@ def test_a_folder_that_is_not_a_sweep_exits_2(tmp_path):
     r = subprocess.run([sys.executable, str(SCRIPT), str(tmp_path)], capture_output=True, text=True)
     assert r.returncode == 2
     assert "not a sweep directory" in r.stderr
+
+
+def test_a_store_keeps_the_cells_of_earlier_parts_of_the_sweep(tmp_path):
+    """A sweep run in parts (each machine runs some cells): the store keeps every cell that ran,
+    a later part's queued row does not replace it, and a cell that ran further does."""
+    store = tmp_path / "store"
+    first = sweep(tmp_path)
+    r = subprocess.run([sys.executable, str(SCRIPT), str(first), "--store", str(store)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    second = tmp_path / "second"
+    second.mkdir()
+    (second / "sweep.json").write_text(json.dumps({"audit_stride": 1}))
+    # A part with fewer cells, in another order: the tables keep the store's order.
+    (second / "sweep.csv").write_text(
+        HEAD +
+        "cubes__dat,cubes,dat,,0,not run,,,,,,,,,,,,,,,,,,\n"
+        "twist__ccfr,twist,ccfr,,0,not run,,,,,,,,,,,,,,,,,,\n"
+        "twist__post_process,twist,post_process,,480,completed,1.1,2,1,0.1,0.2,0.3,0.4,10,5,2,0,fail,99,"
+        "0.5,0.0004,0.05,0.95,16\n"
+        "cubes__ogc,cubes,ogc,nan,60,interrupted after frame 60,0.01,0.02,0.01,0,0,0,0,0,0,0,0,pass,0,1.0,"
+        "0.000645,0.002,0.012,8\n")
+    r = subprocess.run([sys.executable, str(SCRIPT), str(second), "--store", str(store)], capture_output=True,
+                       text=True)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.index("#### twist") < r.stdout.index("#### cubes")
+    order = [line.split("|")[1].strip() for line in r.stdout.splitlines() if line.startswith("| `")]
+    assert order == ["`ccfr`", "`post_process`", "`ogc`", "`dat`"]
+    rows = {line.split("|")[1].strip(): [c.strip() for c in line.strip("|").split("|")]
+            for line in r.stdout.splitlines() if line.startswith("| `")}
+    assert rows["`ccfr`"][1:3] == ["completed", "480"]  # kept from the first part
+    assert rows["`post_process`"][3] == "**FAIL** (99)"  # the rerun, as far as the first: replaces it
+    assert rows["`ogc`"][1:3] == ["completed", "120"]  # ran further in the first part
+    assert rows["`dat`"][1:3] == ["not run", "0"]
+    assert r.stdout.startswith("3 of 4 cells run")
+    stored = (store / "sweep.csv").read_text().splitlines()
+    assert len(stored) == 5 and stored[0].startswith("cell,scene,solver")
+
+
+def test_panels_compose_into_one_picture_per_scene(tmp_path):
+    mod = load_script()
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    (tmp_path / "methods").mkdir()
+    meta = {"cameras": {}, "captions": {}}
+    for i, cell in enumerate(["s__a", "s__b"]):
+        plt.imsave(str(tmp_path / "methods" / f"{cell}.png"), [[[0.1 * i, 0.5, 0.5]] * 48] * 36)
+        meta["captions"][cell] = [f"{cell}\naudit PASS", "#2e7d32"]
+    rows = [{"cell": "s__a", "frames": "9"}, {"cell": "s__b", "frames": "9"}, {"cell": "s__c", "frames": "0"}]
+    target = mod.compose("s", rows, str(tmp_path), meta)  # s__c never ran: it needs no panel
+    assert target == str(tmp_path / "methods_s.png")
+    img = plt.imread(target)
+    assert img.shape[1] >= 2 * 48 and img.shape[0] > 36
+    # A cell that ran without a panel (on a machine that kept none) leaves the picture as it is.
+    assert mod.compose("s", rows + [{"cell": "s__d", "frames": "5"}], str(tmp_path), meta) is None
+    assert mod.compose("t", rows[:1], str(tmp_path), meta) is None
