@@ -996,7 +996,7 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
     watch.restart();
     if (!active_.empty()) raise_reduced_offsets(x);
     detect_from_list(x, inv_mass, stats);
-    assemble(inv_mass, kinematic_step, contacts, regions);
+    assemble(x, inv_mass, kinematic_step, contacts, regions);
     stats.constraints = static_cast<Index>(regions.total());
     stats.narrow_s = watch.seconds();
     return;
@@ -1093,7 +1093,7 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
     for (Index v = 0; v < nv; ++v) list_movable_[v] = inv_mass[v] > 0.0;
     list_valid_ = true;
   }
-  assemble(inv_mass, kinematic_step, contacts, regions);
+  assemble(x, inv_mass, kinematic_step, contacts, regions);
   stats.constraints = static_cast<Index>(regions.total());
   stats.narrow_s = watch.seconds();
 }
@@ -1110,8 +1110,118 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
 /// appear in contact order, which depends neither on the thread count nor on timing. The copy
 /// of the contacts into `contacts` happens in the same sweep as the plane writes, so each
 /// contact buffer is read twice (count, fill) instead of three times.
-void CollisionDetector::assemble(std::span<const double> inv_mass, std::span<const Vec3> kinematic_step,
-                                 std::vector<ContactPair>& contacts, RegionSet& regions) {
+namespace {
+/// Whether the split d = s G can leave the pair inside its offset when G < 0: the movable vertices
+/// then move away from the other side, but fixed vertices among them (or on both sides) do not.
+bool split_cannot_close(const ContactPair& c, std::span<const double> inv_mass) {
+  bool fixed[2] = {false, false}, movable[2] = {false, false};
+  const int na = c.side_a();
+  for (int k = 0; k < c.size(); ++k) (inv_mass[c.v[k]] > 0.0 ? movable : fixed)[k < na ? 0 : 1] = true;
+  return (fixed[0] && fixed[1]) || (fixed[0] && movable[0]) || (fixed[1] && movable[1]);
+}
+
+/// Extremes of a contact's vertices along m: side A's lowest, side B's highest, over the movable
+/// vertices at x and over the fixed ones at their end positions (±infinity where a side has none).
+struct SideExtremes {
+  double free_a = std::numeric_limits<double>::infinity(), fixed_a = free_a;
+  double free_b = -free_a, fixed_b = -free_a;
+};
+
+SideExtremes side_extremes(const ContactPair& c, const Vec3& m, const std::vector<Vec3>& x,
+                           std::span<const double> inv_mass, std::span<const Vec3> step) {
+  SideExtremes e;
+  const int na = c.side_a();
+  for (int k = 0; k < c.size(); ++k) {
+    const Index v = c.v[k];
+    const bool movable = inv_mass[v] > 0.0;
+    const double along = m.dot(movable || step.empty() ? x[v] : Vec3(x[v] + step[v]));
+    if (k < na) {
+      double& lowest = movable ? e.free_a : e.fixed_a;
+      lowest = std::min(lowest, along);
+    } else {
+      double& highest = movable ? e.free_b : e.fixed_b;
+      highest = std::max(highest, along);
+    }
+  }
+  return e;
+}
+}  // namespace
+
+std::optional<RegionRecord> mixed_pair_record(const ContactPair& c, const std::vector<Vec3>& x,
+                                              std::span<const double> inv_mass, std::span<const Vec3> kinematic_step,
+                                              double share_a) {
+  const double need = c.offset;
+  // A relative margin above round-off, so that the fixed vertices' slab is not a tie.
+  const double keep = need * (1.0 + 1e-6);
+  auto margin = [&](const Vec3& m) {
+    const SideExtremes e = side_extremes(c, m, x, inv_mass, kinematic_step);
+    return e.fixed_a - e.fixed_b;  // +infinity unless both sides hold fixed vertices
+  };
+  Vec3 m = c.n;
+  if (!(margin(m) >= keep)) {
+    // The fixed vertices' own separating direction: their closest points (a side holds at most
+    // two fixed vertices when the pair has a movable one: a vertex, or an edge's two ends).
+    std::vector<Vec3> fa, fb;
+    const int na = c.side_a();
+    for (int k = 0; k < c.size(); ++k) {
+      const Index v = c.v[k];
+      if (inv_mass[v] > 0.0) continue;
+      (k < na ? fa : fb).push_back(kinematic_step.empty() ? x[v] : Vec3(x[v] + kinematic_step[v]));
+    }
+    Vec3 apart;
+    if (fa.size() == 1 && fb.size() == 1)
+      apart = fa[0] - fb[0];
+    else if (fa.size() == 1 && fb.size() == 2)
+      apart = fa[0] - point_edge(fa[0], fb[0], fb[1]).closest;
+    else if (fa.size() == 2 && fb.size() == 1)
+      apart = point_edge(fb[0], fa[0], fa[1]).closest - fb[0];
+    else
+      return std::nullopt;
+    const double far = apart.norm();
+    if (!(far >= keep)) return std::nullopt;  // the fixed vertices alone end inside the offset
+    const Vec3 best = apart / far;
+    // The smallest turn from n toward `best` that separates the fixed vertices by the offset
+    // (feasible at t = 1); the free vertices then move as little as this plane allows.
+    double lo = 0.0, hi = 1.0;
+    for (int it = 0; it < 40; ++it) {
+      const double t = 0.5 * (lo + hi);
+      const Vec3 u = (1.0 - t) * c.n + t * best;
+      const double len = u.norm();
+      if (len > 1e-12 && margin(u / len) >= keep)
+        hi = t;
+      else
+        lo = t;
+    }
+    m = ((1.0 - hi) * c.n + hi * best).normalized();
+    if (!(margin(m) >= keep)) m = best;
+  }
+  const SideExtremes e = side_extremes(c, m, x, inv_mass, kinematic_step);
+  const bool free_a = std::isfinite(e.free_a), free_b = std::isfinite(e.free_b);
+  if (!free_a && !free_b) return std::nullopt;
+  // Ends of A (a) and of B (b) along m for the movable vertices: the usual mass-weighted split of
+  // their room when both sides move, then kept the offset clear of the other side's fixed ones.
+  double a = std::numeric_limits<double>::infinity(), b = -a;
+  if (free_a && free_b) {
+    const double room = e.free_a - e.free_b - need;
+    a = e.free_a - share_a * room;
+    b = e.free_b + (1.0 - share_a) * room;
+  } else if (free_a) {
+    a = e.free_a;
+  } else {
+    b = e.free_b;
+  }
+  if (free_a && std::isfinite(e.fixed_b)) a = free_b ? std::max(a, e.fixed_b + keep) : e.fixed_b + keep;
+  if (free_b && std::isfinite(e.fixed_a)) b = free_a ? std::min(b, e.fixed_a - keep) : e.fixed_a - keep;
+  RegionRecord rec;
+  rec.n = m;
+  rec.d[0] = free_a ? e.free_a - a : 0.0;  // side A: m·x' >= m·x - d_A >= a
+  rec.d[1] = free_b ? b - e.free_b : 0.0;  // side B: m·x' <= m·x + d_B <= b
+  return rec;
+}
+
+void CollisionDetector::assemble(const Positions& x, std::span<const double> inv_mass,
+                                 std::span<const Vec3> kinematic_step, std::vector<ContactPair>& contacts,
+                                 RegionSet& regions) {
   const Index nv = topo_.num_vertices();
   const Index chunks = static_cast<Index>(contact_buffers_.size());
   std::vector<size_t> start(static_cast<size_t>(chunks) + 1, 0);
@@ -1175,6 +1285,8 @@ void CollisionDetector::assemble(std::span<const double> inv_mass, std::span<con
         const int na = c.side_a();
         // One record per contact; each movable vertex's slot refers to it and its side.
         regions.records[ci] = {c.n, {s_a * gap, s_b * gap}};
+        if (gap < 0.0 && split_cannot_close(c, inv_mass))
+          if (const auto mixed = mixed_pair_record(c, x, inv_mass, kinematic_step, s_a)) regions.records[ci] = *mixed;
         const std::uint32_t ref = 2 * static_cast<std::uint32_t>(ci);
         for (int k = 0; k < c.size(); ++k) {
           const Index v = c.v[k];

@@ -660,6 +660,7 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
     violated_marks_.clear();
   }
   const double r = params.contact.radius;
+  const bool guarantees = contact_->guarantees_separation();
   OuterIterationEnd end;
   // Until no vertex is held back by r (often after one pass, so fewer than time.iterations may
   // run), at most iteration_bound() passes.
@@ -754,6 +755,9 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
       }
     }
     anchor_.swap(solve_);
+    // A solver that guarantees separation does not end a substep on a pass that left pairs inside
+    // their offset while passes remain: the next pass starts from there.
+    if (end.remaining > 0 && guarantees && it + 1 < bound) continue;
     if (end.held_back == 0) break;  // every vertex reached its intended advance
     if (end.short_enough) break;    // the few held back keep their clamped step (advance_shortfall)
   }

@@ -105,3 +105,143 @@ TEST(KinematicStep, RotatingTriangleKeepsParticlesAndSegmentsBeyondXi) {
   }
   EXPECT_GT(checked, 1500);
 }
+
+namespace {
+/// A pair at the edge of a scripted handle (OGC's twisted square): P and Q are handle vertices 5 mm
+/// apart, a and c free. vf: P against the face (a, c, Q); ee: the handle edge (P', P) against the
+/// edge (a, Q). The pair starts within [0.1, 1.5] ξ; the handle takes a rigid step or none.
+struct HandlePair {
+  ContactPair c;
+  Positions x, step;
+  std::vector<double> w;
+};
+
+HandlePair handle_pair(std::mt19937_64& g, bool edge_edge_pair, bool moving) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  constexpr double h = 0.005;
+  HandlePair p;
+  // 0 P, 1 Q, 2 a, 3 c (vf) or 3 P' (ee), all handle vertices on the z axis.
+  p.x = {Vec3(0, 0, 0), Vec3(0, 0, h), Vec3(-h + 0.001 * u(g), 0.001 * u(g), 0.002 * u(g)), Vec3::Zero()};
+  if (edge_edge_pair) {
+    p.x[3] = Vec3(0, 0, -h);
+    // a close to the handle's line near P: the edge (a, Q) passes P within about |a - P|.
+    p.x[2] = Vec3(0.0015 * u(g), 0.0015 * u(g), 0.0005 * u(g));
+  } else {
+    // c near P: the face (a, c, Q) folded over P.
+    p.x[3] = Vec3(0.0015 * u(g), 0.0015 * u(g), 0.0015 * u(g));
+  }
+  p.w = {0.0, 0.0, 1.0, edge_edge_pair ? 0.0 : 1.0};
+  p.step.assign(4, Vec3::Zero());
+  if (moving) {
+    const Eigen::AngleAxisd rot(0.01 * u(g), Vec3(u(g), u(g), u(g)).normalized());
+    const Vec3 centre(0.01 * u(g), 0.01 * u(g), 0.01 * u(g)), shift = Vec3(u(g), u(g), u(g)) * 0.0005;
+    for (int k = 0; k < 4; ++k)
+      if (p.w[k] == 0.0) p.step[k] = centre + rot * (p.x[k] - centre) + shift - p.x[k];
+  }
+  ContactPair& c = p.c;
+  c.offset = kXi / 10.0;  // 1 mm against 5 mm edges, as in the scene
+  if (edge_edge_pair) {
+    c.kind = ContactKind::ee;
+    c.v = {3, 0, 2, 1};
+    const EdgeEdgeResult r = edge_edge(p.x[3], p.x[0], p.x[2], p.x[1]);
+    c.distance = std::sqrt(r.distance_sq);
+    c.n = (r.pa - r.pb).normalized();
+    c.w = {1.0 - r.s, r.s, -(1.0 - r.t), -r.t};
+  } else {
+    c.kind = ContactKind::vf;
+    c.v = {0, 2, 3, 1};
+    const PointTriangleResult r = point_triangle(p.x[0], p.x[2], p.x[3], p.x[1]);
+    c.distance = std::sqrt(r.distance_sq);
+    const Vec3 closest = r.bary[0] * p.x[2] + r.bary[1] * p.x[3] + r.bary[2] * p.x[1];
+    c.n = (p.x[0] - closest).normalized();
+    c.w = {1.0, -r.bary[0], -r.bary[1], -r.bary[2]};
+  }
+  return p;
+}
+
+double handle_pair_distance(const HandlePair& p, const Positions& y) {
+  return p.c.kind == ContactKind::ee ? std::sqrt(edge_edge(y[3], y[0], y[2], y[1]).distance_sq)
+                                     : std::sqrt(point_triangle(y[0], y[2], y[3], y[1]).distance_sq);
+}
+
+/// Moves every free vertex of the pair within r inside its half-space of `rec` (side 0: n, d_A;
+/// side 1: -n, d_B); false if a vertex found no such move.
+bool move_within(std::mt19937_64& g, const HandlePair& p, const RegionRecord& rec, Positions& y) {
+  for (int k = 0; k < p.c.size(); ++k) {
+    const Index v = p.c.v[k];
+    if (p.w[v] == 0.0) continue;
+    const int side = k < p.c.side_a() ? 0 : 1;
+    const HalfSpace h{side ? Vec3(-rec.n) : rec.n, rec.d[side]};
+    Vec3 m;
+    if (!admissible_move(g, std::span<const HalfSpace>(&h, 1), m)) return false;
+    y[v] += m;
+  }
+  return true;
+}
+
+/// The least move of every free vertex onto its half-space of `rec` (what a projection of a
+/// vertex that wants to stay does): onto the plane if it must move, nowhere otherwise.
+Positions least_move(const HandlePair& p, const RegionRecord& rec, Positions y) {
+  for (int k = 0; k < p.c.size(); ++k) {
+    const Index v = p.c.v[k];
+    if (p.w[v] == 0.0) continue;
+    const int side = k < p.c.side_a() ? 0 : 1;
+    const Vec3 n = side ? Vec3(-rec.n) : rec.n;
+    y[v] += std::max(0.0, -rec.d[side]) * n;
+  }
+  return y;
+}
+}  // namespace
+
+// A side holding a scripted vertex and a free one, inside the offset (or brought inside it by the
+// handle's step): moving the free vertices along n by their share leaves the scripted ones where
+// they are, so the usual split admits positions inside the offset; mixed_pair_record's plane does
+// not. Every admissible move of the free vertices ends the pair at least its offset apart.
+TEST(KinematicStep, MixedSidesKeepTheOffsetWhereTheShareSplitCannot) {
+  auto g = ccfr::test::rng(2027);
+  int checked = 0, split_failed = 0, tilted = 0;
+  for (int trial = 0; trial < 4000; ++trial) {
+    const HandlePair p = handle_pair(g, trial % 2 == 1, trial % 4 >= 2);
+    const ContactPair& c = p.c;
+    if (!(c.distance > 0.1 * c.offset && c.distance < 1.5 * c.offset)) continue;
+    double k_a = 0.0, k_b = 0.0;
+    for (int k = 0; k < c.size(); ++k) {
+      const double along = c.n.dot(p.step[c.v[k]]);
+      (k < c.side_a() ? k_a : k_b) = std::max(k < c.side_a() ? k_a : k_b, k < c.side_a() ? -along : along);
+    }
+    const double gap = c.distance - c.offset - k_a - k_b;
+    if (!(gap < 0.0)) continue;  // the usual split is sound there
+    const auto rec = mixed_pair_record(c, p.x, p.w, p.step, 0.0);
+    ASSERT_TRUE(rec.has_value()) << "trial " << trial << ": the handle's vertices stay 5 mm apart";
+    tilted += rec->n.dot(c.n) < 1.0 - 1e-12;
+    Positions end = p.x;
+    for (size_t k = 0; k < end.size(); ++k) end[k] += p.step[k];
+    EXPECT_GE(handle_pair_distance(p, least_move(p, *rec, end)), c.offset * (1.0 - 1e-9)) << "trial " << trial;
+    Positions y = end;
+    if (!move_within(g, p, *rec, y)) continue;
+    EXPECT_GE(handle_pair_distance(p, y), c.offset * (1.0 - 1e-9)) << "trial " << trial;
+    ++checked;
+    // The usual split on the same pair: the free vertices' share of the gap alone.
+    const RegionRecord split{c.n, {0.0, gap}};
+    split_failed += handle_pair_distance(p, least_move(p, split, end)) < c.offset * (1.0 - 1e-9);
+  }
+  EXPECT_GT(checked, 1500);
+  EXPECT_GT(tilted, 500);        // half need the plane turned toward the handle
+  EXPECT_GT(split_failed, 300);  // and the split it replaces lets them through
+}
+
+// The fixed vertices themselves inside the offset: no plane can separate them, and the record
+// says so instead of inventing one.
+TEST(KinematicStep, MixedPairWhoseFixedVerticesTouchHasNoPlane) {
+  HandlePair p;
+  p.x = {Vec3(0, 0, 0), Vec3(0, 0, 0.0005), Vec3(-0.005, 0, 0), Vec3(-0.005, 0, 0.005)};
+  p.w = {0.0, 0.0, 1.0, 1.0};
+  p.step.assign(4, Vec3::Zero());
+  ContactPair& c = p.c;
+  c.kind = ContactKind::vf;
+  c.v = {0, 2, 3, 1};
+  c.offset = 0.001;
+  c.distance = 0.0004;
+  c.n = Vec3(1, 0, 0);
+  EXPECT_FALSE(mixed_pair_record(c, p.x, p.w, p.step, 0.0).has_value());
+}

@@ -72,11 +72,13 @@ const scene::Section<TimeParams>& time_section() {
           .field("iterations", &S::iterations,
                  "nominal outer iterations per substep, each with collision detection: a substep ends after "
                  "the first one in which no vertex was held back by the step bound r (fewer may run; stats.csv "
-                 "outer_iterations counts them), and goes on past it while one is (time.max_iterations)",
+                 "outer_iterations counts them), and goes on past it while one is, or while a solver that "
+                 "guarantees separation left a pair inside its offset (time.max_iterations)",
                  one)
           .field("max_iterations", &S::max_iterations,
                  "outer iterations continue past `iterations` while a vertex has not reached its intended "
-                 "advance (held back by the step bound r), up to this many; 0 means 4 x iterations",
+                 "advance (held back by the step bound r) or, under a solver that guarantees separation, a pair "
+                 "is inside its offset, up to this many; 0 means 4 x iterations",
                  Range{0, 4096, false, false})
           .field("xpbd_sweeps", &S::xpbd_sweeps, "material constraint sweeps per outer iteration", one)
           .field("gravity", &S::gravity, "gravity (m/s²)", Range::within(kMaxAccel))

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string_view>
 #include <utility>
@@ -209,6 +210,22 @@ struct InitialProximity {
   bool operator==(const InitialProximity&) const = default;
 };
 
+/// The planes of a contact whose gap the movable vertices cannot close by the usual split: a side
+/// holding both movable and fixed (pinned, scripted, or fixed for this pass) vertices, or fixed
+/// vertices on both sides, with \f$G = \varphi - K_A - K_B < 0\f$. Moving the free vertices along n
+/// then leaves the fixed ones where they are, inside the offset (OGC's twisted square: a handle
+/// vertex against the face of its own row's neighbours, folded along its diagonal). Sound rule:
+/// with every fixed vertex at its known end position (x + kinematic_step) and every movable one
+/// at x, pick a unit m (from B toward A) along which side A's fixed vertices end at least ξ beyond
+/// side B's, then bound the movable ones so that all of A ends at m·p ≥ a and all of B at m·p ≤ b
+/// with a − b ≥ ξ: the slab between keeps the two hulls ξ apart. m is the detection normal n if
+/// that works, else the direction closest to n (bisection between n and the fixed vertices'
+/// closest-point direction) that does. Returns the record {m, d_A, d_B}, or nothing when the
+/// fixed vertices themselves end closer than the pair's offset (no plane can separate them).
+std::optional<RegionRecord> mixed_pair_record(const ContactPair& c, const std::vector<Vec3>& x,
+                                              std::span<const double> inv_mass, std::span<const Vec3> kinematic_step,
+                                              double share_a);
+
 /// Collision detection for one scene. Owns the primitive set, the broad phase and the exclusions
 /// computed from the initial configuration; `topo` must outlive the detector.
 ///
@@ -245,6 +262,10 @@ class CollisionDetector {
   /// \f$\Delta\mathbf{x}_B\f$). The worst vertex, not the closest point, because a rotating handle's far corner
   /// approaches faster. Valid while every kinematic step is at most r (the search range then still covers every pair
   /// that can come within ξ).
+  ///
+  /// Where that split cannot hold, a side that mixes movable and fixed vertices (or two sides that
+  /// both hold fixed ones) in a pair whose G < 0, the pair's record comes from
+  /// mixed_pair_record() instead.
   void detect(const Positions& x, std::span<const double> inv_mass, RegionSet& regions,
               std::vector<ContactPair>& contacts, DetectionStats& stats, std::span<const Vec3> kinematic_step = {});
 
@@ -326,7 +347,7 @@ class CollisionDetector {
   double step_since_last_pass(const Positions& x);
   /// A pass over the kept list instead of the broad phase and the enumeration.
   void detect_from_list(const Positions& x, std::span<const double> inv_mass, DetectionStats& stats);
-  void assemble(std::span<const double> inv_mass, std::span<const Vec3> kinematic_step,
+  void assemble(const Positions& x, std::span<const double> inv_mass, std::span<const Vec3> kinematic_step,
                 std::vector<ContactPair>& contacts, RegionSet& regions);
 
   const Topology& topo_;
