@@ -35,6 +35,11 @@ def caption(run_dir, frame):
         whole = f"audit PASS: {checked} frames, no pair within range"  # nothing came near (free fall)
     elif verdict == "PASS":
         whole = f"audit PASS: {checked} frames, min distance {audit['min_distance'] / audit['offset']:.3f} ξ"
+    elif verdict == "INCOMPLETE" and audit.get("violations") == 0:
+        # the run stopped before its end: every frame it wrote is clean, but the run is not whole
+        whole = f"audit INCOMPLETE (run stopped): {checked} frames clean"
+        if audit.get("min_distance") is not None and audit.get("offset"):
+            whole += f", min {audit['min_distance'] / audit['offset']:.3f} ξ"
     else:
         whole = (f"audit {verdict}: {audit.get('violations', '?'):,} violations in {audit.get('bad_frames', '?')} of "
                  f"{checked} frames (first: frame {audit.get('first_bad_frame')})")
@@ -49,7 +54,8 @@ def caption(run_dir, frame):
         here = f"frame {frame}: " + (", ".join(bad) if bad else "clean")
         if row.get("min_distance") is not None and audit.get("offset"):
             here += f"\nclosest pair {row['min_distance'] / audit['offset']:.5f} ξ"
-    return f"{solver}\n{whole}\n{here}", ("#2e7d32" if verdict == "PASS" else "#c62828")
+    colour = {"PASS": "#2e7d32", "INCOMPLETE": "#b26a00" if audit.get("violations") == 0 else "#c62828"}
+    return f"{solver}\n{whole}\n{here}", colour.get(verdict, "#c62828")
 
 
 def main(argv=None):

@@ -55,6 +55,18 @@ def test_captions_say_what_the_audit_says(tmp_path):
     assert colour == "#c62828"
 
 
+def test_a_clean_run_stopped_early_is_neither_passed_nor_failed(tmp_path):
+    mod = load_script()
+    stopped = {**PASSING, "verdict": "incomplete", "frames_checked": 151, "min_distance": 0.0100000011}
+    text, colour = mod.caption(str(run_dir(tmp_path, "a", "dat", stopped)), 300)
+    assert text.splitlines()[:2] == ["dat", "audit INCOMPLETE (run stopped): 151 frames clean, min 1.000 ξ"]
+    assert colour not in ("#2e7d32", "#c62828")
+    bad = {**FAILING, "verdict": "incomplete"}  # stopped early and found violations: still red, with counts
+    text, colour = mod.caption(str(run_dir(tmp_path, "b", "ogc", bad)), 300)
+    assert text.splitlines()[1] == "audit INCOMPLETE: 128,423 violations in 234 of 301 frames (first: frame 63)"
+    assert colour == "#c62828"
+
+
 def test_a_frame_the_audit_skipped_is_named_as_such(tmp_path):
     mod = load_script()
     text, _ = mod.caption(str(run_dir(tmp_path, "a", "ccfr", PASSING)), 150)
