@@ -36,8 +36,8 @@ def caption(run_dir, frame):
     elif verdict == "PASS":
         whole = f"audit PASS: {checked} frames, min distance {audit['min_distance'] / audit['offset']:.3f} ξ"
     elif verdict == "INCOMPLETE" and audit.get("violations") == 0:
-        # the run stopped before its end: every frame it wrote is clean, but the run is not whole
-        whole = f"audit INCOMPLETE (run stopped): {checked} frames clean"
+        # a partial run (stopped or still running): every frame it wrote is clean, but the run is not whole
+        whole = f"audit INCOMPLETE (run not finished): {checked} frames clean"
         if audit.get("min_distance") is not None and audit.get("offset"):
             whole += f", min {audit['min_distance'] / audit['offset']:.3f} ξ"
     else:

@@ -59,7 +59,7 @@ def test_a_clean_run_stopped_early_is_neither_passed_nor_failed(tmp_path):
     mod = load_script()
     stopped = {**PASSING, "verdict": "incomplete", "frames_checked": 151, "min_distance": 0.0100000011}
     text, colour = mod.caption(str(run_dir(tmp_path, "a", "dat", stopped)), 300)
-    assert text.splitlines()[:2] == ["dat", "audit INCOMPLETE (run stopped): 151 frames clean, min 1.000 ξ"]
+    assert text.splitlines()[:2] == ["dat", "audit INCOMPLETE (run not finished): 151 frames clean, min 1.000 ξ"]
     assert colour not in ("#2e7d32", "#c62828")
     bad = {**FAILING, "verdict": "incomplete"}  # stopped early and found violations: still red, with counts
     text, colour = mod.caption(str(run_dir(tmp_path, "b", "ogc", bad)), 300)
