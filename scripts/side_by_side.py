@@ -24,6 +24,18 @@ def load(path):
         return json.load(f)
 
 
+def why_partial(status):
+    """Why a run holds fewer frames than its scene asks for, from run.json's status (ccfr's wording)."""
+    status = str(status or "")
+    if status.startswith("failed"):
+        return "run stopped by its error"
+    if status.startswith("stopped at its time limit"):
+        return "run stopped at its time limit"
+    if status.startswith(("interrupted", "terminated", "killed")):
+        return "run interrupted"
+    return "run not finished"  # still running, or a status this script does not know
+
+
 def caption(run_dir, frame):
     """(title, colour) of one panel from run.json and audit.json."""
     run = load(os.path.join(run_dir, "run.json"))
@@ -36,8 +48,8 @@ def caption(run_dir, frame):
     elif verdict == "PASS":
         whole = f"audit PASS: {checked} frames, min distance {audit['min_distance'] / audit['offset']:.3f} ξ"
     elif verdict == "INCOMPLETE" and audit.get("violations") == 0:
-        # a partial run (stopped or still running): every frame it wrote is clean, but the run is not whole
-        whole = f"audit INCOMPLETE (run not finished): {checked} frames clean"
+        # a partial run: every frame it wrote is clean, but the run is not whole; say why it is partial
+        whole = f"audit INCOMPLETE ({why_partial(run.get('status'))}): {checked} frames clean"
         if audit.get("min_distance") is not None and audit.get("offset"):
             whole += f", min {audit['min_distance'] / audit['offset']:.3f} ξ"
     else:

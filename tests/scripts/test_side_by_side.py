@@ -26,10 +26,10 @@ def frame_row(frame, tri=0, seg=0, close=0, dist=None):
             "segment_crossings": seg, "close_pairs": close, "min_distance": dist, "examples": []}
 
 
-def run_dir(tmp_path, name, solver, audit):
+def run_dir(tmp_path, name, solver, audit, status=None):
     d = tmp_path / name
     d.mkdir()
-    (d / "run.json").write_text(json.dumps({"solver": solver}))
+    (d / "run.json").write_text(json.dumps({"solver": solver, **({"status": status} if status else {})}))
     (d / "audit.json").write_text(json.dumps(audit))
     return d
 
@@ -65,6 +65,21 @@ def test_a_clean_run_stopped_early_is_neither_passed_nor_failed(tmp_path):
     text, colour = mod.caption(str(run_dir(tmp_path, "b", "ogc", bad)), 300)
     assert text.splitlines()[1] == "audit INCOMPLETE: 128,423 violations in 234 of 301 frames (first: frame 63)"
     assert colour == "#c62828"
+
+
+@pytest.mark.parametrize("status, why", [
+    ("stopped at its time limit of 45 min 00 s after frame 150", "run stopped at its time limit"),
+    ("failed: frame 15: scripted vertices of object 'sheet' lag their script", "run stopped by its error"),
+    ("interrupted after frame 2", "run interrupted"),
+    ("terminated after frame 9 (SIGTERM)", "run interrupted"),
+    ("running", "run not finished"),
+])
+def test_a_clean_partial_run_says_why_it_is_partial(tmp_path, status, why):
+    mod = load_script()
+    stopped = {**PASSING, "verdict": "incomplete", "frames_checked": 15, "min_distance": 0.0100076}
+    text, colour = mod.caption(str(run_dir(tmp_path, "a", "toi_clamp", stopped, status)), 14)
+    assert text.splitlines()[1] == f"audit INCOMPLETE ({why}): 15 frames clean, min 1.001 ξ"
+    assert colour == "#b26a00"
 
 
 def test_a_frame_the_audit_skipped_is_named_as_such(tmp_path):
