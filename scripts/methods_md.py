@@ -178,14 +178,16 @@ def compose(scene, rows, image_dir, meta):
     import matplotlib.pyplot as plt
     images = [mpimg.imread(p) for p, _ in panels]
     h, w = images[0].shape[:2]
-    lines = max(meta["captions"][c][0].count("\n") + 1 for _, c in panels) + 1
+    sys.path.insert(0, HERE)
+    from side_by_side import wrap_caption  # the panels' titles fit their width as in side_by_side's pictures
+    titles = {c: wrap_caption(meta["captions"][c][0], w) for _, c in panels}
+    lines = max(t.count("\n") + 1 for t in titles.values()) + 1
     fig, axes = plt.subplots(1, len(panels), figsize=(len(panels) * w / 100, h / 100 + 0.25 * lines + 0.2), dpi=100,
                              constrained_layout=True)
     for ax, img, (_, c) in zip(axes, images, panels):
         ax.imshow(img)
         ax.set_axis_off()
-        text, colour = meta["captions"][c]
-        ax.set_title(text, fontsize=10, color=colour)
+        ax.set_title(titles[c], fontsize=10, color=meta["captions"][c][1])
     fig.suptitle(f"{scene}: the last frame of every cell", fontsize=11)
     target = os.path.join(image_dir, f"methods_{scene}.png")
     fig.savefig(target)

@@ -11,6 +11,7 @@ import argparse
 import json
 import os
 import sys
+import textwrap
 
 import matplotlib
 
@@ -22,6 +23,13 @@ import matplotlib.pyplot as plt  # noqa: E402
 def load(path):
     with open(path) as f:
         return json.load(f)
+
+
+def wrap_caption(text, width_px, fontsize=10, dpi=100):
+    """TEXT with each line wrapped to a panel WIDTH_PX wide, so neighbouring titles do not overlap
+    (a character of DejaVu Sans is about 0.6 em wide on average)."""
+    chars = max(20, int(width_px / (0.6 * fontsize * dpi / 72)))
+    return "\n".join(textwrap.fill(line, chars) for line in text.split("\n"))
 
 
 def why_partial(status):
@@ -79,6 +87,8 @@ def main(argv=None):
     a = p.parse_args(argv)
     try:
         panels = [(mpimg.imread(image), *caption(run_dir, a.frame)) for run_dir, image in a.run]
+        w = panels[0][0].shape[1]
+        panels = [(img, wrap_caption(text, w), colour) for img, text, colour in panels]
     except (OSError, ValueError, KeyError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

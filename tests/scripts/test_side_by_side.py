@@ -82,6 +82,18 @@ def test_a_clean_partial_run_says_why_it_is_partial(tmp_path, status, why):
     assert colour == "#b26a00"
 
 
+def test_long_captions_are_wrapped_to_the_panel_width():
+    mod = load_script()
+    text = ("toi_clamp\naudit INCOMPLETE (run stopped at its time limit): 97 frames clean, min 1.000 ξ"
+            "\nframe 96: clean")
+    wrapped = mod.wrap_caption(text, 480)
+    chars = int(480 / (0.6 * 10 * 100 / 72))
+    assert all(len(line) <= chars for line in wrapped.split("\n"))
+    assert wrapped.count("\n") > text.count("\n")  # the long line was broken
+    assert wrapped.split() == text.split()  # and nothing was lost or reordered
+    assert mod.wrap_caption("dat\nframe 3: clean", 480) == "dat\nframe 3: clean"  # short lines stay
+
+
 def test_a_frame_the_audit_skipped_is_named_as_such(tmp_path):
     mod = load_script()
     text, _ = mod.caption(str(run_dir(tmp_path, "a", "ccfr", PASSING)), 150)
