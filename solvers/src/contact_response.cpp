@@ -1,6 +1,8 @@
 #include "ccfr/solvers/contact_response.hpp"
 
 #include <algorithm>
+#include <atomic>
+#include <limits>
 #include <numeric>
 #include <string>
 
@@ -287,6 +289,178 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
         }
       },
       4096);
+}
+
+namespace {
+/// One contact's inelastic closure: how far the sides must give way, a share `s` of the overlap
+/// E for side A and 1 - s for B, each vertex of a side pulled back to the side's allowed approach.
+struct Closure {
+  double a[2] = {0.0, 0.0};  ///< largest approach of side A, B toward the other
+  double excess = 0.0;       ///< E = a_A + a_B - G (> 0: the sides overlap)
+  double share = 0.0;        ///< s: A gives way by s E, B by (1 - s) E
+};
+
+/// Approach of vertex k of contact c toward the other side: -n·Δx on side A, n·Δx on side B.
+double approach(const ContactPair& c, int k, const Positions& x, const Positions& anchor) {
+  const double along = c.n.dot(x[c.v[k]] - anchor[c.v[k]]);
+  return k < c.side_a() ? -along : along;
+}
+}  // namespace
+
+Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span<const double> inv_mass, int sweeps,
+                                std::span<const double> other_inverse_mass) {
+  const Index n = static_cast<Index>(contacts_.size());
+  if (n == 0 || sweeps <= 0) return 0;
+  if (row_start_.empty()) throw Error("ContactResponse::separate: called before prepare()");
+  const Index nv = std::min(static_cast<Index>(x.size()), static_cast<Index>(row_start_.size()) - 1);
+  separate_dl_.resize(static_cast<size_t>(n));
+  separate_count_.resize(static_cast<size_t>(nv));
+  corr_.resize(static_cast<size_t>(n) * 4);
+  Index closed_first = 0;
+  const int first_vertex_sweep = sweeps * 3 / 4;
+  for (int sweep = 0; sweep < sweeps; ++sweep) {
+    const bool barycentric = sweep < first_vertex_sweep;
+    // Overlapping contacts of this sweep: separate_dl_ holds E (0: none).
+    std::atomic<Index> closed{0};
+    parallel_for(
+        n,
+        [&](Index b, Index e) {
+          Index local = 0;
+          for (Index ci = b; ci < e; ++ci) {
+            const ContactPair& c = contacts_[ci];
+            double& excess = separate_dl_[static_cast<size_t>(ci)];
+            excess = 0.0;
+            if (c.neighbours) continue;
+            double a[2] = {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+            bool moves = false;
+            Vec3 at = Vec3::Zero();
+            for (int k = 0; k < c.size(); ++k) {
+              a[k < c.side_a() ? 0 : 1] = std::max(a[k < c.side_a() ? 0 : 1], approach(c, k, x, anchor));
+              moves = moves || inv_mass[c.v[k]] > 0.0;
+              at += c.w[k] * (x[c.v[k]] - anchor[c.v[k]]);
+            }
+            // Barycentric sweeps: the closest points' approach; then every vertex's.
+            const double e_c =
+                barycentric ? -(c.distance - c.offset + c.n.dot(at)) : a[0] + a[1] - (c.distance - c.offset);
+            if (!moves || !(e_c > 0.0)) continue;
+            excess = e_c;
+            ++local;
+          }
+          closed += local;
+        },
+        2048);
+    if (sweep == 0) closed_first = closed.load();
+    if (closed.load() == 0) {
+      if (!barycentric) break;
+      sweep = first_vertex_sweep - 1;  // the closest points are apart: on to every vertex's approach
+      continue;
+    }
+    // Active contacts per vertex, read through the vertex -> contact-slot incidence.
+    parallel_for(
+        nv,
+        [&](Index b, Index e) {
+          for (Index v = b; v < e; ++v) {
+            Index cnt = 0;
+            if (inv_mass[v] > 0.0)
+              for (Index q = row_start_[v]; q < row_start_[v + 1]; ++q) cnt += separate_dl_[slots_[q] / 4] != 0.0;
+            separate_count_[v] = cnt;
+          }
+        },
+        4096);
+    // Per contact: the share s that balances the momentum of the two sides' pull-backs, each
+    // vertex with its split mass m_k / n_k (an unpinned rigid body on the other side with
+    // 1 / w_o at its closest point; a side with an immovable vertex does not give way), then
+    // each vertex's pull-back along n.
+    parallel_for(
+        n,
+        [&](Index b, Index e) {
+          for (Index ci = b; ci < e; ++ci) {
+            const double excess = separate_dl_[static_cast<size_t>(ci)];
+            if (excess == 0.0) continue;
+            const ContactPair& c = contacts_[ci];
+            const int na = c.side_a(), nk = c.size();
+            if (barycentric) {
+              double wsum = other_inverse_mass.empty() ? 0.0 : other_inverse_mass[static_cast<size_t>(ci)];
+              for (int k = 0; k < nk; ++k) {
+                const Index v = c.v[k];
+                if (inv_mass[v] > 0.0)
+                  wsum += static_cast<double>(std::max<Index>(1, separate_count_[v])) * c.w[k] * c.w[k] * inv_mass[v];
+              }
+              for (int k = 0; k < nk; ++k) {
+                const Index v = c.v[k];
+                corr_[static_cast<size_t>(ci) * 4 + k] =
+                    wsum > 0.0 && inv_mass[v] > 0.0
+                        ? Vec3((static_cast<double>(separate_count_[v]) * inv_mass[v] * c.w[k] * excess / wsum) * c.n)
+                        : Vec3::Zero();
+              }
+              continue;
+            }
+            double app[4], mass[4],
+                a[2] = {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+            bool fixed[2] = {false, false}, free[2] = {false, false};
+            for (int k = 0; k < nk; ++k) {
+              const Index v = c.v[k];
+              const int side = k < na ? 0 : 1;
+              app[k] = approach(c, k, x, anchor);
+              a[side] = std::max(a[side], app[k]);
+              if (inv_mass[v] > 0.0) {
+                free[side] = true;
+                mass[k] =
+                    1.0 / (inv_mass[v] * static_cast<double>(std::max<Index>(1, v < nv ? separate_count_[v] : 1)));
+              } else {
+                fixed[side] = true;
+                mass[k] = 0.0;
+              }
+            }
+            const double w_o = other_inverse_mass.empty() ? 0.0 : other_inverse_mass[static_cast<size_t>(ci)];
+            // Momentum of side's pull-back at share t of E (its vertices beyond a_side - t E).
+            auto pulled = [&](int side, double t) {
+              if (!free[side] && w_o > 0.0) return t * excess / w_o;  // a rigid body answering for itself
+              double m = 0.0;
+              for (int k = side == 0 ? 0 : na; k < (side == 0 ? na : nk); ++k)
+                m += mass[k] * std::max(0.0, app[k] - a[side] + t * excess);
+              return m;
+            };
+            const bool gives[2] = {free[0] && !fixed[0], free[1] && !fixed[1]};
+            auto answers = [&](int side) { return gives[side] || (!free[side] && w_o > 0.0); };
+            double share = gives[0] ? 1.0 : 0.0;  // one side gives way, the other cannot
+            if (!gives[0] && !gives[1]) {
+              share = -1.0;  // neither can
+            } else if (answers(0) && answers(1)) {
+              double lo = 0.0, hi = 1.0;  // pulled(A, s) - pulled(B, 1 - s) rises from <= 0 to >= 0
+              for (int it = 0; it < 48; ++it) {
+                const double mid = 0.5 * (lo + hi);
+                (pulled(0, mid) < pulled(1, 1.0 - mid) ? lo : hi) = mid;
+              }
+              share = 0.5 * (lo + hi);
+            }
+            for (int k = 0; k < nk; ++k) {
+              const int side = k < na ? 0 : 1;
+              const double t = side == 0 ? share : 1.0 - share;
+              const double back =
+                  share < 0.0 || !(inv_mass[c.v[k]] > 0.0) ? 0.0 : std::max(0.0, app[k] - a[side] + t * excess);
+              // Side A gives way along +n, side B along -n.
+              corr_[static_cast<size_t>(ci) * 4 + k] = (side == 0 ? back : -back) * c.n;
+            }
+          }
+        },
+        2048);
+    // Each vertex moves by the mean of its contacts' pull-backs: with split masses every contact
+    // is balanced, so Σ_k (m_k / n_k) Σ_c Δx_k^c = 0 stays after the mean.
+    parallel_for(
+        nv,
+        [&](Index b, Index e) {
+          for (Index v = b; v < e; ++v) {
+            if (!(inv_mass[v] > 0.0) || separate_count_[v] == 0) continue;
+            Vec3 sum = Vec3::Zero();
+            for (Index q = row_start_[v]; q < row_start_[v + 1]; ++q)
+              if (separate_dl_[slots_[q] / 4] != 0.0) sum += corr_[slots_[q]];
+            x[v] += sum / static_cast<double>(separate_count_[v]);
+          }
+        },
+        4096);
+  }
+  return closed_first;
 }
 
 }  // namespace ccfr

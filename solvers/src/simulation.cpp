@@ -655,9 +655,11 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
   if (local) {
     held_marks_.assign(static_cast<size_t>(nv), 0);
     violated_marks_.assign(static_cast<size_t>(nv), 0);
+    deferred_marks_.assign(static_cast<size_t>(nv), 0);
   } else {
     held_marks_.clear();
     violated_marks_.clear();
+    deferred_marks_.clear();
   }
   const double r = params.contact.radius;
   const bool guarantees = contact_->guarantees_separation();
@@ -719,7 +721,10 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
     SolveResult res;
     {
       ScopedTimer t(fs.times.resolution);
+      if (local) std::fill(deferred_marks_.begin(), deferred_marks_.end(), std::uint8_t{0});
+      ctx.deferred = deferred_marks_;
       res = contact_->resolve(solve_, anchor_, st, ctx);
+      ctx.deferred = {};
     }
     fs.violations_detected += res.violations_detected;
     fs.halted_vertices += res.halted_vertices;
@@ -749,7 +754,7 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
         bool named = false;
         for (size_t i = 0; i < held_marks_.size(); ++i) {
           named = named || violated_marks_[i];
-          held_marks_[i] |= violated_marks_[i];
+          held_marks_[i] |= violated_marks_[i] | deferred_marks_[i];
         }
         next_local = end.remaining == 0 || (named && !mask.active());
       }

@@ -216,6 +216,10 @@ Scene drifting_layer(double spacing, double fast_speed) {
 Scene drifting_layer(double spacing, double fast_speed, TimeParams::Continuation mode) {
   Scene s = drifting_layer(spacing, fast_speed);
   s.params.contact.repulsion_range = 0.0;
+  // The paper's mass-share planes, which stand still and cut the back particles of the drifting
+  // layer: the cut is what the continuation modes are told apart by. With contact.momentum the
+  // planes move with the layer and nothing is cut (docs/feasibility.md).
+  s.params.contact.momentum = false;
   s.params.time.fps = 240.0;
   s.params.time.substeps = 1;
   s.params.time.continuation = mode;

@@ -17,18 +17,19 @@
 #include "ccfr/solvers/kinematics.hpp"
 #include "ccfr/solvers/materials.hpp"
 #include "ccfr/solvers/simulation.hpp"
+#include "test_support.hpp"
 
 namespace ccfr {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
 
-/// A kinematic floor (`floor`, 4 m square, through the origin, turned by `slope` about z so that
-/// it descends toward +x) and one rigid body `body` (density 1000) placed by `rot` and `at`,
+/// A kinematic floor (`floor`, 4 m square of `floor_cells`² quads, through the origin, turned by
+/// `slope` about z so that it descends toward +x) and one rigid body `body` (density 1000) placed by `rot` and `at`,
 /// with moment-matched vertex masses and its solid's core (as the loader gives them).
 Scene floor_and_body(const gen::TriMesh& body, const Eigen::Matrix3d& rot, const Vec3& at, const std::string& solver,
-                     double mu, double slope = 0.0) {
-  const gen::TriMesh floor = gen::plane(4.0, 8);
+                     double mu, double slope = 0.0, Index floor_cells = 8) {
+  const gen::TriMesh floor = gen::plane(4.0, floor_cells);
   TopologyBuilder tb;
   tb.add_object("floor", ObjectKind::obstacle, static_cast<Index>(floor.v.size()), floor.f);
   tb.add_object("body", ObjectKind::rigid, static_cast<Index>(body.v.size()), body.f);
@@ -232,6 +233,96 @@ TEST(RigidContact, CylinderOnASlopeRollsOrSlidesAsFrictionDictates) {
     // Spin about z (negative: it rolls toward +x).
     const double spin_up = rolls ? fit_s[2] / radius : mu * g * std::cos(theta) / (k * radius);
     EXPECT_NEAR(fit_spin[2], -spin_up, 0.1 * spin_up) << "mu " << mu;
+  }
+}
+
+/// Least-squares acceleration of s(t) = s0 + v0 t + a t²/2 over the samples from `skip` on.
+double fitted_acceleration(const std::vector<double>& t, const std::vector<double>& s, size_t skip) {
+  const Index rows = static_cast<Index>(t.size() - skip);
+  Eigen::MatrixXd a_mat(rows, 3);
+  Eigen::VectorXd b_vec(rows);
+  for (Index j = 0; j < rows; ++j) {
+    const double tj = t[static_cast<size_t>(j) + skip];
+    a_mat.row(j) << 1.0, tj, 0.5 * tj * tj;
+    b_vec[j] = s[static_cast<size_t>(j) + skip];
+  }
+  return a_mat.colPivHouseholderQr().solve(b_vec)[2];
+}
+
+TEST(RigidContact, BallRollsDownAnInclineAtFiveSeventhsOfGSinThetaWithoutASpeedLimit) {
+  // Issue #54: a ball rolling without slipping (μ = 0.4 >= 2/7 tan 20° = 0.10) accelerates at
+  // 5/7 g sin θ = 2.397 m/s² at any speed. Its top moves at twice its centre's speed, so at
+  // r = 3 mm, 60 fps x 10 substeps the top needs more than r per substep beyond 0.9 m/s; the
+  // step bound then cut it by less than its 1 % tolerance every substep, no further pass ran,
+  // and the ball rolled on at exactly 0.9 m/s (fitted 0.264 m/s²).
+  const double theta = 20.0 * kPi / 180.0, g = 9.81, radius = 0.1;
+  const Vec3 normal(std::sin(theta), std::cos(theta), 0.0), down(std::cos(theta), -std::sin(theta), 0.0);
+  for (const char* solver : {"ccfr", "exact_projection"}) {
+    Scene s = floor_and_body(gen::sphere(radius, 5), Eigen::Matrix3d::Identity(),
+                             Vec3(-1.5 * down) + (radius + 0.0031) * normal, solver, 0.4, theta);
+    s.params.contact.radius = 0.003;
+    s.params.contact.offset = 0.003;
+    s.params.time.substeps = 10;
+    Simulation sim(std::move(s));
+    std::vector<double> t, along;
+    double speed = 0.0, previous = pose_of(sim).c.dot(down);
+    for (int f = 1; f <= 60; ++f) {
+      const FrameStats fs = sim.step_frame();
+      EXPECT_EQ(fs.violations_remaining, 0) << solver;
+      t.push_back(f / 60.0);
+      along.push_back(pose_of(sim).c.dot(down));
+      speed = (along.back() - previous) * 60.0;
+      previous = along.back();
+    }
+    const double expected = 5.0 / 7.0 * g * std::sin(theta), fitted = fitted_acceleration(t, along, 5);
+    test::report_physics(std::string("rolling ball: acceleration, ") + solver, expected, fitted, "m/s²");
+    test::report_physics(std::string("rolling ball: speed in frame 60, ") + solver, expected * 59.5 / 60.0, speed,
+                         "m/s");
+    EXPECT_NEAR(fitted, expected, 0.03 * expected) << solver;
+    EXPECT_GT(speed, 2.0) << solver;
+  }
+}
+
+TEST(RigidContact, BoxSlidesDownAnInclineAtGTimesSinMinusMuCos) {
+  // A 0.1 m cube on a 20° slope with μ = 0.2 < tan 20°: a = g (sin θ - μ cos θ) = 1.511 m/s².
+  // The slope is one quad: on the 8 x 8 floor the box's leading edge is caught by each floor vertex
+  // it passes over (the vertex-face plane tilts toward it, and the pose solve lifts the box along
+  // it): 1.374 m/s² (docs/results.md, "Physics under contact").
+  const double theta = 20.0 * kPi / 180.0, g = 9.81, mu = 0.2;
+  const Vec3 normal(std::sin(theta), std::cos(theta), 0.0), down(std::cos(theta), -std::sin(theta), 0.0);
+  const Eigen::Matrix3d tilt = Eigen::AngleAxisd(-theta, Vec3::UnitZ()).toRotationMatrix();
+  for (const char* solver : {"ccfr", "exact_projection"}) {
+    Scene s =
+        floor_and_body(gen::box(Vec3(0.1, 0.1, 0.1)), tilt, Vec3(-1.5 * down) + 0.0551 * normal, solver, mu, theta, 1);
+    Simulation sim(std::move(s));
+    std::vector<double> t, along;
+    for (int f = 1; f <= 60; ++f) {
+      EXPECT_EQ(sim.step_frame().violations_remaining, 0) << solver;
+      t.push_back(f / 60.0);
+      along.push_back(pose_of(sim).c.dot(down));
+    }
+    const double expected = g * (std::sin(theta) - mu * std::cos(theta)), fitted = fitted_acceleration(t, along, 3);
+    test::report_physics(std::string("sliding box: acceleration, ") + solver, expected, fitted, "m/s²");
+    EXPECT_NEAR(fitted, expected, 0.03 * expected) << solver;
+  }
+}
+
+TEST(RigidContact, BoxLaunchedOnAFlatFloorStopsAfterVSquaredOverTwoMuG) {
+  // 5 m/s along x, μ = 0.5: kinetic friction decelerates it at μ g and it stops after
+  // v² / (2 μ g) = 2.548 m, 1.02 s. One floor quad, as above: on the 8 x 8 floor it decelerates at
+  // exactly μ g until its leading edge reaches the floor vertices at x = 0, where it is lifted by
+  // 8 mm and loses 0.9 m/s in one frame (1.956 m).
+  const double g = 9.81, mu = 0.5, v0 = 5.0;
+  for (const char* solver : {"ccfr", "exact_projection"}) {
+    Scene s = floor_and_body(gen::box(Vec3(0.1, 0.1, 0.1)), Eigen::Matrix3d::Identity(), Vec3(-1.5, 0.0551, 0), solver,
+                             mu, 0.0, 1);
+    for (Index v = s.topo.objects[1].vertex_begin; v < s.topo.objects[1].vertex_end; ++v) s.state.v[v] = Vec3(v0, 0, 0);
+    Simulation sim(std::move(s));
+    const double start = pose_of(sim).c.x();
+    for (int f = 1; f <= 80; ++f) EXPECT_EQ(sim.step_frame().violations_remaining, 0) << solver;
+    const double expected = v0 * v0 / (2.0 * mu * g), travelled = pose_of(sim).c.x() - start;
+    test::report_physics(std::string("box launched at 5 m/s: stopping distance, ") + solver, expected, travelled, "m");
+    EXPECT_NEAR(travelled, expected, 0.03 * expected) << solver;
   }
 }
 

@@ -6,12 +6,23 @@
 #include <spdlog/spdlog.h>
 
 #include <atomic>
+#include <cstdio>
 #include <memory>
 #include <mutex>
 #include <random>
 #include <string>
 
 namespace ccfr::test {
+
+/// A closed-form check's measured value, printed as one line `physics|test|quantity|expected|
+/// measured|unit` for scripts/physics-table (docs/results.md, "Physics under contact"), and
+/// recorded as a property of the test in its XML report.
+inline void report_physics(const std::string& quantity, double expected, double measured, const std::string& unit) {
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  const std::string test = info ? std::string(info->test_suite_name()) + "." + info->name() : std::string("?");
+  std::printf("physics|%s|%s|%.6g|%.6g|%s\n", test.c_str(), quantity.c_str(), expected, measured, unit.c_str());
+  ::testing::Test::RecordProperty(quantity, std::to_string(measured));
+}
 
 /// Counts warnings and errors logged through the default logger.
 class CountingSink final : public spdlog::sinks::base_sink<std::mutex> {

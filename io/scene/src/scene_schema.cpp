@@ -85,7 +85,9 @@ const scene::Section<TimeParams>& time_section() {
           .field("damping", &S::damping, "fraction of velocity removed per second", Range{0, 1e3, false, false})
           .field("advance_tolerance", &S::advance_tolerance,
                  "outer iterations stop when no vertex is held back by the step bound by more than tol · r (a "
-                 "vertex may thus arrive up to tol · r short per substep)",
+                 "vertex may thus arrive up to tol · r short per substep; one whose step grows by less than "
+                 "that per substep stays at r per substep, a speed limit of r per substep, so keep it far "
+                 "below a dt² / r for the accelerations a that matter)",
                  Range::unit())
           .field("advance_shortfall", &S::advance_shortfall,
                  "outer iterations also stop when the step bound cut at most this fraction of the pass's total "
@@ -134,6 +136,14 @@ const scene::Section<ContactParams>& contact_section() {
           .field("analytic_obstacles", &S::analytic_obstacles,
                  "obstacles with an analytic shape (sphere, plane, box, cylinder) also collide "
                  "through their exact SDF")
+          .field("momentum", &S::momentum,
+                 "contact carries momentum between its two sides: pairs that the candidate positions bring "
+                 "closer than their offset are closed by an inelastic contact constraint weighted by both sides' "
+                 "inverse masses, and each pair's plane is split between its sides by the motion that leaves "
+                 "(the dividing plane moves with the pair), so a body pushes what it hits instead of stopping "
+                 "at a fixed plane (docs/feasibility.md, \"Momentum through contact\"); false (default): the "
+                 "paper's response (repulsion within δ only) and planes split by mass shares. Not yet for a heavy "
+                 "body on a light pinned cloth, which it stretches")
           .choice("on_violation", &S::on_violation, violation_choices(),
                   "a substep that ends with pairs closer than their offset (or a deformed rigid body): "
                   "`error` stops the run before the frame is written (non-zero exit), `warn` logs at error "

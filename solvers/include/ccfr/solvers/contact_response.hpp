@@ -70,6 +70,31 @@ class ContactResponse {
              double dt, std::span<const double> friction_override, std::span<const double> other_inverse_mass = {});
   Index active() const { return active_; }
 
+  /// Inelastic contact on candidate positions `x` against the anchors the contacts were found at
+  /// (docs/feasibility.md, "Momentum through contact"), in two stages of Jacobi sweeps with mass
+  /// splitting (Tonge et al. 2012: a vertex in n_k overlapping contacts enters each with mass
+  /// m_k / n_k and moves by the mean of their corrections, which keeps every contact balanced;
+  /// plain averaging would not):
+  ///
+  /// 1. the first 3/4 of `sweeps`, the closest points: \f$C = \varphi + \mathbf{n}^\top\sum_k
+  ///    w_k (\mathbf{x}_k - \mathbf{a}_k) \ge 0\f$, \f$\Delta\mathbf{x}_k = m_k^{-1} w_k \mathbf{n}
+  ///    \Delta\lambda\f$: equal and opposite impulses on one line through the closest points, so
+  ///    linear and angular momentum are both kept;
+  /// 2. the rest, every vertex: the regions let each vertex of a side approach the other side by
+  ///    at most that side's share of φ, so the candidates fit a contact's planes iff
+  ///    \f$a_A + a_B \le \varphi\f$, a_A, a_B the sides' largest approaches along ∓n. Where they
+  ///    overlap by E = a_A + a_B - φ > 0, side A gives way by s E and B by (1 - s) E (every vertex
+  ///    beyond its side's allowed approach pulled back to it along n), s chosen by bisection so
+  ///    that both sides' pull-backs carry equal momentum: linear momentum is kept, angular
+  ///    momentum not exactly (the pull-backs act at the vertices that overshoot).
+  ///
+  /// A side with an immovable vertex does not give way; `other_inverse_mass` (per contact, or
+  /// empty) is the generalized inverse mass w_o of a side that answers in its own solve (an
+  /// unpinned rigid body, masked in `inv_mass`): it counts with mass 1 / w_o and is not moved
+  /// here. Mesh neighbours are skipped. Returns the contacts that overlapped in the first sweep.
+  Index separate(Positions& x, const Positions& anchor, std::span<const double> inv_mass, int sweeps,
+                 std::span<const double> other_inverse_mass = {});
+
  private:
   /// Keeps the contacts and computes their visibility weights (grouped through `row_start`/`slots`
   /// when given).
@@ -84,6 +109,8 @@ class ContactResponse {
   std::span<const Index> row_start_, slots_;               ///< the CSR in use: the vectors above or the caller's
   std::vector<Vec3> corr_;               ///< per contact slot: correction of each vertex (4 per contact)
   std::vector<std::uint8_t> is_active_;  ///< per contact, in apply()
+  std::vector<double> separate_dl_;      ///< per contact, in separate(): Δλ of the sweep (0: inactive)
+  std::vector<Index> separate_count_;    ///< per vertex, in separate(): active contacts of the sweep
   bool prepared_repulsion_ = false;      ///< the last prepare() computed weights and buffers
   Index active_ = 0;
 };

@@ -40,6 +40,10 @@ struct StepContext {
   /// it counts (and leaves the others), so time.continuation: held_back can free them for the next
   /// pass. A solver that does not set them leaves that pass a full one.
   std::span<std::uint8_t> violated = {};
+  /// One entry per vertex, or empty: resolve() sets the entry of every vertex it held at a plane
+  /// whose other side moves away (split_by_motion), so time.continuation: held_back frees it for
+  /// the next pass.
+  std::span<std::uint8_t> deferred = {};
 };
 
 /// Counts of one detection pass, as a contact solver reports them (collision's own counters are DetectionStats).
@@ -56,7 +60,8 @@ struct SolveResult {
   Index violations_remaining = 0;  ///< vertices still outside after resolution
   Index halted_vertices = 0;       ///< vertices that fell back to their anchor (halting events)
   /// Vertices held back by the step bound r inside the solver (rigid bodies take the bound as a
-  /// whole body); the substep keeps iterating while any vertex is held back.
+  /// whole body), and contacts whose side was held at a plane the other side vacates
+  /// (split_by_motion); the substep keeps iterating while any vertex is held back.
   Index bounded_vertices = 0;
   Index contact_vertices = 0;  ///< movable vertices with at least one contact in this pass
   /// Plesník results farther from the candidate than the anchor, replaced by the exact projection.

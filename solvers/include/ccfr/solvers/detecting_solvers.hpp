@@ -20,6 +20,11 @@ namespace ccfr {
 /// Detection and response shared by every solver that uses the CCFR narrow phase.
 class DetectingSolver : public ContactSolver {
  public:
+  /// Jacobi sweeps of the inelastic contact (ContactResponse::separate) under contact.momentum.
+  static constexpr int kSeparateSweeps = 32;
+  /// Least room (in units of r) a retreating side must vacate for the pass to be run again for
+  /// the side that follows it (split_by_motion).
+  static constexpr double kDeferredRoom = 0.01;
   void initialize(const Topology& topo, const SimState& state, const SimulationParams& params) override;
   DetectResult detect(const Positions& anchor, const SimState& state, StepContext& ctx) override;
   void respond(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) override;

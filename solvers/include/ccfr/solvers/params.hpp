@@ -27,8 +27,12 @@ struct TimeParams {
   int max_iterations = 0;
   int xpbd_sweeps = 1;  ///< material constraint sweeps per outer iteration
   Vec3 gravity = Vec3(0, -9.81, 0);
-  double damping = 0.0;             ///< fraction of velocity removed per second (0: none)
-  double advance_tolerance = 0.01;  ///< outer iterations stop once no vertex is held back by r by more than tol · r
+  double damping = 0.0;  ///< fraction of velocity removed per second (0: none)
+  /// Outer iterations stop once no vertex is held back by r by more than tol · r. A cut below it is
+  /// kept every substep, so a vertex whose step grows by less than tol · r per substep (a ball
+  /// rolling at r per substep at its top, 1e-6 of r per substep of gravity) is held at r per
+  /// substep for good: the default leaves only rounding.
+  double advance_tolerance = 1e-6;
   /// Also stop once the step bound cut at most this fraction of the pass's total intended advance
   /// (sum over movable vertices), even if a few vertices are still held back; 0 keeps the
   /// per-vertex rule alone. A handful of whipping vertices then no longer costs the whole scene
@@ -67,6 +71,11 @@ struct ContactParams : ContactModel {
   double visibility_width = 0.0;    ///< δ_v: occlusion smoothstep width (0: δ)
   double epsilon = 1e-4;            ///< ε relative to ξ: projectors retract by ε ξ (absolute 1e-6 at ξ = 0.01)
   bool analytic_obstacles = false;  ///< obstacles with an analytic shape also collide through their SDF
+  /// Contact carries momentum between its two sides: inelastic contact on the candidate positions
+  /// (ContactResponse::separate) and region planes split by the motion it leaves (split_by_motion). false (default):
+  /// the paper's response (repulsion within δ) and mass-share planes. Off by default until a heavy body on a light,
+  /// pinned cloth no longer stretches it (docs/feasibility.md, "Momentum through contact").
+  bool momentum = false;
   ViolationPolicy on_violation = ViolationPolicy::automatic;  ///< see ViolationPolicy
 };
 

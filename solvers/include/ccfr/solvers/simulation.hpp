@@ -179,7 +179,7 @@ class Simulation {
   /// time.continuation: held_back: the vertices the last pass held back (then also those of its
   /// violated pairs: the next pass's moving vertices), the vertices of the pairs its recount found
   /// violated, and the true inverse masses while a pass runs with every other vertex's set to 0.
-  std::vector<std::uint8_t> held_marks_, violated_marks_;
+  std::vector<std::uint8_t> held_marks_, violated_marks_, deferred_marks_;
   /// Per vertex: its object was carried only part of its rigid motion this pass (at most r).
   std::vector<std::uint8_t> carry_capped_;
   std::vector<double> inv_mass_saved_;

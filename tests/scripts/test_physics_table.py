@@ -1,0 +1,51 @@
+"""scripts/physics-table on a stand-in test binary written here: the table from its physics lines
+(errors signed, relative to the closed form), a failing test's exit passed on, no binary, and a
+binary that printed no measurement."""
+import os
+import pathlib
+import stat
+import subprocess
+import sys
+
+SCRIPT = pathlib.Path(os.environ.get("CCFR_SOURCE_DIR", pathlib.Path(__file__).resolve().parents[2])) / "scripts" / \
+    "physics-table"
+
+
+def fake_build(tmp_path, lines, code=0):
+    exe = tmp_path / "tests" / "test_solvers"
+    exe.parent.mkdir(parents=True)
+    body = "".join(f"echo '{line}'\n" for line in lines)
+    exe.write_text(f"#!/bin/sh\n{body}exit {code}\n")
+    exe.chmod(exe.stat().st_mode | stat.S_IEXEC)
+    return tmp_path
+
+
+def run(build):
+    r = subprocess.run([sys.executable, str(SCRIPT), str(build)], capture_output=True, text=True)
+    return r.returncode, r.stdout, r.stderr
+
+
+def test_table_from_the_measurements(tmp_path):
+    build = fake_build(tmp_path, ["[ RUN      ] A.b", "physics|A.b|ball: acceleration|2.5|2.4|m/s²",
+                                  "physics|A.c|box: distance|2|2.1|m", "[       OK ] A.b"])
+    code, out, err = run(build)
+    assert code == 0, err
+    rows = out.strip().splitlines()
+    assert rows[0] == "| test | quantity | closed form | measured | error |"
+    assert rows[2] == "| `A.b` | ball: acceleration | 2.5 m/s² | 2.4 m/s² | -4.00 % |"
+    assert rows[3] == "| `A.c` | box: distance | 2 m | 2.1 m | +5.00 % |"
+
+
+def test_a_failing_test_fails_the_table(tmp_path):
+    build = fake_build(tmp_path, ["physics|A.b|x|1|3|m", "[  FAILED  ] A.b"], code=1)
+    code, out, err = run(build)
+    assert code == 1
+    assert "+200.00 %" in out
+    assert "1 failing" in err
+
+
+def test_no_binary_and_no_measurement(tmp_path):
+    code, _, err = run(tmp_path)
+    assert code == 2 and "not found" in err
+    code, _, err = run(fake_build(tmp_path / "b", ["nothing"]))
+    assert code == 2 and "no measurement" in err

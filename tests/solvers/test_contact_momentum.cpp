@@ -1,0 +1,140 @@
+// Contact carries momentum (issue #54, item 1): an impact between two free bodies in free space
+// conserves their total linear momentum and their angular momentum about the common centre, and
+// elastic bodies part again. Independent answer: the momenta before the impact (no external force
+// acts, so nothing may change them), measured from the positions and velocities alone.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "ccfr/geometry/generators.hpp"
+#include "ccfr/solvers/simulation.hpp"
+#include "test_support.hpp"
+
+using namespace ccfr;
+
+namespace {
+
+/// Two soft tet boxes of `size` (cells of size / 6) in zero gravity: `a` of vertex mass m_a at the
+/// origin moving at v_a along +x, `b` of vertex mass m_b a `gap` beyond it along x, shifted by
+/// `lateral` along y (a glancing impact has angular momentum), moving at v_b.
+Scene two_boxes(const std::string& solver, double m_a, double m_b, double v_a, double v_b, double lateral,
+                bool momentum = true) {
+  const double size = 0.06, gap = 0.004;
+  const auto box = gen::tet_box(Vec3(size, size, size), Vec3i(6, 6, 6));
+  TopologyBuilder tb;
+  tb.add_object("a", ObjectKind::tet_solid, static_cast<Index>(box.v.size()), {}, box.t);
+  tb.add_object("b", ObjectKind::tet_solid, static_cast<Index>(box.v.size()), {}, box.t);
+  Scene s;
+  s.topo = tb.finish();
+  s.state.resize(s.topo.num_vertices());
+  const Index n = static_cast<Index>(box.v.size());
+  for (Index i = 0; i < n; ++i)
+    for (Index k = 0; k < 2; ++k) {
+      const Index j = i + k * n;
+      s.state.x[j] = box.v[i] + (k == 0 ? Vec3::Zero() : Vec3(size + gap, lateral, 0));
+      s.state.v[j] = Vec3(k == 0 ? v_a : v_b, 0, 0);
+      s.state.mass[j] = k == 0 ? m_a : m_b;
+      s.state.inv_mass[j] = 1.0 / s.state.mass[j];
+    }
+  s.state.rest = s.state.x_prev = s.state.x;
+  s.params.objects.resize(2);
+  for (auto& o : s.params.objects) {
+    o.material.volume_compliance = 1e-6;
+    o.material.shear_compliance = 1e-5;
+  }
+  s.params.contact.solver = solver;
+  s.params.contact.radius = 0.004;
+  s.params.contact.offset = 0.002;
+  s.params.contact.repulsion_range = 0.0;
+  s.params.contact.momentum = momentum;
+  s.params.time.fps = 60;
+  s.params.time.substeps = 10;
+  s.params.time.iterations = 2;
+  s.params.time.xpbd_sweeps = 8;
+  s.params.time.damping = 0.0;
+  s.params.time.gravity = Vec3::Zero();
+  return s;
+}
+
+struct Momenta {
+  Vec3 p = Vec3::Zero();      ///< total linear momentum
+  Vec3 l = Vec3::Zero();      ///< angular momentum about the common centre of mass
+  double va = 0.0, vb = 0.0;  ///< each body's centre-of-mass velocity along x
+};
+
+Momenta momenta(const Simulation& sim) {
+  const auto& st = sim.scene().state;
+  Momenta m;
+  double total = 0.0;
+  Vec3 c = Vec3::Zero();
+  for (size_t i = 0; i < st.x.size(); ++i) total += st.mass[i], c += st.mass[i] * st.x[i], m.p += st.mass[i] * st.v[i];
+  c /= total;
+  for (size_t i = 0; i < st.x.size(); ++i) m.l += st.mass[i] * (st.x[i] - c).cross(st.v[i]);
+  for (int k = 0; k < 2; ++k) {
+    const auto& o = sim.topology().objects[static_cast<size_t>(k)];
+    double mk = 0.0, pk = 0.0;
+    for (Index v = o.vertex_begin; v < o.vertex_end; ++v) mk += st.mass[v], pk += st.mass[v] * st.v[v].x();
+    (k == 0 ? m.va : m.vb) = pk / mk;
+  }
+  return m;
+}
+
+}  // namespace
+
+class ContactMomentum : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(ContactMomentum, TwoSoftSolidsOfUnequalMassConserveMomentumThroughAHeadOnImpactAndPart) {
+  // a: 343 vertices of 1 g (0.343 kg) at 2 m/s; b: twice as heavy at -0.5 m/s, 4 mm away. Total
+  // momentum 0.343 kg m/s; they meet in the first frame. Measured: within 0.05 % (the paper's
+  // response, below, ends at -0.19: both bounce off a plane that stands still).
+  Simulation sim(two_boxes(GetParam(), 1e-3, 2e-3, 2.0, -0.5, 0.0));
+  const Momenta before = momenta(sim);
+  for (int f = 1; f <= 12; ++f) {
+    const FrameStats fs = sim.step_frame();
+    EXPECT_EQ(fs.violations_remaining, 0) << "frame " << f;
+    EXPECT_NEAR(momenta(sim).p.x(), before.p.x(), 0.02 * std::abs(before.p.x())) << "frame " << f;
+  }
+  const Momenta after = momenta(sim);
+  test::report_physics(std::string("head-on soft solids: momentum after 12 frames, ") + GetParam(), before.p.x(),
+                       after.p.x(), "kg m/s");
+  EXPECT_LT(after.va, 1.0);             // a was stopped by b (it flew at 2 m/s)
+  EXPECT_GT(after.vb - after.va, 0.0);  // and they part again: b moves away from a
+}
+
+TEST_P(ContactMomentum, AGlancingImpactKeepsTheAngularMomentumAboutTheCommonCentre) {
+  // The same pair, b a third of a box above a's axis: the impact turns both. The contact lasts
+  // frames 1-2. Linear momentum within 2 % in every frame; angular momentum within 8 % after the
+  // impact: 5.4 % is lost in it (the regions pull back the vertices of a face that overshoot its
+  // plane, not its closest point) and the spinning soft bodies shed about 0.3 % per frame
+  // without any contact (XPBD's linear prediction). The paper's response loses all of it and more.
+  for (const bool momentum : {true, false}) {
+    Simulation sim(two_boxes(GetParam(), 1e-3, 2e-3, 2.0, -0.5, 0.02, momentum));
+    const Momenta before = momenta(sim);
+    for (int f = 1; f <= 2; ++f) {
+      const FrameStats fs = sim.step_frame();
+      EXPECT_EQ(fs.violations_remaining, 0) << "frame " << f;
+    }
+    const Momenta now = momenta(sim);
+    if (momentum)
+      test::report_physics(std::string("glancing soft solids: angular momentum after the impact, ") + GetParam(),
+                           before.l.z(), now.l.z(), "kg m²/s");
+    if (momentum) {
+      EXPECT_LT((now.p - before.p).norm(), 0.02 * before.p.norm());
+      EXPECT_LT((now.l - before.l).norm(), 0.08 * before.l.norm());
+    } else {
+      EXPECT_GT((now.l - before.l).norm(), 0.5 * before.l.norm());
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Solvers, ContactMomentum, ::testing::Values("ccfr", "exact_projection"));
+
+TEST(ContactMomentum, ThePapersResponseStopsBothBodies) {
+  // contact.momentum: false is the paper's response: the pair's dividing plane stands still, so
+  // the impact takes the pair's centre-of-mass velocity away (what issue #54 measured).
+  Simulation sim(two_boxes("ccfr", 1e-3, 2e-3, 2.0, -0.5, 0.0, false));
+  const Momenta before = momenta(sim);
+  for (int f = 1; f <= 6; ++f) sim.step_frame();
+  EXPECT_LT(std::abs(momenta(sim).p.x()), 0.6 * std::abs(before.p.x()));
+}
