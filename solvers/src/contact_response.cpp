@@ -292,14 +292,6 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
 }
 
 namespace {
-/// One contact's inelastic closure: how far the sides must give way, a share `s` of the overlap
-/// E for side A and 1 - s for B, each vertex of a side pulled back to the side's allowed approach.
-struct Closure {
-  double a[2] = {0.0, 0.0};  ///< largest approach of side A, B toward the other
-  double excess = 0.0;       ///< E = a_A + a_B - G (> 0: the sides overlap)
-  double share = 0.0;        ///< s: A gives way by s E, B by (1 - s) E
-};
-
 /// Approach of vertex k of contact c toward the other side: -n·Δx on side A, n·Δx on side B.
 double approach(const ContactPair& c, int k, const Positions& x, const Positions& anchor) {
   const double along = c.n.dot(x[c.v[k]] - anchor[c.v[k]]);
@@ -316,7 +308,11 @@ Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span
   separate_dl_.resize(static_cast<size_t>(n));
   separate_count_.resize(static_cast<size_t>(nv));
   corr_.resize(static_cast<size_t>(n) * 4);
-  Index closed_first = 0;
+  // Per contact: how far a side that answers in its own solve (w_o > 0, not moved here) has given
+  // way so far, so that later sweeps leave it its share instead of handing it to the other side.
+  separate_given_.assign(other_inverse_mass.empty() ? 0 : static_cast<size_t>(n), 0.0);
+  auto given = [&](Index ci) { return separate_given_.empty() ? 0.0 : separate_given_[static_cast<size_t>(ci)]; };
+  Index most = 0;
   const int first_vertex_sweep = sweeps * 3 / 4;
   for (int sweep = 0; sweep < sweeps; ++sweep) {
     const bool barycentric = sweep < first_vertex_sweep;
@@ -339,17 +335,19 @@ Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span
               moves = moves || inv_mass[c.v[k]] > 0.0;
               at += c.w[k] * (x[c.v[k]] - anchor[c.v[k]]);
             }
-            // Barycentric sweeps: the closest points' approach; then every vertex's.
+            // Barycentric sweeps: the closest points' approach; then every vertex's. Overlaps
+            // below 1e-9 of the offset are rounding, left to the planes.
             const double e_c =
-                barycentric ? -(c.distance - c.offset + c.n.dot(at)) : a[0] + a[1] - (c.distance - c.offset);
-            if (!moves || !(e_c > 0.0)) continue;
+                (barycentric ? -(c.distance - c.offset + c.n.dot(at)) : a[0] + a[1] - (c.distance - c.offset)) -
+                given(ci);
+            if (!moves || !(e_c > 1e-9 * c.offset)) continue;
             excess = e_c;
             ++local;
           }
           closed += local;
         },
         2048);
-    if (sweep == 0) closed_first = closed.load();
+    most = std::max(most, closed.load());
     if (closed.load() == 0) {
       if (!barycentric) break;
       sweep = first_vertex_sweep - 1;  // the closest points are apart: on to every vertex's approach
@@ -379,17 +377,19 @@ Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span
             if (excess == 0.0) continue;
             const ContactPair& c = contacts_[ci];
             const int na = c.side_a(), nk = c.size();
+            const double w_o = other_inverse_mass.empty() ? 0.0 : other_inverse_mass[static_cast<size_t>(ci)];
             if (barycentric) {
-              double wsum = other_inverse_mass.empty() ? 0.0 : other_inverse_mass[static_cast<size_t>(ci)];
+              double wsum = w_o;
               for (int k = 0; k < nk; ++k) {
                 const Index v = c.v[k];
-                if (inv_mass[v] > 0.0)
+                if (v < nv && inv_mass[v] > 0.0)
                   wsum += static_cast<double>(std::max<Index>(1, separate_count_[v])) * c.w[k] * c.w[k] * inv_mass[v];
               }
+              if (w_o > 0.0 && wsum > 0.0) separate_given_[static_cast<size_t>(ci)] += w_o * excess / wsum;
               for (int k = 0; k < nk; ++k) {
                 const Index v = c.v[k];
                 corr_[static_cast<size_t>(ci) * 4 + k] =
-                    wsum > 0.0 && inv_mass[v] > 0.0
+                    wsum > 0.0 && v < nv && inv_mass[v] > 0.0
                         ? Vec3((static_cast<double>(separate_count_[v]) * inv_mass[v] * c.w[k] * excess / wsum) * c.n)
                         : Vec3::Zero();
               }
@@ -412,7 +412,6 @@ Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span
                 mass[k] = 0.0;
               }
             }
-            const double w_o = other_inverse_mass.empty() ? 0.0 : other_inverse_mass[static_cast<size_t>(ci)];
             // Momentum of side's pull-back at share t of E (its vertices beyond a_side - t E).
             auto pulled = [&](int side, double t) {
               if (!free[side] && w_o > 0.0) return t * excess / w_o;  // a rigid body answering for itself
@@ -433,6 +432,9 @@ Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span
                 (pulled(0, mid) < pulled(1, 1.0 - mid) ? lo : hi) = mid;
               }
               share = 0.5 * (lo + hi);
+              for (int side = 0; side < 2; ++side)
+                if (!free[side] && w_o > 0.0)
+                  separate_given_[static_cast<size_t>(ci)] += (side == 0 ? share : 1.0 - share) * excess;
             }
             for (int k = 0; k < nk; ++k) {
               const int side = k < na ? 0 : 1;
@@ -460,7 +462,7 @@ Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span
         },
         4096);
   }
-  return closed_first;
+  return most;
 }
 
 }  // namespace ccfr

@@ -26,7 +26,9 @@ Index split_by_motion(RegionSet& regions, std::span<const ContactPair> contacts,
         for (Index ci = b; ci < e; ++ci) {
           const ContactPair& c = contacts[ci];
           RegionRecord& rec = regions.records[static_cast<size_t>(ci)];
-          if (rec.n != c.n) continue;  // a turned plane (scripted vertices on a side): kept
+          // A turned plane (scripted vertices on a side) and mesh neighbours (their distance is the
+          // material's; the response leaves them too) keep the paper's split.
+          if (rec.n != c.n || c.neighbours) continue;
           const double gap = rec.d[0] + rec.d[1];
           if (!(gap >= 0.0)) continue;
           const int na = c.side_a(), nk = c.size();

@@ -91,7 +91,9 @@ class ContactResponse {
   /// A side with an immovable vertex does not give way; `other_inverse_mass` (per contact, or
   /// empty) is the generalized inverse mass w_o of a side that answers in its own solve (an
   /// unpinned rigid body, masked in `inv_mass`): it counts with mass 1 / w_o and is not moved
-  /// here. Mesh neighbours are skipped. Returns the contacts that overlapped in the first sweep.
+  /// here: the part of each overlap it takes is kept for it across the sweeps (the pose solve
+  /// moves it). Mesh neighbours are skipped, and overlaps below 1e-9 of the offset (rounding).
+  /// Returns the most contacts that overlapped in one sweep.
   Index separate(Positions& x, const Positions& anchor, std::span<const double> inv_mass, int sweeps,
                  std::span<const double> other_inverse_mass = {});
 
@@ -111,6 +113,7 @@ class ContactResponse {
   std::vector<std::uint8_t> is_active_;  ///< per contact, in apply()
   std::vector<double> separate_dl_;      ///< per contact, in separate(): Δλ of the sweep (0: inactive)
   std::vector<Index> separate_count_;    ///< per vertex, in separate(): active contacts of the sweep
+  std::vector<double> separate_given_;   ///< per contact, in separate(): a self-answering side's give so far
   bool prepared_repulsion_ = false;      ///< the last prepare() computed weights and buffers
   Index active_ = 0;
 };

@@ -12,8 +12,8 @@
 namespace ccfr {
 
 /// Rewrites the plane offsets {d_A, d_B} of every contact whose vertices all have inverse mass > 0,
-/// whose record is the plain one (normal n, d_A + d_B = G >= 0: no scripted vertex, no turned
-/// plane), by the candidates `x` against the anchors:
+/// that is not between mesh neighbours, and whose record is the plain one (normal n, d_A + d_B = G >= 0: no scripted
+/// vertex, no turned plane), by the candidates `x` against the anchors:
 ///
 /// \f[ a_A = \max_{k \in A} -\mathbf{n}\cdot(\mathbf{x}_k - \mathbf{a}_k), \quad
 ///     a_B = \max_{k \in B} \mathbf{n}\cdot(\mathbf{x}_k - \mathbf{a}_k), \quad
