@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "ccfr/core/parallel.hpp"
+#include "ccfr/geometry/distance.hpp"
 
 namespace ccfr {
 
@@ -74,6 +75,106 @@ Index split_by_motion(RegionSet& regions, std::span<const ContactPair> contacts,
       },
       2048);
   return held.load();
+}
+
+namespace {
+/// Direction from side B's closest point to side A's at x (not normalised; zero where they meet).
+Vec3 closest_direction(const ContactPair& c, const Positions& x) {
+  switch (c.kind) {
+    case ContactKind::vf:
+      return x[c.v[0]] - point_triangle(x[c.v[0]], x[c.v[1]], x[c.v[2]], x[c.v[3]]).closest;
+    case ContactKind::ee: {
+      const EdgeEdgeResult r = edge_edge(x[c.v[0]], x[c.v[1]], x[c.v[2]], x[c.v[3]]);
+      return r.pa - r.pb;
+    }
+    case ContactKind::ve:
+      return x[c.v[0]] - point_edge(x[c.v[0]], x[c.v[1]], x[c.v[2]]).closest;
+    case ContactKind::vv:
+      return x[c.v[0]] - x[c.v[1]];
+  }
+  return Vec3::Zero();
+}
+
+/// G(m) over the anchors (turn_by_motion).
+double gap_along(const ContactPair& c, const Vec3& m, const Positions& anchor) {
+  double lo_a = std::numeric_limits<double>::infinity(), hi_b = -lo_a;
+  for (int k = 0; k < c.size(); ++k) {
+    const double along = m.dot(anchor[c.v[k]]);
+    if (k < c.side_a())
+      lo_a = std::min(lo_a, along);
+    else
+      hi_b = std::max(hi_b, along);
+  }
+  return lo_a - hi_b - c.offset;
+}
+
+/// Summed shortfall of the movable candidates from their planes (m, d_A) and (-m, d_B), each
+/// plane's target raised to the repulsion's reach max(0, δ - d_other) (turn_by_motion).
+double shortfall_along(const ContactPair& c, const Vec3& m, double d_a, double d_b, double reach,
+                       const Positions& anchor, const Positions& x, std::span<const double> inv_mass) {
+  const double want_a = std::max(0.0, reach - d_b), want_b = std::max(0.0, reach - d_a);
+  double shortfall = 0.0;
+  for (int k = 0; k < c.size(); ++k) {
+    const Index v = c.v[k];
+    if (!(inv_mass[v] > 0.0)) continue;
+    const double along = m.dot(x[v] - anchor[v]);
+    shortfall += k < c.side_a() ? std::max(0.0, want_a - along - d_a) : std::max(0.0, want_b + along - d_b);
+  }
+  return shortfall;
+}
+}  // namespace
+
+Index turn_by_motion(std::span<ContactPair> contacts, RegionSet& regions, const Positions& anchor, const Positions& x,
+                     std::span<const double> inv_mass, std::span<const Vec3> kinematic_step, double repulsion_range) {
+  if (regions.records.size() != contacts.size()) return 0;
+  const double reach = std::max(0.0, repulsion_range);
+  std::atomic<Index> count{0};
+  parallel_for(
+      static_cast<Index>(contacts.size()),
+      [&](Index b, Index e) {
+        Index local = 0;
+        for (Index ci = b; ci < e; ++ci) {
+          ContactPair& c = contacts[static_cast<size_t>(ci)];
+          RegionRecord& rec = regions.records[static_cast<size_t>(ci)];
+          const double gap = rec.d[0] + rec.d[1];
+          if (rec.n != c.n || c.neighbours || !(gap > 0.0)) continue;
+          bool scripted = false;
+          for (int k = 0; k < c.size() && !kinematic_step.empty(); ++k)
+            scripted = scripted || kinematic_step[c.v[k]] != Vec3::Zero();
+          if (scripted) continue;
+          double best = shortfall_along(c, c.n, rec.d[0], rec.d[1], reach, anchor, x, inv_mass);
+          if (!(best > 0.0)) continue;
+          const Vec3 toward = closest_direction(c, x);
+          const double len = toward.norm();
+          // Where the candidates have crossed (m₁ against n) its direction is not a surface's.
+          if (!(len > 1e-12) || !(toward.dot(c.n) > 0.0)) continue;
+          // A turn must at least halve the shortfall, so only a plane that blocks the motion
+          // turns: turning every pair for a sliver of shortfall (m₁ is a resting pair's n up to
+          // the candidates' jitter) let the three cubes' friction fail and one slide off the floor.
+          const double first = best;
+          const double s_a = rec.d[0] / gap;
+          const Vec3 n = c.n;
+          for (const double t : {1.0, 0.5}) {
+            const Vec3 u = (1.0 - t) * n + (t / len) * toward;
+            const double ul = u.norm();
+            if (!(ul > 1e-12)) continue;
+            const Vec3 m = u / ul;
+            const double g = gap_along(c, m, anchor);
+            if (!(g >= 0.0)) continue;
+            const double d_a = s_a * g, d_b = g - d_a;
+            const double here = shortfall_along(c, m, d_a, d_b, reach, anchor, x, inv_mass);
+            if (!(here < best && here <= 0.5 * first)) continue;
+            best = here;
+            rec = {m, {d_a, d_b}};
+            c.n = m;
+            c.distance = g + c.offset;
+          }
+          local += c.n != n;
+        }
+        count += local;
+      },
+      2048);
+  return count.load();
 }
 
 }  // namespace ccfr

@@ -27,6 +27,11 @@ std::span<const double> RegionProjectionSolver::response_mass(const SimState& st
 }
 
 void RegionProjectionSolver::respond(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) {
+  // Planes (and their repulsion) turned toward the candidates' closest points where that is sound
+  // and lets them slide, before the response and the projection act along them.
+  if (ctx.params.contact.sliding)
+    turn_by_motion(contacts_, regions_, anchor, x, state.inv_mass, ctx.kinematic_step,
+                   ctx.params.contact.repulsion_range);
   if (rigid_.empty()) return DetectingSolver::respond(x, anchor, state, ctx);
   // Unpinned rigid bodies respond in their pose solve (enforce), with their generalized masses:
   // here they count as fixed (a vertex's own mass gave a rigid body a far too weak impulse).

@@ -236,18 +236,7 @@ TEST(RigidContact, CylinderOnASlopeRollsOrSlidesAsFrictionDictates) {
   }
 }
 
-/// Least-squares acceleration of s(t) = s0 + v0 t + a t²/2 over the samples from `skip` on.
-double fitted_acceleration(const std::vector<double>& t, const std::vector<double>& s, size_t skip) {
-  const Index rows = static_cast<Index>(t.size() - skip);
-  Eigen::MatrixXd a_mat(rows, 3);
-  Eigen::VectorXd b_vec(rows);
-  for (Index j = 0; j < rows; ++j) {
-    const double tj = t[static_cast<size_t>(j) + skip];
-    a_mat.row(j) << 1.0, tj, 0.5 * tj * tj;
-    b_vec[j] = s[static_cast<size_t>(j) + skip];
-  }
-  return a_mat.colPivHouseholderQr().solve(b_vec)[2];
-}
+using test::fitted_acceleration;
 
 TEST(RigidContact, BallRollsDownAnInclineAtFiveSeventhsOfGSinThetaWithoutASpeedLimit) {
   // Issue #54: a ball rolling without slipping (μ = 0.4 >= 2/7 tan 20° = 0.10) accelerates at
@@ -284,16 +273,16 @@ TEST(RigidContact, BallRollsDownAnInclineAtFiveSeventhsOfGSinThetaWithoutASpeedL
 }
 
 TEST(RigidContact, BoxSlidesDownAnInclineAtGTimesSinMinusMuCos) {
-  // A 0.1 m cube on a 20° slope with μ = 0.2 < tan 20°: a = g (sin θ - μ cos θ) = 1.511 m/s².
-  // The slope is one quad: on the 8 x 8 floor the box's leading edge is caught by each floor vertex
-  // it passes over (the vertex-face plane tilts toward it, and the pose solve lifts the box along
-  // it): 1.374 m/s² (docs/results.md, "Physics under contact").
+  // A 0.1 m cube on a 20° slope with μ = 0.2 < tan 20°: a = g (sin θ - μ cos θ) = 1.511 m/s², over
+  // the 8 x 8 floor's vertices. The closest-point planes alone (contact.sliding off) tilt against
+  // the box's leading edge at each floor vertex it reaches, and their repulsion lifts it:
+  // 1.374 m/s² (docs/results.md, "Physics under contact").
   const double theta = 20.0 * kPi / 180.0, g = 9.81, mu = 0.2;
   const Vec3 normal(std::sin(theta), std::cos(theta), 0.0), down(std::cos(theta), -std::sin(theta), 0.0);
   const Eigen::Matrix3d tilt = Eigen::AngleAxisd(-theta, Vec3::UnitZ()).toRotationMatrix();
   for (const char* solver : {"ccfr", "exact_projection"}) {
     Scene s =
-        floor_and_body(gen::box(Vec3(0.1, 0.1, 0.1)), tilt, Vec3(-1.5 * down) + 0.0551 * normal, solver, mu, theta, 1);
+        floor_and_body(gen::box(Vec3(0.1, 0.1, 0.1)), tilt, Vec3(-1.5 * down) + 0.0551 * normal, solver, mu, theta);
     Simulation sim(std::move(s));
     std::vector<double> t, along;
     for (int f = 1; f <= 60; ++f) {
@@ -309,13 +298,13 @@ TEST(RigidContact, BoxSlidesDownAnInclineAtGTimesSinMinusMuCos) {
 
 TEST(RigidContact, BoxLaunchedOnAFlatFloorStopsAfterVSquaredOverTwoMuG) {
   // 5 m/s along x, μ = 0.5: kinetic friction decelerates it at μ g and it stops after
-  // v² / (2 μ g) = 2.548 m, 1.02 s. One floor quad, as above: on the 8 x 8 floor it decelerates at
-  // exactly μ g until its leading edge reaches the floor vertices at x = 0, where it is lifted by
-  // 8 mm and loses 0.9 m/s in one frame (1.956 m).
+  // v² / (2 μ g) = 2.548 m, 1.02 s, over the 8 x 8 floor. With the closest-point planes alone
+  // (contact.sliding off) it is lifted by 8 mm where its leading edge reaches the floor vertices at
+  // x = 0 and loses 0.9 m/s in one frame (1.956 m).
   const double g = 9.81, mu = 0.5, v0 = 5.0;
   for (const char* solver : {"ccfr", "exact_projection"}) {
-    Scene s = floor_and_body(gen::box(Vec3(0.1, 0.1, 0.1)), Eigen::Matrix3d::Identity(), Vec3(-1.5, 0.0551, 0), solver,
-                             mu, 0.0, 1);
+    Scene s =
+        floor_and_body(gen::box(Vec3(0.1, 0.1, 0.1)), Eigen::Matrix3d::Identity(), Vec3(-1.5, 0.0551, 0), solver, mu);
     for (Index v = s.topo.objects[1].vertex_begin; v < s.topo.objects[1].vertex_end; ++v) s.state.v[v] = Vec3(v0, 0, 0);
     Simulation sim(std::move(s));
     const double start = pose_of(sim).c.x();
@@ -404,17 +393,6 @@ Vec3 centre_of(const Simulation& sim, size_t oi) {
     c += st.mass[v] * st.x[v];
   }
   return c / total;
-}
-
-/// Least-squares acceleration of s(t) = s0 + v0 t + a t²/2 over the samples.
-double fitted_acceleration(const std::vector<double>& t, const std::vector<double>& s) {
-  Eigen::MatrixXd a_mat(static_cast<Index>(t.size()), 3);
-  Eigen::VectorXd b_vec(a_mat.rows());
-  for (Index j = 0; j < a_mat.rows(); ++j) {
-    a_mat.row(j) << 1.0, t[j], 0.5 * t[j] * t[j];
-    b_vec[j] = s[j];
-  }
-  return a_mat.colPivHouseholderQr().solve(b_vec)[2];
 }
 
 TEST(RigidContact, BoxOnAConveyorSlipsUnderKineticFrictionOnTheRelativeSlip) {

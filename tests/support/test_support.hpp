@@ -11,6 +11,9 @@
 #include <mutex>
 #include <random>
 #include <string>
+#include <vector>
+
+#include <Eigen/Dense>
 
 namespace ccfr::test {
 
@@ -22,6 +25,19 @@ inline void report_physics(const std::string& quantity, double expected, double 
   const std::string test = info ? std::string(info->test_suite_name()) + "." + info->name() : std::string("?");
   std::printf("physics|%s|%s|%.6g|%.6g|%s\n", test.c_str(), quantity.c_str(), expected, measured, unit.c_str());
   ::testing::Test::RecordProperty(quantity, std::to_string(measured));
+}
+
+/// Least-squares acceleration of s(t) = s0 + v0 t + a t²/2 over the samples from `skip` on.
+inline double fitted_acceleration(const std::vector<double>& t, const std::vector<double>& s, size_t skip = 0) {
+  const Eigen::Index rows = static_cast<Eigen::Index>(t.size() - skip);
+  Eigen::MatrixXd a_mat(rows, 3);
+  Eigen::VectorXd b_vec(rows);
+  for (Eigen::Index j = 0; j < rows; ++j) {
+    const double tj = t[static_cast<size_t>(j) + skip];
+    a_mat.row(j) << 1.0, tj, 0.5 * tj * tj;
+    b_vec[j] = s[static_cast<size_t>(j) + skip];
+  }
+  return a_mat.colPivHouseholderQr().solve(b_vec)[2];
 }
 
 /// Counts warnings and errors logged through the default logger.

@@ -144,6 +144,12 @@ const scene::Section<ContactParams>& contact_section() {
                  "at a fixed plane (docs/feasibility.md, \"Momentum through contact\"); false (default): the "
                  "paper's response (repulsion within δ only) and planes split by mass shares. Not yet for a heavy "
                  "body on a light pinned cloth, which it stretches")
+          .field("sliding", &S::sliding,
+                 "each pair's separating plane may turn toward the pair's closest-point direction at the "
+                 "candidate positions, where the turned plane still keeps the pair's current positions at least "
+                 "its offset apart and cuts the candidates less, so that a body or a cloth slides over a "
+                 "tessellated surface instead of being lifted or held back at its vertices (docs/feasibility.md, "
+                 "\"Sliding planes\"); false: the paper's closest-point planes only (region-projection solvers)")
           .choice("on_violation", &S::on_violation, violation_choices(),
                   "a substep that ends with pairs closer than their offset (or a deformed rigid body): "
                   "`error` stops the run before the frame is written (non-zero exit), `warn` logs at error "

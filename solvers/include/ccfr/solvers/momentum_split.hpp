@@ -5,6 +5,7 @@
 /// "Momentum through contact").
 #include <cstdint>
 #include <span>
+#include <vector>
 
 #include "ccfr/collision/collision_detector.hpp"
 #include "ccfr/feasibility/region.hpp"
@@ -38,5 +39,29 @@ namespace ccfr {
 Index split_by_motion(RegionSet& regions, std::span<const ContactPair> contacts, const Positions& anchor,
                       const Positions& x, std::span<const double> inv_mass, std::span<const double> responds,
                       double min_room, std::span<std::uint8_t> deferred = {});
+
+/// Turns every plain contact (record normal n = the contact's, d_A + d_B = G > 0, not mesh
+/// neighbours, no scripted vertex moving this substep) whose candidates `x` its plane cuts or its
+/// repulsion reaches (within δ = `repulsion_range` of the pair's gap) toward the pair's
+/// closest-point direction at the candidates, m₁, where that leaves them less short:
+///
+/// \f[ G(\mathbf{m}) = \min_{k \in A} \mathbf{m}\cdot\mathbf{a}_k - \max_{k \in B} \mathbf{m}\cdot\mathbf{a}_k
+///     - \xi_{pair}, \qquad d_A = s_A\,G(\mathbf{m}),\ d_B = s_B\,G(\mathbf{m}) \f]
+///
+/// over the anchors a_k, with the record's own shares s_A = d_A / G. Any unit m with G(m) >= 0
+/// separates the pair's anchors by its offset, so the separating-plane argument (design
+/// clarification 4) holds for it as for the closest-point normal, which maximises G. m is tried at
+/// m₁ and half-way from n, and kept where G(m) >= 0 and the candidates' summed shortfall
+/// \f$ \sum_k \max(0, \max(0, \delta - d_{other}) - \mathbf{m}\cdot(\mathbf{x}_k - \mathbf{a}_k)\,\sigma_k - d_{side})
+/// \f$ (σ = +1 on side A, -1 on B: the plane's cut and the repulsion's reach) shrinks. The contact then carries m and
+/// G(m) + ξ as its normal and distance, so that its record, the response's repulsion and friction and a rigid body's
+/// pose solve all act along m.
+///
+/// This lets a body slide over a tessellated surface: a floor vertex ahead of a box's edge has a
+/// closest-point normal tilted against the motion, and its plane and repulsion lifted the box (or
+/// held a cloth's vertex back) where the turned one, the floor's own normal, lets it pass. Returns
+/// the count turned; regions whose records are not one per contact are left as they are.
+Index turn_by_motion(std::span<ContactPair> contacts, RegionSet& regions, const Positions& anchor, const Positions& x,
+                     std::span<const double> inv_mass, std::span<const Vec3> kinematic_step, double repulsion_range);
 
 }  // namespace ccfr

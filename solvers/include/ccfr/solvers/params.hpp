@@ -76,6 +76,10 @@ struct ContactParams : ContactModel {
   /// the paper's response (repulsion within δ) and mass-share planes. Off by default until a heavy body on a light,
   /// pinned cloth no longer stretches it (docs/feasibility.md, "Momentum through contact").
   bool momentum = false;
+  /// Each pair's plane may turn toward the candidates' closest-point direction where that keeps the
+  /// anchors apart by the offset and cuts the candidates less (turn_by_motion): bodies and cloth
+  /// slide over tessellated surfaces instead of being lifted or held at their vertices.
+  bool sliding = true;
   ViolationPolicy on_violation = ViolationPolicy::automatic;  ///< see ViolationPolicy
 };
 
