@@ -448,17 +448,6 @@ struct AllKeysSink {
   void vv(Index a, Index b) { keys.push_back(sub_pair_key(ContactKind::vv, std::min(a, b), std::max(a, b))); }
 };
 
-/// Whether segment (p, q) properly crosses the interior of triangle (a, b, c), with exact
-/// orientation signs (a floating-point orient reported crossings inside a convex tet box).
-/// Touching and coplanar contact are left out on purpose: they put a vertex-face or edge-edge
-/// sub-pair at distance 0, which the initial-proximity rule handles.
-bool segment_crosses_triangle(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c) {
-  const int sp = exact::orient3d(a, b, c, p), sq = exact::orient3d(a, b, c, q);
-  if (sp == 0 || sp != -sq) return false;
-  const int s0 = exact::orient3d(p, q, a, b), s1 = exact::orient3d(p, q, b, c), s2 = exact::orient3d(p, q, c, a);
-  return s0 != 0 && s0 == s1 && s1 == s2;
-}
-
 /// Squared distance of a sub-pair given by its key at positions x.
 double key_distance_sq(const Topology& topo, const Positions& x, std::uint64_t key) {
   constexpr std::uint64_t kMask = (std::uint64_t{1} << 31) - 1;
@@ -557,7 +546,8 @@ void CollisionDetector::compute_exclusions(const Positions& initial) {
       const Vec3i& fa = topo_.faces[p];
       bool crosses = false;
       auto tri_crossed_by = [&](const Vec3i& f, const Vec2i& e) {
-        return segment_crosses_triangle(initial[e[0]], initial[e[1]], initial[f[0]], initial[f[1]], initial[f[2]]);
+        return exact::segment_crosses_triangle(initial[e[0]], initial[e[1]], initial[f[0]], initial[f[1]],
+                                               initial[f[2]]);
       };
       if (kq == PrimitiveKind::triangle) {
         if (prims_.face_no_self[p] && topo_.face_object[p] == topo_.face_object[q]) continue;

@@ -7,6 +7,7 @@
 #include "ccfr/core/log.hpp"
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/geometry/distance.hpp"
+#include "ccfr/geometry_exact/predicates.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -121,7 +122,7 @@ Index DetectingSolver::contact_vertex_count(std::span<const double> inv_mass) co
   return n;
 }
 
-std::optional<Index> DetectingSolver::count_outside(const Positions& x, const Positions&, const SimState&,
+std::optional<Index> DetectingSolver::count_outside(const Positions& x, const Positions&, const SimState& state,
                                                     StepContext& ctx) const {
   const double keep = 1.0 - ctx.params.debug.audit_tolerance;
   // One rounding scale for every contact's bound: the largest |x|_1 (NaN or infinity if any
@@ -156,6 +157,12 @@ std::optional<Index> DetectingSolver::count_outside(const Positions& x, const Po
         close += local;
       },
       2048);
+  // Distances alone miss a primitive swallowed whole: a scripted face that passes over a halted
+  // vertex leaves it inside the solid, farther than the offset from every face, and the next pass
+  // would push it deeper along the inward normal. An edge at a vertex-face pair's vertex that
+  // crosses the face now and did not at the substep's start is counted as a violation.
+  const Index crossed = count_new_crossings(x, state.x_prev, ctx, first);
+  close += crossed;
   if (close.load() > 0 && !ctx.violated.empty()) {
     // The violated pairs' vertices and every vertex they share a contact with: a pair inside its
     // offset needs the room its neighbours give (with them fixed, its region can be empty).
@@ -173,7 +180,14 @@ std::optional<Index> DetectingSolver::count_outside(const Positions& x, const Po
         },
         4096);
   }
-  if (close.load() > 0) {
+  if (crossed > 0 && first.load() == crossing_first_) {  // the lowest-numbered violation is a crossing
+    const ContactPair& c = contacts_[first.load()];
+    last_violation_ = "segment through a face: edge " + std::to_string(crossing_edge_) + " of '" +
+                      ctx.topo.object_of_vertex(c.v[0]).name + "' (vertex " + std::to_string(c.v[0]) +
+                      ") through the face of '" + ctx.topo.object_of_vertex(c.v[1]).name + "' (vertices " +
+                      std::to_string(c.v[1]) + ", " + std::to_string(c.v[2]) + ", " + std::to_string(c.v[3]) +
+                      "), crossed in this substep (a face that passed over a held vertex)";
+  } else if (close.load() > 0) {
     // The lowest-numbered violation, so the message does not depend on the thread count.
     const ContactPair& c = contacts_[first.load()];
     const auto& topo = ctx.topo;
@@ -186,6 +200,65 @@ std::optional<Index> DetectingSolver::count_outside(const Positions& x, const Po
                                    pair_distance(c, x) / c.offset, c.offset);
   }
   return close.load();
+}
+
+Index DetectingSolver::count_new_crossings(const Positions& x, const Positions& x_start, StepContext& ctx,
+                                           std::atomic<Index>& first) const {
+  const Topology& topo = ctx.topo;
+  crossing_first_ = std::numeric_limits<Index>::max();
+  if (x_start.size() != x.size()) return 0;
+  // The edge at contact i's vertex that crosses its face at x and did not at x_start, or -1.
+  auto crossing_edge = [&](Index i) -> Index {
+    const ContactPair& c = contacts_[i];
+    if (c.kind != ContactKind::vf) return -1;
+    const Index v = c.v[0];
+    const Vec3 &a0 = x[c.v[1]], &a1 = x[c.v[2]], &a2 = x[c.v[3]];
+    const Vec3 normal = (a1 - a0).cross(a2 - a0);
+    const double side_v = normal.dot(x[v] - a0);
+    for (Index k = topo.vertex_edges.row_start[v]; k < topo.vertex_edges.row_start[v + 1]; ++k) {
+      const Vec2i& edge = topo.edges[topo.vertex_edges.indices[k]];
+      const Index w = edge[0] == v ? edge[1] : edge[0];
+      if (w == c.v[1] || w == c.v[2] || w == c.v[3]) continue;  // an edge to the face itself
+      // A sure same side in floating point needs no exact predicate (the common case).
+      const double side_w = normal.dot(x[w] - a0);
+      const double slack = 1e-9 * normal.norm() * ((x[v] - a0).norm() + (x[w] - a0).norm());
+      if ((side_v > slack && side_w > slack) || (side_v < -slack && side_w < -slack)) continue;
+      if (exact::segment_crosses_triangle(x[v], x[w], a0, a1, a2) &&
+          !exact::segment_crosses_triangle(x_start[v], x_start[w], x_start[c.v[1]], x_start[c.v[2]], x_start[c.v[3]]))
+        return topo.vertex_edges.indices[k];
+    }
+    return -1;
+  };
+  std::atomic<Index> crossed{0};
+  std::atomic<Index> lowest{std::numeric_limits<Index>::max()};
+  parallel_for(
+      static_cast<Index>(contacts_.size()),
+      [&](Index b, Index e) {
+        Index local = 0;
+        for (Index i = b; i < e; ++i) {
+          if (crossing_edge(i) < 0) continue;
+          ++local;
+          const ContactPair& c = contacts_[i];
+          if (!ctx.violated.empty())
+            for (int k = 0; k < c.size(); ++k)
+              std::atomic_ref<std::uint8_t>(pair_marks_[c.v[k]]).store(1, std::memory_order_relaxed);
+          Index cur = lowest.load();
+          while (i < cur && !lowest.compare_exchange_weak(cur, i)) {
+          }
+        }
+        crossed += local;
+      },
+      2048);
+  if (crossed.load() == 0) return 0;
+  const Index mine = lowest.load();
+  Index cur = first.load();
+  while (mine < cur && !first.compare_exchange_weak(cur, mine)) {
+  }
+  if (first.load() == mine) {
+    crossing_first_ = mine;
+    crossing_edge_ = crossing_edge(mine);
+  }
+  return crossed.load();
 }
 
 std::vector<ContactSolver::ClosePair> DetectingSolver::close_pairs(const Positions& x, double keep, size_t max) const {

@@ -357,6 +357,49 @@ TEST(Guarantee, RecountMarksTheVerticesAroundEveryViolatedPair) {
   EXPECT_EQ(marks, std::vector<std::uint8_t>(6, 0));
 }
 
+// A face that passes over a held vertex swallows it: the vertex ends beyond the face, farther than
+// ξ from it, and a distance recount sees nothing. A strand segment (0, 1) hangs 6 mm above a fixed
+// triangle (ξ = 4 mm); then its lower vertex is put 6 mm below the triangle's interior, the upper one
+// stays: the segment crosses the face, every vertex-face and edge-edge pair is still farther than ξ.
+// Control: the same drop beside the triangle crosses nothing.
+TEST(Guarantee, RecountCountsASegmentSwallowedByAFaceThatDistancesMiss) {
+  TopologyBuilder tb;
+  tb.add_object("floor", ObjectKind::obstacle, 3, {Vec3i(0, 1, 2)});
+  tb.add_object("strand", ObjectKind::strand, 2, {}, {}, {{0, 1}});
+  Scene s;
+  s.topo = tb.finish();
+  s.state.resize(5);
+  s.state.x = {Vec3(-0.1, 0, -0.1), Vec3(0.1, 0, -0.1), Vec3(0, 0, 0.1), Vec3(0, 0.026, 0), Vec3(0, 0.006, 0)};
+  for (Index v = 3; v < 5; ++v) s.state.mass[v] = 1e-3, s.state.inv_mass[v] = 1e3;
+  s.state.rest = s.state.x_prev = s.state.x;
+  s.params.objects.resize(2);
+  s.params.contact.radius = 0.01;
+  s.params.contact.offset = 0.004;
+  for (const char* name : {"ccfr", "exact_projection"}) {
+    auto solver = make_contact_solver(name);
+    solver->initialize(s.topo, s.state, s.params);
+    StageTimes times;
+    StepContext ctx{s.topo, s.params, 1.0 / 240.0, 1, 0, 0, times};
+    solver->detect(s.state.x, s.state, ctx);
+    Positions x = s.state.x;
+    x[4] = Vec3(0, -0.006, 0);  // through the face's interior
+    std::vector<std::uint8_t> marks(5, 0);
+    ctx.violated = marks;
+    EXPECT_EQ(solver->count_outside(x, s.state.x, s.state, ctx), 1) << name;
+    EXPECT_EQ(marks[4], 1) << name;
+    EXPECT_NE(solver->last_violation().find("segment through a face"), std::string::npos) << solver->last_violation();
+    // Its distance to the face is above ξ: only the crossing tells.
+    EXPECT_GT(std::sqrt(point_triangle(x[4], x[0], x[1], x[2]).distance_sq), 0.004);
+    x[4] = Vec3(0.3, -0.006, 0);  // the same depth beside the triangle: no crossing
+    EXPECT_EQ(solver->count_outside(x, s.state.x, s.state, ctx), 0) << name;
+    // A segment that already crossed at the substep's start is not counted again here.
+    SimState started = s.state;
+    started.x_prev[4] = Vec3(0, -0.006, 0);
+    x[4] = Vec3(0.001, -0.006, 0);
+    EXPECT_EQ(solver->count_outside(x, s.state.x, started, ctx), 0) << name;
+  }
+}
+
 TEST(Guarantee, ScriptedStepsBeyondTheRadiusSubdivideOrStopWithAClearError) {
   auto make = [](int max_subdivision) {
     Scene s = test::floor_puck_scene(0.5, 0.0, "ccfr");

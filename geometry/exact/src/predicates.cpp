@@ -108,6 +108,13 @@ int orient3d(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
   return static_cast<int>(CGAL::orientation(pt<K>(a), pt<K>(b), pt<K>(c), pt<K>(d)));
 }
 
+bool segment_crosses_triangle(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const int sp = orient3d(a, b, c, p), sq = orient3d(a, b, c, q);
+  if (sp == 0 || sp != -sq) return false;
+  const int s0 = orient3d(p, q, a, b), s1 = orient3d(p, q, b, c), s2 = orient3d(p, q, c, a);
+  return s0 != 0 && s0 == s1 && s1 == s2;
+}
+
 bool triangles_intersect(const Vec3& a0, const Vec3& a1, const Vec3& a2, const Vec3& b0, const Vec3& b1,
                          const Vec3& b2) {
   return intersect(reduce(a0, a1, a2), reduce(b0, b1, b2));

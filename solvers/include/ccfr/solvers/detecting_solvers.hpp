@@ -6,6 +6,7 @@
 /// - `successive_projection`: the same regions, naive cyclic projection (related work);
 /// - `post_process`: conventional XPBD thickness constraints on pairs inside ξ, no regions.
 /// All share the contact response (repulsion within δ, friction).
+#include <atomic>
 #include <memory>
 
 #include "ccfr/collision/collision_detector.hpp"
@@ -69,7 +70,13 @@ class DetectingSolver : public ContactSolver {
   ContactResponse response_;
   std::vector<double> friction_override_;  ///< #V: material friction of the vertex's object (< 0: global)
   mutable std::string last_violation_;
-  mutable std::vector<std::uint8_t> pair_marks_;  ///< #V: vertices of the pairs count_outside() counted
+  mutable std::vector<std::uint8_t> pair_marks_;           ///< #V: vertices of the pairs count_outside() counted
+  mutable Index crossing_first_ = 0, crossing_edge_ = -1;  ///< the first crossing counted, for the message
+  /// Vertex-face contacts with an edge at their vertex that crosses the face at x but not at
+  /// x_start (a primitive swallowed in the substep); marks their vertices like a close pair and
+  /// lowers `first` to the lowest such contact. Exact predicates where floating point is unsure.
+  Index count_new_crossings(const Positions& x, const Positions& x_start, StepContext& ctx,
+                            std::atomic<Index>& first) const;
   Index num_vertices_ = 0;                   ///< #V of the scene (the regions are empty before the first detection)
   std::vector<std::uint8_t> contact_marks_;  ///< #V: in contact during frame `contact_marks_frame_`
   int contact_marks_frame_ = -1;

@@ -23,6 +23,11 @@ bool triangles_intersect(const Vec3& a0, const Vec3& a1, const Vec3& a2, const V
                          const Vec3& b2);
 /// True iff the closed segment (p, q) and the closed triangle (a, b, c) share a point.
 bool segment_triangle_intersect(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c);
+/// True iff segment (p, q) properly crosses the interior of triangle (a, b, c): its ends strictly
+/// on opposite sides of the triangle's plane and the crossing strictly inside (exact orientation
+/// signs). Touching and coplanar contact are left out: they put a vertex-face or edge-edge sub-pair
+/// at distance 0, which distance checks see.
+bool segment_crosses_triangle(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c);
 /// True iff the closed segments (p0, p1) and (q0, q1) share a point.
 bool segments_intersect(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1);
 
