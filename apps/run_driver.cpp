@@ -32,7 +32,13 @@ namespace {
 // The signal that asked the run to stop (SIGINT or SIGTERM), 0 while none did. The frame being
 // computed is finished and written before the run stops.
 std::atomic<int> g_stop_signal{0};
-extern "C" void on_stop_signal(int sig) { g_stop_signal = sig; }
+std::atomic<int> g_stop_count{0};  // signals received: a second one abandons the frame in progress
+extern "C" void on_stop_signal(int sig) {
+  g_stop_signal = sig;
+  ++g_stop_count;
+}
+/// Seconds a frame in progress may still run after the first stop signal before it is abandoned.
+constexpr double kStopGraceS = 10.0;
 
 std::vector<std::string>& invocation() {
   static std::vector<std::string> argv;
@@ -45,6 +51,7 @@ class SignalScope {
  public:
   SignalScope() {
     g_stop_signal = 0;
+    g_stop_count = 0;
     int_ = std::signal(SIGINT, on_stop_signal);
     term_ = std::signal(SIGTERM, on_stop_signal);
     xfsz_ = std::signal(SIGXFSZ, SIG_IGN);
@@ -270,6 +277,14 @@ RunSummary run_scene(const RunOptions& opts) {
   std::shared_ptr<exact::PenetrationAudit> audit;
   if (params.debug.audit != AuditMode::off)
     sim.set_audit(io::make_audit_hook(sim.topology(), sim.positions(), params, &audit));
+  // A second stop signal, or kStopGraceS after the first, abandons the frame in progress.
+  sim.set_cancel([first = std::optional<std::chrono::steady_clock::time_point>()]() mutable {
+    if (g_stop_count == 0) return false;
+    if (g_stop_count >= 2) return true;
+    const auto now = std::chrono::steady_clock::now();
+    if (!first) first = now;
+    return std::chrono::duration<double>(now - *first).count() >= kStopGraceS;
+  });
   int first_frame = 1;
   if (resume) {
     const io::Checkpoint& c = resume->ckpt;
@@ -377,6 +392,16 @@ RunSummary run_scene(const RunOptions& opts) {
     FrameStats fs;
     try {
       fs = sim.step_frame();
+    } catch (const FrameInterrupted& e) {
+      // A frame too long to finish after a stop signal: every frame on disk stays whole, and
+      // --resume continues from the last checkpoint.
+      const int sig = g_stop_signal;
+      summary.status = (sig == SIGTERM ? "terminated during frame " : "interrupted during frame ") + std::to_string(f) +
+                       " (" + e.what() + ")";
+      summary.failed = true;
+      summary.stop_signal = sig;
+      spdlog::warn("{}", summary.status);
+      break;
     } catch (const Error& e) {
       // Non-finite positions, a broken guarantee, scripted motion beyond the bound: the frame
       // being computed is not written; every frame on disk stays whole and clean.
