@@ -264,6 +264,10 @@ RunSummary run_scene(const RunOptions& opts) {
   summary.violations_opted_out = params.contact.on_violation == ViolationPolicy::warn;
 
   if (resume) {
+    // Before anything counts frames up to it (a hand-edited frame 2147483647 stat-ed files for hours).
+    if (const int at = resume->ckpt.sim.frame; at < 0 || at > params.time.frames)
+      throw Error("checkpoint '" + resume->file.string() + "' is at frame " + std::to_string(at) +
+                  (at < 0 ? ", not a frame" : ", beyond the run's " + std::to_string(params.time.frames) + " frames"));
     const io::RunInfo info = io::read_run_info(opts.resume);
     if (info.progress.status == "completed") {
       summary.nothing_to_resume = true;
@@ -297,9 +301,6 @@ RunSummary run_scene(const RunOptions& opts) {
     } catch (const Error& e) {
       throw Error("checkpoint '" + resume->file.string() + "' does not fit its scene: " + e.what());
     }
-    if (c.sim.frame > params.time.frames)
-      throw Error("checkpoint '" + resume->file.string() + "' is at frame " + std::to_string(c.sim.frame) +
-                  ", beyond the run's " + std::to_string(params.time.frames) + " frames");
     first_frame = c.sim.frame + 1;
     summary.resumed_after = c.sim.frame;
     summary.violated_frames = static_cast<size_t>(c.violated_frames);
