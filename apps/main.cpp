@@ -1,6 +1,7 @@
 // The ccfr command line: run, audit, ablate, bench, render.
 #include <CLI/CLI.hpp>
 
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -34,8 +35,8 @@ void readable_checks(CLI::App& app) {
       const bool strict = desc == "POSITIVE";
       v->operation([strict](std::string& in) {
         double x = 0;
-        if (!CLI::detail::lexical_cast(in, x) || !(strict ? x > 0 : x >= 0))
-          return "Value " + in + " out of range: must be a number " + (strict ? "> 0" : ">= 0");
+        if (!CLI::detail::lexical_cast(in, x) || !(strict ? x > 0 : x >= 0) || !std::isfinite(x))
+          return "Value " + in + " out of range: must be a finite number " + (strict ? "> 0" : ">= 0");
         return std::string();
       });
     }

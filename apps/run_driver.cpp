@@ -109,7 +109,15 @@ void add_run_options(CLI::App* cmd, RunOptions& opts) {
   cmd->add_option("--max-memory", opts.max_memory,
                   "Largest estimated memory (GB) the scene may need to load (overrides max_memory; default: what "
                   "the machine has available). Raise it knowingly: a scene above the machine's memory is OOM-killed")
-      ->check(CLI::NonNegativeNumber);
+      ->check(CLI::Validator(
+          [](std::string& in) {
+            // max_memory's range; below a megabyte no scene loads, so a tiny value is a typo (not 0).
+            double v = 0;
+            if (!CLI::detail::lexical_cast(in, v) || !(v == 0 || (v >= 1e-3 && v <= 1e6)))
+              return "Value " + in + " out of range: give GB in [0.001, 1000000], or 0 for what the machine has";
+            return std::string();
+          },
+          "GB", "max memory"));
   cmd->add_option("--threads", opts.threads, "Worker threads (default: all cores)")->check(CLI::NonNegativeNumber);
 }
 
@@ -225,7 +233,7 @@ RunSummary run_scene(const RunOptions& opts) {
   std::vector<std::string> overrides = resume ? resume->ckpt.overrides : opts.overrides;
   if (!resume && opts.frames >= 0) overrides.push_back("time.frames=" + std::to_string(opts.frames));
   if (!resume && !opts.solver.empty()) overrides.push_back("contact.solver=" + opts.solver);
-  if (!resume && opts.max_memory >= 0) overrides.push_back("max_memory=" + std::to_string(opts.max_memory));
+  if (!resume && opts.max_memory >= 0) overrides.push_back(ccfr::format("max_memory={}", opts.max_memory));
   set_thread_count(opts.threads);
 
   const std::filesystem::path config = resume ? resume->ckpt.scene_file : opts.config;

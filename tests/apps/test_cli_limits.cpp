@@ -117,6 +117,20 @@ TEST(CliLimits, ARunThatOutgrowsItsMemoryStopsWithItsFramesWhole) {
   EXPECT_TRUE(fs::exists(d / "out" / "frames" / "frame_00003.obj"));
 }
 
+// --max-memory below a megabyte used to print as 0.000000 and mean "no limit"; inf was reported as
+// `--set max_memory=inf`. Both are now the option's own errors.
+TEST(CliLimits, MaxMemoryTinyOrInfiniteNamesTheOption) {
+  const fs::path d = scene_dir();
+  const std::string base = "run " + (d / "s.yaml").string() + " --out " + (d / "out").string() + " --force";
+  for (const char* v : {"1e-7", "inf", "nan", "2e6"}) {
+    const Result r = run(base + " --max-memory " + v);
+    EXPECT_NE(r.code, 0) << v << ": " << r.out;
+    EXPECT_TRUE(has(r, "--max-memory")) << r.out;
+    EXPECT_FALSE(has(r, "--set max_memory")) << r.out;
+    EXPECT_FALSE(fs::exists(d / "out" / "run.json")) << r.out;
+  }
+}
+
 // A frame too long to finish (10000 substeps of 10000 sweeps) still stops on a second SIGINT:
 // the frame in progress is abandoned, the frames on disk stay whole. It used to need SIGKILL.
 TEST(CliLimits, ASecondSignalAbandonsALongFrame) {
