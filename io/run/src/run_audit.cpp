@@ -105,6 +105,20 @@ std::string jnum(double v) {
 
 }  // namespace
 
+void check_frame_sequence(const fs::path& dir, long first, std::optional<long> every, const std::string& who) {
+  const std::vector<FrameFile> frames = frame_files(dir);
+  const std::vector<long> missing = missing_frames(frames, first, every);
+  if (missing.empty()) return;
+  std::string list;
+  for (size_t i = 0; i < missing.size() && i < 20; ++i) list += (i ? ", " : "") + std::to_string(missing[i]);
+  if (missing.size() > 20) list += " and " + std::to_string(missing.size() - 20) + " more";
+  throw Error("'" + (dir / "frames").string() +
+              "' has a gap: " + (missing.size() >= kMaxListedMissing ? "at least " : "") +
+              std::to_string(missing.size()) + " frame" + (missing.size() == 1 ? " is" : "s are") +
+              " missing between frame " + std::to_string(first) + " and frame " + std::to_string(frames.back().number) +
+              " (" + list + "); " + who + " a whole sequence only: restore the frames or run again");
+}
+
 RunAuditResult audit_run(const fs::path& dir, const RunAuditOptions& o, const FrameAuditCallback& on_frame,
                          const std::function<void(const RunAuditResult&)>& on_start) {
   if (!fs::is_directory(dir)) throw Error("'" + dir.string() + "' is not a directory");
@@ -145,21 +159,9 @@ RunAuditResult audit_run(const fs::path& dir, const RunAuditOptions& o, const Fr
   }
 
   // A sequence with a hole certifies nothing about the hole: refuse it, naming what is missing.
-  {
-    const long first = o.reference.empty() ? 0 : frames.front().number;
-    const std::vector<long> missing =
-        missing_frames(frames, first, info.has_run_json ? std::optional<long>(info.meta.every) : std::optional<long>());
-    if (!missing.empty()) {
-      std::string list;
-      for (size_t i = 0; i < missing.size() && i < 20; ++i) list += (i ? ", " : "") + std::to_string(missing[i]);
-      if (missing.size() > 20) list += " and " + std::to_string(missing.size() - 20) + " more";
-      throw Error(
-          "'" + (dir / "frames").string() + "' has a gap: " + (missing.size() >= kMaxListedMissing ? "at least " : "") +
-          std::to_string(missing.size()) + " frame" + (missing.size() == 1 ? " is" : "s are") +
-          " missing between frame " + std::to_string(first) + " and frame " + std::to_string(frames.back().number) +
-          " (" + list + "); the audit certifies a whole sequence only: restore the frames or run again");
-    }
-  }
+  check_frame_sequence(dir, o.reference.empty() ? 0 : frames.front().number,
+                       info.has_run_json ? std::optional<long>(info.meta.every) : std::optional<long>(),
+                       "the audit certifies");
 
   // Frames 0, K, 2K, ... (by position on disk) and always the last one.
   const size_t stride = static_cast<size_t>(res.stride);
