@@ -493,3 +493,35 @@ TEST(Audit, AMovingCombIsCleanForTheRunAndTheAudit) {
   r = run("audit " + (d / "out").string() + " --offset 0.04");
   EXPECT_EQ(r.code, 1) << r.out;
 }
+
+// Frames of another scene under this run's run.json: their vertex count differs from the run's,
+// and the audit refuses them instead of certifying them (it used to PASS).
+TEST(Audit, FramesWithAnotherVertexCountThanTheRunAreRefused) {
+  const fs::path d = scratch("foreign_vertices");
+  std::ofstream(d / "run.json")
+      << R"({"scene": "x", "solver": "ccfr", "radius": 0.02, "offset": 0.01, "repulsion_range": 0, "fps": 60, )"
+      << R"("status": "completed", "frames_written": 2, "vertices": 29})"
+      << "\n";
+  write_frame(d, 0, kClean);
+  write_frame(d, 1, kClean);
+  const auto r = run("audit " + d.string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("has 6 vertices, but"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("records 29"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("PASS"), std::string::npos) << r.out;
+}
+
+// --offset beyond the scene's size excludes every pair as close in frame 0, so anything would
+// pass: it is refused, naming the option and the size.
+TEST(Audit, AnOffsetBeyondTheSceneIsRefused) {
+  const fs::path d = scratch("huge_offset");
+  write_frame(d, 0, kClean);
+  write_frame(d, 1, kCrossing);
+  for (const char* offset : {"1e300", "10"}) {
+    const auto r = run("audit " + d.string() + " --offset " + offset);
+    EXPECT_EQ(r.code, 2) << offset << ": " << r.out;
+    EXPECT_NE(r.out.find("is larger than the scene"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("--offset "), std::string::npos) << r.out;
+  }
+  EXPECT_EQ(run("audit " + d.string() + " --offset 0.01").code, 1);
+}

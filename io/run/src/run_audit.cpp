@@ -5,11 +5,13 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <optional>
 #include <utility>
 #include <vector>
 
 #include "ccfr/core/error.hpp"
+#include "ccfr/core/log.hpp"
 #include "ccfr/io/frame_topology.hpp"
 #include "ccfr/io/obj.hpp"
 #include "ccfr/io/run_json.hpp"
@@ -173,6 +175,26 @@ RunAuditResult audit_run(const fs::path& dir, const RunAuditOptions& o, const Fr
 
   const auto t0 = std::chrono::steady_clock::now();
   const Frame reference = read_frame_obj(res.reference);
+  // Frames of another scene certify nothing about this run: run.json counts the run's vertices.
+  if (info.has_run_json && info.progress.vertices > 0 &&
+      static_cast<long>(reference.v.size()) != info.progress.vertices)
+    throw Error("'" + res.reference.string() + "' has " + std::to_string(reference.v.size()) + " vertices, but '" +
+                (dir / "run.json").string() + "' records " + std::to_string(info.progress.vertices) +
+                ": these frames are not this run's; audit the run that wrote them");
+  // An offset beyond the scene's size excludes every pair as close in frame 0 and passes anything.
+  if (o.offset) {
+    Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+    for (const Vec3& x : reference.v) {
+      lo = lo.cwiseMin(x);
+      hi = hi.cwiseMax(x);
+    }
+    const double size = reference.v.empty() ? 0.0 : (hi - lo).norm();
+    if (!(*o.offset <= size))
+      throw Error(
+          ccfr::format("--offset {} is larger than the scene (the diagonal of the box of '{}' is {} m): every "
+                       "pair would be excluded as close in frame 0; give the run's offset xi",
+                       *o.offset, res.reference.string(), size));
+  }
   exact::AuditOptions opt;
   opt.offset = res.offset;
   opt.tolerance = o.tolerance;
