@@ -374,3 +374,18 @@ TEST(BadInput, TinyFpsScaleAndAnAuditToleranceOfOneAreRangeErrors) {
   EXPECT_EQ(e.key_path(), "debug.audit_tolerance");
   EXPECT_TRUE(has(e, "[0, 1)")) << e.what();
 }
+
+// Keys that would do nothing for the object they are on: refused naming the key and the kind.
+TEST(BadInput, MotionOnADeformableAndTetgenSettingsWithoutTetgenAreRefused) {
+  auto e = config_error(with(kBase, "resolution: [4, 4]}", "resolution: [4, 4]}\n    motion: {velocity: [0, 1, 0]}"));
+  EXPECT_EQ(e.key_path(), "objects[0].motion");
+  EXPECT_EQ(e.line(), 11);
+  EXPECT_TRUE(has(e, "only obstacles follow `motion`")) << e.what();
+  EXPECT_TRUE(has(e, "pins[].motion")) << e.what();
+  const fs::path obj = mesh_dir() / "tri.obj";
+  std::ofstream(obj) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+  e = config_error(shape("{type: mesh, path: " + obj.string() + ", quality: 1.5}"));
+  EXPECT_EQ(e.key_path(), "objects[0].shape.quality");
+  EXPECT_TRUE(has(e, "applies only to a tet_solid")) << e.what();
+  EXPECT_NO_THROW(io::load_scene_text(shape("{type: mesh, path: " + obj.string() + "}"), "scene.yaml", "."));
+}
