@@ -176,7 +176,8 @@ void check_frames_before(const std::filesystem::path& dir, const Resume& r, cons
     }
     std::ifstream fin(p);
     std::string header;
-    if (unreadable.empty() && (!fin || !std::getline(fin, header) || header != "# ccfr frame")) unreadable = p.string();
+    if (unreadable.empty() && (!fin || !std::getline(fin, header) || header.rfind("# ccfr frame", 0) != 0))
+      unreadable = p.string();
   }
   const std::string why = "cannot resume '" + dir.string() + "' from '" + r.file.string() + "' (frame " +
                           std::to_string(r.ckpt.sim.frame) + "): ";

@@ -525,3 +525,26 @@ TEST(Audit, AnOffsetBeyondTheSceneIsRefused) {
   }
   EXPECT_EQ(run("audit " + d.string() + " --offset 0.01").code, 1);
 }
+
+// Another run's frames of the same topology (the sheet placed elsewhere): the vertex count fits,
+// but each frame carries its run's scene fingerprint, which differs from run.json's.
+TEST(Audit, FramesOfAnotherSceneWithTheSameTopologyAreRefused) {
+  const fs::path d = ccfr::test::scratch_dir("audit_other_fingerprint");
+  const auto scene = [&](const std::string& name, const std::string& y) {
+    return ccfr::test::write_text(d, name,
+                                  "time: {frames: 2}\nobjects:\n  - {name: sheet, kind: cloth, shape: {type: grid, "
+                                  "size: [0.1, 0.1], resolution: [2, 2]}, transform: {translate: [0, " +
+                                      y + ", 0]}}\n");
+  };
+  for (const auto& [name, y] : {std::pair<std::string, std::string>{"a", "0"}, {"b", "1"}}) {
+    const auto r = run("run " + scene(name + ".yaml", y).string() + " --out " + (d / name).string() + " -q");
+    ASSERT_EQ(r.code, 0) << r.out;
+  }
+  EXPECT_EQ(run("audit " + (d / "a").string()).code, 0);
+  fs::remove_all(d / "a" / "frames");
+  fs::copy(d / "b" / "frames", d / "a" / "frames");
+  const auto r = run("audit " + (d / "a").string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("scene fingerprint"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("not this run's"), std::string::npos) << r.out;
+}

@@ -287,7 +287,8 @@ void RunWriter::make_sinks() {
         if (spec.type == ParamType::number) params.set(spec.key, v.get<double>());
         if (spec.type == ParamType::choice) params.set(spec.key, v.get<std::string>());
       }
-    sinks_.push_back(make_frame_sink(f, FrameSinkContext{topo_, meta_.fps, meta_.every, std::move(others)}, params));
+    sinks_.push_back(make_frame_sink(
+        f, FrameSinkContext{topo_, meta_.fps, meta_.every, std::move(others), true, meta_.scene_fingerprint}, params));
   }
 }
 

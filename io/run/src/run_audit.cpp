@@ -223,6 +223,14 @@ RunAuditResult audit_run(const fs::path& dir, const RunAuditOptions& o, const Fr
   for (const size_t i : picks) {
     const fs::path& path = frames[i].path;
     const Frame fr = path == res.reference ? reference : read_frame_obj(path);
+    // Frames a run wrote carry its scene fingerprint: another scene's frames (same topology,
+    // other positions or masses) are not this run's.
+    if (info.meta.scene_fingerprint != 0 && reference.scene_fingerprint != 0 &&
+        fr.scene_fingerprint != info.meta.scene_fingerprint)
+      throw Error(
+          ccfr::format("'{}' was written by a run of scene fingerprint {:016x}, but '{}' records {:016x}: "
+                       "these frames are not this run's; audit the run that wrote them",
+                       path.string(), fr.scene_fingerprint, (dir / "run.json").string(), info.meta.scene_fingerprint));
     if (!same_structure(reference, fr)) {
       topology_from_frame(fr, path);  // names the offending line if the frame itself is malformed
       throw Error("the topology of '" + path.string() + "' differs from the reference '" + res.reference.string() +
