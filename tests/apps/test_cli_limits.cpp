@@ -168,3 +168,13 @@ TEST(CliLimits, ASecondSignalAbandonsALongFrame) {
   EXPECT_FALSE(fs::exists(out / "frames" / "frame_00001.obj")) << log;
   EXPECT_NE(ccfr::test::read_text(out / "run.json").find("interrupted during frame 1"), std::string::npos);
 }
+
+// A solver's range error prints a huge value as 1e+300, not its 301 digits.
+TEST(CliLimits, HugeValuesInSolverErrorsAreShort) {
+  const fs::path d = scene_dir();
+  const Result r = run("run " + (d / "s.yaml").string() + " --out " + (d / "out").string() +
+                       " --set contact.solver=dat --set contact.dat.query_radius=1e300");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(has(r, "contact.dat.query_radius: 1e+300 must be")) << r.out;
+  EXPECT_FALSE(has(r, "100000000000000005")) << r.out;
+}
