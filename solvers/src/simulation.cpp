@@ -748,6 +748,13 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
       if (capped > 0) {
         // A body carried only part of its way has not reached its intended advance: held back.
         end.held_back += capped;
+        // Its farthest vertex names it in the warning of a capped speed, as for held-back ones.
+        if (!end.worst)
+          for (Index i = 0; i < nv; ++i)
+            if (carry_capped_[i]) {
+              const double len = (material_solved_[i] - anchor_[i]).norm();
+              if (!end.worst || len > end.worst_length) end.worst = i, end.worst_length = len;
+            }
         if (local)
           for (size_t i = 0; i < held_marks_.size(); ++i) held_marks_[i] |= carry_capped_[i];
       }

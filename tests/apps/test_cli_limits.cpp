@@ -178,3 +178,17 @@ TEST(CliLimits, HugeValuesInSolverErrorsAreShort) {
   EXPECT_TRUE(has(r, "contact.dat.query_radius: 1e+300 must be")) << r.out;
   EXPECT_FALSE(has(r, "100000000000000005")) << r.out;
 }
+
+// contact.radius 1e-9 freezes a lone cloth: its carry (a body touching nothing moves rigidly, at
+// most r per pass) is capped every pass. The capped speed is said, as stats.csv's
+// clamped_vertices promises, not only counted.
+TEST(CliLimits, ATinyRadiusThatFreezesALoneClothIsWarnedAbout) {
+  const fs::path d = ccfr::test::scratch_dir("tiny_radius");
+  std::ofstream(d / "s.yaml")
+      << "time: {frames: 1, substeps: 1}\ncontact: {radius: 1e-9}\nobjects:\n"
+         "  - {name: sheet, kind: cloth, shape: {type: grid, size: [1, 1], resolution: [4, 4]}}\n";
+  const Result r = run("run " + (d / "s.yaml").string() + " --out " + (d / "out").string());
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(has(r, "object 'sheet' wants to move")) << r.out;
+  EXPECT_TRUE(has(r, "counted in clamped_vertices")) << r.out;
+}
