@@ -130,6 +130,16 @@ TEST(SweepSpec, BadSpecsNameFileKeyAndLine) {
   expect_refused(spec, c + "solvers: [ccfr, ccfr]\n", {"share the id"});
   expect_refused(spec, c + "cell_time_limit: 1:2:3:4\n", {spec.string() + ":2:", "cell_time_limit", "'1:2:3:4'"});
   expect_refused(spec, c + "cell_time_limit: 0\n", {"cell_time_limit", "positive duration"});
+  // One value written three ways would run three identical cells.
+  expect_refused(spec, c + "parameters:\n  contact.offset: [1.0e-2, 0.01, 0.010]\n",
+                 {spec.string() + ":3:", "parameters.contact.offset[1]", "'0.01' is the value of [0] ('1.0e-2')"});
+  // In zip, only a pair repeated in every list.
+  expect_refused(spec,
+                 c + "parameters:\n  contact.offset: [0.01, 0.02, 1e-2]\n  contact.radius: [0.005, 0.005, 0.005]\n"
+                     "combine: zip\n",
+                 {"parameters.contact.offset[2]", "again in every list"});
+  write(spec, c + "parameters:\n  contact.offset: [0.01, 0.02]\n  contact.radius: [0.005, 0.005]\ncombine: zip\n");
+  EXPECT_EQ(ccfr::io::load_sweep_spec(spec).cells.size(), 2u);
 }
 
 // Slurm's --time forms, each against its value in seconds worked out by hand; anything else is -1.
