@@ -438,3 +438,28 @@ TEST(Sweep, SlurmStatusShowsFramesAndResumeWithoutSlurmConf) {
   EXPECT_NE(r.out.find("resuming " + running_id + " (lost)"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("array 1, 1 cells"), std::string::npos) << r.out;
 }
+
+// Slurm refuses array indices at or above MaxArraySize (1001 by default): a sweep past the
+// cluster's is refused with the reason before anything is written (it submitted --array=0-9999).
+TEST(Sweep, ASlurmSweepPastMaxArraySizeIsRefusedBeforeSubmitting) {
+  const fs::path d = ccfr::test::scratch_dir("sweep_slurm_array_size");
+  const fs::path bin = d / "bin", out = d / "sweep";
+  write_fake_slurm(bin);
+  write(bin / "scontrol", "#!/bin/sh\necho 'MaxArraySize            = 3'\n");
+  fs::permissions(bin / "scontrol", fs::perms::owner_all, fs::perm_options::replace);
+  write(d / "s.yaml", "configs: [" + cfg("stress/cloth_near_floor.yaml") +
+                          "]\nsolvers: [ccfr, none]\nparameters: {contact.offset: [0.008, 0.01]}\nframes: 1\n");
+  auto r = run_with_slurm(bin, "/fake/slurm.conf",
+                          "sweep '" + (d / "s.yaml").string() + "' --out '" + out.string() + "' --backend slurm");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("MaxArraySize is 3 (`scontrol show config`)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("task index 3 (4 cells)"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("submitted job"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(out / "sweep.json")) << r.out;
+  // Within it, the same grid submits.
+  write(bin / "scontrol", "#!/bin/sh\necho 'MaxArraySize            = 4'\n");
+  r = run_with_slurm(bin, "/fake/slurm.conf",
+                     "sweep '" + (d / "s.yaml").string() + "' --out '" + out.string() + "' --backend slurm");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("submitted job 4242"), std::string::npos) << r.out;
+}
