@@ -227,6 +227,22 @@ TEST(CliErrors, PlotRefusesAForeignStatsCsvAndPrintsTheFileItWrote) {
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(fs::exists(d / "base.png")) << r.out;
   EXPECT_TRUE(has(r, "plot: " + (d / "base.png").string() + " in ")) << r.out;
+  // A folder as --out gets stats.png inside it, not DIR.png beside it.
+  fs::create_directories(d / "pngs");
+  const CliResult in_dir = run_ccfr("plot " + q(d / "run") + " --out " + q(d / "pngs"));
+  EXPECT_EQ(in_dir.code, 0) << in_dir.out;
+  EXPECT_TRUE(fs::exists(d / "pngs" / "stats.png")) << in_dir.out;
+  EXPECT_FALSE(fs::exists(d / "pngs.png")) << in_dir.out;
+}
+
+// bench --frames 0 has nothing to measure: said so, not blamed on the default --warmup 0.
+TEST(CliErrors, BenchWithoutFramesSaysSo) {
+  const fs::path d = ccfr::test::scratch_dir("cli_errors_bench0");
+  const CliResult r = run_ccfr("bench " + q(scene(d)) + " --frames 0");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(has(r, "at least one frame to measure")) << r.out;
+  EXPECT_TRUE(has(r, "--frames is 0")) << r.out;
+  EXPECT_FALSE(has(r, "--warmup")) << r.out;
 }
 
 // Permission denied on a directory in the path (EACCES from stat). Root passes every permission
