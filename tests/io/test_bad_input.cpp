@@ -389,3 +389,20 @@ TEST(BadInput, MotionOnADeformableAndTetgenSettingsWithoutTetgenAreRefused) {
   EXPECT_TRUE(has(e, "applies only to a tet_solid")) << e.what();
   EXPECT_NO_THROW(io::load_scene_text(shape("{type: mesh, path: " + obj.string() + "}"), "scene.yaml", "."));
 }
+
+// Two pin groups moving one vertex differently: only the last would act. Overlapping groups that
+// hold it alike stay fine.
+TEST(BadInput, AVertexInTwoPinGroupsMovingDifferentlyIsRefused) {
+  const std::string pins = std::string(kBase) +
+                           "    pins:\n"
+                           "      - {indices: [0, 1], motion: {velocity: [0, 1, 0]}}\n"
+                           "      - {indices: [1, 2], motion: {velocity: [0, -1, 0]}}\n";
+  const auto e = config_error(pins);
+  EXPECT_EQ(e.key_path(), "objects[0].pins[1]");
+  EXPECT_EQ(e.line(), 13);
+  EXPECT_TRUE(has(e, "vertex 1 is also in objects[0].pins[0]")) << e.what();
+  const std::string alike =
+      std::string(kBase) +
+      "    pins:\n      - {indices: [0, 1]}\n      - {box_min: [-1, -1, -1], box_max: [1, 1, 1]}\n";
+  EXPECT_NO_THROW(io::load_scene_text(alike, "scene.yaml", "."));
+}
