@@ -406,3 +406,11 @@ TEST(BadInput, AVertexInTwoPinGroupsMovingDifferentlyIsRefused) {
       "    pins:\n      - {indices: [0, 1]}\n      - {box_min: [-1, -1, -1], box_max: [1, 1, 1]}\n";
   EXPECT_NO_THROW(io::load_scene_text(alike, "scene.yaml", "."));
 }
+
+// A NUL in a key (YAML's "\0") cut the printed message at it; control characters show as \xNN.
+TEST(BadInput, ControlCharactersInKeysArePrintedEscaped) {
+  const auto e = config_error(with(kBase, "  frames: 2", "  frames: 2\n  \"ab\\0cd\": 1"));
+  EXPECT_EQ(e.key_path(), "time.ab\\x00cd");
+  EXPECT_TRUE(has(e, "unknown key 'ab\\x00cd'")) << e.what();
+  EXPECT_EQ(std::string(e.what()).find('\0'), std::string::npos);
+}
