@@ -102,7 +102,15 @@ std::string invocation_string() {
 
 void add_run_options(CLI::App* cmd, RunOptions& opts) {
   cmd->add_option("--frames", opts.frames, "Frames to simulate (default: time.frames of the scene)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(CLI::Validator(
+          [](std::string& in) {
+            long long v = 0;
+            if (!CLI::detail::lexical_cast(in, v) || v < 0 || v > io::kMaxFrames)
+              return "Value " + in + " out of range: must be an integer >= 0 and at most " +
+                     std::to_string(io::kMaxFrames) + " (time.frames' bound)";
+            return std::string();
+          },
+          "INT in [0, 1e7]", "frames"));
   cmd->add_option("--solver", opts.solver, "Contact solver (overrides contact.solver)");
   cmd->add_option("--set", opts.overrides,
                   "Override a scene key: key.path=value (repeatable), e.g. --set contact.radius=0.01");

@@ -192,3 +192,12 @@ TEST(CliLimits, ATinyRadiusThatFreezesALoneClothIsWarnedAbout) {
   EXPECT_TRUE(has(r, "object 'sheet' wants to move")) << r.out;
   EXPECT_TRUE(has(r, "counted in clamped_vertices")) << r.out;
 }
+
+// --frames takes time.frames' bound itself: it used to be reported as `--set time.frames=N`.
+TEST(CliLimits, FramesBeyondTheBoundNameTheOption) {
+  const fs::path d = scene_dir();
+  const Result r = run("run " + (d / "s.yaml").string() + " --out " + (d / "out").string() + " --frames 20000000");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(has(r, "--frames")) << r.out;
+  EXPECT_FALSE(has(r, "--set time.frames")) << r.out;
+}

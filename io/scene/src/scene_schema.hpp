@@ -1,4 +1,5 @@
 #pragma once
+#include "ccfr/io/scene_loader.hpp"
 #include "ccfr/solvers/kinematics.hpp"
 #include "ccfr/solvers/params.hpp"
 #include "scene/bind.hpp"
@@ -27,7 +28,6 @@ inline constexpr double kMinScale = 1e-6;
 inline constexpr long long kMaxCount = 10000;
 inline constexpr long long kMaxIterations = 1024;
 inline constexpr long long kMaxOuterIterations = 4096;  ///< time.max_iterations, time.max_subdivision
-inline constexpr long long kMaxFrames = 10000000;       ///< time.frames, output.every, checkpoint_every
 /// XPBD compliances (m/N, 1/(N m), 1/Pa): 1e6 is softer than any material (the defaults are 0 to
 /// 1e-3); 1e308 overflowed α / Δt² to inf and the run stopped on a non-finite position.
 inline constexpr double kMaxCompliance = 1e6;
