@@ -58,14 +58,16 @@ std::vector<std::pair<long, fs::path>> list_frame_files(const fs::path& frames) 
 
 bool is_temp_name(const std::string& name) { return name.find(".tmp") != std::string::npos; }
 
-// Temporary files of a crashed run: run.json.tmpPID, frames/frame_NNNNN.obj.tmpPID.
+// Temporary files of a crashed run: run.json.tmpPID, frames/frame_NNNNN.obj.tmpPID,
+// checkpoints/checkpoint_NNNNN.ccfr.tmpPID (a SIGKILL during a checkpoint's write).
 void remove_stale_temporaries(const fs::path& dir) {
   std::error_code ec;
-  for (const fs::path& d : {dir, dir / "frames"}) {
+  for (const fs::path& d : {dir, dir / "frames", dir / "checkpoints"}) {
     if (!fs::is_directory(d, ec)) continue;
     for (const auto& e : fs::directory_iterator(d, ec)) {
       const std::string n = e.path().filename().string();
-      if ((n.rfind("frame_", 0) == 0 || n.rfind("run.json", 0) == 0) && is_temp_name(n) && e.is_regular_file(ec))
+      if ((n.rfind("frame_", 0) == 0 || n.rfind("run.json", 0) == 0 || n.rfind("checkpoint_", 0) == 0) &&
+          is_temp_name(n) && e.is_regular_file(ec))
         fs::remove(e.path(), ec);
     }
   }
