@@ -548,3 +548,21 @@ TEST(Audit, FramesOfAnotherSceneWithTheSameTopologyAreRefused) {
   EXPECT_NE(r.out.find("scene fingerprint"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("not this run's"), std::string::npos) << r.out;
 }
+
+// A rerun killed while it replaced DIR leaves the earlier run in DIR.ccfr-old: the audit and
+// --resume of DIR point to it instead of saying only "no run.json".
+TEST(Audit, AMissingRunPointsToTheEarlierRunLeftByAKilledRerun) {
+  const fs::path root = ccfr::test::scratch_dir("audit_ccfr_old");
+  const fs::path dir = root / "run", old = root / "run.ccfr-old";
+  fs::create_directories(dir / "frames");
+  fs::create_directories(old / "frames");
+  write_run_json(old, "completed", 1);
+  for (const std::string& cmd : {"audit " + dir.string(), "run --resume " + dir.string()}) {
+    const auto r = run(cmd);
+    EXPECT_EQ(r.code, 2) << cmd << "\n" << r.out;
+    EXPECT_NE(r.out.find("its earlier run is in '" + old.string() + "'"), std::string::npos) << cmd << "\n" << r.out;
+  }
+  fs::remove_all(dir);
+  const auto r = run("audit " + dir.string());
+  EXPECT_NE(r.out.find("its earlier run is in '" + old.string() + "'"), std::string::npos) << r.out;
+}

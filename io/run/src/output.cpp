@@ -202,11 +202,18 @@ bool is_ccfr_run(const fs::path& dir) {
   return j.is_object() && j.contains("ccfr") && j["ccfr"].is_object() && j["ccfr"].contains("version");
 }
 
+std::string previous_run_note(const fs::path& dir) {
+  std::error_code ec;
+  const fs::path old = sibling(dir, ".ccfr-old");
+  if (!fs::exists(old / "run.json", ec)) return "";
+  return "; its earlier run is in '" + old.string() + "' (a rerun was killed while it replaced it)";
+}
+
 std::string run_json_problem(const fs::path& dir) {
   const fs::path rj = dir / "run.json";
   std::error_code ec;
   const fs::file_status st = fs::status(rj, ec);
-  if (st.type() == fs::file_type::not_found) return "no run.json";
+  if (st.type() == fs::file_type::not_found) return "no run.json" + previous_run_note(dir);
   if (ec) return "run.json is unreadable: " + ec.message();
   if (st.type() != fs::file_type::regular) return "run.json is not a regular file";
   std::ifstream in(rj);

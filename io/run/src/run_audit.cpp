@@ -14,6 +14,7 @@
 #include "ccfr/core/log.hpp"
 #include "ccfr/io/frame_topology.hpp"
 #include "ccfr/io/obj.hpp"
+#include "ccfr/io/output.hpp"
 #include "ccfr/io/run_json.hpp"
 
 namespace ccfr::io {
@@ -123,10 +124,10 @@ void check_frame_sequence(const fs::path& dir, long first, std::optional<long> e
 
 RunAuditResult audit_run(const fs::path& dir, const RunAuditOptions& o, const FrameAuditCallback& on_frame,
                          const std::function<void(const RunAuditResult&)>& on_start) {
-  if (!fs::is_directory(dir)) throw Error("'" + dir.string() + "' is not a directory");
+  if (!fs::is_directory(dir)) throw Error("'" + dir.string() + "' is not a directory" + previous_run_note(dir));
   if (!o.offset && !fs::exists(dir / "run.json"))
     throw Error("'" + (dir / "run.json").string() +
-                "' is missing: pass --offset XI to audit frames without a run.json");
+                "' is missing: pass --offset XI to audit frames without a run.json" + previous_run_note(dir));
   const RunInfo info = read_run_info(dir, /*require_run_json=*/!o.offset.has_value());
   RunAuditResult res;
   res.dir = dir;
