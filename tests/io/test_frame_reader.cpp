@@ -146,3 +146,14 @@ TEST(FrameReader, SceneFingerprintRoundTrips) {
   io::write_frame_obj(p, t, x);
   EXPECT_EQ(io::read_frame_obj(p).scene_fingerprint, 0u);
 }
+
+// A non-convex polygon was fan-triangulated into a folded triangle; a convex one still reads.
+TEST(FrameReader, NonConvexPolygonsAreRefused) {
+  // An arrowhead: corner 3 at (1, 0.5) points inwards, so the fan (1 2 3), (1 3 4) overlaps.
+  const fs::path p = write_obj("nonconvex", "o a\nv 0 0 0\nv 2 0 0\nv 0.5 0.5 0\nv 0 2 0\nf 1 2 3 4\n");
+  EXPECT_NE(test::error_of([&] { io::read_frame_obj(p); }).find("ccfr_reader_nonconvex.obj:6: non-convex polygon"),
+            std::string::npos);
+  const auto pent =
+      io::read_frame_obj(write_obj("pentagon", "o a\nv 0 0 0\nv 2 0 0\nv 3 1 0\nv 1 2 0\nv -1 1 0\nf 1 2 3 4 5\n"));
+  EXPECT_EQ(pent.faces.size(), 3u);
+}

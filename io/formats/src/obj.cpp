@@ -190,6 +190,21 @@ Frame read_frame_obj(const fs::path& path) {
           std::vector<Index> poly;
           while (ls >> tok) poly.push_back(parse_index(tok, nv, path, ln));
           if (poly.size() < 3) fail(path, ln, "face needs at least 3 vertices");
+          if (poly.size() > 3) {
+            // The fan from the first corner is the polygon only when every corner turns one way
+            // about its normal (Newell's); a reflex corner would make a folded triangle.
+            Vec3 n = Vec3::Zero();
+            for (size_t k = 0; k < poly.size(); ++k) n += fr.v[poly[k]].cross(fr.v[poly[(k + 1) % poly.size()]]);
+            for (size_t k = 0; k < poly.size(); ++k) {
+              const Vec3& a = fr.v[poly[k]];
+              const Vec3& b = fr.v[poly[(k + 1) % poly.size()]];
+              const Vec3& c = fr.v[poly[(k + 2) % poly.size()]];
+              if ((b - a).cross(c - b).dot(n) < 0.0)
+                fail(path, ln,
+                     "non-convex polygon (corner at vertex " + std::to_string(poly[(k + 1) % poly.size()] + 1) +
+                         "): its fan triangulation would fold; triangulate it in the modelling tool");
+            }
+          }
           for (size_t k = 1; k + 1 < poly.size(); ++k) {
             fr.faces.emplace_back(poly[0], poly[k], poly[k + 1]);
             fr.face_lines.push_back(ln);
