@@ -268,6 +268,20 @@ TEST(CliErrors, InaccessiblePathsAreExit2NamingThePath) {
     EXPECT_FALSE(has(r, "internal error")) << r.out;
   }
   fs::permissions(d / "closed", fs::perms::owner_all);
+  // A render folder that cannot be made under a read-only one says why (it named the folder only).
+  ASSERT_EQ(run_ccfr("run " + q(d / "s.yaml") + " --out " + q(d / "run") + " -q").code, 0);
+  fs::permissions(d / "run", fs::perms::owner_all | fs::perms::others_read | fs::perms::others_exec);
+  fs::permissions(d / "run" / "frames", fs::perms::owner_all | fs::perms::others_read | fs::perms::others_exec);
+  for (const auto& e : fs::directory_iterator(d / "run" / "frames"))
+    fs::permissions(e.path(), fs::perms::others_read, fs::perm_options::add);
+  fs::permissions(d / "run" / "run.json", fs::perms::others_read, fs::perm_options::add);
+  fs::create_directories(d / "readonly");
+  fs::permissions(d / "readonly", fs::perms::owner_all | fs::perms::others_read | fs::perms::others_exec);
+  const CliResult r = run_shell("runuser -u nobody -- " + exe.string() + " render " + q(d / "run") + " --out " +
+                                q(d / "readonly" / "sub") + " --width 16 --height 16 --samples 1 --ao 0 2>&1");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(has(r, "cannot create the output folder")) << r.out;
+  EXPECT_TRUE(has(r, "Permission denied")) << r.out;
 }
 
 // A message quotes what the user wrote; YAML escapes ("\e", "\u009b") put terminal control
