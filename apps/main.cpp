@@ -126,7 +126,8 @@ int main(int argc, char** argv) {
     std::string names;
     for (const CLI::App* sub : app.get_subcommands({})) {
       known = known || sub->check_name(argv[1]);
-      names += (names.empty() ? "" : ", ") + sub->get_name();
+      if (!sub->get_group().empty())  // hidden ones (help-markdown) are not offered
+        names += (names.empty() ? "" : ", ") + sub->get_name();
     }
     if (!known) {
       std::fprintf(stderr, "unknown command '%s'; the commands are %s (ccfr --help)\n", argv[1], names.c_str());

@@ -297,3 +297,11 @@ TEST(CliErrors, MessagesNeverCarryTerminalControlSequences) {
   EXPECT_FALSE(has(r, "\xc2\x9b")) << r.out;
   EXPECT_TRUE(has(r, "\\x1b[31mred\\xc2\\x9b2J")) << r.out;
 }
+
+// The unknown-command message offers the commands --help lists, not the hidden help-markdown.
+TEST(CliErrors, UnknownCommandListsTheVisibleCommandsOnly) {
+  const CliResult r = run_ccfr("frobnicate");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(has(r, "unknown command 'frobnicate'; the commands are run, audit,")) << r.out;
+  EXPECT_FALSE(has(r, "help-markdown")) << r.out;
+}
