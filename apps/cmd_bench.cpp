@@ -36,10 +36,13 @@ int run_bench(const BenchOptions& o) {
     if (!o.run.solver.empty()) overrides.push_back("contact.solver=" + o.run.solver);
     frames_total = io::load_scene(o.run.config, overrides).scene.params.time.frames;
   }
+  const std::string frames_from =
+      o.run.frames >= 0 ? std::string("--frames") : "time.frames of " + o.run.config.string();
+  if (frames_total == 0)
+    throw Error("bench needs at least one frame to measure, but " + frames_from + " is 0: give --frames N");
   if (o.warmup >= frames_total)
     throw Error("--warmup " + std::to_string(o.warmup) + " leaves no frame to measure: it must be smaller than the " +
-                std::to_string(frames_total) + " frames simulated (" +
-                (o.run.frames >= 0 ? std::string("--frames") : "time.frames of " + o.run.config.string()) + ")");
+                std::to_string(frames_total) + " frames simulated (" + frames_from + ")");
   RunOptions ro = o.run;
   ro.out.clear();
   ro.progress_label = "bench frame";

@@ -51,7 +51,7 @@ void register_export(CLI::App& app) {
     guarded([&] {
       const auto t0 = std::chrono::steady_clock::now();
       const auto formats = io::parse_output_formats(opts->formats);
-      const int n = io::export_run(opts->dir, formats, opts->out);
+      const int n = io::export_run(opts->dir, formats, opts->out, invocation_string());
       std::string list;
       for (const auto& f : opts->formats) list += (list.empty() ? "" : ",") + f;
       const std::filesystem::path out = opts->out.empty() ? opts->dir : opts->out;

@@ -90,7 +90,11 @@ int run_plot(const PlotOptions& o) {
   if (!ablation && !fs::is_regular_file(o.dir / "stats.csv"))
     throw Error("'" + o.dir.string() + "' holds neither stats.csv (a run) nor ablation.csv (an ablation)");
   if (!ablation) check_stats_csv(o.dir / "stats.csv");
-  fs::path png = o.out.empty() ? o.dir / (ablation ? "ablation.png" : "stats.png") : o.out;
+  const char* name = ablation ? "ablation.png" : "stats.png";
+  fs::path png = o.out.empty() ? o.dir / name : o.out;
+  // A folder (existing, or named with a trailing /) gets the default name inside it, not DIR.png beside it.
+  std::error_code ec;
+  if (!o.out.empty() && (fs::is_directory(o.out, ec) || !o.out.has_filename())) png = o.out / name;
   // matplotlib adds .png to a name without an extension: print (and pass) the file it writes.
   if (png.extension().empty()) png += ".png";
   std::vector<std::string> args{o.dir.string(), "--out", png.string()};

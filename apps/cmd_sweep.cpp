@@ -519,8 +519,30 @@ void apply_flags(io::SweepResources& r, const SlurmFlags& f) {
   if (!f.account.empty()) r.account = f.account;
 }
 
+// Slurm refuses array indices at or above its MaxArraySize: the cluster's (scontrol show config),
+// else Slurm's default 1001. Throws naming both before anything is written or submitted.
+void check_slurm_array_size(const SweepLayout& s, const std::vector<size_t>& indices) {
+  if (indices.empty()) return;
+  long max_array = 1001;
+  std::string source = "Slurm's default; `scontrol show config` did not say";
+  const auto [code, out] = capture("scontrol show config");
+  if (const size_t at = out.find("MaxArraySize"); code == 0 && at != std::string::npos) {
+    const size_t eq = out.find('=', at);
+    if (eq != std::string::npos) {
+      const long v = std::strtol(out.c_str() + eq + 1, nullptr, 10);
+      if (v > 0) max_array = v, source = "`scontrol show config`";
+    }
+  }
+  if (static_cast<long>(indices.back()) < max_array) return;
+  throw Error("the sweep's array would need task index " + std::to_string(indices.back()) + " (" +
+              std::to_string(s.cells.size()) + " cells), but Slurm's MaxArraySize is " + std::to_string(max_array) +
+              " (" + source + "): sbatch would refuse it; split the grid into specs of at most " +
+              std::to_string(max_array) + " cells (docs/cluster.md)");
+}
+
 // Writes DIR/sweep.sbatch (one array task per cell) and submits `indices` of it; records the job.
 std::string slurm_submit(const SweepLayout& s, const std::vector<size_t>& indices, const std::string& sbatch) {
+  check_slurm_array_size(s, indices);
   const fs::path dir = fs::absolute(s.dir).lexically_normal();
   const auto& r = s.resources;
   std::string sh =
@@ -850,9 +872,10 @@ int start_sweep(SweepOptions& o) {
   } else if (!io::dir_is_empty(o.out)) {
     throw Error("output directory '" + o.out.string() + "' is not empty and is not a sweep; choose another --out");
   }
-  write_sweep(s);
   std::vector<size_t> all(s.cells.size());
   for (size_t i = 0; i < all.size(); ++i) all[i] = i;
+  if (o.backend == "slurm") check_slurm_array_size(s, all);  // before the sweep's folder is written
+  write_sweep(s);
   spdlog::info("sweep: {} cells in {}", all.size(), o.out.string());
   if (o.backend == "slurm") {
     slurm_submit(s, all, o.slurm.sbatch);

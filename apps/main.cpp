@@ -1,6 +1,7 @@
 // The ccfr command line: run, audit, ablate, bench, render.
 #include <CLI/CLI.hpp>
 
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -34,8 +35,8 @@ void readable_checks(CLI::App& app) {
       const bool strict = desc == "POSITIVE";
       v->operation([strict](std::string& in) {
         double x = 0;
-        if (!CLI::detail::lexical_cast(in, x) || !(strict ? x > 0 : x >= 0))
-          return "Value " + in + " out of range: must be a number " + (strict ? "> 0" : ">= 0");
+        if (!CLI::detail::lexical_cast(in, x) || !(strict ? x > 0 : x >= 0) || !std::isfinite(x))
+          return "Value " + in + " out of range: must be a finite number " + (strict ? "> 0" : ">= 0");
         return std::string();
       });
     }
@@ -125,7 +126,8 @@ int main(int argc, char** argv) {
     std::string names;
     for (const CLI::App* sub : app.get_subcommands({})) {
       known = known || sub->check_name(argv[1]);
-      names += (names.empty() ? "" : ", ") + sub->get_name();
+      if (!sub->get_group().empty())  // hidden ones (help-markdown) are not offered
+        names += (names.empty() ? "" : ", ") + sub->get_name();
     }
     if (!known) {
       std::fprintf(stderr, "unknown command '%s'; the commands are %s (ccfr --help)\n", argv[1], names.c_str());

@@ -32,7 +32,13 @@ namespace {
 // The signal that asked the run to stop (SIGINT or SIGTERM), 0 while none did. The frame being
 // computed is finished and written before the run stops.
 std::atomic<int> g_stop_signal{0};
-extern "C" void on_stop_signal(int sig) { g_stop_signal = sig; }
+std::atomic<int> g_stop_count{0};  // signals received: a second one abandons the frame in progress
+extern "C" void on_stop_signal(int sig) {
+  g_stop_signal = sig;
+  ++g_stop_count;
+}
+/// Seconds a frame in progress may still run after the first stop signal before it is abandoned.
+constexpr double kStopGraceS = 10.0;
 
 std::vector<std::string>& invocation() {
   static std::vector<std::string> argv;
@@ -45,6 +51,7 @@ class SignalScope {
  public:
   SignalScope() {
     g_stop_signal = 0;
+    g_stop_count = 0;
     int_ = std::signal(SIGINT, on_stop_signal);
     term_ = std::signal(SIGTERM, on_stop_signal);
     xfsz_ = std::signal(SIGXFSZ, SIG_IGN);
@@ -95,14 +102,30 @@ std::string invocation_string() {
 
 void add_run_options(CLI::App* cmd, RunOptions& opts) {
   cmd->add_option("--frames", opts.frames, "Frames to simulate (default: time.frames of the scene)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(CLI::Validator(
+          [](std::string& in) {
+            long long v = 0;
+            if (!CLI::detail::lexical_cast(in, v) || v < 0 || v > io::kMaxFrames)
+              return "Value " + in + " out of range: must be an integer >= 0 and at most " +
+                     std::to_string(io::kMaxFrames) + " (time.frames' bound)";
+            return std::string();
+          },
+          "INT in [0, 1e7]", "frames"));
   cmd->add_option("--solver", opts.solver, "Contact solver (overrides contact.solver)");
   cmd->add_option("--set", opts.overrides,
                   "Override a scene key: key.path=value (repeatable), e.g. --set contact.radius=0.01");
   cmd->add_option("--max-memory", opts.max_memory,
                   "Largest estimated memory (GB) the scene may need to load (overrides max_memory; default: what "
                   "the machine has available). Raise it knowingly: a scene above the machine's memory is OOM-killed")
-      ->check(CLI::NonNegativeNumber);
+      ->check(CLI::Validator(
+          [](std::string& in) {
+            // max_memory's range; below a megabyte no scene loads, so a tiny value is a typo (not 0).
+            double v = 0;
+            if (!CLI::detail::lexical_cast(in, v) || !(v == 0 || (v >= 1e-3 && v <= 1e6)))
+              return "Value " + in + " out of range: give GB in [0.001, 1000000], or 0 for what the machine has";
+            return std::string();
+          },
+          "GB", "max memory"));
   cmd->add_option("--threads", opts.threads, "Worker threads (default: all cores)")->check(CLI::NonNegativeNumber);
 }
 
@@ -161,7 +184,8 @@ void check_frames_before(const std::filesystem::path& dir, const Resume& r, cons
     }
     std::ifstream fin(p);
     std::string header;
-    if (unreadable.empty() && (!fin || !std::getline(fin, header) || header != "# ccfr frame")) unreadable = p.string();
+    if (unreadable.empty() && (!fin || !std::getline(fin, header) || header.rfind("# ccfr frame", 0) != 0))
+      unreadable = p.string();
   }
   const std::string why = "cannot resume '" + dir.string() + "' from '" + r.file.string() + "' (frame " +
                           std::to_string(r.ckpt.sim.frame) + "): ";
@@ -218,7 +242,7 @@ RunSummary run_scene(const RunOptions& opts) {
   std::vector<std::string> overrides = resume ? resume->ckpt.overrides : opts.overrides;
   if (!resume && opts.frames >= 0) overrides.push_back("time.frames=" + std::to_string(opts.frames));
   if (!resume && !opts.solver.empty()) overrides.push_back("contact.solver=" + opts.solver);
-  if (!resume && opts.max_memory >= 0) overrides.push_back("max_memory=" + std::to_string(opts.max_memory));
+  if (!resume && opts.max_memory >= 0) overrides.push_back(ccfr::format("max_memory={}", opts.max_memory));
   set_thread_count(opts.threads);
 
   const std::filesystem::path config = resume ? resume->ckpt.scene_file : opts.config;
@@ -257,6 +281,10 @@ RunSummary run_scene(const RunOptions& opts) {
   summary.violations_opted_out = params.contact.on_violation == ViolationPolicy::warn;
 
   if (resume) {
+    // Before anything counts frames up to it (a hand-edited frame 2147483647 stat-ed files for hours).
+    if (const int at = resume->ckpt.sim.frame; at < 0 || at > params.time.frames)
+      throw Error("checkpoint '" + resume->file.string() + "' is at frame " + std::to_string(at) +
+                  (at < 0 ? ", not a frame" : ", beyond the run's " + std::to_string(params.time.frames) + " frames"));
     const io::RunInfo info = io::read_run_info(opts.resume);
     if (info.progress.status == "completed") {
       summary.nothing_to_resume = true;
@@ -270,6 +298,14 @@ RunSummary run_scene(const RunOptions& opts) {
   std::shared_ptr<exact::PenetrationAudit> audit;
   if (params.debug.audit != AuditMode::off)
     sim.set_audit(io::make_audit_hook(sim.topology(), sim.positions(), params, &audit));
+  // A second stop signal, or kStopGraceS after the first, abandons the frame in progress.
+  sim.set_cancel([first = std::optional<std::chrono::steady_clock::time_point>()]() mutable {
+    if (g_stop_count == 0) return false;
+    if (g_stop_count >= 2) return true;
+    const auto now = std::chrono::steady_clock::now();
+    if (!first) first = now;
+    return std::chrono::duration<double>(now - *first).count() >= kStopGraceS;
+  });
   int first_frame = 1;
   if (resume) {
     const io::Checkpoint& c = resume->ckpt;
@@ -282,9 +318,6 @@ RunSummary run_scene(const RunOptions& opts) {
     } catch (const Error& e) {
       throw Error("checkpoint '" + resume->file.string() + "' does not fit its scene: " + e.what());
     }
-    if (c.sim.frame > params.time.frames)
-      throw Error("checkpoint '" + resume->file.string() + "' is at frame " + std::to_string(c.sim.frame) +
-                  ", beyond the run's " + std::to_string(params.time.frames) + " frames");
     first_frame = c.sim.frame + 1;
     summary.resumed_after = c.sim.frame;
     summary.violated_frames = static_cast<size_t>(c.violated_frames);
@@ -377,6 +410,16 @@ RunSummary run_scene(const RunOptions& opts) {
     FrameStats fs;
     try {
       fs = sim.step_frame();
+    } catch (const FrameInterrupted& e) {
+      // A frame too long to finish after a stop signal: every frame on disk stays whole, and
+      // --resume continues from the last checkpoint.
+      const int sig = g_stop_signal;
+      summary.status = (sig == SIGTERM ? "terminated during frame " : "interrupted during frame ") + std::to_string(f) +
+                       " (" + e.what() + ")";
+      summary.failed = true;
+      summary.stop_signal = sig;
+      spdlog::warn("{}", summary.status);
+      break;
     } catch (const Error& e) {
       // Non-finite positions, a broken guarantee, scripted motion beyond the bound: the frame
       // being computed is not written; every frame on disk stays whole and clean.

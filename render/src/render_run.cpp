@@ -177,7 +177,8 @@ RunRenderSummary render_frames(const std::vector<fs::path>& frames, const RunRen
   std::error_code ec;
   fs::create_directories(options.out, ec);
   if (ec || !fs::is_directory(options.out))
-    throw Error("cannot create the output folder '" + options.out.string() + "'");
+    throw Error("cannot create the output folder '" + options.out.string() +
+                "': " + (ec ? ec.message() : std::string("a file of that name is in the way")));
 
   const std::vector<size_t> picked = select_frames(frames.size(), options.every);
   Bounds bounds;

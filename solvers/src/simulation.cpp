@@ -669,6 +669,7 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
   const int bound = tp.iteration_bound();
   int iterations_run = 0;
   for (int it = 0; it < bound; ++it) {
+    if (it > 0) check_cancel(substep_index);
     ctx.iteration = it;
     iterations_run = it + 1;
     const InverseMassMask mask(
@@ -684,7 +685,10 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
       ScopedTimer t(fs.times.xpbd);
       material_solved_ = predicted_;
       materials_.reset_multipliers();
-      for (int s = 0; s < tp.xpbd_sweeps; ++s) materials_.solve(material_solved_, st.inv_mass, dt);
+      for (int s = 0; s < tp.xpbd_sweeps; ++s) {
+        if (s > 0 && s % 64 == 0) check_cancel(substep_index);
+        materials_.solve(material_solved_, st.inv_mass, dt);
+      }
       check_finite(material_solved_, "xpbd");
     }
     // A body touching nothing is carried by its rigid motion before the regions are built: its
@@ -744,6 +748,13 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
       if (capped > 0) {
         // A body carried only part of its way has not reached its intended advance: held back.
         end.held_back += capped;
+        // Its farthest vertex names it in the warning of a capped speed, as for held-back ones.
+        if (!end.worst)
+          for (Index i = 0; i < nv; ++i)
+            if (carry_capped_[i]) {
+              const double len = (material_solved_[i] - anchor_[i]).norm();
+              if (!end.worst || len > end.worst_length) end.worst = i, end.worst_length = len;
+            }
         if (local)
           for (size_t i = 0; i < held_marks_.size(); ++i) held_marks_[i] |= carry_capped_[i];
       }
@@ -794,6 +805,12 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
     fs.penetrations = std::max<Index>(fs.penetrations, 0) + pen;
     check_audit(pen);
   }
+}
+
+void Simulation::check_cancel(int substep) const {
+  if (cancel_ && cancel_())
+    throw FrameInterrupted("frame " + std::to_string(frame_ + 1) + " abandoned in substep " +
+                           std::to_string(substep + 1) + " of " + std::to_string(scene_.params.time.substeps));
 }
 
 void Simulation::record_lag(FrameStats& fs) const {
@@ -916,7 +933,10 @@ FrameStats Simulation::step_frame() {
   }
   for (int s = 0; s < tp.substeps; ++s) {
     const int pieces = subdivision(dt);
-    for (int k = 0; k < pieces; ++k) substep(fs, s, dt / pieces);
+    for (int k = 0; k < pieces; ++k) {
+      check_cancel(s);
+      substep(fs, s, dt / pieces);
+    }
   }
   ++frame_;
   fs.frame = frame_;

@@ -12,6 +12,7 @@
 #include "builtin_solvers.hpp"
 #include "ccfr/collision/additive_ccd.hpp"
 #include "ccfr/core/error.hpp"
+#include "ccfr/core/log.hpp"
 #include "ccfr/core/parallel.hpp"
 
 namespace ccfr {
@@ -34,9 +35,10 @@ void TrustRegionSolver::initialize(const Topology& topo, const SimState& state, 
   const double range = params.contact.offset + 2.0 * params.contact.radius;
   query_radius_ = params_.query_radius > 0.0 ? params_.query_radius : range;
   if (!(query_radius_ > offset_) || query_radius_ > range * (1.0 + 1e-12))
-    throw Error(key + ".query_radius: " + std::to_string(params_.query_radius) + " must be > contact.offset (" +
-                std::to_string(offset_) + ") and at most the detection range contact.offset + 2 contact.radius (" +
-                std::to_string(range) + "); 0 picks the latter");
+    throw Error(
+        ccfr::format("{}.query_radius: {} must be > contact.offset ({}) and at most the detection range "
+                     "contact.offset + 2 contact.radius ({}); 0 picks the latter",
+                     key, params_.query_radius, offset_, range));
   DetectingSolver::initialize(topo, state, params);
   redetect_ = true;
 }

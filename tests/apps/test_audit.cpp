@@ -493,3 +493,76 @@ TEST(Audit, AMovingCombIsCleanForTheRunAndTheAudit) {
   r = run("audit " + (d / "out").string() + " --offset 0.04");
   EXPECT_EQ(r.code, 1) << r.out;
 }
+
+// Frames of another scene under this run's run.json: their vertex count differs from the run's,
+// and the audit refuses them instead of certifying them (it used to PASS).
+TEST(Audit, FramesWithAnotherVertexCountThanTheRunAreRefused) {
+  const fs::path d = scratch("foreign_vertices");
+  std::ofstream(d / "run.json")
+      << R"({"scene": "x", "solver": "ccfr", "radius": 0.02, "offset": 0.01, "repulsion_range": 0, "fps": 60, )"
+      << R"("status": "completed", "frames_written": 2, "vertices": 29})"
+      << "\n";
+  write_frame(d, 0, kClean);
+  write_frame(d, 1, kClean);
+  const auto r = run("audit " + d.string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("has 6 vertices, but"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("records 29"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("PASS"), std::string::npos) << r.out;
+}
+
+// --offset beyond the scene's size excludes every pair as close in frame 0, so anything would
+// pass: it is refused, naming the option and the size.
+TEST(Audit, AnOffsetBeyondTheSceneIsRefused) {
+  const fs::path d = scratch("huge_offset");
+  write_frame(d, 0, kClean);
+  write_frame(d, 1, kCrossing);
+  for (const char* offset : {"1e300", "10"}) {
+    const auto r = run("audit " + d.string() + " --offset " + offset);
+    EXPECT_EQ(r.code, 2) << offset << ": " << r.out;
+    EXPECT_NE(r.out.find("is larger than the scene"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("--offset "), std::string::npos) << r.out;
+  }
+  EXPECT_EQ(run("audit " + d.string() + " --offset 0.01").code, 1);
+}
+
+// Another run's frames of the same topology (the sheet placed elsewhere): the vertex count fits,
+// but each frame carries its run's scene fingerprint, which differs from run.json's.
+TEST(Audit, FramesOfAnotherSceneWithTheSameTopologyAreRefused) {
+  const fs::path d = ccfr::test::scratch_dir("audit_other_fingerprint");
+  const auto scene = [&](const std::string& name, const std::string& y) {
+    return ccfr::test::write_text(d, name,
+                                  "time: {frames: 2}\nobjects:\n  - {name: sheet, kind: cloth, shape: {type: grid, "
+                                  "size: [0.1, 0.1], resolution: [2, 2]}, transform: {translate: [0, " +
+                                      y + ", 0]}}\n");
+  };
+  for (const auto& [name, y] : {std::pair<std::string, std::string>{"a", "0"}, {"b", "1"}}) {
+    const auto r = run("run " + scene(name + ".yaml", y).string() + " --out " + (d / name).string() + " -q");
+    ASSERT_EQ(r.code, 0) << r.out;
+  }
+  EXPECT_EQ(run("audit " + (d / "a").string()).code, 0);
+  fs::remove_all(d / "a" / "frames");
+  fs::copy(d / "b" / "frames", d / "a" / "frames");
+  const auto r = run("audit " + (d / "a").string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("scene fingerprint"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("not this run's"), std::string::npos) << r.out;
+}
+
+// A rerun killed while it replaced DIR leaves the earlier run in DIR.ccfr-old: the audit and
+// --resume of DIR point to it instead of saying only "no run.json".
+TEST(Audit, AMissingRunPointsToTheEarlierRunLeftByAKilledRerun) {
+  const fs::path root = ccfr::test::scratch_dir("audit_ccfr_old");
+  const fs::path dir = root / "run", old = root / "run.ccfr-old";
+  fs::create_directories(dir / "frames");
+  fs::create_directories(old / "frames");
+  write_run_json(old, "completed", 1);
+  for (const std::string& cmd : {"audit " + dir.string(), "run --resume " + dir.string()}) {
+    const auto r = run(cmd);
+    EXPECT_EQ(r.code, 2) << cmd << "\n" << r.out;
+    EXPECT_NE(r.out.find("its earlier run is in '" + old.string() + "'"), std::string::npos) << cmd << "\n" << r.out;
+  }
+  fs::remove_all(dir);
+  const auto r = run("audit " + dir.string());
+  EXPECT_NE(r.out.find("its earlier run is in '" + old.string() + "'"), std::string::npos) << r.out;
+}

@@ -567,3 +567,53 @@ TEST(SweepResume, ACellWritingEveryFormatIsResumedByteForByte) {
 }
 
 }  // namespace
+
+// A checkpoint whose frame lies beyond time.frames (hand-edited, CRC recomputed) is refused at
+// once; it used to stat frame files towards frame_2147483647.obj for hours first.
+TEST(Checkpoint, FrameBeyondTheRunIsRefusedBeforeLookingForFrames) {
+  const fs::path root = ccfr::test::scratch_dir("checkpoint_frame_beyond");
+  const fs::path dir = root / "run";
+  const fs::path scene = ccfr::test::write_text(
+      root, "s.yaml",
+      "time: {frames: 4, substeps: 1}\noutput: {checkpoint_every: 2}\nobjects:\n"
+      "  - {name: sheet, kind: cloth, shape: {type: grid, size: [0.1, 0.1], resolution: [2, 2]}}\n");
+  auto r = run_ccfr("run '" + scene.string() + "' --frames 3 --out '" + dir.string() + "' -q");
+  ASSERT_EQ(r.code, 0) << r.out;
+  // As a run killed after its checkpoint of frame 2 leaves it.
+  std::string json = read(dir / "run.json");
+  const auto at = json.find("\"completed\"");
+  ASSERT_NE(at, std::string::npos) << json;
+  write(dir / "run.json", json.replace(at, 11, "\"running\""));
+  const fs::path file = ccfr::io::checkpoint_path(dir, 2);
+  ccfr::io::Checkpoint c = ccfr::io::read_checkpoint(file);
+  for (const int frame : {2147483647}) {
+    c.sim.frame = frame;
+    write(file, ccfr::io::encode_checkpoint(c));
+    r = ccfr::test::run_shell("timeout 20 " + std::string(CCFR_EXE) + " run --resume '" + dir.string() + "' 2>&1");
+    EXPECT_NE(r.code, 0) << r.out;
+    EXPECT_NE(r.code, 124) << "timed out: " << r.out;
+    EXPECT_NE(r.out.find("is at frame " + std::to_string(frame)), std::string::npos) << r.out;
+  }
+}
+
+// A SIGKILL while a checkpoint is written leaves checkpoint_NNNNN.ccfr.tmpPID: the resume removes it
+// as it removes a frame's temporary file (it stayed for good).
+TEST(Checkpoint, ResumeRemovesTheTemporaryFileOfAKilledCheckpointWrite) {
+  const fs::path root = ccfr::test::scratch_dir("checkpoint_tmp_left");
+  const fs::path dir = root / "run";
+  const fs::path scene = ccfr::test::write_text(
+      root, "s.yaml",
+      "time: {frames: 4, substeps: 1}\noutput: {checkpoint_every: 2}\nobjects:\n"
+      "  - {name: sheet, kind: cloth, shape: {type: grid, size: [0.1, 0.1], resolution: [2, 2]}}\n");
+  auto r = run_ccfr("run '" + scene.string() + "' --frames 3 --out '" + dir.string() + "' -q");
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::string json = read(dir / "run.json");
+  const auto at = json.find("\"completed\"");
+  ASSERT_NE(at, std::string::npos) << json;
+  write(dir / "run.json", json.replace(at, 11, "\"running\""));
+  const fs::path tmp = dir / "checkpoints" / "checkpoint_00004.ccfr.tmp12345";
+  write(tmp, "half a checkpoint");
+  r = run_ccfr("run --resume '" + dir.string() + "' -q");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_FALSE(fs::exists(tmp)) << r.out;
+}

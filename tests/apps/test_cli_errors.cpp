@@ -227,6 +227,22 @@ TEST(CliErrors, PlotRefusesAForeignStatsCsvAndPrintsTheFileItWrote) {
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(fs::exists(d / "base.png")) << r.out;
   EXPECT_TRUE(has(r, "plot: " + (d / "base.png").string() + " in ")) << r.out;
+  // A folder as --out gets stats.png inside it, not DIR.png beside it.
+  fs::create_directories(d / "pngs");
+  const CliResult in_dir = run_ccfr("plot " + q(d / "run") + " --out " + q(d / "pngs"));
+  EXPECT_EQ(in_dir.code, 0) << in_dir.out;
+  EXPECT_TRUE(fs::exists(d / "pngs" / "stats.png")) << in_dir.out;
+  EXPECT_FALSE(fs::exists(d / "pngs.png")) << in_dir.out;
+}
+
+// bench --frames 0 has nothing to measure: said so, not blamed on the default --warmup 0.
+TEST(CliErrors, BenchWithoutFramesSaysSo) {
+  const fs::path d = ccfr::test::scratch_dir("cli_errors_bench0");
+  const CliResult r = run_ccfr("bench " + q(scene(d)) + " --frames 0");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(has(r, "at least one frame to measure")) << r.out;
+  EXPECT_TRUE(has(r, "--frames is 0")) << r.out;
+  EXPECT_FALSE(has(r, "--warmup")) << r.out;
 }
 
 // Permission denied on a directory in the path (EACCES from stat). Root passes every permission
@@ -252,6 +268,20 @@ TEST(CliErrors, InaccessiblePathsAreExit2NamingThePath) {
     EXPECT_FALSE(has(r, "internal error")) << r.out;
   }
   fs::permissions(d / "closed", fs::perms::owner_all);
+  // A render folder that cannot be made under a read-only one says why (it named the folder only).
+  ASSERT_EQ(run_ccfr("run " + q(d / "s.yaml") + " --out " + q(d / "run") + " -q").code, 0);
+  fs::permissions(d / "run", fs::perms::owner_all | fs::perms::others_read | fs::perms::others_exec);
+  fs::permissions(d / "run" / "frames", fs::perms::owner_all | fs::perms::others_read | fs::perms::others_exec);
+  for (const auto& e : fs::directory_iterator(d / "run" / "frames"))
+    fs::permissions(e.path(), fs::perms::others_read, fs::perm_options::add);
+  fs::permissions(d / "run" / "run.json", fs::perms::others_read, fs::perm_options::add);
+  fs::create_directories(d / "readonly");
+  fs::permissions(d / "readonly", fs::perms::owner_all | fs::perms::others_read | fs::perms::others_exec);
+  const CliResult r = run_shell("runuser -u nobody -- " + exe.string() + " render " + q(d / "run") + " --out " +
+                                q(d / "readonly" / "sub") + " --width 16 --height 16 --samples 1 --ao 0 2>&1");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(has(r, "cannot create the output folder")) << r.out;
+  EXPECT_TRUE(has(r, "Permission denied")) << r.out;
 }
 
 // A message quotes what the user wrote; YAML escapes ("\e", "\u009b") put terminal control
@@ -266,4 +296,12 @@ TEST(CliErrors, MessagesNeverCarryTerminalControlSequences) {
   EXPECT_FALSE(has(r, "\x1b")) << r.out;
   EXPECT_FALSE(has(r, "\xc2\x9b")) << r.out;
   EXPECT_TRUE(has(r, "\\x1b[31mred\\xc2\\x9b2J")) << r.out;
+}
+
+// The unknown-command message offers the commands --help lists, not the hidden help-markdown.
+TEST(CliErrors, UnknownCommandListsTheVisibleCommandsOnly) {
+  const CliResult r = run_ccfr("frobnicate");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(has(r, "unknown command 'frobnicate'; the commands are run, audit,")) << r.out;
+  EXPECT_FALSE(has(r, "help-markdown")) << r.out;
 }

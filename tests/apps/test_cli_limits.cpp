@@ -1,11 +1,15 @@
 // Command-line bounds: readable ranges, a cap on --threads, and 32-bit integers from --set.
 #include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
 
 #include <array>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <thread>
 
 #include "cli_support.hpp"
 
@@ -111,4 +115,89 @@ TEST(CliLimits, ARunThatOutgrowsItsMemoryStopsWithItsFramesWhole) {
   const Result audit = run("audit " + out);
   EXPECT_EQ(audit.code, 0) << audit.out;
   EXPECT_TRUE(fs::exists(d / "out" / "frames" / "frame_00003.obj"));
+}
+
+// --max-memory below a megabyte used to print as 0.000000 and mean "no limit"; inf was reported as
+// `--set max_memory=inf`. Both are now the option's own errors.
+TEST(CliLimits, MaxMemoryTinyOrInfiniteNamesTheOption) {
+  const fs::path d = scene_dir();
+  const std::string base = "run " + (d / "s.yaml").string() + " --out " + (d / "out").string() + " --force";
+  for (const char* v : {"1e-7", "inf", "nan", "2e6"}) {
+    const Result r = run(base + " --max-memory " + v);
+    EXPECT_NE(r.code, 0) << v << ": " << r.out;
+    EXPECT_TRUE(has(r, "--max-memory")) << r.out;
+    EXPECT_FALSE(has(r, "--set max_memory")) << r.out;
+    EXPECT_FALSE(fs::exists(d / "out" / "run.json")) << r.out;
+  }
+}
+
+// A frame too long to finish (10000 substeps of 10000 sweeps) still stops on a second SIGINT:
+// the frame in progress is abandoned, the frames on disk stay whole. It used to need SIGKILL.
+TEST(CliLimits, ASecondSignalAbandonsALongFrame) {
+  const fs::path d = ccfr::test::scratch_dir("long_frame_signal");
+  std::ofstream(d / "s.yaml") << "time: {frames: 2, substeps: 10000, xpbd_sweeps: 10000}\n"
+                                 "objects:\n"
+                                 "  - {name: sheet, kind: cloth, shape: {type: grid, size: [1, 1], resolution: [30, "
+                                 "30]}}\n";
+  const fs::path out = d / "out";
+  const pid_t pid = ccfr::test::spawn_ccfr({"run", (d / "s.yaml").string(), "--out", out.string()}, d / "log");
+  int status = 0;
+  const auto waited = [&](double seconds) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+    while (std::chrono::steady_clock::now() < end) {
+      if (::waitpid(pid, &status, WNOHANG) == pid) return true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return false;
+  };
+  for (int i = 0; i < 3000 && !fs::exists(out / "frames" / "frame_00000.obj"); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_FALSE(waited(0.5)) << ccfr::test::read_text(d / "log");
+  ::kill(pid, SIGINT);
+  ASSERT_FALSE(waited(0.5)) << ccfr::test::read_text(d / "log");  // the first one lets the frame finish
+  ::kill(pid, SIGINT);
+  const bool ended = waited(20);
+  if (!ended) {
+    ::kill(pid, SIGKILL);
+    ::waitpid(pid, &status, 0);
+  }
+  const std::string log = ccfr::test::read_text(d / "log");
+  ASSERT_TRUE(ended) << "still running 20 s after a second SIGINT:\n" << log;
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 1) << log;
+  EXPECT_NE(log.find("interrupted during frame 1"), std::string::npos) << log;
+  EXPECT_FALSE(fs::exists(out / "frames" / "frame_00001.obj")) << log;
+  EXPECT_NE(ccfr::test::read_text(out / "run.json").find("interrupted during frame 1"), std::string::npos);
+}
+
+// A solver's range error prints a huge value as 1e+300, not its 301 digits.
+TEST(CliLimits, HugeValuesInSolverErrorsAreShort) {
+  const fs::path d = scene_dir();
+  const Result r = run("run " + (d / "s.yaml").string() + " --out " + (d / "out").string() +
+                       " --set contact.solver=dat --set contact.dat.query_radius=1e300");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(has(r, "contact.dat.query_radius: 1e+300 must be")) << r.out;
+  EXPECT_FALSE(has(r, "100000000000000005")) << r.out;
+}
+
+// contact.radius 1e-9 freezes a lone cloth: its carry (a body touching nothing moves rigidly, at
+// most r per pass) is capped every pass. The capped speed is said, as stats.csv's
+// clamped_vertices promises, not only counted.
+TEST(CliLimits, ATinyRadiusThatFreezesALoneClothIsWarnedAbout) {
+  const fs::path d = ccfr::test::scratch_dir("tiny_radius");
+  std::ofstream(d / "s.yaml")
+      << "time: {frames: 1, substeps: 1}\ncontact: {radius: 1e-9}\nobjects:\n"
+         "  - {name: sheet, kind: cloth, shape: {type: grid, size: [1, 1], resolution: [4, 4]}}\n";
+  const Result r = run("run " + (d / "s.yaml").string() + " --out " + (d / "out").string());
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(has(r, "object 'sheet' wants to move")) << r.out;
+  EXPECT_TRUE(has(r, "counted in clamped_vertices")) << r.out;
+}
+
+// --frames takes time.frames' bound itself: it used to be reported as `--set time.frames=N`.
+TEST(CliLimits, FramesBeyondTheBoundNameTheOption) {
+  const fs::path d = scene_dir();
+  const Result r = run("run " + (d / "s.yaml").string() + " --out " + (d / "out").string() + " --frames 20000000");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(has(r, "--frames")) << r.out;
+  EXPECT_FALSE(has(r, "--set time.frames")) << r.out;
 }

@@ -130,6 +130,16 @@ TEST(SweepSpec, BadSpecsNameFileKeyAndLine) {
   expect_refused(spec, c + "solvers: [ccfr, ccfr]\n", {"share the id"});
   expect_refused(spec, c + "cell_time_limit: 1:2:3:4\n", {spec.string() + ":2:", "cell_time_limit", "'1:2:3:4'"});
   expect_refused(spec, c + "cell_time_limit: 0\n", {"cell_time_limit", "positive duration"});
+  // One value written three ways would run three identical cells.
+  expect_refused(spec, c + "parameters:\n  contact.offset: [1.0e-2, 0.01, 0.010]\n",
+                 {spec.string() + ":3:", "parameters.contact.offset[1]", "'0.01' is the value of [0] ('1.0e-2')"});
+  // In zip, only a pair repeated in every list.
+  expect_refused(spec,
+                 c + "parameters:\n  contact.offset: [0.01, 0.02, 1e-2]\n  contact.radius: [0.005, 0.005, 0.005]\n"
+                     "combine: zip\n",
+                 {"parameters.contact.offset[2]", "again in every list"});
+  write(spec, c + "parameters:\n  contact.offset: [0.01, 0.02]\n  contact.radius: [0.005, 0.005]\ncombine: zip\n");
+  EXPECT_EQ(ccfr::io::load_sweep_spec(spec).cells.size(), 2u);
 }
 
 // Slurm's --time forms, each against its value in seconds worked out by hand; anything else is -1.
@@ -427,4 +437,29 @@ TEST(Sweep, SlurmStatusShowsFramesAndResumeWithoutSlurmConf) {
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("resuming " + running_id + " (lost)"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("array 1, 1 cells"), std::string::npos) << r.out;
+}
+
+// Slurm refuses array indices at or above MaxArraySize (1001 by default): a sweep past the
+// cluster's is refused with the reason before anything is written (it submitted --array=0-9999).
+TEST(Sweep, ASlurmSweepPastMaxArraySizeIsRefusedBeforeSubmitting) {
+  const fs::path d = ccfr::test::scratch_dir("sweep_slurm_array_size");
+  const fs::path bin = d / "bin", out = d / "sweep";
+  write_fake_slurm(bin);
+  write(bin / "scontrol", "#!/bin/sh\necho 'MaxArraySize            = 3'\n");
+  fs::permissions(bin / "scontrol", fs::perms::owner_all, fs::perm_options::replace);
+  write(d / "s.yaml", "configs: [" + cfg("stress/cloth_near_floor.yaml") +
+                          "]\nsolvers: [ccfr, none]\nparameters: {contact.offset: [0.008, 0.01]}\nframes: 1\n");
+  auto r = run_with_slurm(bin, "/fake/slurm.conf",
+                          "sweep '" + (d / "s.yaml").string() + "' --out '" + out.string() + "' --backend slurm");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("MaxArraySize is 3 (`scontrol show config`)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("task index 3 (4 cells)"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("submitted job"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(out / "sweep.json")) << r.out;
+  // Within it, the same grid submits.
+  write(bin / "scontrol", "#!/bin/sh\necho 'MaxArraySize            = 4'\n");
+  r = run_with_slurm(bin, "/fake/slurm.conf",
+                     "sweep '" + (d / "s.yaml").string() + "' --out '" + out.string() + "' --backend slurm");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("submitted job 4242"), std::string::npos) << r.out;
 }

@@ -53,7 +53,7 @@ TEST(BadInput, IntegersBeyond32BitsAreRangeErrorsWithKeyAndLine) {
   EXPECT_EQ(e.key_path(), "time.substeps");
   EXPECT_EQ(e.line(), 5);
   EXPECT_TRUE(has(e, "out of range")) << e.what();
-  EXPECT_TRUE(has(e, "2147483647")) << e.what();
+  EXPECT_TRUE(has(e, "in [1, 10000]")) << e.what();  // time.substeps' own bound, within int
   // Beyond 64 bits too.
   e = config_error(with(kBase, "  frames: 2", "  frames: 99999999999999999999999"));
   EXPECT_EQ(e.key_path(), "time.frames");
@@ -318,4 +318,99 @@ TEST(BadInput, SetMistakesBlameTheSetOption) {
   e = config_error(with(kBase, "  radius: 0.01", "  radius: 0.01\n  friction: {kinetic: 0.5}"),
                    {"contact.friction.static=0.2"});
   EXPECT_TRUE(has(e, "--set contact.friction.static=0.2")) << e.what();
+}
+
+// Counts that multiply (substeps x subdivision x iterations, 4 x iterations) are bounded so that no
+// product overflows int and no frame runs unbounded; iterations 536870912 made 4 x iterations
+// negative and crashed in Simulation::record_lag.
+TEST(BadInput, CountsAreBoundedSoNoProductOverflows) {
+  const auto time_key = [](const std::string& kv) { return with(kBase, "  frames: 2", "  frames: 2\n  " + kv); };
+  struct Case {
+    const char* kv;
+    const char* key;
+  };
+  for (const Case c :
+       {Case{"iterations: 536870912", "time.iterations"}, Case{"substeps: 2147483647", "time.substeps"},
+        Case{"xpbd_sweeps: 2147483647", "time.xpbd_sweeps"}, Case{"frames: 2147483647", "time.frames"}}) {
+    const std::string y =
+        c.kv == std::string("frames: 2147483647") ? with(kBase, "  frames: 2", "  frames: 2147483647") : time_key(c.kv);
+    const auto e = config_error(y);
+    EXPECT_EQ(e.key_path(), c.key) << e.what();
+    EXPECT_EQ(e.file(), "scene.yaml");
+    EXPECT_TRUE(has(e, "in [")) << e.what();
+  }
+  // From --set (Python's overrides take the same path).
+  auto e = config_error(kBase, {"time.iterations=536870912"});
+  EXPECT_EQ(e.key_path(), "time.iterations");
+  EXPECT_TRUE(has(e, "--set time.iterations=536870912")) << e.what();
+  // A maximum below the nominal count.
+  e = config_error(time_key("iterations: 1000\n  max_iterations: 10"));
+  EXPECT_EQ(e.key_path(), "time.max_iterations");
+  EXPECT_EQ(e.line(), 6);
+  EXPECT_TRUE(has(e, "below time.iterations (1000)")) << e.what();
+  // Each count within its bound, the product past int: named with the keys to lower.
+  e = config_error(time_key("substeps: 10000\n  max_subdivision: 4096\n  max_iterations: 4096"));
+  EXPECT_EQ(e.key_path(), "time.substeps");
+  EXPECT_TRUE(has(e, "time.max_subdivision")) << e.what();
+  EXPECT_TRUE(has(e, "more than 2147483647")) << e.what();
+  // A registered solver's count is bounded too.
+  e = config_error(with(kBase, "  radius: 0.01",
+                        "  radius: 0.01\n  solver: post_process\n  post_process: {sweeps: "
+                        "2147483647}"));
+  EXPECT_EQ(e.key_path(), "contact.post_process.sweeps");
+  // The largest counts allowed still load.
+  EXPECT_NO_THROW(io::load_scene_text(time_key("iterations: 1024\n  xpbd_sweeps: 10000"), "scene.yaml", "."));
+}
+
+// Magnitudes that are typos rather than scenes: each refused naming its key.
+TEST(BadInput, TinyFpsScaleAndAnAuditToleranceOfOneAreRangeErrors) {
+  auto e = config_error(with(kBase, "  fps: 60", "  fps: 1e-300"));
+  EXPECT_EQ(e.key_path(), "time.fps");
+  EXPECT_EQ(e.line(), 3);
+  e = config_error(with(kBase, "resolution: [4, 4]}", "resolution: [4, 4]}\n    transform: {scale: 1e-300}"));
+  EXPECT_EQ(e.key_path(), "objects[0].transform.scale");
+  // debug.audit_tolerance: the range the audit accepts at run time, [0, 1).
+  e = config_error(std::string(kBase) + "debug: {audit: every_frame, audit_tolerance: 1}\n");
+  EXPECT_EQ(e.key_path(), "debug.audit_tolerance");
+  EXPECT_TRUE(has(e, "[0, 1)")) << e.what();
+}
+
+// Keys that would do nothing for the object they are on: refused naming the key and the kind.
+TEST(BadInput, MotionOnADeformableAndTetgenSettingsWithoutTetgenAreRefused) {
+  auto e = config_error(with(kBase, "resolution: [4, 4]}", "resolution: [4, 4]}\n    motion: {velocity: [0, 1, 0]}"));
+  EXPECT_EQ(e.key_path(), "objects[0].motion");
+  EXPECT_EQ(e.line(), 11);
+  EXPECT_TRUE(has(e, "only obstacles follow `motion`")) << e.what();
+  EXPECT_TRUE(has(e, "pins[].motion")) << e.what();
+  const fs::path obj = mesh_dir() / "tri.obj";
+  std::ofstream(obj) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+  e = config_error(shape("{type: mesh, path: " + obj.string() + ", quality: 1.5}"));
+  EXPECT_EQ(e.key_path(), "objects[0].shape.quality");
+  EXPECT_TRUE(has(e, "applies only to a tet_solid")) << e.what();
+  EXPECT_NO_THROW(io::load_scene_text(shape("{type: mesh, path: " + obj.string() + "}"), "scene.yaml", "."));
+}
+
+// Two pin groups moving one vertex differently: only the last would act. Overlapping groups that
+// hold it alike stay fine.
+TEST(BadInput, AVertexInTwoPinGroupsMovingDifferentlyIsRefused) {
+  const std::string pins = std::string(kBase) +
+                           "    pins:\n"
+                           "      - {indices: [0, 1], motion: {velocity: [0, 1, 0]}}\n"
+                           "      - {indices: [1, 2], motion: {velocity: [0, -1, 0]}}\n";
+  const auto e = config_error(pins);
+  EXPECT_EQ(e.key_path(), "objects[0].pins[1]");
+  EXPECT_EQ(e.line(), 13);
+  EXPECT_TRUE(has(e, "vertex 1 is also in objects[0].pins[0]")) << e.what();
+  const std::string alike =
+      std::string(kBase) +
+      "    pins:\n      - {indices: [0, 1]}\n      - {box_min: [-1, -1, -1], box_max: [1, 1, 1]}\n";
+  EXPECT_NO_THROW(io::load_scene_text(alike, "scene.yaml", "."));
+}
+
+// A NUL in a key (YAML's "\0") cut the printed message at it; control characters show as \xNN.
+TEST(BadInput, ControlCharactersInKeysArePrintedEscaped) {
+  const auto e = config_error(with(kBase, "  frames: 2", "  frames: 2\n  \"ab\\0cd\": 1"));
+  EXPECT_EQ(e.key_path(), "time.ab\\x00cd");
+  EXPECT_TRUE(has(e, "unknown key 'ab\\x00cd'")) << e.what();
+  EXPECT_EQ(std::string(e.what()).find('\0'), std::string::npos);
 }

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "ccfr/core/error.hpp"
+#include "ccfr/core/topology.hpp"
 #include "ccfr/io/frame_topology.hpp"
 #include "ccfr/io/obj.hpp"
 #include "ccfr/io/scene_loader.hpp"
@@ -108,4 +109,51 @@ TEST(FrameReader, CoordinatesBeyondTheBoundAreRefusedWithFileLineAndVertex) {
   EXPECT_NE(e.find("object 'wall': vertex 2 lies at (5e+06, 0, 0) once placed, beyond +-1e6 m"), std::string::npos)
       << e;
   EXPECT_NO_THROW(io::load_scene_text(scene("km.obj", 1000.0), "s.yaml", d));
+}
+
+// What used to be read silently wrong: a lone CR hid every statement after it on its line, text
+// after a vertex's coordinates was ignored, a strand could fold onto itself; a UTF-8 BOM was an
+// invisible unsupported statement (YAML accepts one).
+TEST(FrameReader, LoneCarriageReturnsTrailingTextAndRevisitingLinesAreRefused) {
+  const fs::path cr = write_obj("lone_cr", "o a\rv 0 0 0\rv 1 0 0\rv 0 1 0\rf 1 2 3\r");
+  EXPECT_NE(test::error_of([&] { io::read_frame_obj(cr); }).find("ccfr_reader_lone_cr.obj:1: carriage return"),
+            std::string::npos);
+  const fs::path junk = write_obj("junk", "o a\nv 0 0 0 junk\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  EXPECT_NE(test::error_of([&] { io::read_frame_obj(junk); }).find("ccfr_reader_junk.obj:2: unexpected 'junk'"),
+            std::string::npos);
+  const fs::path fold = write_obj("fold", "o s\nv 0 0 0\nv 1 0 0\nl 1 2 1 2\n");
+  EXPECT_NE(
+      test::error_of([&] { io::read_frame_obj(fold); }).find("ccfr_reader_fold.obj:4: line visits vertex 1 twice"),
+      std::string::npos);
+  // Still read: CRLF, a weight or a colour after x y z, a closed loop, a BOM.
+  const auto ok = io::read_frame_obj(
+      write_obj("fine", "\xEF\xBB\xBFo a\r\nv 0 0 0 1\r\nv 1 0 0 0.5 0.5 0.5\r\nv 0 1 0 1 0 0 1\r\nl 1 2 3 1\r\n"));
+  EXPECT_EQ(ok.v.size(), 3u);
+  ASSERT_EQ(ok.objects.size(), 1u);
+  EXPECT_EQ(ok.objects[0].name, "a");
+  EXPECT_EQ(ok.lines.size(), 1u);
+}
+
+// A run's OBJ frame carries its scene fingerprint in its first line; other frames carry none.
+TEST(FrameReader, SceneFingerprintRoundTrips) {
+  TopologyBuilder b;
+  b.add_object("quad", ObjectKind::cloth, 3, {{0, 1, 2}});
+  const Topology t = b.finish();
+  const Positions x{Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0)};
+  const fs::path p = fs::temp_directory_path() / "ccfr_reader_fingerprint.obj";
+  io::write_frame_obj(p, t, x, 0x0123456789abcdefull);
+  EXPECT_EQ(io::read_frame_obj(p).scene_fingerprint, 0x0123456789abcdefull);
+  io::write_frame_obj(p, t, x);
+  EXPECT_EQ(io::read_frame_obj(p).scene_fingerprint, 0u);
+}
+
+// A non-convex polygon was fan-triangulated into a folded triangle; a convex one still reads.
+TEST(FrameReader, NonConvexPolygonsAreRefused) {
+  // An arrowhead: corner 3 at (1, 0.5) points inwards, so the fan (1 2 3), (1 3 4) overlaps.
+  const fs::path p = write_obj("nonconvex", "o a\nv 0 0 0\nv 2 0 0\nv 0.5 0.5 0\nv 0 2 0\nf 1 2 3 4\n");
+  EXPECT_NE(test::error_of([&] { io::read_frame_obj(p); }).find("ccfr_reader_nonconvex.obj:6: non-convex polygon"),
+            std::string::npos);
+  const auto pent =
+      io::read_frame_obj(write_obj("pentagon", "o a\nv 0 0 0\nv 2 0 0\nv 3 1 0\nv 1 2 0\nv -1 1 0\nf 1 2 3 4 5\n"));
+  EXPECT_EQ(pent.faces.size(), 3u);
 }

@@ -142,7 +142,8 @@ TEST(SceneReaders, UnsetKeysTakeTheParameterStructsDefaults) {
   EXPECT_EQ(p.objects[0].material.friction, m.friction);
   // An absent motion is the struct's (holding for ever); a given one ends at the schema's 1e9 s.
   EXPECT_EQ(p.objects[0].motion.end, Motion{}.end);
-  const auto moved = io::load_scene_text(kScene, "scene.yaml", ".", {"objects.sheet.motion.velocity=[0, 0, 1]"});
+  const auto moved = io::load_scene_text(kScene, "scene.yaml", ".",
+                                         {"objects.sheet.kind=obstacle", "objects.sheet.motion.velocity=[0, 0, 1]"});
   EXPECT_EQ(moved.scene.params.objects[0].motion.end, 1e9);
   EXPECT_EQ(moved.scene.params.objects[0].motion.axis, Motion{}.axis);
 }

@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -17,6 +18,9 @@
 namespace ccfr::io {
 
 namespace fs = std::filesystem;
+
+// The first line of a frame written by a run: `# ccfr frame scene_fingerprint=<16 hex digits>`.
+constexpr const char* kFingerprintTag = "scene_fingerprint=";
 
 void write_file_atomic(const fs::path& path, const std::string& content) {
   // Temporary name: "<name>.tmp<pid>" in the same folder (RunWriter removes stale ones of a crashed
@@ -49,11 +53,16 @@ void write_file_atomic(const fs::path& path, const std::string& content) {
   }
 }
 
-void write_frame_obj(const fs::path& path, const Topology& topo, const Positions& x) {
+void write_frame_obj(const fs::path& path, const Topology& topo, const Positions& x, std::uint64_t scene_fingerprint) {
   std::string s;
   s.reserve(x.size() * 40 + topo.faces.size() * 24);
   char buf[128];
-  s += "# ccfr frame\n";
+  s += "# ccfr frame";
+  if (scene_fingerprint != 0) {
+    std::snprintf(buf, sizeof buf, " %s%016llx", kFingerprintTag, static_cast<unsigned long long>(scene_fingerprint));
+    s += buf;
+  }
+  s += "\n";
   for (const auto& o : topo.objects) {
     s += "o " + o.name + "\n";
     for (Index v = o.vertex_begin; v < o.vertex_end; ++v) {
@@ -109,7 +118,7 @@ Index parse_index(const std::string& tok, Index nv, const fs::path& p, int line)
 }
 
 template <class Sink>
-void parse_obj(const fs::path& path, Sink&& sink) {
+void parse_obj(const fs::path& path, Sink&& sink, std::string* first_line = nullptr) {
   check_user_file(path, "mesh file", kMaxMeshFileBytes);  // no FIFO, device or endless file
   std::ifstream in(path);
   if (!in) throw Error("cannot open '" + path.string() + "'");
@@ -117,6 +126,13 @@ void parse_obj(const fs::path& path, Sink&& sink) {
   int lineno = 0;
   while (std::getline(in, line)) {
     ++lineno;
+    if (lineno == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);  // a UTF-8 BOM, as YAML allows
+    if (!line.empty() && line.back() == '\r') line.pop_back();                // CRLF
+    if (line.find('\r') != std::string::npos)
+      fail(path, lineno,
+           "carriage return inside a line (old Mac line endings?): the statements after it would be dropped; "
+           "convert the file to \\n line endings");
+    if (lineno == 1 && first_line) *first_line = line;
     if (line.empty() || line[0] == '#') continue;
     std::istringstream ls(line);
     if (!(ls >> tag) || tag[0] == '#') continue;  // blank, or an indented comment
@@ -127,70 +143,111 @@ void parse_obj(const fs::path& path, Sink&& sink) {
 
 Frame read_frame_obj(const fs::path& path) {
   Frame fr;
+  std::string first_line;
   auto current = [&]() -> FrameObject& {
     if (fr.objects.empty()) fr.objects.push_back({"default"});
     return fr.objects.back();
   };
-  parse_obj(path, [&](const std::string& tag, std::istringstream& ls, int ln) {
-    const Index nv = static_cast<Index>(fr.v.size());
-    std::string tok;
-    if (tag == "o" || tag == "g") {
-      std::string name;
-      std::getline(ls >> std::ws, name);
-      FrameObject o;
-      o.name = name;
-      o.vertex_begin = o.vertex_end = nv;
-      o.face_begin = o.face_end = static_cast<Index>(fr.faces.size());
-      o.line_begin = o.line_end = static_cast<Index>(fr.lines.size());
-      o.point_begin = o.point_end = static_cast<Index>(fr.points.size());
-      o.line = ln;
-      fr.objects.push_back(o);
-    } else if (tag == "v") {
-      double c[3];
-      for (double& ci : c) {
-        if (!(ls >> tok)) fail(path, ln, "vertex needs 3 coordinates");
-        char* end = nullptr;
-        ci = std::strtod(tok.c_str(), &end);
-        if (*end != '\0') fail(path, ln, "bad coordinate '" + tok + "'");
-        const std::string vertex = "vertex " + std::to_string(nv + 1) + ": ";
-        if (!std::isfinite(ci)) fail(path, ln, vertex + "non-finite coordinate '" + tok + "' (NaN or inf)");
-        if (std::abs(ci) > kMaxCoordinate)
-          fail(path, ln, vertex + "coordinate '" + tok + "' is beyond +-1e6, ccfr's bound on coordinates");
-      }
-      fr.v.emplace_back(c[0], c[1], c[2]);
-      current().vertex_end = static_cast<Index>(fr.v.size());
-    } else if (tag == "f") {
-      std::vector<Index> poly;
-      while (ls >> tok) poly.push_back(parse_index(tok, nv, path, ln));
-      if (poly.size() < 3) fail(path, ln, "face needs at least 3 vertices");
-      for (size_t k = 1; k + 1 < poly.size(); ++k) {
-        fr.faces.emplace_back(poly[0], poly[k], poly[k + 1]);
-        fr.face_lines.push_back(ln);
-      }
-      FrameObject& o = current();
-      o.face_end = static_cast<Index>(fr.faces.size());
-      if (o.first_face_line == 0) o.first_face_line = ln;
-    } else if (tag == "l") {
-      std::vector<Index> pl;
-      while (ls >> tok) pl.push_back(parse_index(tok, nv, path, ln));
-      if (pl.size() < 2) fail(path, ln, "line needs at least 2 vertices");
-      fr.lines.push_back(std::move(pl));
-      FrameObject& o = current();
-      o.line_end = static_cast<Index>(fr.lines.size());
-      if (o.first_line_line == 0) o.first_line_line = ln;
-    } else if (tag == "p") {
-      const size_t before = fr.points.size();
-      while (ls >> tok) fr.points.push_back(parse_index(tok, nv, path, ln));
-      if (fr.points.size() == before) fail(path, ln, "point statement needs at least 1 vertex");
-      FrameObject& o = current();
-      o.point_end = static_cast<Index>(fr.points.size());
-      if (o.first_point_line == 0) o.first_point_line = ln;
-    } else if (!ignored_statement(tag)) {
-      // Free-form geometry (curv, surf, ...), `call` of another file or anything unknown would
-      // carry elements that no reader downstream sees: refuse rather than drop them.
-      fail(path, ln, "unsupported OBJ statement '" + tag + "' (only v, f, l, p, o and g carry geometry here)");
-    }
-  });
+  parse_obj(
+      path,
+      [&](const std::string& tag, std::istringstream& ls, int ln) {
+        const Index nv = static_cast<Index>(fr.v.size());
+        std::string tok;
+        if (tag == "o" || tag == "g") {
+          std::string name;
+          std::getline(ls >> std::ws, name);
+          FrameObject o;
+          o.name = name;
+          o.vertex_begin = o.vertex_end = nv;
+          o.face_begin = o.face_end = static_cast<Index>(fr.faces.size());
+          o.line_begin = o.line_end = static_cast<Index>(fr.lines.size());
+          o.point_begin = o.point_end = static_cast<Index>(fr.points.size());
+          o.line = ln;
+          fr.objects.push_back(o);
+        } else if (tag == "v") {
+          double c[3];
+          for (double& ci : c) {
+            if (!(ls >> tok)) fail(path, ln, "vertex needs 3 coordinates");
+            char* end = nullptr;
+            ci = std::strtod(tok.c_str(), &end);
+            if (*end != '\0') fail(path, ln, "bad coordinate '" + tok + "'");
+            const std::string vertex = "vertex " + std::to_string(nv + 1) + ": ";
+            if (!std::isfinite(ci)) fail(path, ln, vertex + "non-finite coordinate '" + tok + "' (NaN or inf)");
+            if (std::abs(ci) > kMaxCoordinate)
+              fail(path, ln, vertex + "coordinate '" + tok + "' is beyond +-1e6, ccfr's bound on coordinates");
+          }
+          // After x y z, OBJ allows a weight w or a colour r g b (with or without w): numbers only.
+          int extra = 0;
+          while (ls >> tok) {
+            char* end = nullptr;
+            std::strtod(tok.c_str(), &end);
+            if (*end != '\0' || tok.empty() || ++extra > 4)
+              fail(path, ln, "unexpected '" + tok + "' after the vertex's coordinates");
+          }
+          fr.v.emplace_back(c[0], c[1], c[2]);
+          current().vertex_end = static_cast<Index>(fr.v.size());
+        } else if (tag == "f") {
+          std::vector<Index> poly;
+          while (ls >> tok) poly.push_back(parse_index(tok, nv, path, ln));
+          if (poly.size() < 3) fail(path, ln, "face needs at least 3 vertices");
+          if (poly.size() > 3) {
+            // The fan from the first corner is the polygon only when every corner turns one way
+            // about its normal (Newell's); a reflex corner would make a folded triangle.
+            Vec3 n = Vec3::Zero();
+            for (size_t k = 0; k < poly.size(); ++k) n += fr.v[poly[k]].cross(fr.v[poly[(k + 1) % poly.size()]]);
+            for (size_t k = 0; k < poly.size(); ++k) {
+              const Vec3& a = fr.v[poly[k]];
+              const Vec3& b = fr.v[poly[(k + 1) % poly.size()]];
+              const Vec3& c = fr.v[poly[(k + 2) % poly.size()]];
+              if ((b - a).cross(c - b).dot(n) < 0.0)
+                fail(path, ln,
+                     "non-convex polygon (corner at vertex " + std::to_string(poly[(k + 1) % poly.size()] + 1) +
+                         "): its fan triangulation would fold; triangulate it in the modelling tool");
+            }
+          }
+          for (size_t k = 1; k + 1 < poly.size(); ++k) {
+            fr.faces.emplace_back(poly[0], poly[k], poly[k + 1]);
+            fr.face_lines.push_back(ln);
+          }
+          FrameObject& o = current();
+          o.face_end = static_cast<Index>(fr.faces.size());
+          if (o.first_face_line == 0) o.first_face_line = ln;
+        } else if (tag == "l") {
+          std::vector<Index> pl;
+          while (ls >> tok) pl.push_back(parse_index(tok, nv, path, ln));
+          if (pl.size() < 2) fail(path, ln, "line needs at least 2 vertices");
+          // A strand visits each vertex once (a closed loop ends where it starts): `l 1 2 1 2`
+          // would fold a strand onto itself.
+          std::vector<Index> seen(pl.begin(), pl.end() - (pl.size() > 3 && pl.front() == pl.back() ? 1 : 0));
+          std::sort(seen.begin(), seen.end());
+          if (const auto twice = std::adjacent_find(seen.begin(), seen.end()); twice != seen.end())
+            fail(path, ln,
+                 "line visits vertex " + std::to_string(*twice + 1) +
+                     " twice (only a closed loop may end where it starts)");
+          fr.lines.push_back(std::move(pl));
+          FrameObject& o = current();
+          o.line_end = static_cast<Index>(fr.lines.size());
+          if (o.first_line_line == 0) o.first_line_line = ln;
+        } else if (tag == "p") {
+          const size_t before = fr.points.size();
+          while (ls >> tok) fr.points.push_back(parse_index(tok, nv, path, ln));
+          if (fr.points.size() == before) fail(path, ln, "point statement needs at least 1 vertex");
+          FrameObject& o = current();
+          o.point_end = static_cast<Index>(fr.points.size());
+          if (o.first_point_line == 0) o.first_point_line = ln;
+        } else if (!ignored_statement(tag)) {
+          // Free-form geometry (curv, surf, ...), `call` of another file or anything unknown would
+          // carry elements that no reader downstream sees: refuse rather than drop them.
+          fail(path, ln, "unsupported OBJ statement '" + tag + "' (only v, f, l, p, o and g carry geometry here)");
+        }
+      },
+      &first_line);
+  if (const std::string head = std::string("# ccfr frame ") + kFingerprintTag; first_line.rfind(head, 0) == 0) {
+    const std::string hex = first_line.substr(head.size());
+    char* end = nullptr;
+    fr.scene_fingerprint = std::strtoull(hex.c_str(), &end, 16);
+    if (hex.size() != 16 || *end != '\0') fail(path, 1, "bad scene fingerprint '" + hex + "'");
+  }
   return fr;
 }
 

@@ -6,8 +6,10 @@
 #include <system_error>
 
 #include "ccfr/core/error.hpp"
+#include "ccfr/io/dir_lock.hpp"
 #include "ccfr/io/frame_topology.hpp"
 #include "ccfr/io/obj.hpp"
+#include "ccfr/io/run_audit.hpp"
 #include "ccfr/io/run_json.hpp"
 
 namespace ccfr::io {
@@ -24,10 +26,30 @@ void make_dir(const fs::path& d) {
 
 }  // namespace
 
-int export_run(const fs::path& run_dir, const std::vector<std::string>& formats, const fs::path& out_dir) {
+int export_run(const fs::path& run_dir, const std::vector<std::string>& formats, const fs::path& out_dir,
+               const std::string& command) {
+  read_run_info(run_dir, /*require_run_json=*/true);  // a run folder, before its lock is taken
+  // The run's own writer (`ccfr run`, a resume) holds this lock while it writes the folder.
+  const DirLock run_lock = DirLock::acquire(run_dir, command);
   const RunInfo info = read_run_info(run_dir, /*require_run_json=*/true);
   if (info.frames.empty()) throw Error("run '" + run_dir.string() + "' has no frames/frame_*.obj to export");
+  // A hole would shift every later frame in a PC2 or USDA file (Blender's frame 2 showing frame 3).
+  check_frame_sequence(run_dir, 0, info.meta.every, "export writes");
   const fs::path out = out_dir.empty() ? run_dir : out_dir;
+  const bool into_run = fs::exists(out) && fs::equivalent(out, run_dir);
+  if (!into_run && fs::exists(out / "run.json"))
+    throw Error("'" + out.string() +
+                "' is another run's folder (it holds run.json): export would overwrite what "
+                "that run wrote; give --out a folder of its own");
+  // What the run wrote itself carries what the OBJ frames cannot give back (VTU's distance,
+  // half_spaces and halted arrays; PLY and USDA written at full rate): never replaced.
+  if (into_run && info.meta.frames)
+    for (const std::string& f : formats)
+      if (f != "obj" && std::find(info.meta.formats.begin(), info.meta.formats.end(), f) != info.meta.formats.end())
+        throw Error("run '" + run_dir.string() + "' wrote " + f +
+                    " itself (output.formats), with data its OBJ frames cannot rebuild; export would replace it: "
+                    "give --out another folder");
+  const DirLock out_lock = into_run ? DirLock() : DirLock::acquire(out, command);
   make_dir(out);
   const Frame first = read_frame_obj(info.frames.front());
   const Topology topo = topology_from_frame(first, info.frames.front());
@@ -39,7 +61,7 @@ int export_run(const fs::path& run_dir, const std::vector<std::string>& formats,
   // The OBJ frames are what is exported: copied as they are, not written again from the topology
   // read back.
   const bool copy_obj = std::find(formats.begin(), formats.end(), "obj") != formats.end() &&
-                        !fs::equivalent(out, run_dir);  // in the run directory they are already there
+                        !into_run;  // in the run directory they are already there
   if (copy_obj) make_dir(out / "frames");
   for (const std::string& f : formats)
     if (f != "obj")

@@ -58,14 +58,16 @@ std::vector<std::pair<long, fs::path>> list_frame_files(const fs::path& frames) 
 
 bool is_temp_name(const std::string& name) { return name.find(".tmp") != std::string::npos; }
 
-// Temporary files of a crashed run: run.json.tmpPID, frames/frame_NNNNN.obj.tmpPID.
+// Temporary files of a crashed run: run.json.tmpPID, frames/frame_NNNNN.obj.tmpPID,
+// checkpoints/checkpoint_NNNNN.ccfr.tmpPID (a SIGKILL during a checkpoint's write).
 void remove_stale_temporaries(const fs::path& dir) {
   std::error_code ec;
-  for (const fs::path& d : {dir, dir / "frames"}) {
+  for (const fs::path& d : {dir, dir / "frames", dir / "checkpoints"}) {
     if (!fs::is_directory(d, ec)) continue;
     for (const auto& e : fs::directory_iterator(d, ec)) {
       const std::string n = e.path().filename().string();
-      if ((n.rfind("frame_", 0) == 0 || n.rfind("run.json", 0) == 0) && is_temp_name(n) && e.is_regular_file(ec))
+      if ((n.rfind("frame_", 0) == 0 || n.rfind("run.json", 0) == 0 || n.rfind("checkpoint_", 0) == 0) &&
+          is_temp_name(n) && e.is_regular_file(ec))
         fs::remove(e.path(), ec);
     }
   }
@@ -200,11 +202,18 @@ bool is_ccfr_run(const fs::path& dir) {
   return j.is_object() && j.contains("ccfr") && j["ccfr"].is_object() && j["ccfr"].contains("version");
 }
 
+std::string previous_run_note(const fs::path& dir) {
+  std::error_code ec;
+  const fs::path old = sibling(dir, ".ccfr-old");
+  if (!fs::exists(old / "run.json", ec)) return "";
+  return "; its earlier run is in '" + old.string() + "' (a rerun was killed while it replaced it)";
+}
+
 std::string run_json_problem(const fs::path& dir) {
   const fs::path rj = dir / "run.json";
   std::error_code ec;
   const fs::file_status st = fs::status(rj, ec);
-  if (st.type() == fs::file_type::not_found) return "no run.json";
+  if (st.type() == fs::file_type::not_found) return "no run.json" + previous_run_note(dir);
   if (ec) return "run.json is unreadable: " + ec.message();
   if (st.type() != fs::file_type::regular) return "run.json is not a regular file";
   std::ifstream in(rj);
@@ -287,7 +296,8 @@ void RunWriter::make_sinks() {
         if (spec.type == ParamType::number) params.set(spec.key, v.get<double>());
         if (spec.type == ParamType::choice) params.set(spec.key, v.get<std::string>());
       }
-    sinks_.push_back(make_frame_sink(f, FrameSinkContext{topo_, meta_.fps, meta_.every, std::move(others)}, params));
+    sinks_.push_back(make_frame_sink(
+        f, FrameSinkContext{topo_, meta_.fps, meta_.every, std::move(others), true, meta_.scene_fingerprint}, params));
   }
 }
 

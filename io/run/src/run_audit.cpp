@@ -5,13 +5,16 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <optional>
 #include <utility>
 #include <vector>
 
 #include "ccfr/core/error.hpp"
+#include "ccfr/core/log.hpp"
 #include "ccfr/io/frame_topology.hpp"
 #include "ccfr/io/obj.hpp"
+#include "ccfr/io/output.hpp"
 #include "ccfr/io/run_json.hpp"
 
 namespace ccfr::io {
@@ -105,12 +108,26 @@ std::string jnum(double v) {
 
 }  // namespace
 
+void check_frame_sequence(const fs::path& dir, long first, std::optional<long> every, const std::string& who) {
+  const std::vector<FrameFile> frames = frame_files(dir);
+  const std::vector<long> missing = missing_frames(frames, first, every);
+  if (missing.empty()) return;
+  std::string list;
+  for (size_t i = 0; i < missing.size() && i < 20; ++i) list += (i ? ", " : "") + std::to_string(missing[i]);
+  if (missing.size() > 20) list += " and " + std::to_string(missing.size() - 20) + " more";
+  throw Error("'" + (dir / "frames").string() +
+              "' has a gap: " + (missing.size() >= kMaxListedMissing ? "at least " : "") +
+              std::to_string(missing.size()) + " frame" + (missing.size() == 1 ? " is" : "s are") +
+              " missing between frame " + std::to_string(first) + " and frame " + std::to_string(frames.back().number) +
+              " (" + list + "); " + who + " a whole sequence only: restore the frames or run again");
+}
+
 RunAuditResult audit_run(const fs::path& dir, const RunAuditOptions& o, const FrameAuditCallback& on_frame,
                          const std::function<void(const RunAuditResult&)>& on_start) {
-  if (!fs::is_directory(dir)) throw Error("'" + dir.string() + "' is not a directory");
+  if (!fs::is_directory(dir)) throw Error("'" + dir.string() + "' is not a directory" + previous_run_note(dir));
   if (!o.offset && !fs::exists(dir / "run.json"))
     throw Error("'" + (dir / "run.json").string() +
-                "' is missing: pass --offset XI to audit frames without a run.json");
+                "' is missing: pass --offset XI to audit frames without a run.json" + previous_run_note(dir));
   const RunInfo info = read_run_info(dir, /*require_run_json=*/!o.offset.has_value());
   RunAuditResult res;
   res.dir = dir;
@@ -145,21 +162,9 @@ RunAuditResult audit_run(const fs::path& dir, const RunAuditOptions& o, const Fr
   }
 
   // A sequence with a hole certifies nothing about the hole: refuse it, naming what is missing.
-  {
-    const long first = o.reference.empty() ? 0 : frames.front().number;
-    const std::vector<long> missing =
-        missing_frames(frames, first, info.has_run_json ? std::optional<long>(info.meta.every) : std::optional<long>());
-    if (!missing.empty()) {
-      std::string list;
-      for (size_t i = 0; i < missing.size() && i < 20; ++i) list += (i ? ", " : "") + std::to_string(missing[i]);
-      if (missing.size() > 20) list += " and " + std::to_string(missing.size() - 20) + " more";
-      throw Error(
-          "'" + (dir / "frames").string() + "' has a gap: " + (missing.size() >= kMaxListedMissing ? "at least " : "") +
-          std::to_string(missing.size()) + " frame" + (missing.size() == 1 ? " is" : "s are") +
-          " missing between frame " + std::to_string(first) + " and frame " + std::to_string(frames.back().number) +
-          " (" + list + "); the audit certifies a whole sequence only: restore the frames or run again");
-    }
-  }
+  check_frame_sequence(dir, o.reference.empty() ? 0 : frames.front().number,
+                       info.has_run_json ? std::optional<long>(info.meta.every) : std::optional<long>(),
+                       "the audit certifies");
 
   // Frames 0, K, 2K, ... (by position on disk) and always the last one.
   const size_t stride = static_cast<size_t>(res.stride);
@@ -171,6 +176,26 @@ RunAuditResult audit_run(const fs::path& dir, const RunAuditOptions& o, const Fr
 
   const auto t0 = std::chrono::steady_clock::now();
   const Frame reference = read_frame_obj(res.reference);
+  // Frames of another scene certify nothing about this run: run.json counts the run's vertices.
+  if (info.has_run_json && info.progress.vertices > 0 &&
+      static_cast<long>(reference.v.size()) != info.progress.vertices)
+    throw Error("'" + res.reference.string() + "' has " + std::to_string(reference.v.size()) + " vertices, but '" +
+                (dir / "run.json").string() + "' records " + std::to_string(info.progress.vertices) +
+                ": these frames are not this run's; audit the run that wrote them");
+  // An offset beyond the scene's size excludes every pair as close in frame 0 and passes anything.
+  if (o.offset) {
+    Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+    for (const Vec3& x : reference.v) {
+      lo = lo.cwiseMin(x);
+      hi = hi.cwiseMax(x);
+    }
+    const double size = reference.v.empty() ? 0.0 : (hi - lo).norm();
+    if (!(*o.offset <= size))
+      throw Error(
+          ccfr::format("--offset {} is larger than the scene (the diagonal of the box of '{}' is {} m): every "
+                       "pair would be excluded as close in frame 0; give the run's offset xi",
+                       *o.offset, res.reference.string(), size));
+  }
   exact::AuditOptions opt;
   opt.offset = res.offset;
   opt.tolerance = o.tolerance;
@@ -199,6 +224,14 @@ RunAuditResult audit_run(const fs::path& dir, const RunAuditOptions& o, const Fr
   for (const size_t i : picks) {
     const fs::path& path = frames[i].path;
     const Frame fr = path == res.reference ? reference : read_frame_obj(path);
+    // Frames a run wrote carry its scene fingerprint: another scene's frames (same topology,
+    // other positions or masses) are not this run's.
+    if (info.meta.scene_fingerprint != 0 && reference.scene_fingerprint != 0 &&
+        fr.scene_fingerprint != info.meta.scene_fingerprint)
+      throw Error(
+          ccfr::format("'{}' was written by a run of scene fingerprint {:016x}, but '{}' records {:016x}: "
+                       "these frames are not this run's; audit the run that wrote them",
+                       path.string(), fr.scene_fingerprint, (dir / "run.json").string(), info.meta.scene_fingerprint));
     if (!same_structure(reference, fr)) {
       topology_from_frame(fr, path);  // names the offending line if the frame itself is malformed
       throw Error("the topology of '" + path.string() + "' differs from the reference '" + res.reference.string() +

@@ -238,7 +238,7 @@ RunInfo read_run_info(const fs::path& dir, bool require_run_json) {
     text << in.rdbuf();
     info = parse_run_json(text.str(), rj);
   } else if (require_run_json) {
-    throw Error("'" + rj.string() + "' is missing (not a ccfr run directory?)");
+    throw Error("'" + rj.string() + "' is missing (not a ccfr run directory?)" + previous_run_note(dir));
   }
   info.dir = dir;
   info.frames = list_frames(dir);

@@ -111,6 +111,13 @@ class Builder {
       op.material = read_material(in_, o["material"].as<std::string>(), path + ".material");
       op.motion = read_motion(o["motion"]);
       check_motion(in_, o["motion"], path + ".motion");
+      // Only obstacles follow their object's motion (the simulation moves their vertices alone).
+      if (o["motion"] && !info.kinematic())
+        in_.ctx.fail(path + ".motion", in_.in_node(path + ".motion"),
+                     "only obstacles follow `motion`; a " + std::string(to_string(info.kind)) +
+                         " would ignore it: pin vertices and give the pin group a motion (pins[].motion), or "
+                         "make the object an obstacle",
+                     {path + ".kind"});
       op.initial_velocity = v3(o["velocity"]);
       op.shape = geoms[i].shape;
       if (o["animation"]) read_animation(in_, o, info, st, op, path);

@@ -63,24 +63,24 @@ const scene::ChoiceTable<bool>& strand_layout_choices() {
 // The sections read into parameter structs: key, type, default (the struct's) and reader, once.
 const scene::Section<TimeParams>& time_section() {
   using S = TimeParams;
-  const Range one = Range::at_least(1);
+  const Range count{1, static_cast<double>(kMaxCount), false, false};
   static const scene::Section<S> s =
       scene::Section<S>()
-          .field("fps", &S::fps, "frames per second", Range::positive_up_to(kMaxFps))
-          .field("frames", &S::frames, "frames to simulate", Range::non_negative())
-          .field("substeps", &S::substeps, "substeps per frame", one)
+          .field("fps", &S::fps, "frames per second", Range{kMinFps, kMaxFps, false, false})
+          .field("frames", &S::frames, "frames to simulate", Range::up_to(static_cast<double>(kMaxFrames)))
+          .field("substeps", &S::substeps, "substeps per frame", count)
           .field("iterations", &S::iterations,
                  "nominal outer iterations per substep, each with collision detection: a substep ends after "
                  "the first one in which no vertex was held back by the step bound r (fewer may run; stats.csv "
                  "outer_iterations counts them), and goes on past it while one is, or while a solver that "
                  "guarantees separation left a pair inside its offset (time.max_iterations)",
-                 one)
+                 Range{1, static_cast<double>(kMaxIterations), false, false})
           .field("max_iterations", &S::max_iterations,
                  "outer iterations continue past `iterations` while a vertex has not reached its intended "
                  "advance (held back by the step bound r) or, under a solver that guarantees separation, a pair "
-                 "is inside its offset, up to this many; 0 means 4 x iterations",
-                 Range{0, 4096, false, false})
-          .field("xpbd_sweeps", &S::xpbd_sweeps, "material constraint sweeps per outer iteration", one)
+                 "is inside its offset, up to this many (at least `iterations`); 0 means 4 x iterations",
+                 Range{0, static_cast<double>(kMaxOuterIterations), false, false})
+          .field("xpbd_sweeps", &S::xpbd_sweeps, "material constraint sweeps per outer iteration", count)
           .field("gravity", &S::gravity, "gravity (m/s²)", Range::within(kMaxAccel))
           .field("damping", &S::damping, "fraction of velocity removed per second", Range{0, 1e3, false, false})
           .field("advance_tolerance", &S::advance_tolerance,
@@ -105,7 +105,7 @@ const scene::Section<TimeParams>& time_section() {
                  "most pieces a substep is split into automatically when scripted vertices move more than r or "
                  "the free-flight advance exceeds (max_iterations - 1) r; beyond it a scripted step is an "
                  "error and a dynamic one a warning naming the object",
-                 Range{1, 4096, false, false});
+                 Range{1, static_cast<double>(kMaxOuterIterations), false, false});
   return s;
 }
 
@@ -181,7 +181,7 @@ const scene::Section<DebugParams>& debug_section() {
           .choice("audit", &S::audit, audit_choices(),
                   "exact penetration audit during the run; fills the `penetrations` column of stats.csv")
           .field("audit_tolerance", &S::audit_tolerance, "the audit flags pairs closer than (1 - tol) ξ",
-                 Range::unit());
+                 Range{0, 1, false, true});
   return s;
 }
 
@@ -190,11 +190,12 @@ const scene::Section<OutputParams>& output_section() {
   static const scene::Section<S> s =
       scene::Section<S>()
           .field("frames", &S::frames, "write frames (in every format of `formats`)")
-          .field("every", &S::every, "write every k-th frame (frame 0 always)", Range::at_least(1))
+          .field("every", &S::every, "write every k-th frame (frame 0 always)",
+                 Range{1, static_cast<double>(kMaxFrames), false, false})
           .field("checkpoint_every", &S::checkpoint_every,
                  "write a checkpoint every k-th frame, and when the run is "
                  "interrupted (0: never); `ccfr run --resume DIR` continues from it",
-                 Range::at_least(0))
+                 Range::up_to(static_cast<double>(kMaxFrames)))
           // interop (docs/interop.md): formats besides the OBJ frames; read by read_output (an empty
           // list is refused there, with the key's line)
           .other("formats", list("formats of the frames; absent: [obj]; each one of the registered frame "
@@ -253,8 +254,15 @@ NodePtr param_node(const ParamSpec& spec) {
   switch (spec.type) {
     case ParamType::boolean:
       return boolean(std::get<bool>(spec.default_value), spec.doc);
-    case ParamType::integer:
-      return integer(std::get<long long>(spec.default_value), spec.doc, r);
+    case ParamType::integer: {
+      // A registered count (passes, sweeps) is bounded like the time section's counts.
+      Range c = r;
+      if (c.hi > static_cast<double>(kMaxCount) && std::get<long long>(spec.default_value) <= kMaxCount) {
+        c.hi = static_cast<double>(kMaxCount);
+        c.hi_open = false;
+      }
+      return integer(std::get<long long>(spec.default_value), spec.doc, c);
+    }
     case ParamType::number:
       return number(std::get<double>(spec.default_value), spec.doc, r);
     case ParamType::choice: {
@@ -342,7 +350,7 @@ NodePtr build_scene_schema() {
           {"shape", shape_schema()},
           {"transform",
            map("placement of the generated or loaded geometry: scale, rotate, then translate",
-               {{"scale", number(1.0, "uniform scale", Range::positive_up_to(kMaxScale))},
+               {{"scale", number(1.0, "uniform scale", Range{kMinScale, kMaxScale, false, false})},
                 {"rotate_axis", vec3(std::array<double, 3>{0, 1, 0}, "rotation axis", Range::within(kMaxLength))},
                 {"rotate_deg", number(0.0, "rotation angle about rotate_axis (degrees)", Range::within(kMaxAngleDeg))},
                 {"translate", vec3(std::array<double, 3>{0, 0, 0}, "translation (m)", Range::within(kMaxLength))}})},

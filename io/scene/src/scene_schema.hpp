@@ -1,4 +1,5 @@
 #pragma once
+#include "ccfr/io/scene_loader.hpp"
 #include "ccfr/solvers/kinematics.hpp"
 #include "ccfr/solvers/params.hpp"
 #include "scene/bind.hpp"
@@ -17,6 +18,16 @@ inline constexpr double kMaxScale = 1e4;     ///< uniform scale
 inline constexpr double kMaxAngleDeg = 1e6;  ///< degrees
 inline constexpr double kMaxDensity = 1e6;   ///< kg/m³ (and the per-area, per-length, per-particle variants)
 inline constexpr double kMaxFps = 1e6;
+/// Frames per second below this (a frame longer than 1000 s) is a typo: Δt would overflow positions.
+inline constexpr double kMinFps = 1e-3;
+/// The smallest uniform scale: below it a metre-sized mesh has faces of zero area in double.
+inline constexpr double kMinScale = 1e-6;
+/// Counts of work (substeps, sweeps, a registered solver's passes): bounded so that every product
+/// of them stays in int and a run ends in finite time; time.iterations so that 4 x it stays within
+/// time.max_iterations' bound.
+inline constexpr long long kMaxCount = 10000;
+inline constexpr long long kMaxIterations = 1024;
+inline constexpr long long kMaxOuterIterations = 4096;  ///< time.max_iterations, time.max_subdivision
 /// XPBD compliances (m/N, 1/(N m), 1/Pa): 1e6 is softer than any material (the defaults are 0 to
 /// 1e-3); 1e308 overflowed α / Δt² to inf and the run stopped on a non-finite position.
 inline constexpr double kMaxCompliance = 1e6;

@@ -10,6 +10,7 @@
 #include <yaml-cpp/parser.h>
 
 #include "ccfr/core/error.hpp"
+#include "ccfr/io/user_file.hpp"
 
 namespace ccfr::io::schema {
 
@@ -383,13 +384,15 @@ NodePtr variant(std::string doc, std::string discriminator, std::vector<std::pai
   return n;
 }
 
-void Context::fail(const std::string& path, const YAML::Node& at, const std::string& message,
+void Context::fail(const std::string& raw_path, const YAML::Node& at, const std::string& raw_message,
                    const std::vector<std::string>& related) const {
+  // A key may hold any character YAML can escape (a NUL cut the message): shown as \xNN.
+  const std::string path = printable(raw_path), message = printable(raw_message, /*keep_newlines=*/true);
   auto under = [](const std::string& p, const std::string& opath) {
     return p == opath || p.rfind(opath + ".", 0) == 0 || p.rfind(opath + "[", 0) == 0;
   };
   for (const auto& [opath, text] : overrides) {
-    if (under(path, opath)) throw ConfigError("command line (" + text + ")", path, 0, message);
+    if (under(raw_path, opath)) throw ConfigError("command line (" + text + ")", path, 0, message);
   }
   for (const auto& [opath, text] : overrides)
     for (const auto& r : related)

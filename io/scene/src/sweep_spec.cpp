@@ -1,5 +1,8 @@
 #include <yaml-cpp/yaml.h>
 
+#include <charconv>
+#include <cstdlib>
+#include <map>
 #include <set>
 
 #include "ccfr/core/error.hpp"
@@ -14,6 +17,15 @@ namespace ccfr::io {
 namespace fs = std::filesystem;
 
 namespace {
+
+// What a sweep value loads as: a number however written (1.0e-2 and 0.01 alike), else its text.
+std::string value_key(const std::string& v) {
+  char* end = nullptr;
+  const double x = std::strtod(v.c_str(), &end);
+  if (v.empty() || *end != '\0') return "s" + v;
+  char b[40];
+  return "n" + std::string(b, std::to_chars(b, b + sizeof b, x).ptr);
+}
 
 class SpecReader {
  public:
@@ -224,6 +236,22 @@ SweepSpec load_sweep_spec(const fs::path& file) {
             next.back().push_back(x);
           }
         s.cases = std::move(next);
+      }
+    }
+    // A value given twice (however written) would run identical cells: in one list of a grid, in
+    // every list at once for zip.
+    const bool zip = combine == "zip";
+    for (size_t k = 0; k < (zip ? 1 : values.size()); ++k) {
+      std::map<std::string, size_t> seen;
+      for (size_t i = 0; i < values[k].size(); ++i) {
+        std::string key;
+        for (size_t m = zip ? 0 : k; m < (zip ? values.size() : k + 1); ++m) key += value_key(values[m][i]) + '\n';
+        const auto [at, fresh] = seen.emplace(key, i);
+        if (!fresh)
+          r.fail(p[s.parameter_keys[k]][i], "parameters." + s.parameter_keys[k] + "[" + std::to_string(i) + "]",
+                 "'" + values[k][i] + "' is the value of [" + std::to_string(at->second) + "] ('" +
+                     values[k][at->second] + "') again" + (zip ? " in every list" : "") +
+                     ": its cells would be identical; drop one");
       }
     }
   } else if (const YAML::Node cs = root["cases"]) {

@@ -15,10 +15,10 @@ namespace {
 
 class ObjSink final : public FrameSink {
  public:
-  explicit ObjSink(const Topology& topo) : topo_(topo) {}
+  ObjSink(const Topology& topo, std::uint64_t fingerprint) : topo_(topo), fingerprint_(fingerprint) {}
   void write(const fs::path& dir, int frame, double, const Positions& x, const VertexFields&) override {
     make_dir(dir / "frames");
-    write_frame_obj(dir / "frames" / frame_name(frame, "obj"), topo_, x);
+    write_frame_obj(dir / "frames" / frame_name(frame, "obj"), topo_, x, fingerprint_);
   }
   int saved_precision() const override { return 2; }
   FramePositions saved_positions(const fs::path& dir, const std::vector<int>&) override {
@@ -49,6 +49,7 @@ class ObjSink final : public FrameSink {
 
  private:
   const Topology& topo_;
+  std::uint64_t fingerprint_;
 };
 
 }  // namespace
@@ -57,7 +58,9 @@ void register_frame_writer_obj(FrameWriterRegistry& registry) {
   registry.add({"obj",
                 "frames/frame_N.obj (exact, what `ccfr audit` reads)",
                 {},
-                [](const ParamValues&, const FrameSinkContext& ctx) { return std::make_unique<ObjSink>(ctx.topo); }});
+                [](const ParamValues&, const FrameSinkContext& ctx) {
+                  return std::make_unique<ObjSink>(ctx.topo, ctx.scene_fingerprint);
+                }});
 }
 
 }  // namespace ccfr::io

@@ -55,6 +55,14 @@ RawGeometry read_mesh_file(const Input& in, const YAML::Node& s, ObjectKind kind
   if (st.type() == fs::file_type::not_found && ext != ".node" && ext != ".ele")
     in.ctx.fail(ppath, in.in_node(ppath), "mesh file '" + file.string() + "' does not exist");
   const bool surface_file = ext == ".obj" || ext == ".off";
+  // tetgen's settings do nothing unless tetgen fills a surface: a key given there is a mistake.
+  if (!(surface_file && kind == ObjectKind::tet_solid))
+    for (const char* key : {"quality", "max_volume"})
+      if (const YAML::Node given = in.in_node(path + ".shape"); given.IsMap() && given[key])
+        in.ctx.fail(path + ".shape." + key, given[key],
+                    std::string("`") + key + "` applies only to a tet_solid filled from a surface .obj or .off (here " +
+                        std::string(to_string(kind)) + " from " + ext + "): it would do nothing; remove it",
+                    {path + ".kind"});
   if (!surface_file) {
     require(kind == ObjectKind::tet_solid, "a tet mesh (" + ext + ") makes a tet_solid object");
     TetMesh m;

@@ -171,6 +171,13 @@ void read_keyframes(const Input& in, const YAML::Node& o, const ObjectInfo& info
 void read_pins(const Input& in, const YAML::Node& pins, const ObjectInfo& info, SimState& st, ObjectParams& op,
                const std::string& path) {
   if (!pins) return;
+  // A vertex in two groups that move it differently would follow only the last one.
+  const auto same_motion = [](const Motion& a, const Motion& b) {
+    if (!a.moves() && !b.moves()) return true;
+    return a.velocity == b.velocity && a.axis == b.axis && a.center == b.center &&
+           a.angular_velocity == b.angular_velocity && a.start == b.start && a.end == b.end;
+  };
+  std::vector<int> group_of(static_cast<size_t>(info.num_vertices()), -1);
   for (size_t k = 0; k < pins.size(); ++k) {
     const YAML::Node pn = pins[k];
     const std::string pp = path + ".pins[" + std::to_string(k) + "]";
@@ -196,6 +203,18 @@ void read_pins(const Input& in, const YAML::Node& pins, const ObjectInfo& info, 
     }
     if (grp.vertices.empty())
       in.ctx.fail(pp, in.in_node(pp), "pin group selects no vertex (give indices or a box that contains vertices)");
+    for (const Index v : grp.vertices) {
+      int& g = group_of[static_cast<size_t>(v)];
+      if (g >= 0 && !same_motion(op.pins[static_cast<size_t>(g)].motion, grp.motion)) {
+        const std::string other = path + ".pins[" + std::to_string(g) + "]";
+        in.ctx.fail(pp, in.in_node(pp),
+                    "vertex " + std::to_string(v) + " is also in " + other +
+                        ", which moves it differently: it would follow only this group; keep each vertex in one "
+                        "moving group",
+                    {other});
+      }
+      g = static_cast<int>(k);
+    }
     op.pins.push_back(std::move(grp));
   }
 }

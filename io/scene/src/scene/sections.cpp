@@ -2,6 +2,8 @@
 // each fills its parameter struct through the section bound in scene_schema.cpp, then checks what
 // spans keys (a component's own section, friction's order, an empty format list).
 #include <algorithm>
+#include <limits>
+#include <string>
 
 #include "../scene_schema.hpp"
 #include "ccfr/collision/broad_phase.hpp"
@@ -96,6 +98,29 @@ void read_output(const Input& in, OutputParams& o) {
 
 }  // namespace
 
+namespace {
+
+// Cross-key bounds of the time section: a maximum below the nominal count, and the outer iterations
+// a frame may run (substeps x subdivision x iteration bound), which stats.csv counts in int.
+void check_time_counts(const Input& in, const TimeParams& t) {
+  if (t.max_iterations > 0 && t.max_iterations < t.iterations)
+    in.ctx.fail("time.max_iterations", in.in_node("time.max_iterations"),
+                "time.max_iterations (" + std::to_string(t.max_iterations) + ") is below time.iterations (" +
+                    std::to_string(t.iterations) + "); raise it to at least " + std::to_string(t.iterations) +
+                    ", or 0 for 4 x iterations",
+                {"time.iterations"});
+  const long long per_frame = static_cast<long long>(t.substeps) * t.max_subdivision * t.iteration_bound();
+  if (per_frame > std::numeric_limits<int>::max())
+    in.ctx.fail("time.substeps", in.in_node("time.substeps"),
+                "time.substeps (" + std::to_string(t.substeps) + ") x time.max_subdivision (" +
+                    std::to_string(t.max_subdivision) + ") x the iteration bound (" +
+                    std::to_string(t.iteration_bound()) + ") allows " + std::to_string(per_frame) +
+                    " outer iterations per frame, more than 2147483647; lower one of them",
+                {"time.max_subdivision", "time.iterations", "time.max_iterations"});
+}
+
+}  // namespace
+
 double read_globals(const Input& in, SimulationParams& p) {
   // load() names an unnamed scene after its file; `scene: ~` (resolved away) is "scene"
   p.scene_name = in.cfg["scene"] ? in.cfg["scene"].as<std::string>() : std::string("scene");
@@ -103,6 +128,7 @@ double read_globals(const Input& in, SimulationParams& p) {
   if (const std::string why = name_problem(p.scene_name, false); !why.empty())
     in.ctx.fail("scene", in.in_node("scene"), "scene name '" + printable(p.scene_name) + "' " + why);
   time_section().read(p.time, in.cfg["time"]);
+  check_time_counts(in, p.time);
   read_contact(in, p.contact);
   read_collision(in, p.collision);
   debug_section().read(p.debug, in.cfg["debug"]);

@@ -48,7 +48,12 @@ struct TimeParams {
   /// advance exceeds what the outer iterations can cover ((max_iterations - 1) · r); see Simulation.
   int max_subdivision = 64;
   /// The effective bound of outer iterations.
-  int iteration_bound() const { return max_iterations > 0 ? std::max(max_iterations, iterations) : 4 * iterations; }
+  /// 4 · iterations in 64 bits, capped to int (the schema bounds iterations so the cap never acts).
+  int iteration_bound() const {
+    return max_iterations > 0
+               ? std::max(max_iterations, iterations)
+               : static_cast<int>(std::min<long long>(4LL * iterations, std::numeric_limits<int>::max()));
+  }
 };
 
 enum class AuditMode { off, every_frame, every_substep };

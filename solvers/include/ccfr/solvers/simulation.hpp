@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "ccfr/core/error.hpp"
 #include "ccfr/solvers/contact_solver.hpp"
 #include "ccfr/solvers/frame_stats.hpp"
 #include "ccfr/solvers/materials.hpp"
@@ -67,6 +68,15 @@ struct SimulationCheckpoint {
 
 /// A hook that audits positions (penetration count), e.g. the exact audit of geometry_exact.
 using AuditHook = std::function<Index(const Positions& x)>;
+/// Asked before every substep piece, outer iteration and material sweep: true abandons the frame.
+using CancelHook = std::function<bool()>;
+
+/// Thrown by step_frame() when the CancelHook asked to stop: the state is partly advanced (no
+/// frame's), so neither write it nor checkpoint it.
+class FrameInterrupted : public Error {
+ public:
+  using Error::Error;
+};
 
 class Simulation {
  public:
@@ -116,6 +126,8 @@ class Simulation {
   void restore(const SimulationCheckpoint& c);
   /// Installs an audit run per frame or per substep according to debug.audit.
   void set_audit(AuditHook hook) { audit_ = std::move(hook); }
+  /// Installs a hook that can abandon a frame in progress (FrameInterrupted), e.g. on a signal.
+  void set_cancel(CancelHook hook) { cancel_ = std::move(hook); }
 
  private:
   /// One substep of length dt (a piece of a subdivided substep, or a whole one).
@@ -186,6 +198,9 @@ class Simulation {
   bool warned_violation_ = false;
   std::vector<bool> warned_capped_;  ///< per object: the capped-speed warning was given
   AuditHook audit_;
+  CancelHook cancel_;
+  /// Throws FrameInterrupted when cancel_ asks to stop.
+  void check_cancel(int substep) const;
   int frame_ = 0;
   std::optional<StopReport> stop_;
   // set_kinematic_targets: per slot of kinematic_, whether it is driven from outside, from where

@@ -30,6 +30,7 @@ struct FrameSinkContext {
   /// A run that `ccfr run --resume` may continue (not `ccfr export`): a writer keeps on disk what
   /// its resume needs (the USDA layer alone keeps its samples file).
   bool resumable = true;
+  std::uint64_t scene_fingerprint = 0;  ///< the run's (run.json), written into each OBJ frame; 0: none
 };
 
 /// The frame writers by key: `(const ParamValues&, const FrameSinkContext&) -> unique_ptr<FrameSink>`.

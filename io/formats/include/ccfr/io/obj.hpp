@@ -34,10 +34,15 @@ struct Frame {
   std::vector<Index> points;              ///< free points, 0-based
   std::vector<FrameObject> objects;
   std::vector<int> face_lines;  ///< #F: source line of each (triangulated) face
+  /// The scene fingerprint of the run that wrote it (its first line, `# ccfr frame
+  /// scene_fingerprint=<16 hex digits>`); 0: none recorded.
+  std::uint64_t scene_fingerprint = 0;
 };
 
 /// Writes one frame atomically (temporary file in the same folder, then rename).
-void write_frame_obj(const std::filesystem::path& path, const Topology& topo, const Positions& x);
+/// A non-zero `scene_fingerprint` (the run's, run.json) is written into its first line.
+void write_frame_obj(const std::filesystem::path& path, const Topology& topo, const Positions& x,
+                     std::uint64_t scene_fingerprint = 0);
 /// Reads a frame written by write_frame_obj (or any OBJ with v/f/l/p/o lines). `o` and `g` start
 /// a block; polygons are fan-triangulated; negative indices count back from the last vertex.
 /// Texture and normal data and display statements (vt, vn, vp, s, usemtl, mtllib, ...) are

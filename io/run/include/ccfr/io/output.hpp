@@ -24,6 +24,9 @@ bool is_ccfr_run(const std::filesystem::path& dir);
 /// Why DIR is not a ccfr run, for messages: "no run.json", "run.json is unreadable: ...
 /// (truncated or damaged)" or "run.json was not written by ccfr"; empty when is_ccfr_run(dir).
 std::string run_json_problem(const std::filesystem::path& dir);
+/// "; DIR's earlier run is in 'DIR.ccfr-old' (...)" when a rerun killed while it replaced DIR left
+/// it there, for messages about a missing run.json; empty otherwise.
+std::string previous_run_note(const std::filesystem::path& dir);
 
 /// True if `name` is an entry ccfr writes into a run directory (run.json, stats.csv, frames/,
 /// checkpoints/, audit.json, render/, vtk/, blender/, usd/, stats.png, a folder named by a

@@ -79,6 +79,12 @@ using FrameAuditCallback = std::function<void(long frame, const exact::FrameAudi
 /// explicit offset, no frames, a .obj in frames/ not named frame_<number>.obj, frame 0 missing
 /// without a reference, unreadable or non-finite frames, topology differing from the reference,
 /// a completed run.json whose frames_written differs from the frames on disk.
+/// Throws ccfr::Error naming the missing frames when DIR/frames/frame_*.obj has a gap: a run writes
+/// frames first, first + every, ... up to its last one (without `every`, the smallest gap present).
+/// `who` completes the message: "the audit certifies", "export writes".
+void check_frame_sequence(const std::filesystem::path& dir, long first, std::optional<long> every,
+                          const std::string& who);
+
 RunAuditResult audit_run(const std::filesystem::path& dir, const RunAuditOptions& options,
                          const FrameAuditCallback& on_frame = {},
                          const std::function<void(const RunAuditResult&)>& on_start = {});

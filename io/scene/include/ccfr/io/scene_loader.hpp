@@ -12,6 +12,9 @@
 
 namespace ccfr::io {
 
+/// The most frames a scene runs (time.frames, output.every, output.checkpoint_every; `--frames`).
+inline constexpr long long kMaxFrames = 10000000;
+
 /// The loader's estimate of a run's peak resident memory (docs/choosing-parameters.md, "Memory"):
 /// a scene whose estimate exceeds the limit (max_memory, else MemAvailable) is refused before it is
 /// built, and `ccfr run` stops cleanly if the run outgrows the limit anyway. Peak RSS is the
