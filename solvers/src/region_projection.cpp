@@ -15,7 +15,7 @@
 #include <tuple>
 
 #include "builtin_solvers.hpp"
-#include "ccfr/solvers/momentum_split.hpp"
+#include "ccfr/solvers/motion_planes.hpp"
 
 namespace ccfr {
 

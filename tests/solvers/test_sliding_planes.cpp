@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "ccfr/geometry/distance.hpp"
-#include "ccfr/solvers/momentum_split.hpp"
+#include "ccfr/solvers/motion_planes.hpp"
 
 using namespace ccfr;
 

@@ -7,6 +7,7 @@
 #include "ccfr/core/log.hpp"
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/geometry_exact/audit.hpp"
+#include "ccfr/io/checkpoint.hpp"
 #include "ccfr/io/formats.hpp"
 
 namespace ccfr::io {
@@ -27,6 +28,9 @@ RunMeta make_run_meta(const Simulation& sim, std::string command_line, std::vect
   if (!p.output.formats.empty()) meta.formats = parse_output_formats(p.output.formats);
   meta.every = p.output.every;
   meta.frames = p.output.frames;
+  // A run from the scene's start: its state is the initial one the fingerprint is of (a resume
+  // sets the checkpoint's).
+  if (sim.frames_done() == 0) meta.scene_fingerprint = scene_fingerprint(sim.topology(), sim.scene().state);
   return meta;
 }
 

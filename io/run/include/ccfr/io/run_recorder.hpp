@@ -18,7 +18,8 @@ class PenetrationAudit;
 namespace ccfr::io {
 
 /// run.json's metadata of a run of `sim` (scene, solver, r, ξ, δ, fps, initial proximity) with
-/// the current thread count and the command as given.
+/// the current thread count and the command as given; the scene fingerprint when `sim` has run no
+/// frame yet (a resume sets its checkpoint's).
 RunMeta make_run_meta(const Simulation& sim, std::string command_line, std::vector<std::string> argv);
 
 /// The audit roles of the scene's objects (exact::AuditOptions::object_roles, docs/audit.md):

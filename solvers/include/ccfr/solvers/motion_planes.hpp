@@ -1,8 +1,9 @@
 #pragma once
-/// @file momentum_split.hpp
-/// The split of a contact's gap between its two sides by the motion the response leaves, so that
-/// the dividing plane moves with the pair instead of standing still (docs/feasibility.md,
-/// "Momentum through contact").
+/// @file motion_planes.hpp
+/// Region planes fitted to the motion the candidates ask for, both sound by the separating-plane
+/// argument: the split of a contact's gap between its sides by the motion that leaves, so that the
+/// dividing plane moves with the pair (docs/feasibility.md, "Momentum through contact"), and the
+/// turn of a plane that blocks the motion toward the candidates' closest points ("Sliding planes").
 #include <cstdint>
 #include <span>
 #include <vector>

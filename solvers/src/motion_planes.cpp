@@ -1,4 +1,4 @@
-#include "ccfr/solvers/momentum_split.hpp"
+#include "ccfr/solvers/motion_planes.hpp"
 
 #include <algorithm>
 #include <atomic>
