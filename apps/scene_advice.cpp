@@ -33,7 +33,9 @@ double max_speed(const Motion& m, const Positions& x, Index begin, Index end, co
 }
 
 /// ceil that ignores rounding noise: 3 / (60 * 0.01) is 5, not 6.
-int ceil_count(double x) { return static_cast<int>(std::ceil(x * (1.0 - 1e-12))); }
+int ceil_count(double x) {
+  return static_cast<int>(std::min(std::ceil(x * (1.0 - 1e-12)), static_cast<double>(std::numeric_limits<int>::max())));
+}
 
 }  // namespace
 

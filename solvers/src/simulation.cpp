@@ -308,8 +308,11 @@ int Simulation::subdivision(double dt) {
   const double kin = kinematic_targets(st.time + dt, predicted_);
   int pieces = 1;
   Index worst_kin = -1;
+  // Piece counts are capped in double before they become an int (a step of 1e296 m is finite).
+  const double cap = static_cast<double>(tp.max_subdivision) + 1.0;
+  auto count = [cap](double pieces_needed) { return static_cast<int>(std::min(std::ceil(pieces_needed), cap)); };
   if (kin > 0.0) {
-    pieces = std::max(pieces, static_cast<int>(std::ceil(kin / (0.9 * r))));
+    pieces = std::max(pieces, count(kin / (0.9 * r)));
     double best = 0.0;
     for (Index v : kinematic_)
       if (kinematic_step_[v].norm() > best) best = kinematic_step_[v].norm(), worst_kin = v;
@@ -328,16 +331,16 @@ int Simulation::subdivision(double dt) {
   });
   const double advance = *std::max_element(chunk_max.begin(), chunk_max.end());
   const double per_substep = 0.9 * std::max(1, tp.iteration_bound() - 1) * r;
-  if (std::isfinite(advance)) pieces = std::max(pieces, static_cast<int>(std::ceil(advance / per_substep)));
+  if (std::isfinite(advance)) pieces = std::max(pieces, count(advance / per_substep));
   if (pieces > tp.max_subdivision) {
     if (worst_kin >= 0 && kin / tp.max_subdivision > r) {
       const auto& o = scene_.topo.object_of_vertex(worst_kin);
-      const int needed = static_cast<int>(std::ceil(tp.substeps * kin / (0.9 * r)));
+      const double needed = std::ceil(tp.substeps * kin / (0.9 * r));
       throw GuaranteeError(frame_ + 1,
                            "scripted vertices of object '" + o.name + "' move " + ccfr::format("{:.4g}", kin) +
                                " per substep, more than time.max_subdivision = " + std::to_string(tp.max_subdivision) +
                                " pieces of r = " + ccfr::format("{:.4g}", r) +
-                               " can absorb; set time.substeps to at least " + std::to_string(needed) +
+                               " can absorb; set time.substeps to at least " + ccfr::format("{:.0f}", needed) +
                                " or raise time.max_subdivision");
     }
     pieces = tp.max_subdivision;  // dynamic speed beyond the cap: report_capped_speed names it
