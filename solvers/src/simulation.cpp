@@ -614,36 +614,13 @@ Simulation::OuterIterationEnd Simulation::end_outer_iteration(const SolveResult&
   return end;
 }
 
-void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
+Simulation::PassesEnd Simulation::run_passes(FrameStats& fs, int substep_index, double t1, bool kin_moves,
+                                             StepContext& ctx) {
   auto& st = scene_.state;
   const auto& params = scene_.params;
   const auto& tp = params.time;
   const Index nv = st.size();
-  const double t1 = st.time + dt;
-  ++fs.substeps_run;
-
-  st.x_prev = st.x;
-  predicted_.resize(static_cast<size_t>(nv));
-  const Vec3 g_dt2 = tp.gravity * dt * dt;
-  parallel_for(
-      nv,
-      [&](Index b, Index e) {
-        for (Index i = b; i < e; ++i)
-          predicted_[i] = st.inv_mass[i] > 0.0 ? Vec3(st.x[i] + dt * st.v[i] + g_dt2) : st.x[i];
-      },
-      4096);
-  // Rigid bodies repeat their last substep's rigid motion: the linear extrapolation bleeds spin.
-  materials_.rigid().predict(st.x, st.v, st.inv_mass, dt, g_dt2, predicted_);
-  // Kinematic vertices reach their scripted positions at t1 in the first outer iteration. Their
-  // step is known, so the first detection (at the old positions) accounts for it exactly instead
-  // of letting a handle or obstacle jump into its neighbours before any region exists.
-  const double kin_step = kinematic_targets(t1, predicted_);
-  const bool kin_moves = kin_step > 0.0;
-  if (kin_step > params.contact.radius * (1.0 + 1e-9) && contact_->clamps_to_radius())
-    throw GuaranteeError(frame_ + 1, kinematic_overrun(kin_step));
-
   anchor_ = st.x;
-  StepContext ctx{scene_.topo, params, dt, frame_ + 1, substep_index, 0, fs.times};
   // time.continuation: held_back. A pass after the first moves only the vertices of the pass
   // before that the step bound held back or whose pairs its recount found closer than their
   // offset; every other vertex runs it with an inverse mass of 0, so detection, response and
@@ -666,15 +643,14 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
   }
   const double r = params.contact.radius;
   const bool guarantees = contact_->guarantees_separation();
-  OuterIterationEnd end;
+  PassesEnd end;
   // Until no vertex is held back by r (often after one pass, so fewer than time.iterations may
   // run), at most iteration_bound() passes.
   const int bound = tp.iteration_bound();
-  int iterations_run = 0;
   for (int it = 0; it < bound; ++it) {
     if (it > 0) check_cancel(substep_index);
     ctx.iteration = it;
-    iterations_run = it + 1;
+    end.iterations = it + 1;
     const InverseMassMask mask(
         st.inv_mass, inv_mass_saved_,
         next_local ? std::span<const std::uint8_t>(held_marks_) : std::span<const std::uint8_t>());
@@ -690,7 +666,7 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
       materials_.reset_multipliers();
       for (int s = 0; s < tp.xpbd_sweeps; ++s) {
         if (s > 0 && s % 64 == 0) check_cancel(substep_index);
-        materials_.solve(material_solved_, st.inv_mass, dt);
+        materials_.solve(material_solved_, st.inv_mass, ctx.dt);
       }
       check_finite(material_solved_, "xpbd");
     }
@@ -746,7 +722,7 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
       ScopedTimer check_timer(fs.times.check);
       if (local) std::fill(violated_marks_.begin(), violated_marks_.end(), std::uint8_t{0});
       ctx.violated = violated_marks_;
-      end = end_outer_iteration(res, t1, ctx, held_marks_);
+      static_cast<OuterIterationEnd&>(end) = end_outer_iteration(res, t1, ctx, held_marks_);
       ctx.violated = {};
       if (capped > 0) {
         // A body carried only part of its way has not reached its intended advance: held back.
@@ -780,6 +756,53 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
     if (end.held_back == 0) break;  // every vertex reached its intended advance
     if (end.short_enough) break;    // the few held back keep their clamped step (advance_shortfall)
   }
+  return end;
+}
+
+void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
+  auto& st = scene_.state;
+  const auto& params = scene_.params;
+  const auto& tp = params.time;
+  const Index nv = st.size();
+  const double t1 = st.time + dt;
+  ++fs.substeps_run;
+
+  st.x_prev = st.x;
+  predicted_.resize(static_cast<size_t>(nv));
+  const Vec3 g_dt2 = tp.gravity * dt * dt;
+  parallel_for(
+      nv,
+      [&](Index b, Index e) {
+        for (Index i = b; i < e; ++i)
+          predicted_[i] = st.inv_mass[i] > 0.0 ? Vec3(st.x[i] + dt * st.v[i] + g_dt2) : st.x[i];
+      },
+      4096);
+  // Rigid bodies repeat their last substep's rigid motion: the linear extrapolation bleeds spin.
+  materials_.rigid().predict(st.x, st.v, st.inv_mass, dt, g_dt2, predicted_);
+  // Kinematic vertices reach their scripted positions at t1 in the first outer iteration. Their
+  // step is known, so the first detection (at the old positions) accounts for it exactly instead
+  // of letting a handle or obstacle jump into its neighbours before any region exists.
+  const double kin_step = kinematic_targets(t1, predicted_);
+  const bool kin_moves = kin_step > 0.0;
+  if (kin_step > params.contact.radius * (1.0 + 1e-9) && contact_->clamps_to_radius())
+    throw GuaranteeError(frame_ + 1, kinematic_overrun(kin_step));
+
+  StepContext ctx{scene_.topo, params, dt, frame_ + 1, substep_index, 0, fs.times};
+  ctx.momentum = params.contact.momentum;
+  // A substep whose passes end with pairs inside their offsets (the run would stop, or warn) is
+  // solved once more from its start with contact.momentum's response: typically a vertex between a
+  // scripted pusher and a movable one ahead, whose region the paper's fixed dividing plane (half
+  // the gap each) leaves empty, and a face of the pusher passes over it. Splitting by the motion
+  // passes the push on to the one ahead. Substeps that end clean are untouched.
+  PassesEnd end = run_passes(fs, substep_index, t1, kin_moves, ctx);
+  if (end.remaining > 0 && contact_->guarantees_separation() && !ctx.momentum) {
+    ctx.momentum = true;
+    ++fs.substeps_redone;
+    end = run_passes(fs, substep_index, t1, kin_moves, ctx);
+  }
+  const double r = params.contact.radius;
+  const int bound = tp.iteration_bound();
+  const int iterations_run = end.iterations;
   fs.clamped_vertices += end.held_back;
   // Speed capped because the iterations ran out (not by the shortfall rule's choice): say so once.
   if (end.worst && !end.short_enough) report_capped_speed(*end.worst, end.worst_length + (bound - 1) * r, dt);

@@ -44,6 +44,11 @@ struct StepContext {
   /// whose other side moves away (split_by_motion), so time.continuation: held_back frees it for
   /// the next pass.
   std::span<std::uint8_t> deferred = {};
+  /// This pass closes what the candidates bring inside their offsets by an inelastic contact and
+  /// splits each plane by the motion (contact.momentum's response): set by contact.momentum, and
+  /// by the substep for its passes after one that halted a vertex (a squeeze the paper's fixed
+  /// dividing planes cannot pass on).
+  bool momentum = false;
 };
 
 /// Counts of one detection pass, as a contact solver reports them (collision's own counters are DetectionStats).

@@ -40,6 +40,9 @@ struct FrameStats {
   Index clamped_vertices = 0;                                     ///< vertices held back by the step bound r (summed)
   int outer_iterations = 0;  ///< outer iterations run in the frame (summed over substeps)
   int substeps_run = 0;      ///< substeps actually run, after automatic subdivision
+  /// Substeps solved a second time from their start with contact.momentum's response because
+  /// their passes ended with pairs inside their offsets (a push the fixed planes cannot pass on).
+  int substeps_redone = 0;
   /// Plesník projections replaced by the exact projection because they landed farther from the
   /// candidate than the anchor (summed over the resolution passes; 0 for other projectors).
   Index projector_fallbacks = 0;
@@ -245,6 +248,13 @@ inline constexpr auto kStatsColumns = std::to_array<StatsColumn>({
      CCFR_STATS_REF(lag_mean)},
     {"lag_max", StatsFormat::real, StatsUnknown::never, StatsPython::value, "m",
      "the largest of those distances of one vertex in the frame", CCFR_STATS_REF(lag_max)},
+    {"substeps_redone", StatsFormat::integer, StatsUnknown::never, StatsPython::value, "count",
+     "substeps of the frame solved a second time from their start with the `contact.momentum` "
+     "response because their passes ended with pairs inside their offsets (solvers that "
+     "guarantee separation, with `contact.momentum: false`): a vertex pushed by a scripted "
+     "obstacle toward a movable one, whose region the fixed dividing planes leave empty "
+     "(docs/feasibility.md, \"Momentum through contact\"). 0 where every substep ended clean",
+     CCFR_STATS_REF(substeps_redone)},
 });
 
 #undef CCFR_STATS_REF

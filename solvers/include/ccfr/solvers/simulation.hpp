@@ -148,6 +148,14 @@ class Simulation {
   /// `held`, if not empty, receives the step bound's held-back marks (time.continuation: held_back).
   OuterIterationEnd end_outer_iteration(const SolveResult& res, double t1, StepContext& ctx,
                                         std::span<std::uint8_t> held);
+  /// How a substep's outer iterations ended: the last one's end and how many ran.
+  struct PassesEnd : OuterIterationEnd {
+    int iterations = 0;
+  };
+  /// The outer iterations of one substep ending at t1, from anchor_ = the state's positions
+  /// (paper Alg. 1 lines 5-17): XPBD from the prediction, detection, response, resolution and the
+  /// common tail, until no vertex is held back or time.iteration_bound() passes ran.
+  PassesEnd run_passes(FrameStats& fs, int substep_index, double t1, bool kin_moves, StepContext& ctx);
   /// Pieces the next substep of length dt must be split into so that scripted vertices move at
   /// most r per piece and the intended advance fits in the outer iterations' step bounds.
   int subdivision(double dt);
