@@ -63,6 +63,31 @@ int run_bench(const BenchOptions& o) {
   line("broad phase", [](const FrameStats& f) { return f.times.broad; });
   line("narrow phase", [](const FrameStats& f) { return f.times.narrow; });
   line("resolution", [](const FrameStats& f) { return f.times.resolution; });
+  // Amdahl: the time outside parallel loops, per stage and for the frame, and what it allows.
+  std::printf("%-20s %12s %12s %12s\n", "serial part (s/frame)", "median", "mean", "share");
+  const double wall_sum = aggregate(frames, [](const FrameStats& f) { return f.wall_s; }).mean;
+  auto serial = [&](const char* name, const std::function<double(const FrameStats&)>& get) {
+    const Aggregate a = aggregate(frames, get);
+    std::printf("%-20s %12.6f %12.6f %11.1f%%\n", name, a.median, a.mean,
+                wall_sum > 0.0 ? 100.0 * a.mean / wall_sum : 0.0);
+    return a.mean;
+  };
+  const double s_frame = serial("frame", [](const FrameStats& f) { return f.serial_s; });
+  serial("xpbd", [](const FrameStats& f) { return f.times.xpbd_serial; });
+  serial("broad phase", [](const FrameStats& f) { return f.times.broad_serial; });
+  serial("narrow phase", [](const FrameStats& f) { return f.times.narrow_serial; });
+  serial("resolution", [](const FrameStats& f) { return f.times.resolution_serial; });
+  serial("check", [](const FrameStats& f) { return f.times.check_serial; });
+  if (wall_sum > 0.0) {
+    // At p threads the parallel part shrinks at best p-fold: T(p) >= serial + (T - serial) / p.
+    const double sf = s_frame / wall_sum;
+    const int p = thread_count();
+    auto speedup = [&](int q) { return 1.0 / (sf + (1.0 - sf) * p / q); };
+    std::printf(
+        "amdahl: serial fraction %.3f at %d thread%s; at most %.2fx from 1 to 2 threads, %.2fx to 8, %.2fx to "
+        "16 (from this run's parallel time times %d)\n",
+        sf, p, p == 1 ? "" : "s", speedup(2) / speedup(1), speedup(8) / speedup(1), speedup(16) / speedup(1), p);
+  }
   std::printf("%-20s %12s %12s %12s\n", "count (per frame)", "median", "mean", "max");
   auto count = [&](const char* name, const std::function<double(const FrameStats&)>& get) {
     const Aggregate a = aggregate(frames, get);

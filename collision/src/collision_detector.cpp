@@ -979,16 +979,20 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
                 std::to_string(x.size()) + " and " + std::to_string(inv_mass.size()));
   stats = DetectionStats{};
   Stopwatch watch;
+  SerialStopwatch serial;
   const double step = skin_ > 0.0 ? step_since_last_pass(x) : 0.0;
   if (skin_ > 0.0 && list_valid_ && list_covers(x, inv_mass)) {
     stats.reused = true;
     stats.broad_s = watch.seconds();
+    stats.broad_serial_s = serial.seconds();
     watch.restart();
+    serial = SerialStopwatch();
     if (!active_.empty()) raise_reduced_offsets(x);
     detect_from_list(x, inv_mass, stats);
     assemble(x, inv_mass, kinematic_step, contacts, regions);
     stats.constraints = static_cast<Index>(regions.total());
     stats.narrow_s = watch.seconds();
+    stats.narrow_serial_s = serial.seconds();
     return;
   }
   list_valid_ = false;
@@ -1041,9 +1045,11 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
   broad_->set_fixed(fixed_);
   broad_->query_pairs(candidates_);
   stats.broad_s = watch.seconds();
+  stats.broad_serial_s = serial.seconds();
   stats.candidates = static_cast<Index>(candidates_.size());
 
   watch.restart();
+  serial = SerialStopwatch();
   if (!active_.empty()) raise_reduced_offsets(x);
 
   const Index n = stats.candidates;
@@ -1086,6 +1092,7 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
   assemble(x, inv_mass, kinematic_step, contacts, regions);
   stats.constraints = static_cast<Index>(regions.total());
   stats.narrow_s = watch.seconds();
+  stats.narrow_serial_s = serial.seconds();
 }
 
 /// Concatenates the per-chunk contacts in chunk order (deterministic for any thread count) and

@@ -4,8 +4,12 @@
 #include <tbb/global_control.h>
 #include <tbb/info.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdint>
 #include <memory>
 #include <mutex>
 
@@ -15,6 +19,34 @@ namespace {
 std::mutex g_mutex;
 std::unique_ptr<tbb::global_control> g_control;
 int g_threads = 0;
+
+// Nesting depth of parallel bodies on this thread: 0 outside every parallel loop.
+thread_local int t_depth = 0;
+std::atomic<std::int64_t> g_parallel_ns{0};
+
+/// Marks the scope as inside a parallel body on this thread.
+struct InBody {
+  InBody() { ++t_depth; }
+  ~InBody() { --t_depth; }
+  InBody(const InBody&) = delete;
+  InBody& operator=(const InBody&) = delete;
+};
+
+/// Runs `region` and, when it is an outermost one, adds its wall time to g_parallel_ns.
+template <class F>
+void timed_region(F&& region) {
+  if (t_depth > 0) return region();
+  const auto t0 = std::chrono::steady_clock::now();
+  struct Add {
+    std::chrono::steady_clock::time_point t0;
+    ~Add() {
+      g_parallel_ns.fetch_add(
+          std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - t0).count(),
+          std::memory_order_relaxed);
+    }
+  } add{t0};
+  region();
+}
 }  // namespace
 
 void set_thread_count(int n) {
@@ -38,8 +70,13 @@ void parallel_for(Index n, const std::function<void(Index, Index)>& body, Index 
     body(0, n);
     return;
   }
-  tbb::parallel_for(tbb::blocked_range<Index>(0, n, std::max<Index>(1, grain)),
-                    [&](const tbb::blocked_range<Index>& r) { body(r.begin(), r.end()); });
+  timed_region([&] {
+    tbb::parallel_for(tbb::blocked_range<Index>(0, n, std::max<Index>(1, grain)),
+                      [&](const tbb::blocked_range<Index>& r) {
+                        const InBody in;
+                        body(r.begin(), r.end());
+                      });
+  });
 }
 
 void parallel_chunks(Index n, Index num_chunks, const std::function<void(Index, Index, Index)>& body) {
@@ -50,10 +87,29 @@ void parallel_chunks(Index n, Index num_chunks, const std::function<void(Index, 
     body(0, 0, n);
     return;
   }
-  tbb::parallel_for(tbb::blocked_range<Index>(0, num_chunks, 1), [&](const tbb::blocked_range<Index>& r) {
-    for (Index c = r.begin(); c != r.end(); ++c) body(c, bound(c), bound(c + 1));
+  timed_region([&] {
+    tbb::parallel_for(tbb::blocked_range<Index>(0, num_chunks, 1), [&](const tbb::blocked_range<Index>& r) {
+      const InBody in;
+      for (Index c = r.begin(); c != r.end(); ++c) body(c, bound(c), bound(c + 1));
+    });
   });
 }
+
+void parallel_invoke(const std::function<void()>& a, const std::function<void()>& b) {
+  timed_region([&] {
+    tbb::parallel_invoke(
+        [&] {
+          const InBody in;
+          a();
+        },
+        [&] {
+          const InBody in;
+          b();
+        });
+  });
+}
+
+double parallel_seconds() { return 1e-9 * static_cast<double>(g_parallel_ns.load(std::memory_order_relaxed)); }
 
 Index default_chunk_count(Index n) {
   // Fixed, not derived from the thread count: results are then identical for any thread count.

@@ -1,7 +1,5 @@
 #include "ccfr/geometry/bvh.hpp"
 
-#include <tbb/parallel_invoke.h>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -87,7 +85,7 @@ void Bvh::build_node(Index id, Index first, Index count, int leaf_size, const st
   auto build_left = [&] { build_node(left, first, count / 2, leaf_size, centres); };
   auto build_right = [&] { build_node(right, first + count / 2, count - count / 2, leaf_size, centres); };
   if (count >= kParallelBuild) {
-    tbb::parallel_invoke(build_left, build_right);
+    parallel_invoke(build_left, build_right);
   } else {
     build_left();
     build_right();

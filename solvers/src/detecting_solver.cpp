@@ -66,8 +66,11 @@ DetectResult DetectingSolver::detect(const Positions& anchor, const SimState& st
   detector_->detect(anchor, state.inv_mass, regions_, contacts_, ds, ctx.kinematic_step);
   ctx.times.broad += ds.broad_s;
   ctx.times.narrow += ds.narrow_s;
+  ctx.times.broad_serial += ds.broad_serial_s;
+  ctx.times.narrow_serial += ds.narrow_serial_s;
   {
-    ScopedTimer t(ctx.times.narrow);  // contact bookkeeping for the response belongs to the narrow phase
+    ScopedTimer t(ctx.times.narrow,
+                  ctx.times.narrow_serial);  // contact bookkeeping for the response belongs to the narrow phase
     response_.prepare(contacts_, regions_.row_start, detector_->plane_sources(), ctx.params.contact,
                       response_mass(state));
   }

@@ -661,7 +661,7 @@ Simulation::PassesEnd Simulation::run_passes(FrameStats& fs, int substep_index, 
       // masses, all fixed within the substep, so the sweeps run in the first outer iteration and
       // later iterations start from their result (bit-identical; a third of the twisting cloth's
       // XPBD stage, whose rope frames run up to 5 outer iterations per substep).
-      ScopedTimer t(fs.times.xpbd);
+      ScopedTimer t(fs.times.xpbd, fs.times.xpbd_serial);
       material_solved_ = predicted_;
       materials_.reset_multipliers();
       for (int s = 0; s < tp.xpbd_sweeps; ++s) {
@@ -675,7 +675,7 @@ Simulation::PassesEnd Simulation::run_passes(FrameStats& fs, int substep_index, 
     // 3 m/s tore by 15 mm in a frame and intersected itself).
     Index capped = 0;
     if (contact_->clamps_to_radius()) {
-      ScopedTimer t(fs.times.check);
+      ScopedTimer t(fs.times.check, fs.times.check_serial);
       if (carry_isolated_objects() > 0)
         capped = static_cast<Index>(std::count(carry_capped_.begin(), carry_capped_.end(), std::uint8_t{1}));
     }
@@ -687,7 +687,7 @@ Simulation::PassesEnd Simulation::run_passes(FrameStats& fs, int substep_index, 
     fs.min_distance = std::min(fs.min_distance, det.min_distance);
 
     {
-      ScopedTimer t(fs.times.xpbd);
+      ScopedTimer t(fs.times.xpbd, fs.times.xpbd_serial);
       solve_ = material_solved_;
       if (mask.active() || capped > 0)  // vertices fixed for this pass (or carried only part of
                                         // their way) start and stay where they are
@@ -703,7 +703,7 @@ Simulation::PassesEnd Simulation::run_passes(FrameStats& fs, int substep_index, 
     }
     SolveResult res;
     {
-      ScopedTimer t(fs.times.resolution);
+      ScopedTimer t(fs.times.resolution, fs.times.resolution_serial);
       if (local) std::fill(deferred_marks_.begin(), deferred_marks_.end(), std::uint8_t{0});
       ctx.deferred = deferred_marks_;
       res = contact_->resolve(solve_, anchor_, st, ctx);
@@ -719,7 +719,7 @@ Simulation::PassesEnd Simulation::run_passes(FrameStats& fs, int substep_index, 
     fs.contact_vertices_distinct = std::max(fs.contact_vertices_distinct, res.contact_vertices_distinct);
     ++fs.outer_iterations;
     {
-      ScopedTimer check_timer(fs.times.check);
+      ScopedTimer check_timer(fs.times.check, fs.times.check_serial);
       if (local) std::fill(violated_marks_.begin(), violated_marks_.end(), std::uint8_t{0});
       ctx.violated = violated_marks_;
       static_cast<OuterIterationEnd&>(end) = end_outer_iteration(res, t1, ctx, held_marks_);
@@ -946,6 +946,7 @@ void Simulation::set_kinematic_targets(std::span<const Index> vertices, std::spa
 FrameStats Simulation::step_frame() {
   Stopwatch wall;
   CpuStopwatch cpu;
+  SerialStopwatch serial;
   FrameStats fs;
   const auto& tp = scene_.params.time;
   const double dt = 1.0 / (tp.fps * tp.substeps);
@@ -975,6 +976,7 @@ FrameStats Simulation::step_frame() {
     ++frame_;
   }
   fs.wall_s = wall.seconds();
+  fs.serial_s = serial.seconds();
   fs.cpu_s = cpu.seconds();
   return fs;
 }

@@ -54,7 +54,8 @@ DetectResult TrustRegionSolver::detect(const Positions& anchor, const SimState& 
   }
   if (!needed) return {};
   const DetectResult det = DetectingSolver::detect(anchor, state, ctx);
-  ScopedTimer t(ctx.times.narrow);  // building the limits is part of this solver's narrow phase
+  ScopedTimer t(ctx.times.narrow,
+                ctx.times.narrow_serial);  // building the limits is part of this solver's narrow phase
   centers_ = anchor;
   movable_at_detection_.resize(static_cast<size_t>(nv));
   for (Index v = 0; v < nv; ++v) movable_at_detection_[v] = state.inv_mass[v] > 0.0;

@@ -41,13 +41,25 @@ void write(const fs::path& p, const std::string& s) {
 
 std::string config(const std::string& name) { return std::string(CCFR_SOURCE_DIR) + "/configs/" + name; }
 
-/// stats.csv without the timing columns (wall_s, cpu_s, xpbd_s, broad_s, narrow_s, resolution_s,
-/// audit_s, check_s), which are the only ones allowed to differ between two runs of one scene.
+/// stats.csv without the timing columns (wall_s, cpu_s, the stages' seconds and their serial parts), which are the only
+/// ones allowed to differ between two runs of one scene.
 std::string stats_without_timing(const fs::path& csv) {
   std::istringstream in(read(csv));
   std::string out, line;
-  const std::vector<std::string> timing{"wall_s",   "cpu_s",   "xpbd_s",  "broad_s",
-                                        "narrow_s", "audit_s", "check_s", "resolution_s"};
+  const std::vector<std::string> timing{"wall_s",
+                                        "cpu_s",
+                                        "xpbd_s",
+                                        "broad_s",
+                                        "narrow_s",
+                                        "audit_s",
+                                        "check_s",
+                                        "resolution_s",
+                                        "serial_s",
+                                        "xpbd_serial_s",
+                                        "broad_serial_s",
+                                        "narrow_serial_s",
+                                        "resolution_serial_s",
+                                        "check_serial_s"};
   std::vector<bool> keep;
   while (std::getline(in, line)) {
     std::vector<std::string> cells;

@@ -68,26 +68,26 @@ TEST(StatsCsv, HeaderIsMainsByteForByte) {
             "violations_remaining,halted_vertices,min_distance,penetrations,audit_s,outer_iterations,clamped_vertices,"
             "check_s,contact_vertices,substeps_run,projector_fallbacks,halted_vertices_distinct,"
             "contact_vertices_distinct,projector_rescues,candidates_total,detections_reused,cpu_s,lag_mean,lag_max,"
-            "substeps_redone");
+            "substeps_redone,serial_s,xpbd_serial_s,broad_serial_s,narrow_serial_s,resolution_serial_s,check_serial_s");
 }
 
 TEST(StatsCsv, RowsAreMainsByteForByte) {
   // Default FrameStats: min_distance +inf and the -1 markers are empty cells.
   EXPECT_EQ(io::stats_row(FrameStats{}),
             "0,0,0.000000,0.000000,0.000000,0.000000,0.000000,0,0,0,0,0,,,0.000000,0,0,0.000000,0,0,0,,,0,0,0,"
-            "0.000000,0,0,0");
+            "0.000000,0,0,0,0.000000,0.000000,0.000000,0.000000,0.000000,0.000000");
   EXPECT_EQ(io::stats_row(extremes()),
             "2147483647,0.333333333,0.123456,0.000000,0.000003,3.000000,0.000000,2147483647,-2147483648,17,0,"
             "123456789,1e-300,0,7.250000,64,3,1000000000.000000,42,8,5,0,2147483647,6,9223372036854775807,7,"
-            "12345.678901,6.02214076e+23,-0,0");
+            "12345.678901,6.02214076e+23,-0,0,0.000000,0.000000,0.000000,0.000000,0.000000,0.000000");
   // NaN min_distance and any negative count (not just -1) are empty, as main's `>= 0` tests were.
   EXPECT_EQ(io::stats_row(unknowns()),
             "0,-2.5e-10,-0.000000,0.000000,0.000000,0.000000,0.000000,0,0,0,0,0,,,0.000000,0,0,0.000000,0,0,0,,,0,"
-            "-9223372036854775808,0,0.000000,0.1,0.142857143,0");
+            "-9223372036854775808,0,0.000000,0.1,0.142857143,0,0.000000,0.000000,0.000000,0.000000,0.000000,0.000000");
   // Columns that cannot be unknown print nan and inf as printf does; min_distance 0 is a value.
   EXPECT_EQ(io::stats_row(non_finite()),
             "0,1.23456789e+11,inf,0.000000,0.000000,0.000000,0.000000,0,0,0,0,0,0,2147483647,0.000000,0,0,0.000000,"
-            "0,0,0,,,0,0,0,0.000000,nan,inf,0");
+            "0,0,0,,,0,0,0,0.000000,nan,inf,0,0.000000,0.000000,0.000000,0.000000,0.000000,0.000000");
 }
 
 TEST(StatsCsv, HugeSecondsAreNotCutShort) {
@@ -115,7 +115,7 @@ TEST(StatsCsv, EveryColumnHasItsOwnMember) {
       if (io::stats_cell(kStatsColumns[j], s) != io::stats_cell(kStatsColumns[j], FrameStats{})) changed.insert(j);
     EXPECT_EQ(changed, std::set<size_t>{i}) << kStatsColumns[i].name;
   }
-  static_assert(stats_column("frame") == 0 && stats_column("substeps_redone") == kStatsColumns.size() - 1);
+  static_assert(stats_column("frame") == 0 && stats_column("check_serial_s") == kStatsColumns.size() - 1);
 }
 
 TEST(StatsCsv, ReadBackEqualsWhatWasWritten) {

@@ -142,8 +142,10 @@ const scene::Section<ContactParams>& contact_section() {
                  "inverse masses, and each pair's plane is split between its sides by the motion that leaves "
                  "(the dividing plane moves with the pair), so a body pushes what it hits instead of stopping "
                  "at a fixed plane (docs/feasibility.md, \"Momentum through contact\"); false (default): the "
-                 "paper's response (repulsion within δ only) and planes split by mass shares. Not yet for a heavy "
-                 "body on a light pinned cloth, which it stretches")
+                 "paper's response (repulsion within δ only) and planes split by mass shares, except in a substep "
+                 "whose passes end with pairs closer than their offset, which is solved again with this response "
+                 "(stats.csv `substeps_redone`). Not yet for a heavy body on a light pinned cloth, which it "
+                 "stretches")
           .field("sliding", &S::sliding,
                  "each pair's separating plane may turn toward the pair's closest-point direction at the "
                  "candidate positions, where the turned plane still keeps the pair's current positions at least "

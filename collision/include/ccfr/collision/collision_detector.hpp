@@ -107,6 +107,8 @@ struct DetectionStats {
   Index listed = 0;              ///< sub-pairs in the kept list after the pass (0: reuse off)
   double broad_s = 0.0;          ///< boxes + refit + pair query (a reused pass: the displacement check)
   double narrow_s = 0.0;         ///< closest points + half-spaces + RegionSet assembly
+  double broad_serial_s = 0.0;   ///< the part of broad_s outside parallel loops (SerialStopwatch)
+  double narrow_serial_s = 0.0;  ///< the part of narrow_s outside parallel loops
 };
 
 /// Key of a sub-pair, unique over all kinds: kind in bits 62-63, then the canonical ids (vf: vertex,

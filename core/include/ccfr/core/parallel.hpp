@@ -21,6 +21,16 @@ void parallel_for(Index n, const std::function<void(Index begin, Index end)>& bo
 /// chunk order give results that are deterministic for a given chunk count.
 void parallel_chunks(Index n, Index num_chunks, const std::function<void(Index chunk, Index begin, Index end)>& body);
 
+/// Runs a() and b() in parallel.
+void parallel_invoke(const std::function<void()>& a, const std::function<void()>& b);
+
+/// Wall seconds spent so far inside outermost parallel loops (parallel_for and parallel_chunks
+/// that reached TBB, parallel_invoke), summed over the threads that called them. A loop inside
+/// another's body is not counted again; a loop short enough to run inline (n <= grain) is serial
+/// work and not counted. Over a stretch of one thread's code, wall time minus this difference is
+/// the time that no extra core can shorten: Amdahl's serial part (SerialStopwatch).
+double parallel_seconds();
+
 /// A fixed chunk count (at most 128, at most n): enough for load balance on a few cores and
 /// independent of the thread count, so chunked results are identical for any thread count.
 Index default_chunk_count(Index n);

@@ -2,8 +2,11 @@
 /// @file timer.hpp
 /// Wall-clock timers that feed the per-frame stage breakdown of stats.csv, and the process CPU
 /// clock behind its `cpu_s` column.
+#include <algorithm>
 #include <chrono>
 #include <ctime>
+
+#include "ccfr/core/parallel.hpp"
 
 namespace ccfr {
 
@@ -18,16 +21,38 @@ class Stopwatch {
   clock::time_point start_;
 };
 
+/// Wall time outside outermost parallel loops since construction (seconds): what no extra core
+/// shortens. Meaningful on the thread that runs the timed code while no other thread starts
+/// parallel loops of its own.
+class SerialStopwatch {
+ public:
+  SerialStopwatch() : parallel0_(parallel_seconds()) {}
+  double seconds() const { return std::max(0.0, wall_.seconds() - (parallel_seconds() - parallel0_)); }
+
+ private:
+  Stopwatch wall_;
+  double parallel0_;
+};
+
 /// Adds the lifetime of the scope to `accumulator` (seconds).
 class ScopedTimer {
  public:
   explicit ScopedTimer(double& accumulator) : acc_(accumulator) {}
-  ~ScopedTimer() { acc_ += watch_.seconds(); }
+  /// Also adds the part of the scope spent outside parallel loops to `serial` (SerialStopwatch).
+  ScopedTimer(double& accumulator, double& serial)
+      : acc_(accumulator), serial_(&serial), parallel0_(parallel_seconds()) {}
+  ~ScopedTimer() {
+    const double wall = watch_.seconds();
+    acc_ += wall;
+    if (serial_ != nullptr) *serial_ += std::max(0.0, wall - (parallel_seconds() - parallel0_));
+  }
   ScopedTimer(const ScopedTimer&) = delete;
   ScopedTimer& operator=(const ScopedTimer&) = delete;
 
  private:
   double& acc_;
+  double* serial_ = nullptr;
+  double parallel0_ = 0.0;
   Stopwatch watch_;
 };
 
@@ -54,6 +79,9 @@ struct StageTimes {
   /// `resolution`: the contact solver's resolve alone; `check`: what the loop adds around it (the
   /// analytic-obstacle push, finite checks, the step bound and the recount of violations).
   double xpbd = 0, broad = 0, narrow = 0, resolution = 0, check = 0, audit = 0;
+  /// The part of each stage spent outside parallel loops (SerialStopwatch): the stage's Amdahl
+  /// serial time. The rest of its time shrinks with the thread count.
+  double xpbd_serial = 0, broad_serial = 0, narrow_serial = 0, resolution_serial = 0, check_serial = 0;
   StageTimes& operator+=(const StageTimes& o) {
     xpbd += o.xpbd;
     broad += o.broad;
@@ -61,6 +89,11 @@ struct StageTimes {
     resolution += o.resolution;
     check += o.check;
     audit += o.audit;
+    xpbd_serial += o.xpbd_serial;
+    broad_serial += o.broad_serial;
+    narrow_serial += o.narrow_serial;
+    resolution_serial += o.resolution_serial;
+    check_serial += o.check_serial;
     return *this;
   }
 };

@@ -26,6 +26,8 @@ struct FrameStats {
   /// CPU seconds of the whole process during the frame, summed over its threads (at most about
   /// wall_s times the thread count): the work of the frame independent of how many cores ran it.
   double cpu_s = 0.0;
+  /// The part of wall_s outside parallel loops (SerialStopwatch): Amdahl's serial time.
+  double serial_s = 0.0;
   StageTimes times;
   Index candidates = 0;            ///< largest broad-phase pair count of the frame
   Index constraints = 0;           ///< largest half-space / contact-constraint count of the frame
@@ -255,6 +257,21 @@ inline constexpr auto kStatsColumns = std::to_array<StatsColumn>({
      "obstacle toward a movable one, whose region the fixed dividing planes leave empty "
      "(docs/feasibility.md, \"Momentum through contact\"). 0 where every substep ended clean",
      CCFR_STATS_REF(substeps_redone)},
+    {"serial_s", StatsFormat::seconds, StatsUnknown::never, StatsPython::value, "s",
+     "the part of `wall_s` spent outside parallel loops: time no extra core shortens (Amdahl's "
+     "serial part; at `--threads 1`, `serial_s / wall_s` is the serial fraction s and 1 / (s + "
+     "(1 - s) / p) the speed-up p threads can give at most). The stages' shares follow",
+     CCFR_STATS_REF(serial_s)},
+    {"xpbd_serial_s", StatsFormat::seconds, StatsUnknown::never, StatsPython::value, "s",
+     "the part of `xpbd_s` outside parallel loops", CCFR_STATS_REF(times.xpbd_serial)},
+    {"broad_serial_s", StatsFormat::seconds, StatsUnknown::never, StatsPython::value, "s",
+     "the part of `broad_s` outside parallel loops", CCFR_STATS_REF(times.broad_serial)},
+    {"narrow_serial_s", StatsFormat::seconds, StatsUnknown::never, StatsPython::value, "s",
+     "the part of `narrow_s` outside parallel loops", CCFR_STATS_REF(times.narrow_serial)},
+    {"resolution_serial_s", StatsFormat::seconds, StatsUnknown::never, StatsPython::value, "s",
+     "the part of `resolution_s` outside parallel loops", CCFR_STATS_REF(times.resolution_serial)},
+    {"check_serial_s", StatsFormat::seconds, StatsUnknown::never, StatsPython::value, "s",
+     "the part of `check_s` outside parallel loops", CCFR_STATS_REF(times.check_serial)},
 });
 
 #undef CCFR_STATS_REF
