@@ -201,15 +201,17 @@ Counts MemoryBudget::counts(const RawGeometry& g, ObjectKind kind, double reach,
   // flat neighbourhood where it is finer than D, (D / h_v)² (fine); one wound by scripted pins
   // also with the layers around it, (1 + D / h_v)² (driven); strands with their neighbours along
   // a bundle, 1 + D / h_v.
+  // Each term is capped by the object's own primitives (c.e segments, c.f faces): a vertex pairs
+  // with at most every one of them, however short its edges (a 7 nm tetgen edge made q² ~ 1e12).
   if (c.h > 0 && !is_body(kind))
     for (size_t k = 0; k < g.v.size(); ++k) {
       if (vn[k] == 0 || vsum[k] <= 0) continue;
       const double q = reach * vn[k] / vsum[k];
       if (kind == ObjectKind::strand) {
-        c.strand += 1 + q;
+        c.strand += std::min(1 + q, std::max(c.e, 1.0));
       } else {
-        c.fine += q * q;
-        if (driven) c.driven += (1 + q) * (1 + q);
+        c.fine += std::min(q * q, std::max(c.f, 1.0));
+        if (driven) c.driven += std::min((1 + q) * (1 + q), std::max(c.f, 1.0));
       }
     }
   if (kind == ObjectKind::particles) c.grains = neighbours_within(g.v, reach, grain_cap);

@@ -21,12 +21,14 @@ schema::NodePtr mesh_schema() {
       "meshes for tet_solid",
       {{"path", string(std::nullopt, "path, relative to the scene file")},
        {"quality", number(2.0,
-                          "tet_solid from a surface .obj or .off: tetgen's radius-edge ratio bound (-q); 0 "
+                          "tet_solid from a surface .obj or .off: tetgen's radius-edge ratio bound (-q) on the "
+                          "inside; the surface itself is kept as given (-Y) unless max_volume is set; 0 "
                           "turns quality refinement off",
                           Range::up_to(100))},
        {"max_volume", number(0.0,
                              "tet_solid from a surface .obj or .off: largest tet volume (m³ of "
-                             "the placed object, after transform.scale; tetgen -a); 0 means no bound",
+                             "the placed object, after transform.scale; tetgen -a; it lets tetgen split the "
+                             "surface's triangles); 0 means no bound",
                              Range::up_to(kMaxLength))}});
 }
 
