@@ -8,15 +8,12 @@
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
+#include "ccfr/core/parallel.hpp"
 #include "commands.hpp"
 #include "progress.hpp"
 #include "run_driver.hpp"
 
 namespace {
-
-/// Most worker threads accepted by --threads: far beyond any machine ccfr runs on, yet small
-/// enough that per-thread state stays a few megabytes (2147483647 tried to allocate gigabytes).
-constexpr long kMaxThreads = 1024;
 
 /// CLI11's NonNegativeNumber / PositiveNumber print their bound, DBL_MAX, as a 309-digit number in
 /// errors; replace their checks with readable ones, and bound every --threads option.
@@ -43,11 +40,10 @@ void readable_checks(CLI::App& app) {
     if (opt->check_lname("threads"))
       opt->check(CLI::Validator(
           [](std::string& in) {
-            long v = 0;
-            if (CLI::detail::lexical_cast(in, v) && v > kMaxThreads)
-              return "Value " + in + " is too many worker threads: at most " + std::to_string(kMaxThreads) +
-                     " (0 uses all cores)";
-            return std::string();
+            long long v = 0;
+            if (!CLI::detail::lexical_cast(in, v)) return std::string();  // CLI11's own check names it
+            const std::string problem = ccfr::thread_count_problem(v);
+            return problem.empty() ? problem : "Value " + in + " " + problem;
           },
           "", "max threads"));
   }
