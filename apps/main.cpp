@@ -10,6 +10,7 @@
 #include "ccfr/core/log.hpp"
 #include "ccfr/core/parallel.hpp"
 #include "commands.hpp"
+#include "exit_codes.hpp"
 #include "progress.hpp"
 #include "run_driver.hpp"
 
@@ -113,6 +114,17 @@ int main(int argc, char** argv) {
   add_global_options(app, explicit_level);
   ccfr::app::register_commands(app);
   global_options_everywhere(app, explicit_level);
+  // Every command's --help names the global options (a subcommand's own list omits what it lets
+  // fall through to ccfr) and the exit codes, from the one table of exit_codes.hpp.
+  app.footer(ccfr::app::exit_code_text());
+  const std::string footer =
+      "Global options (before or after the command): --log-level LEVEL (trace, debug, info, "
+      "warn, error, off), -q/--quiet, -h/--help (ccfr --help)\n" +
+      ccfr::app::exit_code_text();
+  for (CLI::App* sub : app.get_subcommands({})) {
+    sub->footer(footer);
+    for (CLI::App* nested : sub->get_subcommands({})) nested->footer(footer);
+  }
   for (CLI::App* sub : app.get_subcommands({})) refuse_empty_values(*sub);
   ccfr::app::set_invocation(argc, argv);  // run.json records the command line as typed
   readable_checks(app);
