@@ -533,7 +533,19 @@ Simulation(scene, solver=None, threads=None): `solver` overrides contact.solver 
              s->resolved_json = loaded.resolved_json;
              s->memory = loaded.memory;
              const SimulationParams params = loaded.scene.params;
-             s->sim = std::make_unique<Simulation>(std::move(loaded.scene));
+             try {
+               s->sim = std::make_unique<Simulation>(std::move(loaded.scene));
+             } catch (const Error& e) {
+               // A component's own check names file, key path and line; an override's as load_labelled does.
+               try {
+                 io::rethrow_located(loaded, e);
+               } catch (const ConfigError& c) {
+                 const std::string head = "command line (--set ";
+                 if (c.file().rfind(head, 0) == 0)
+                   throw ConfigError("overrides (" + c.file().substr(head.size()), c.key_path(), 0, c.detail());
+                 throw;
+               }
+             }
              if (params.debug.audit != AuditMode::off)
                s->sim->set_audit(io::make_audit_hook(s->sim->topology(), s->sim->positions(), params));
              return s;

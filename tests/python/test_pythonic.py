@@ -169,6 +169,23 @@ def test_python_refuses_what_the_cli_refuses(data, ccfr_exe, tmp_path):
                                      faces=np.array([[0, 1, 2**63]], dtype=np.uint64))])
 
 
+def test_late_component_checks_name_the_file_key_and_line(data, tmp_path):
+    """contact.dat.query_radius is checked when the simulation starts: the error names the scene
+    file and line, or the override, as the schema's errors do (it named neither)."""
+    scene = tmp_path / "q.yaml"
+    scene.write_text((data / "small_drop.yaml").read_text().replace(
+        "  solver: ccfr\n", "  solver: dat\n  dat: {query_radius: 1.0e300}\n"))
+    line = scene.read_text().splitlines().index("  dat: {query_radius: 1.0e300}") + 1
+    with pytest.raises(ccfr.ConfigError) as info:
+        ccfr.Simulation(ccfr.load_scene(scene))
+    assert (info.value.file, info.value.key_path, info.value.line) == (str(scene), "contact.dat.query_radius", line)
+    with pytest.raises(ccfr.ConfigError) as info:
+        ccfr.Simulation(ccfr.load_scene(data / "small_drop.yaml", overrides={"contact": {
+            "solver": "dat", "dat": {"query_radius": 1e-300}}}))
+    assert (info.value.file, info.value.key_path) == ("overrides (contact.dat.query_radius=1e-300)",
+                                                      "contact.dat.query_radius")
+
+
 # ---- 2. NumPy scalars and arrays
 
 def test_numpy_values_are_accepted_like_python_ones(data, tmp_path):

@@ -3,11 +3,13 @@
 /// Loading YAML scene files, strictly: unknown keys, wrong types, out-of-range values and missing
 /// mesh files are ccfr::ConfigError naming the file, the key path and the line.
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "ccfr/core/error.hpp"
 #include "ccfr/solvers/scene.hpp"
 
 namespace ccfr::io {
@@ -88,7 +90,16 @@ struct LoadedScene {
   MemoryEstimate memory;         ///< the estimate the scene was admitted with
   std::string resolved_json;     ///< the configuration with every default filled in, as JSON
   std::filesystem::path source;  ///< the scene file
+  /// The loader's locator (see rethrow_located): throws the ConfigError at a key path, with the
+  /// file (or the `--set` that set the key) and line. Empty for a scene built in code.
+  std::function<void(const std::string& key_path, const std::string& message)> fail_at;
 };
+
+/// Rethrows `e`, raised after loading by a component's own check (when the simulation starts, e.g.
+/// `contact.dat.query_radius: 1e+300 must be ...`), as a ConfigError naming the scene file, the key
+/// path and its line as the schema's errors do, when its message starts with a key path of the
+/// scene ("KEY.PATH: "); otherwise rethrows `e` unchanged. Call it from the handler of `e`.
+[[noreturn]] void rethrow_located(const LoadedScene& scene, const Error& e);
 
 /// Loads `file`, applying `overrides` ("key.path=value", value parsed as YAML) before validation.
 LoadedScene load_scene(const std::filesystem::path& file, const std::vector<std::string>& overrides = {});
