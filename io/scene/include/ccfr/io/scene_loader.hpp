@@ -30,14 +30,16 @@ inline constexpr long long kMaxFrames = 10000000;
 ///   self:      per vertex that collides, h_v its mean edge: kBytesPerFineUnit (D / h_v)^2 of a
 ///              surface (a sheet or a tet boundary finer than D pairs with its own flat
 ///              neighbourhood), plus kBytesPerDrivenUnit (1 + D / h_v)^2 when scripted pins move it
-///              (it can be wound onto itself, like the twisting cloth); kBytesPerStrandSelfUnit
+///              (it can be wound onto itself, like the twisting cloth); each vertex's term at
+///              most the object's colliding vertices + edges + faces; kBytesPerStrandSelfUnit
 ///              (1 + D / h_v) of strands; kBytesPerGrainUnit per pair of particles of one object
 ///              within D of each other as loaded, counted from both sides
 ///   cross:     kBytesPerCrossUnit S sum_j min(1, A_j / A) F_j, for every other object j when either
 ///              side is deformable, F_j = ((h + h_j) / 2 + D)^2 / h_j^2 (1 for particles), the shares
 ///              min(1, A_j / A) summing to at most 2 layers (a sheet among other sheets: the
 ///              layers kept ξ apart that a stack packs within D, 2 sum_k (h + sqrt(D^2 - (k xi)^2))^2
-///              over the nearest's, k = 1 .. floor(D / xi))
+///              over the nearest's, k = 1 .. floor(D / xi); a sheet moved by scripted pins has its
+///              share min(1, A_j / A) times half that sum, the layers a bunch of it packs per side)
 ///   patch:     kBytesPerPatchUnit max_j min(2 pi D rho_eff, A, A_j) / h^2 F_j of a rigid body
 ///              against other bodies j, rho_eff = rho rho_j / (rho + rho_j) (an open surface: rho)
 /// Obstacles hold no half-spaces (their vertices never move) and pay elements only. The scene adds
