@@ -291,7 +291,7 @@ TetMesh read_gmsh(const fs::path& path) {
 }
 
 TetMesh tetrahedralize(const Positions& v, const std::vector<Vec3i>& f, double quality, double max_volume,
-                       const std::string& what) {
+                       const std::string& what, const std::vector<int>* face_lines) {
   const auto tetgen = find_program("tetgen");
   if (!tetgen)
     throw Error(what +
@@ -339,6 +339,27 @@ TetMesh tetrahedralize(const Positions& v, const std::vector<Vec3i>& f, double q
     rc = run_process({tetgen->string(), flags, (dir / "surface.off").string()}, log);
   }
   if (rc != 0 || !fs::exists(dir / "surface.1.ele")) {
+    // tetgen -p aborts on a self-intersecting surface without saying so (CGAL's cow, bull, elk,
+    // camel: "terminate called after throwing an instance of 'int'"); -d names the faces.
+    const fs::path check = dir / "intersections.log";
+    run_process({tetgen->string(), "-dNEF", (dir / "surface.off").string()}, check);
+    std::ifstream cin(check);
+    long pairs = 0, a = 0, b = 0;
+    for (std::string l; std::getline(cin, l);) {
+      if (a == 0 && std::sscanf(l.c_str(), " Facet #%ld intersects facet #%ld", &a, &b) == 2) continue;
+      if (std::sscanf(l.c_str(), "!! Found %ld pairs of faces are intersecting", &pairs) == 1) break;
+    }
+    const auto face = [&](long k) {  // tetgen's facets are 1-based, in the order written
+      const size_t i = static_cast<size_t>(k - 1);
+      return face_lines && i < face_lines->size() && (*face_lines)[i] > 0
+                 ? "the face of line " + std::to_string((*face_lines)[i])
+                 : "face " + std::to_string(k - 1);
+    };
+    if (pairs > 0 && a > 0 && b > 0)
+      throw Error(what + ": the surface intersects itself (" + std::to_string(pairs) + " pair" +
+                  (pairs == 1 ? "" : "s") + " of faces, e.g. " + face(a) + " and " + face(b) +
+                  "): tetgen cannot fill it; repair the surface (remove the self-intersections) or make the object "
+                  "a shell or a rigid body, which need no fill");
     std::ifstream in(log);
     std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()), last;
     std::istringstream ss(text);

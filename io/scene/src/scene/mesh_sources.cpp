@@ -91,7 +91,7 @@ RawGeometry read_mesh_file(const Input& in, const YAML::Node& s, ObjectKind kind
     TetMesh t;
     try {
       t = tetrahedralize(m.v, m.f, s["quality"].as<double>(), s["max_volume"].as<double>() / (scale * scale * scale),
-                         "mesh '" + file.string() + "'");
+                         "mesh '" + file.string() + "'", &m.face_lines);
     } catch (const Error& e) {
       in.ctx.fail(ppath, in.in_node(ppath), e.what());
     }
