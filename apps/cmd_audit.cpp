@@ -176,7 +176,7 @@ void register_audit(CLI::App& app) {
          "Offset xi (default: `offset` from DIR/run.json; with --offset, run.json may be absent)")
       ->check(CLI::PositiveNumber);
   cmd->add_option("--tol", o->audit.tolerance, "Relative tolerance: pairs closer than (1 - tol) xi are violations")
-      ->check(CLI::Range(0.0, 0.999999))
+      ->check(CLI::Range(0.0, io::kMaxAuditTolerance))
       ->capture_default_str();
   cmd->add_option("--stride", o->audit.stride, "Audit every K-th frame (the last frame is always audited)")
       ->check(CLI::PositiveNumber)

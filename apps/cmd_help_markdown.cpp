@@ -9,6 +9,7 @@
 
 #include "ccfr/io/stats_csv.hpp"
 #include "commands.hpp"
+#include "exit_codes.hpp"
 
 namespace ccfr::app {
 
@@ -106,10 +107,9 @@ std::string reference(const CLI::App& root) {
       "<!-- Generated from the CLI11 definitions in apps/ by `ccfr help-markdown` (scripts/gen-cli-docs); do not\n"
       "     edit: tests/apps/test_cli_docs.cpp fails when this file and the program differ. -->\n\n" +
       root.get_description() +
-      ". Every command prints this help with `--help`; exit codes: 0 success, 1 the command ran and found a "
-      "failure (a failed audit, a failed cell), 2 bad input (a message names the file, key or option), 3 internal "
-      "error; `ccfr run` and the sweeps document more ([output.md](output.md), [cluster.md](cluster.md)).\n\n"
-      "| command | does |\n|---|---|\n";
+      ". Every command prints this help with `--help`, with the global options and these exit codes (`ccfr run` "
+      "and the sweeps document more: [output.md](output.md), [cluster.md](cluster.md)):\n\n" +
+      exit_code_markdown() + "\n| command | does |\n|---|---|\n";
   for (const CLI::App* sub : visible_subcommands(root))
     md += "| [`" + full_name(*sub) + "`](#" + anchor(*sub) + ") | " + cell(sub->get_description()) + " |\n";
   md += "\n## Global options\n\nAccepted before or after any command.\n\n| option | value | meaning |\n|---|---|---|\n";

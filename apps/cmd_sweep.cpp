@@ -972,7 +972,7 @@ void register_sweep(CLI::App& app) {
   auto log_level = std::make_shared<std::string>("info");
   auto* cmd = app.add_subcommand("sweep",
                                  "Run a grid of scenes x contact solvers x parameters here or on a Slurm cluster "
-                                 "(subcommands: status, resume, collect)");
+                                 "(subcommands: status, resume, collect, run-cell)");
   cmd->add_option("spec", o->spec, "Sweep specification (YAML, docs/cluster.md)");
   cmd->add_option("--out", o->out, "Sweep directory (one run directory per cell)");
   cmd->add_option("--backend", o->backend, "local (default) or slurm")->check(CLI::IsMember({"local", "slurm"}));
@@ -1008,8 +1008,10 @@ void register_sweep(CLI::App& app) {
     guarded([o] { return collect(o->dir, o->metric, o->against, o->plot); });
   });
 
-  auto* rc = cmd->add_subcommand("run-cell", "Run one cell (what each Slurm array task runs)");
-  rc->group("");  // internal
+  // Listed (docs/cli.md, `ccfr sweep --help`): docs/cluster.md's array script calls it by name.
+  auto* rc = cmd->add_subcommand(
+      "run-cell",
+      "Run one cell of a started sweep (what each Slurm array task and each local job runs; docs/cluster.md)");
   rc->add_option("dir", o->dir, "Sweep directory")->required();
   rc->add_option("index", o->index, "Cell index")->required();
   rc->add_option("--threads", o->threads, "Worker threads")->check(CLI::NonNegativeNumber);

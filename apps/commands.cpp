@@ -7,6 +7,7 @@
 #include "ccfr/core/error.hpp"
 #include "ccfr/io/output.hpp"
 #include "ccfr/io/user_file.hpp"
+#include "exit_codes.hpp"
 
 namespace ccfr::app {
 
@@ -37,7 +38,7 @@ void guarded(const std::function<int()>& body, int user_error_code) {
     set_exit_code(user_error_code);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "internal error: %s\n", e.what());
-    set_exit_code(3);
+    set_exit_code(kExitInternalError);
   }
 }
 

@@ -8,15 +8,13 @@
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
+#include "ccfr/core/parallel.hpp"
 #include "commands.hpp"
+#include "exit_codes.hpp"
 #include "progress.hpp"
 #include "run_driver.hpp"
 
 namespace {
-
-/// Most worker threads accepted by --threads: far beyond any machine ccfr runs on, yet small
-/// enough that per-thread state stays a few megabytes (2147483647 tried to allocate gigabytes).
-constexpr long kMaxThreads = 1024;
 
 /// CLI11's NonNegativeNumber / PositiveNumber print their bound, DBL_MAX, as a 309-digit number in
 /// errors; replace their checks with readable ones, and bound every --threads option.
@@ -43,11 +41,10 @@ void readable_checks(CLI::App& app) {
     if (opt->check_lname("threads"))
       opt->check(CLI::Validator(
           [](std::string& in) {
-            long v = 0;
-            if (CLI::detail::lexical_cast(in, v) && v > kMaxThreads)
-              return "Value " + in + " is too many worker threads: at most " + std::to_string(kMaxThreads) +
-                     " (0 uses all cores)";
-            return std::string();
+            long long v = 0;
+            if (!CLI::detail::lexical_cast(in, v)) return std::string();  // CLI11's own check names it
+            const std::string problem = ccfr::thread_count_problem(v);
+            return problem.empty() ? problem : "Value " + in + " " + problem;
           },
           "", "max threads"));
   }
@@ -117,6 +114,17 @@ int main(int argc, char** argv) {
   add_global_options(app, explicit_level);
   ccfr::app::register_commands(app);
   global_options_everywhere(app, explicit_level);
+  // Every command's --help names the global options (a subcommand's own list omits what it lets
+  // fall through to ccfr) and the exit codes, from the one table of exit_codes.hpp.
+  app.footer(ccfr::app::exit_code_text());
+  const std::string footer =
+      "Global options (before or after the command): --log-level LEVEL (trace, debug, info, "
+      "warn, error, off), -q/--quiet, -h/--help (ccfr --help)\n" +
+      ccfr::app::exit_code_text();
+  for (CLI::App* sub : app.get_subcommands({})) {
+    sub->footer(footer);
+    for (CLI::App* nested : sub->get_subcommands({})) nested->footer(footer);
+  }
   for (CLI::App* sub : app.get_subcommands({})) refuse_empty_values(*sub);
   ccfr::app::set_invocation(argc, argv);  // run.json records the command line as typed
   readable_checks(app);

@@ -294,7 +294,14 @@ RunSummary run_scene(const RunOptions& opts) {
     check_frames_before(opts.resume, *resume, params.output);
   }
 
-  Simulation sim(std::move(loaded.scene));
+  // A component's own check of the scene (e.g. contact.dat.query_radius) names file, key and line.
+  Simulation sim = [&] {
+    try {
+      return Simulation(std::move(loaded.scene));
+    } catch (const Error& e) {
+      io::rethrow_located(loaded, e);
+    }
+  }();
   std::shared_ptr<exact::PenetrationAudit> audit;
   if (params.debug.audit != AuditMode::off)
     sim.set_audit(io::make_audit_hook(sim.topology(), sim.positions(), params, &audit));

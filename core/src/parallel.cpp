@@ -49,6 +49,13 @@ void timed_region(F&& region) {
 }
 }  // namespace
 
+std::string thread_count_problem(long long n) {
+  if (n < 0) return "must be >= 0 (0 uses all cores)";
+  if (n > kMaxThreads)
+    return "is too many worker threads: at most " + std::to_string(kMaxThreads) + " (0 uses all cores)";
+  return {};
+}
+
 void set_thread_count(int n) {
   std::lock_guard<std::mutex> lock(g_mutex);
   const int hw = tbb::info::default_concurrency();

@@ -13,8 +13,10 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include "ccfr/core/bounds.hpp"
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
 #include "ccfr/core/parallel.hpp"
@@ -73,17 +75,31 @@ struct PyScene {
 
 /// "key.path=value" overrides from a dict (values written as JSON, which YAML reads) or a list.
 /// NumPy scalars and arrays (anything with tolist()) are written as the Python values they hold.
+/// A non-empty dict value is merged key by key, as `--set` does with key paths: {"time":
+/// {"frames": 3}} is time.frames=3 and leaves the other keys of `time` as they were.
 std::vector<std::string> to_overrides(const py::object& o) {
   std::vector<std::string> out;
   if (o.is_none()) return out;
   if (py::isinstance<py::dict>(o)) {
+    const auto flat = py::dict();
+    std::function<void(const std::string&, const py::dict&)> flatten = [&](const std::string& prefix,
+                                                                           const py::dict& d) {
+      for (auto item : d) {
+        const std::string key = prefix + std::string(py::str(item.first));
+        if (py::isinstance<py::dict>(item.second) && py::len(item.second) > 0)
+          flatten(key + ".", py::reinterpret_borrow<py::dict>(item.second));
+        else
+          flat[py::str(key)] = item.second;
+      }
+    };
+    flatten("", py::reinterpret_borrow<py::dict>(o));
     py::object dumps = py::module_::import("json").attr("dumps");
     py::cpp_function plain([](const py::object& v) -> py::object {
       if (py::hasattr(v, "tolist")) return v.attr("tolist")();
       throw py::type_error("an override value must be a number, string, bool, list or dict, not " +
                            std::string(py::str(py::type::handle_of(v).attr("__name__"))));
     });
-    for (auto item : py::reinterpret_borrow<py::dict>(o)) {
+    for (auto item : flat) {
       const std::string key = py::str(item.first);
       py::object value = py::reinterpret_borrow<py::object>(item.second);
       const std::string text = py::isinstance<py::str>(value)
@@ -175,9 +191,19 @@ py::dict frame_stats_dict(const FrameStats& s) {
 using RowArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
 using IndexArray = py::array_t<Index, py::array::c_style | py::array::forcecast>;
 
+/// `h` as a float64 array; real numbers only (forcecast would drop a complex part with a warning,
+/// or parse strings): other dtypes are a ValueError naming `what`.
+RowArray real_array(const py::handle& h, const char* what) {
+  if (py::array raw = py::array::ensure(h);
+      raw && raw.size() > 0 && std::string_view("fiub").find(raw.dtype().kind()) == std::string_view::npos)
+    throw py::value_error(std::string(what) + " must hold real numbers (got dtype " +
+                          std::string(py::str(raw.dtype())) + ")");
+  return RowArray::ensure(h);
+}
+
 /// An (n, 3) float array as positions; `what` names it in errors.
 Positions to_positions(const py::handle& h, const char* what) {
-  RowArray a = RowArray::ensure(h);
+  RowArray a = real_array(h, what);
   if (!a || a.ndim() != 2 || a.shape(1) != 3)
     throw py::value_error(std::string(what) + " must be an (n, 3) array of numbers");
   Positions p(static_cast<size_t>(a.shape(0)));
@@ -196,21 +222,29 @@ std::vector<Eigen::Matrix<Index, N, 1>> to_rows(const py::handle& h, const char*
   if (raw.dtype().kind() != 'i' && raw.dtype().kind() != 'u')
     throw py::value_error(std::string(what) + " must hold integers (got dtype " + std::string(py::str(raw.dtype())) +
                           ")");
-  py::array_t<long long, py::array::c_style | py::array::forcecast> a(raw);
-  if (a.ndim() != 2 || a.shape(1) != N)
+  if (raw.ndim() != 2 || raw.shape(1) != N)
     throw py::value_error(std::string(what) + " must be an (n, " + std::to_string(N) + ") integer array");
-  auto r = a.unchecked<2>();
-  out.resize(static_cast<size_t>(a.shape(0)));
-  for (py::ssize_t i = 0; i < a.shape(0); ++i)
-    for (int k = 0; k < N; ++k) {
-      const long long v = r(i, k);
-      // Out-of-range indices are reported by the loader with the object's key path; only values
-      // that do not fit an index are refused here.
-      if (v < std::numeric_limits<Index>::min() || v > std::numeric_limits<Index>::max())
-        throw py::value_error(std::string(what) + " row " + std::to_string(i) + ": index " + std::to_string(v) +
-                              " does not fit 32 bits");
-      out[i][k] = static_cast<Index>(v);
-    }
+  // Read in the array's own signedness: 2**63 as uint64 is not the int64 -2**63.
+  const auto copy = [&]<class T>(T) {
+    py::array_t<T, py::array::c_style | py::array::forcecast> a(raw);
+    auto r = a.template unchecked<2>();
+    out.resize(static_cast<size_t>(a.shape(0)));
+    for (py::ssize_t i = 0; i < a.shape(0); ++i)
+      for (int k = 0; k < N; ++k) {
+        const T v = r(i, k);
+        // Out-of-range indices are reported by the loader with the object's key path; only values
+        // that do not fit an index are refused here.
+        if (std::cmp_less(v, std::numeric_limits<Index>::min()) ||
+            std::cmp_greater(v, std::numeric_limits<Index>::max()))
+          throw py::value_error(std::string(what) + " row " + std::to_string(i) + ": index " + std::to_string(v) +
+                                " does not fit 32 bits");
+        out[i][k] = static_cast<Index>(v);
+      }
+  };
+  if (raw.dtype().kind() == 'u')
+    copy((unsigned long long)0);
+  else
+    copy((long long)0);
   return out;
 }
 
@@ -232,6 +266,19 @@ struct PySimulation {
   std::optional<FrameStats> last;
   int threads = 0;
 };
+
+/// One row per vertex of the simulation, every value finite: `what` (positions or velocities) as
+/// set_positions / set_velocities take it; anything else is a ValueError naming the row.
+Positions state_rows(const PySimulation& s, const py::object& h, const char* what) {
+  Positions p = to_positions(h, what);
+  const size_t n = static_cast<size_t>(s.sim->topology().num_vertices());
+  if (p.size() != n)
+    throw py::value_error(std::string(what) + ": " + std::to_string(p.size()) + " rows given, the scene has " +
+                          std::to_string(n) + " vertices");
+  for (size_t i = 0; i < p.size(); ++i)
+    if (!p[i].allFinite()) throw py::value_error(std::string(what) + " row " + std::to_string(i) + " is not finite");
+  return p;
+}
 
 /// `with ccfr.Run(sim, dir) as run:` writes the run directory of `ccfr run` (io::RunRecorder).
 struct PyRun {
@@ -472,7 +519,8 @@ Simulation(scene, solver=None, threads=None): `solver` overrides contact.solver 
       .def(py::init([](const PyScene& scene, const std::optional<std::string>& solver, std::optional<int> threads) {
              auto s = std::make_unique<PySimulation>();
              s->threads = threads.value_or(0);
-             if (s->threads < 0) throw py::value_error("threads must be >= 0");
+             if (const std::string problem = thread_count_problem(s->threads); !problem.empty())
+               throw py::value_error("threads " + problem + ", got " + std::to_string(s->threads));
              set_thread_count(s->threads);
              io::LoadedScene loaded;
              if (solver) {
@@ -485,7 +533,19 @@ Simulation(scene, solver=None, threads=None): `solver` overrides contact.solver 
              s->resolved_json = loaded.resolved_json;
              s->memory = loaded.memory;
              const SimulationParams params = loaded.scene.params;
-             s->sim = std::make_unique<Simulation>(std::move(loaded.scene));
+             try {
+               s->sim = std::make_unique<Simulation>(std::move(loaded.scene));
+             } catch (const Error& e) {
+               // A component's own check names file, key path and line; an override's as load_labelled does.
+               try {
+                 io::rethrow_located(loaded, e);
+               } catch (const ConfigError& c) {
+                 const std::string head = "command line (--set ";
+                 if (c.file().rfind(head, 0) == 0)
+                   throw ConfigError("overrides (" + c.file().substr(head.size()), c.key_path(), 0, c.detail());
+                 throw;
+               }
+             }
              if (params.debug.audit != AuditMode::off)
                s->sim->set_audit(io::make_audit_hook(s->sim->topology(), s->sim->positions(), params));
              return s;
@@ -512,12 +572,12 @@ Simulation(scene, solver=None, threads=None): `solver` overrides contact.solver 
           "Current velocities: a read-only (n, 3) float64 view, like positions.")
       .def(
           "set_positions",
-          [](PySimulation& s, const py::object& x) { s.sim->set_positions(to_positions(x, "positions")); },
+          [](PySimulation& s, const py::object& x) { s.sim->set_positions(state_rows(s, x, "positions")); },
           py::arg("positions"),
           "set_positions(self, /, positions)\n--\n\nOverwrites every position ((n, 3), finite) between frames.")
       .def(
           "set_velocities",
-          [](PySimulation& s, const py::object& v) { s.sim->set_velocities(to_positions(v, "velocities")); },
+          [](PySimulation& s, const py::object& v) { s.sim->set_velocities(state_rows(s, v, "velocities")); },
           py::arg("velocities"),
           "set_velocities(self, /, velocities)\n--\n\nOverwrites every velocity ((n, 3), finite) between frames.")
       .def(
@@ -700,6 +760,7 @@ command line run.json records (default sys.argv).
         o.offset = offset;
         o.tolerance = tolerance;
         o.stride = stride;
+        if (const std::string problem = io::audit_options_problem(o); !problem.empty()) throw py::value_error(problem);
         PyAudit a;
         a.r = require_existing(dir, [&] {
           py::gil_scoped_release release;
@@ -738,19 +799,36 @@ command line run.json records (default sys.argv).
       "project",
       [](const py::object& anchor, const py::object& candidate, const py::object& planes, const std::string& method,
          double epsilon, int max_iterations, int sweeps) {
-        const Positions a = to_positions(RowArray::ensure(anchor).reshape({1, 3}), "anchor");
-        const Positions c = to_positions(RowArray::ensure(candidate).reshape({1, 3}), "candidate");
-        RowArray p = RowArray::ensure(planes);
+        const Positions a = to_positions(real_array(anchor, "anchor").reshape({1, 3}), "anchor");
+        const Positions c = to_positions(real_array(candidate, "candidate").reshape({1, 3}), "candidate");
+        RowArray p = real_array(planes, "planes");
         if (!p || (p.size() > 0 && (p.ndim() != 2 || p.shape(1) != 4)) || (p.size() == 0 && p.ndim() > 2))
           throw py::value_error("planes must be a (k, 4) array of rows (nx, ny, nz, d)");
         std::vector<HalfSpace> hs(static_cast<size_t>(p.size() / 4));
         const double* d = p.data();
         for (size_t k = 0; k < hs.size(); ++k)
           hs[k].n = Vec3(d[4 * k], d[4 * k + 1], d[4 * k + 2]), hs[k].d = d[4 * k + 3];
+        // Bounded as scene coordinates are (kMaxCoordinate), normals unit within 1e-6.
+        const auto bounded = [](const Vec3& x, const char* name) {
+          if (!x.allFinite() || x.cwiseAbs().maxCoeff() > kMaxCoordinate)
+            throw py::value_error(std::string(name) + " must be finite, within +-1e6 (ccfr's bound on coordinates)");
+        };
+        bounded(a[0], "anchor"), bounded(c[0], "candidate");
+        for (size_t k = 0; k < hs.size(); ++k) {
+          if (!hs[k].n.allFinite() || !std::isfinite(hs[k].d) || std::abs(hs[k].d) > kMaxCoordinate ||
+              std::abs(hs[k].n.norm() - 1) > 1e-6)
+            throw py::value_error("planes row " + std::to_string(k) +
+                                  " must hold a unit normal and a finite d within +-1e6");
+        }
         ProjectorParams pp;
         pp.epsilon = epsilon;
         pp.max_iterations = max_iterations;
         pp.sweeps = sweeps;
+        try {
+          validate(pp);  // the bounds of the scene's projector keys
+        } catch (const Error& e) {
+          throw py::value_error(e.what());
+        }
         return make_projector(method, pp)->project(a[0], c[0], hs);
       },
       py::arg("anchor"), py::arg("candidate"), py::arg("planes"), py::arg("method") = "plesnik",
@@ -759,7 +837,7 @@ command line run.json records (default sys.argv).
       "Projects `candidate` into the region {x : (x - anchor).n_k + d_k >= 0} of the half-spaces `planes` (rows "
       "nx, ny, nz, d; unit normals), by `method` (ccfr.projector_names()).");
   auto vec = [](const py::object& o, const char* what) {
-    return to_positions(RowArray::ensure(o).reshape({1, 3}), what)[0];
+    return to_positions(real_array(o, what).reshape({1, 3}), what)[0];
   };
   auto arr = [](const Vec3& v) { return py::array_t<double>(3, v.data()); };
   m.def(

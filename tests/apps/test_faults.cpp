@@ -10,12 +10,15 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <regex>
 #include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "ccfr/core/process.hpp"
 #include "ccfr/io/obj.hpp"
 #include "ccfr/io/run_json.hpp"
 #include "cli_support.hpp"
@@ -306,4 +309,53 @@ TEST(Faults, RunJsonIsValidJsonAndRecordsTheWholeCommandLine) {
   EXPECT_EQ(j["frames_written"], 2);
   // The library reader used by audit and render reads it back.
   EXPECT_EQ(ccfr::io::read_run_info(out).progress.status, "completed");
+}
+
+/// The renames docs/output.md calls safe against power loss (run.json, frames, stats, checkpoints)
+/// follow an fsync of the temporary file they rename, and are followed by an fsync of the folder
+/// that holds it. Read from the system calls ccfr makes (strace), not from its code.
+TEST(Faults, AtomicWritesSyncTheFileBeforeTheRenameAndTheFolderAfter) {
+  if (!ccfr::find_program("strace")) GTEST_SKIP() << "strace is not installed";
+  const fs::path d = scratch("fsync");
+  const fs::path sc = write_scene(d, scene());
+  const fs::path out = d / "out", trace = d / "trace";
+  const auto r =
+      ccfr::test::run_shell("strace -f -qq -e trace=openat,fsync,rename,close -o '" + trace.string() + "' " + CCFR_EXE +
+                            " run '" + sc.string() + "' --out '" + out.string() + "' --frames 2 --threads 1 -q 2>&1");
+  if (r.code != 0 && r.out.find("ptrace") != std::string::npos) GTEST_SKIP() << "ptrace is not permitted: " << r.out;
+  ASSERT_EQ(r.code, 0) << r.out;
+  // Per fd: the path it was opened on, and whether it was synced since.
+  std::map<int, std::pair<std::string, bool>> open_fds;
+  std::map<std::string, bool> synced_file;            // temporary path -> synced before its close
+  std::vector<std::pair<std::string, bool>> renames;  // (final path, its folder synced after)
+  std::ifstream in(trace);
+  const std::regex openat(R"re(openat\(AT_FDCWD, "([^"]+)", ([A-Z_|]+)[^)]*\)\s*= (\d+))re");
+  const std::regex fsync(R"(fsync\((\d+)\)\s*= 0)"), close(R"(close\((\d+)\))");
+  const std::regex rename(R"re(rename\("([^"]+)", "([^"]+)"\)\s*= 0)re");
+  for (std::string line; std::getline(in, line);) {
+    std::smatch m;
+    if (std::regex_search(line, m, openat)) {
+      open_fds[std::stoi(m[3])] = {m[1].str(), false};
+    } else if (std::regex_search(line, m, fsync)) {
+      const auto it = open_fds.find(std::stoi(m[1]));
+      if (it == open_fds.end()) continue;
+      it->second.second = true;
+      synced_file[it->second.first] = true;
+      for (auto& [path, folder_synced] : renames)
+        if (fs::path(path).parent_path() == fs::path(it->second.first)) folder_synced = true;
+    } else if (std::regex_search(line, m, close)) {
+      open_fds.erase(std::stoi(m[1]));
+    } else if (std::regex_search(line, m, rename)) {
+      EXPECT_TRUE(synced_file[m[1].str()]) << m[1] << " renamed without an fsync";
+      renames.emplace_back(m[2].str(), false);
+    }
+  }
+  size_t frames = 0, run_json = 0;
+  for (const auto& [path, folder_synced] : renames) {
+    EXPECT_TRUE(folder_synced) << "the folder of " << path << " was not synced after the rename";
+    frames += path.find("frames/frame_") != std::string::npos;
+    run_json += path.ends_with("run.json");
+  }
+  EXPECT_EQ(frames, 3u);  // frames 0, 1 and 2
+  EXPECT_GE(run_json, 3u);
 }

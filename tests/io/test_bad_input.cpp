@@ -8,6 +8,7 @@
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/io/scene_loader.hpp"
+#include "ccfr/solvers/simulation.hpp"
 #include "config_support.hpp"
 #include "test_support.hpp"
 
@@ -413,4 +414,47 @@ TEST(BadInput, ControlCharactersInKeysArePrintedEscaped) {
   EXPECT_EQ(e.key_path(), "time.ab\\x00cd");
   EXPECT_TRUE(has(e, "unknown key 'ab\\x00cd'")) << e.what();
   EXPECT_EQ(std::string(e.what()).find('\0'), std::string::npos);
+}
+
+/// A component's own check when the simulation starts (contact.dat.query_radius against the
+/// offset and radius, which the schema cannot compare) names the file, key path and line like
+/// the schema's errors, or the --set that gave the value; other errors pass unchanged.
+TEST(BadInput, LateComponentChecksNameFileKeyAndLine) {
+  const auto start = [](const io::LoadedScene& s) {
+    try {
+      Simulation sim(s.scene);
+    } catch (const Error& e) {
+      io::rethrow_located(s, e);
+    }
+  };
+  const std::string y =
+      with(kBase, "  radius: 0.01\n", "  radius: 0.01\n  solver: dat\n  dat: {query_radius: 1.0e300}\n");
+  try {
+    start(io::load_scene_text(y, "scene.yaml", "."));
+    ADD_FAILURE() << "query_radius 1e300 was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.file(), "scene.yaml");
+    EXPECT_EQ(e.key_path(), "contact.dat.query_radius");
+    EXPECT_EQ(e.line(), 8);  // the line of `dat: {query_radius: ...}` in y
+    EXPECT_TRUE(has(e, "scene.yaml:8: 'contact.dat.query_radius': 1e+300 must be > contact.offset")) << e.what();
+  }
+  try {
+    start(io::load_scene_text(kBase, "scene.yaml", ".", {"contact.solver=dat", "contact.dat.query_radius=1e-300"}));
+    ADD_FAILURE() << "query_radius 1e-300 was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.file(), "command line (--set contact.dat.query_radius=1e-300)");
+    EXPECT_EQ(e.key_path(), "contact.dat.query_radius");
+  }
+  const auto s = io::load_scene_text(kBase, "scene.yaml", ".");
+  try {
+    try {
+      throw Error("no key here: something else");
+    } catch (const Error& e) {
+      io::rethrow_located(s, e);
+    }
+  } catch (const ConfigError& e) {
+    ADD_FAILURE() << "relabelled: " << e.what();
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "no key here: something else");
+  }
 }

@@ -113,6 +113,79 @@ def test_from_arrays_errors_name_the_argument_not_a_generated_line():
         assert str(info.value).startswith(f"objects[1].{key} must") and shape_text in str(info.value)
 
 
+def test_nested_override_dicts_merge_key_by_key_like_set(data, ccfr_exe, tmp_path):
+    """{"time": {"frames": 3}} sets time.frames alone, as `--set time.frames=3` does; the other
+    keys of `time` keep the file's values (it once replaced the section: iterations 2 -> 4)."""
+    import json
+    plain = json.loads(ccfr.load_scene(data / "small_drop.yaml").config_json)["time"]
+    merged = ccfr.load_scene(data / "small_drop.yaml", overrides={"time": {"frames": 3}, "contact": {"offset": 0.02}})
+    assert merged.overrides == ["time.frames=3", "contact.offset=0.02"]
+    cfg = json.loads(merged.config_json)
+    assert cfg["time"] == dict(plain, frames=3) and (cfg["time"]["iterations"], cfg["time"]["xpbd_sweeps"]) == (2, 6)
+    subprocess.run([ccfr_exe, "run", str(data / "small_drop.yaml"), "--out", str(tmp_path / "cli"), "-q",
+                    "--set", "time.frames=3", "--set", "contact.offset=0.02"], check=True)
+    assert json.loads((tmp_path / "cli" / "run.json").read_text())["config"]["time"] == cfg["time"]
+
+
+def test_python_refuses_what_the_cli_refuses(data, ccfr_exe, tmp_path):
+    """threads, the audit's options and the projector's inputs have the CLI's and the scene's
+    bounds; wrong shapes, dtypes and non-finite values are ValueError naming the argument."""
+    cli = subprocess.run([ccfr_exe, "run", str(data / "small_drop.yaml"), "--threads", "100000", "--out",
+                          str(tmp_path / "t")], capture_output=True, text=True)
+    assert cli.returncode == 2 and "is too many worker threads: at most 1024" in cli.stderr
+    for bad in (100000, -1):
+        with pytest.raises(ValueError, match="threads"):
+            ccfr.Simulation(ccfr.load_scene(data / "small_drop.yaml"), threads=bad)
+    sim = ccfr.Simulation(ccfr.load_scene(data / "small_drop.yaml"), threads=2)
+    n = sim.num_vertices
+    for bad, text in ((np.zeros((n + 1, 3)), f"{n + 1} rows given"), (np.zeros((n, 3), complex), "complex128"),
+                      (np.full((n, 3), "1"), "real numbers"), (np.full((n, 3), np.inf), "row 0 is not finite")):
+        with pytest.raises(ValueError, match=re.escape(text)):
+            sim.set_positions(bad)
+        with pytest.raises(ValueError):
+            sim.set_velocities(bad)
+    run = tmp_path / "run"
+    with ccfr.Run(sim, run) as r:
+        r.step()
+    for kwargs, option in ((dict(stride=0), ["--stride", "0"]), (dict(tolerance=1.0), ["--tol", "1"]),
+                           (dict(offset=float("nan")), ["--offset", "nan"]), (dict(offset=-1.0), ["--offset", "-1"])):
+        with pytest.raises(ValueError, match=next(iter(kwargs))):
+            ccfr.audit(run, **kwargs)
+        assert subprocess.run([ccfr_exe, "audit", str(run), *option], capture_output=True).returncode == 2
+    assert ccfr.audit(run, stride=1)
+    a, c, planes = [0, 0, 0], [0, -1, 0], [[0, 1, 0, 0.1]]
+    assert ccfr.project(a, c, planes, epsilon=0.0).status == "projected"
+    for kwargs in (dict(anchor=[np.nan, 0, 0]), dict(candidate=[0, 2e6, 0]), dict(candidate=np.zeros(3, complex)),
+                   dict(planes=[[0, 2, 0, 0.1]]), dict(planes=[[0, 1, 0, np.inf]]), dict(epsilon=-1.0),
+                   dict(epsilon=np.nan), dict(max_iterations=0), dict(sweeps=0)):
+        args = dict(anchor=a, candidate=c, planes=planes)
+        args.update(kwargs)
+        with pytest.raises(ValueError):
+            ccfr.project(**args)
+    with pytest.raises(ValueError, match="real numbers"):
+        ccfr.Scene.from_arrays([dict(name="c", kind="cloth", vertices=np.eye(3, dtype=complex), faces=[[0, 1, 2]])])
+    with pytest.raises(ValueError, match="index 9223372036854775808 does not fit 32 bits"):
+        ccfr.Scene.from_arrays([dict(name="c", kind="cloth", vertices=np.eye(3),
+                                     faces=np.array([[0, 1, 2**63]], dtype=np.uint64))])
+
+
+def test_late_component_checks_name_the_file_key_and_line(data, tmp_path):
+    """contact.dat.query_radius is checked when the simulation starts: the error names the scene
+    file and line, or the override, as the schema's errors do (it named neither)."""
+    scene = tmp_path / "q.yaml"
+    scene.write_text((data / "small_drop.yaml").read_text().replace(
+        "  solver: ccfr\n", "  solver: dat\n  dat: {query_radius: 1.0e300}\n"))
+    line = scene.read_text().splitlines().index("  dat: {query_radius: 1.0e300}") + 1
+    with pytest.raises(ccfr.ConfigError) as info:
+        ccfr.Simulation(ccfr.load_scene(scene))
+    assert (info.value.file, info.value.key_path, info.value.line) == (str(scene), "contact.dat.query_radius", line)
+    with pytest.raises(ccfr.ConfigError) as info:
+        ccfr.Simulation(ccfr.load_scene(data / "small_drop.yaml", overrides={"contact": {
+            "solver": "dat", "dat": {"query_radius": 1e-300}}}))
+    assert (info.value.file, info.value.key_path) == ("overrides (contact.dat.query_radius=1e-300)",
+                                                      "contact.dat.query_radius")
+
+
 # ---- 2. NumPy scalars and arrays
 
 def test_numpy_values_are_accepted_like_python_ones(data, tmp_path):

@@ -63,7 +63,7 @@ def test_setters_refuse_non_finite_values(data):
     sim = handle_sim(data)
     x = sim.positions.copy()
     x[2, 1] = np.nan
-    with pytest.raises(ccfr.Error, match="vertex 2 is not finite"):
+    with pytest.raises(ValueError, match="positions row 2 is not finite"):  # a bad argument: ValueError
         sim.set_positions(x)
 
 

@@ -45,11 +45,26 @@ void write_file_atomic(const fs::path& path, const std::string& content) {
     p += n;
     left -= static_cast<size_t>(n);
   }
+  // The data reaches the disk before the rename: after a power loss the name holds either the
+  // old content or the whole new one, never a renamed empty or partial file (ext4, xfs, btrfs).
+  if (::fsync(fd) != 0 && errno != EINVAL) {  // EINVAL: a file system without fsync (a pipe, some FUSE)
+    const int err = errno;
+    ::close(fd);
+    fail(err);
+  }
   if (::close(fd) != 0) fail(errno);  // delayed allocation can report ENOSPC only here
   if (::rename(tmp.c_str(), path.c_str()) != 0) {
     const int err = errno;
     ::unlink(tmp.c_str());
     throw Error("cannot rename '" + tmp.string() + "' to '" + path.string() + "': " + std::strerror(err));
+  }
+  // And the rename itself: the directory entry is durable once its folder is synced.
+  const fs::path parent = path.has_parent_path() ? path.parent_path() : fs::path(".");
+  if (const int dfd = ::open(parent.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC); dfd >= 0) {
+    const int rc = ::fsync(dfd), err = errno;
+    ::close(dfd);
+    if (rc != 0 && err != EINVAL)
+      throw Error("cannot sync the folder of '" + path.string() + "': " + std::strerror(err));
   }
 }
 

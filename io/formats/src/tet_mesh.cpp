@@ -2,13 +2,16 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <unordered_map>
 
 #include "ccfr/core/error.hpp"
+#include "ccfr/core/log.hpp"
 #include "ccfr/core/process.hpp"
 #include "ccfr/io/obj.hpp"
 #include "ccfr/io/user_file.hpp"
@@ -23,6 +26,16 @@ const std::vector<std::string>& mesh_extensions() {
 }
 
 namespace {
+
+/// The shortest edge (same units as `v`) among the elements' vertex pairs: triangles or tets.
+template <class Element>
+double shortest_edge(const Positions& v, const std::vector<Element>& elements) {
+  double best = std::numeric_limits<double>::infinity();
+  for (const Element& e : elements)
+    for (int a = 0; a < e.size(); ++a)
+      for (int b = a + 1; b < e.size(); ++b) best = std::min(best, (v[e[a]] - v[e[b]]).norm());
+  return best;
+}
 
 [[noreturn]] void fail(const fs::path& p, int line, const std::string& msg) {
   throw Error(printable(p.string()) + (line > 0 ? ":" + std::to_string(line) : std::string()) + ": " + printable(msg));
@@ -278,7 +291,7 @@ TetMesh read_gmsh(const fs::path& path) {
 }
 
 TetMesh tetrahedralize(const Positions& v, const std::vector<Vec3i>& f, double quality, double max_volume,
-                       const std::string& what) {
+                       const std::string& what, const std::vector<int>* face_lines) {
   const auto tetgen = find_program("tetgen");
   if (!tetgen)
     throw Error(what +
@@ -302,19 +315,51 @@ TetMesh tetrahedralize(const Positions& v, const std::vector<Vec3i>& f, double q
     for (const Vec3i& t : f) off << "3 " << t[0] << " " << t[1] << " " << t[2] << "\n";
     if (!off) throw Error(what + ": cannot write the surface for tetgen into " + dir.string());
   }
-  std::string flags = "-pQ";
+  // -Y keeps the surface as given (no Steiner point on it). Without it tetgen splits surface edges
+  // and faces to recover them, and on scanned surfaces puts points nanometres from the input's
+  // (CGAL's triceratops: a 7e-7 edge against its own shortest of 0.02; the contact terms of the
+  // memory estimate and the offset advice then scale with that edge). Interior points obey -q.
+  std::string options;
   char num[64];
   if (quality > 0) {
     std::snprintf(num, sizeof num, "q%.17g", quality);
-    flags += num;
+    options += num;
   }
   if (max_volume > 0) {
     std::snprintf(num, sizeof num, "a%.17g", max_volume);
-    flags += num;
+    options += num;
   }
   const fs::path log = dir / "tetgen.log";
-  const int rc = run_process({tetgen->string(), flags, (dir / "surface.off").string()}, log);
+  // A volume bound needs the surface split (a tet on three surface vertices cannot shrink otherwise).
+  std::string flags = (max_volume > 0 ? "-pQ" : "-pYQ") + options;
+  int rc = run_process({tetgen->string(), flags, (dir / "surface.off").string()}, log);
+  if (max_volume <= 0 && (rc != 0 || !fs::exists(dir / "surface.1.ele"))) {
+    // A surface tetgen cannot keep unsplit: let it split the surface (the fill then warns below).
+    flags = "-pQ" + options;
+    rc = run_process({tetgen->string(), flags, (dir / "surface.off").string()}, log);
+  }
   if (rc != 0 || !fs::exists(dir / "surface.1.ele")) {
+    // tetgen -p aborts on a self-intersecting surface without saying so (CGAL's cow, bull, elk,
+    // camel: "terminate called after throwing an instance of 'int'"); -d names the faces.
+    const fs::path check = dir / "intersections.log";
+    run_process({tetgen->string(), "-dNEF", (dir / "surface.off").string()}, check);
+    std::ifstream cin(check);
+    long pairs = 0, a = 0, b = 0;
+    for (std::string l; std::getline(cin, l);) {
+      if (a == 0 && std::sscanf(l.c_str(), " Facet #%ld intersects facet #%ld", &a, &b) == 2) continue;
+      if (std::sscanf(l.c_str(), "!! Found %ld pairs of faces are intersecting", &pairs) == 1) break;
+    }
+    const auto face = [&](long k) {  // tetgen's facets are 1-based, in the order written
+      const size_t i = static_cast<size_t>(k - 1);
+      return face_lines && i < face_lines->size() && (*face_lines)[i] > 0
+                 ? "the face of line " + std::to_string((*face_lines)[i])
+                 : "face " + std::to_string(k - 1);
+    };
+    if (pairs > 0 && a > 0 && b > 0)
+      throw Error(what + ": the surface intersects itself (" + std::to_string(pairs) + " pair" +
+                  (pairs == 1 ? "" : "s") + " of faces, e.g. " + face(a) + " and " + face(b) +
+                  "): tetgen cannot fill it; repair the surface (remove the self-intersections) or make the object "
+                  "a shell or a rigid body, which need no fill");
     std::ifstream in(log);
     std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()), last;
     std::istringstream ss(text);
@@ -324,7 +369,18 @@ TetMesh tetrahedralize(const Positions& v, const std::vector<Vec3i>& f, double q
                 (last.empty() ? std::string() : ": " + last) +
                 "; is the surface closed and free of self-intersections?");
   }
-  return read_tetgen(dir / "surface.1.ele");
+  TetMesh t = read_tetgen(dir / "surface.1.ele");
+  // Expected: edges near the surface's shortest, or near a regular tet's of volume max_volume,
+  // (6√2 V)^(1/3); a tenth of the smaller of the two is a fill split around slivers.
+  const double surface_edge = shortest_edge(v, f), fill_edge = shortest_edge(t.v, t.t);
+  const double expected =
+      max_volume > 0 ? std::min(surface_edge, std::cbrt(6 * std::sqrt(2.0) * max_volume)) : surface_edge;
+  if (fill_edge < 0.1 * expected)
+    log::warn(
+        "{}: tetgen {} made edges down to {:.3g} (the surface's shortest is {:.3g}); contact and memory "
+        "scale with the shortest edge: remesh the surface (fewer, more even triangles) if the run is slow",
+        what, flags, fill_edge, surface_edge);
+  return t;
 }
 
 }  // namespace ccfr::io

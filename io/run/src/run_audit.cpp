@@ -122,8 +122,19 @@ void check_frame_sequence(const fs::path& dir, long first, std::optional<long> e
               " (" + list + "); " + who + " a whole sequence only: restore the frames or run again");
 }
 
+std::string audit_options_problem(const RunAuditOptions& o) {
+  const auto num = [](double x) { return ccfr::format("{:.7g}", x); };
+  if (o.offset && !(std::isfinite(*o.offset) && *o.offset > 0))
+    return "offset must be a finite number > 0, got " + num(*o.offset);
+  if (!(o.tolerance >= 0 && o.tolerance <= kMaxAuditTolerance))
+    return "tolerance must be in [0, " + num(kMaxAuditTolerance) + "], got " + num(o.tolerance);
+  if (o.stride < 1) return "stride must be >= 1, got " + std::to_string(o.stride);
+  return {};
+}
+
 RunAuditResult audit_run(const fs::path& dir, const RunAuditOptions& o, const FrameAuditCallback& on_frame,
                          const std::function<void(const RunAuditResult&)>& on_start) {
+  if (const std::string problem = audit_options_problem(o); !problem.empty()) throw Error("audit: " + problem);
   if (!fs::is_directory(dir)) throw Error("'" + dir.string() + "' is not a directory" + previous_run_note(dir));
   if (!o.offset && !fs::exists(dir / "run.json"))
     throw Error("'" + (dir / "run.json").string() +
@@ -136,7 +147,7 @@ RunAuditResult audit_run(const fs::path& dir, const RunAuditOptions& o, const Fr
   res.offset = o.offset ? *o.offset : info.meta.contact.offset;
   res.offset_source = o.offset ? "--offset" : "run.json";
   res.tolerance = o.tolerance;
-  res.stride = std::max(1, o.stride);
+  res.stride = o.stride;
   if (!(res.offset > 0.0))
     throw Error("no positive offset xi: run.json has offset " + std::to_string(info.meta.contact.offset) +
                 "; pass --offset");

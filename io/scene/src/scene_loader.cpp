@@ -1,6 +1,7 @@
 #include "ccfr/io/scene_loader.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <map>
 #include <optional>
 #include <set>
@@ -154,6 +155,39 @@ void check_moved_keys(const YAML::Node& root, const Context& ctx) {
                std::string("this key moved to ") + now + ", the section of the solver it belongs to (docs/config.md)");
 }
 
+/// The deepest node of `root` along `key_path` ("contact.dat.query_radius", "objects[2].shape"):
+/// the key itself when written, else the closest section that is (a default's key has no line).
+YAML::Node node_at(const YAML::Node& root, const std::string& key_path) {
+  YAML::Node cur;
+  cur.reset(root);
+  std::string seg;
+  const auto descend = [&] {
+    if (seg.empty()) return;
+    YAML::Node next;
+    if (cur.IsMap() && cur[seg]) {
+      next = cur[seg];
+    } else if (size_t i = 0; cur.IsSequence() &&
+                             std::from_chars(seg.data(), seg.data() + seg.size(), i).ptr == seg.data() + seg.size() &&
+                             i < cur.size()) {
+      next = cur[i];
+    } else {
+      seg = "\x01";  // not written: stay at the closest section
+      return;
+    }
+    cur.reset(next);
+    seg.clear();
+  };
+  for (const char ch : key_path) {
+    if (seg == "\x01") break;
+    if (ch == '.' || ch == '[' || ch == ']')
+      descend();
+    else
+      seg += ch;
+  }
+  if (seg != "\x01") descend();
+  return cur;
+}
+
 LoadedScene load(YAML::Node root, const std::string& label, const fs::path& base_dir,
                  const std::vector<std::string>& overrides, const std::string& default_name,
                  const std::map<std::string, MeshArrays>* arrays = nullptr) {
@@ -178,6 +212,11 @@ LoadedScene load(YAML::Node root, const std::string& label, const fs::path& base
   out.scene = b.build();
   out.memory = b.memory_estimate();
   out.resolved_json = schema::to_json(resolved, scene_schema(), 2);
+  // The tree as written (after the overrides): its marks are the file's lines.
+  out.fail_at = [root, ctx](const std::string& key_path, const std::string& message) {
+    YAML::Node at = node_at(root, key_path);
+    ctx.fail(key_path, at, message);
+  };
   return out;
 }
 
@@ -189,6 +228,20 @@ LoadedScene load_scene(const fs::path& file, const std::vector<std::string>& ove
   LoadedScene s = load(root, file.string(), file.parent_path(), overrides, file.stem().string());
   s.source = file;
   return s;
+}
+
+void rethrow_located(const LoadedScene& scene, const Error& e) {
+  const std::string what = e.what();
+  const size_t colon = what.find(": ");
+  const std::string key = what.substr(0, colon);
+  // A key path: section names and [indices], a top-level section of the schema first.
+  const bool is_key = colon != std::string::npos && !key.empty() && scene.fail_at &&
+                      key.find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789_.[]") == std::string::npos &&
+                      std::ranges::any_of(scene_schema()->fields, [&](const schema::Field& f) {
+                        return f.key == key.substr(0, key.find_first_of(".["));
+                      });
+  if (is_key) scene.fail_at(key, what.substr(colon + 2));
+  throw;
 }
 
 YAML::Node parse_bounded_yaml(const std::string& text, const std::string& label, const std::string& what) {

@@ -2,10 +2,20 @@
 /// @file parallel.hpp
 /// Thread control and loops on oneTBB, without exposing TBB headers.
 #include <functional>
+#include <string>
 
 #include "ccfr/core/types.hpp"
 
 namespace ccfr {
+
+/// Most worker threads accepted (`--threads`, Python's `threads=`): far beyond any machine ccfr
+/// runs on, yet small enough that per-thread state stays a few megabytes (2147483647 tried to
+/// allocate gigabytes).
+inline constexpr long long kMaxThreads = 1024;
+
+/// Why `n` is not an admissible worker-thread count ("is too many worker threads: ..."); empty if
+/// it is (0 <= n <= kMaxThreads; 0 means all cores). The CLI and Python refuse with this text.
+std::string thread_count_problem(long long n);
 
 /// Limits every parallel loop to `n` threads (n <= 0: all hardware threads). Process-wide.
 void set_thread_count(int n);

@@ -21,12 +21,14 @@ schema::NodePtr mesh_schema() {
       "meshes for tet_solid",
       {{"path", string(std::nullopt, "path, relative to the scene file")},
        {"quality", number(2.0,
-                          "tet_solid from a surface .obj or .off: tetgen's radius-edge ratio bound (-q); 0 "
+                          "tet_solid from a surface .obj or .off: tetgen's radius-edge ratio bound (-q) on the "
+                          "inside; the surface itself is kept as given (-Y) unless max_volume is set; 0 "
                           "turns quality refinement off",
                           Range::up_to(100))},
        {"max_volume", number(0.0,
                              "tet_solid from a surface .obj or .off: largest tet volume (m³ of "
-                             "the placed object, after transform.scale; tetgen -a); 0 means no bound",
+                             "the placed object, after transform.scale; tetgen -a; it lets tetgen split the "
+                             "surface's triangles); 0 means no bound",
                              Range::up_to(kMaxLength))}});
 }
 
@@ -89,7 +91,7 @@ RawGeometry read_mesh_file(const Input& in, const YAML::Node& s, ObjectKind kind
     TetMesh t;
     try {
       t = tetrahedralize(m.v, m.f, s["quality"].as<double>(), s["max_volume"].as<double>() / (scale * scale * scale),
-                         "mesh '" + file.string() + "'");
+                         "mesh '" + file.string() + "'", &m.face_lines);
     } catch (const Error& e) {
       in.ctx.fail(ppath, in.in_node(ppath), e.what());
     }

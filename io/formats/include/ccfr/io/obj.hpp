@@ -70,7 +70,9 @@ ObjMesh read_obj_mesh(const std::filesystem::path& path);
 /// coordinates, counts the file cannot hold, 4-D/n-D or binary OFF, and data after the last face.
 ObjMesh read_off_mesh(const std::filesystem::path& path);
 
-/// Writes `content` to `path` atomically (temporary file, then rename).
+/// Writes `content` to `path` atomically and durably: a temporary file in the same folder, synced
+/// (fsync), renamed over `path`, then the folder synced; after a crash or power loss `path` holds
+/// the old content or the whole new one. On failure the temporary file is removed.
 void write_file_atomic(const std::filesystem::path& path, const std::string& content);
 
 }  // namespace ccfr::io

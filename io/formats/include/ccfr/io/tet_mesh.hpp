@@ -28,10 +28,15 @@ TetMesh read_tetgen(const std::filesystem::path& path);
 /// every other element is ignored, nodes no tet uses are dropped. Binary files are refused.
 TetMesh read_gmsh(const std::filesystem::path& path);
 
-/// Tetrahedralises the closed triangle surface (v, f) with the `tetgen` program (-p, with -q
-/// `quality` when > 0 and -a `max_volume` when > 0). Throws ccfr::Error if tetgen is missing,
+/// Tetrahedralises the closed triangle surface (v, f) with the `tetgen` program (-pY, with -q
+/// `quality` when > 0): the fill's boundary is the surface itself, unsplit. With -a `max_volume`
+/// (> 0), or for a surface tetgen cannot fill unsplit, -p alone lets tetgen split the surface; a
+/// warning then names the fill's shortest edge when it falls below a tenth of the surface's
+/// (or of a regular tet's of volume max_volume). A self-intersecting surface is refused naming the
+/// count of intersecting face pairs and one pair, by `face_lines` (each face's line in its file)
+/// when given. Throws ccfr::Error if tetgen is missing,
 /// fails (its output is quoted) or produces no tet. `what` names the surface in messages.
 TetMesh tetrahedralize(const Positions& v, const std::vector<Vec3i>& f, double quality, double max_volume,
-                       const std::string& what);
+                       const std::string& what, const std::vector<int>* face_lines = nullptr);
 
 }  // namespace ccfr::io

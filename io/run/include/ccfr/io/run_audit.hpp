@@ -13,6 +13,10 @@
 
 namespace ccfr::io {
 
+/// Largest `tolerance` of an audit (`ccfr audit --tol`, Python's `tolerance=`): 1 would accept any
+/// pair, however close.
+inline constexpr double kMaxAuditTolerance = 0.999999;
+
 struct RunAuditOptions {
   std::optional<double> offset;  ///< ξ; default: `offset` of DIR/run.json
   double tolerance = 1e-6;       ///< pairs closer than (1 - tol) ξ are violations
@@ -21,6 +25,11 @@ struct RunAuditOptions {
   /// run's frames/frame_00000.obj, which must then exist.
   std::filesystem::path reference;
 };
+
+/// Why `o` is not admissible, naming the option ("stride must be >= 1, got 0"); empty if it is:
+/// offset finite and > 0 when given, tolerance in [0, kMaxAuditTolerance], stride >= 1. The CLI
+/// checks the same bounds with its validators; Python raises ValueError with this text.
+std::string audit_options_problem(const RunAuditOptions& o);
 
 /// One audited frame.
 struct FrameAuditRow {

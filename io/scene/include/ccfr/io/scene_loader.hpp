@@ -3,11 +3,13 @@
 /// Loading YAML scene files, strictly: unknown keys, wrong types, out-of-range values and missing
 /// mesh files are ccfr::ConfigError naming the file, the key path and the line.
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "ccfr/core/error.hpp"
 #include "ccfr/solvers/scene.hpp"
 
 namespace ccfr::io {
@@ -28,14 +30,16 @@ inline constexpr long long kMaxFrames = 10000000;
 ///   self:      per vertex that collides, h_v its mean edge: kBytesPerFineUnit (D / h_v)^2 of a
 ///              surface (a sheet or a tet boundary finer than D pairs with its own flat
 ///              neighbourhood), plus kBytesPerDrivenUnit (1 + D / h_v)^2 when scripted pins move it
-///              (it can be wound onto itself, like the twisting cloth); kBytesPerStrandSelfUnit
+///              (it can be wound onto itself, like the twisting cloth); each vertex's term at
+///              most the object's colliding vertices + edges + faces; kBytesPerStrandSelfUnit
 ///              (1 + D / h_v) of strands; kBytesPerGrainUnit per pair of particles of one object
 ///              within D of each other as loaded, counted from both sides
 ///   cross:     kBytesPerCrossUnit S sum_j min(1, A_j / A) F_j, for every other object j when either
 ///              side is deformable, F_j = ((h + h_j) / 2 + D)^2 / h_j^2 (1 for particles), the shares
 ///              min(1, A_j / A) summing to at most 2 layers (a sheet among other sheets: the
 ///              layers kept ξ apart that a stack packs within D, 2 sum_k (h + sqrt(D^2 - (k xi)^2))^2
-///              over the nearest's, k = 1 .. floor(D / xi))
+///              over the nearest's, k = 1 .. floor(D / xi); a sheet moved by scripted pins has its
+///              share min(1, A_j / A) times half that sum, the layers a bunch of it packs per side)
 ///   patch:     kBytesPerPatchUnit max_j min(2 pi D rho_eff, A, A_j) / h^2 F_j of a rigid body
 ///              against other bodies j, rho_eff = rho rho_j / (rho + rho_j) (an open surface: rho)
 /// Obstacles hold no half-spaces (their vertices never move) and pay elements only. The scene adds
@@ -88,7 +92,16 @@ struct LoadedScene {
   MemoryEstimate memory;         ///< the estimate the scene was admitted with
   std::string resolved_json;     ///< the configuration with every default filled in, as JSON
   std::filesystem::path source;  ///< the scene file
+  /// The loader's locator (see rethrow_located): throws the ConfigError at a key path, with the
+  /// file (or the `--set` that set the key) and line. Empty for a scene built in code.
+  std::function<void(const std::string& key_path, const std::string& message)> fail_at;
 };
+
+/// Rethrows `e`, raised after loading by a component's own check (when the simulation starts, e.g.
+/// `contact.dat.query_radius: 1e+300 must be ...`), as a ConfigError naming the scene file, the key
+/// path and its line as the schema's errors do, when its message starts with a key path of the
+/// scene ("KEY.PATH: "); otherwise rethrows `e` unchanged. Call it from the handler of `e`.
+[[noreturn]] void rethrow_located(const LoadedScene& scene, const Error& e);
 
 /// Loads `file`, applying `overrides` ("key.path=value", value parsed as YAML) before validation.
 LoadedScene load_scene(const std::filesystem::path& file, const std::vector<std::string>& overrides = {});
