@@ -81,7 +81,6 @@ def import_run(run_dir, z_up=False):
         mesh.from_pydata(local, edges, faces)
         mesh.update()
         obj = bpy.data.objects.new(entry["name"], mesh)
-        scene.collection.objects.link(obj)
         if z_up:
             obj.rotation_euler = (math.pi / 2, 0.0, 0.0)
         mod = obj.modifiers.new("ccfr", "MESH_CACHE")
@@ -98,6 +97,9 @@ def import_run(run_dir, z_up=False):
         with open(mod.filepath, "rb") as pc2:
             samples = int.from_bytes(pc2.read(32)[28:32], "little")
         last = max(last, int(manifest["start_frame"]) + (samples - 1) * every)
+        # Linked once its modifier has a file: a linked object is evaluated at once, and a Mesh
+        # Cache without one printed "No such file or directory".
+        scene.collection.objects.link(obj)
         objects.append(obj)
     scene.frame_end = last
     scene.frame_set(scene.frame_start)
@@ -108,11 +110,12 @@ def save_blend(path, objects):
     """Saves the scene as PATH, the point caches referenced relative to it ('//' paths)."""
     path = os.path.abspath(path)
     os.makedirs(os.path.dirname(path), exist_ok=True)
-    for obj in objects:
-        for mod in obj.modifiers:
-            if mod.type == "MESH_CACHE":
-                mod.filepath = "//" + os.path.relpath(mod.filepath, os.path.dirname(path)).replace(os.sep, "/")
-    bpy.ops.wm.save_as_mainfile(filepath=path, check_existing=False)
+    # Blender remaps the absolute paths to '//' ones as it saves; set by hand before the file had
+    # a path, they resolved against nothing and the modifiers printed "No such file or directory".
+    bpy.ops.wm.save_as_mainfile(filepath=path, check_existing=False, relative_remap=True)
+    bad = [o.name for o in objects for m in o.modifiers if m.type == "MESH_CACHE" and not m.filepath.startswith("//")]
+    if bad:
+        sys.exit("import_blender: the point caches of %s could not be made relative to %s" % (", ".join(bad), path))
 
 
 def main(argv):
