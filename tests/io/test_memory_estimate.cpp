@@ -261,3 +261,25 @@ TEST(MemoryEstimate, ADrivenSheetBunchesAgainstWhatHoldsIt) {
   EXPECT_NEAR(object(still.memory, "sheet").cross_contact, 3 * share * f, rel * 3 * share * f);
   EXPECT_NEAR(object(moved.memory, "sheet").cross_contact, 3 * bunch * share * f, rel * 3 * bunch * share * f);
 }
+
+// A surface's thin parts pair across themselves at rest (a scan's fingers and ears, a folded
+// sheet): two equilateral triangles of side L, a gap t apart and facing each other, each vertex
+// within D of all three across (√(L² + t²) < D), add 2 · 3 · 3 facing pairs, over the π D² · 2 /
+// (√3 h²) / (D / h)² = 2π / √3 vertices of one fine unit. The same two triangles facing one way
+// (a stack, not a fold) add nothing.
+TEST(MemoryEstimate, AThinPartPairsAcrossItself) {
+  const double t = 0.005;
+  ASSERT_LT(std::hypot(kL, t), kReach);
+  auto pair_of = [&](bool facing) {
+    io::MeshArrays m = triangle(kL, 0.0), top = triangle(kL, t);
+    m.vertices.insert(m.vertices.end(), top.vertices.begin(), top.vertices.end());
+    m.faces.push_back(facing ? Vec3i(3, 4, 5) : Vec3i(3, 5, 4));
+    return io::load_scene_arrays(
+        header() + "  - {name: sheet, kind: cloth, material: m, shape: {type: mesh, path: two}}\n", "s.yaml",
+        {{"two", m}});
+  };
+  const double flat = 6 * std::pow(kReach / kL, 2);
+  const double across = 2 * 3 * 3 / (2 * std::numbers::pi / kSqrt3);
+  EXPECT_NEAR(object(pair_of(false).memory, "sheet").fine_contact, flat, rel * flat);
+  EXPECT_NEAR(object(pair_of(true).memory, "sheet").fine_contact, flat + across, rel * (flat + across));
+}

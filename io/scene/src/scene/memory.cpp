@@ -74,13 +74,16 @@ std::string gigabytes(double b) {
 
 namespace {
 
-/// Sum over the points of how many others lie within `reach` (each pair counted from both
-/// sides), by hashing them into cells of that size: a block of particles pairs with itself
-/// from the first frame, and a pile packs no looser.
-/// Counting stops once it passes `stop_at` (what the memory limit allows: such a scene is refused
-/// anyway), so that a million particles packed far below the reach cannot stall the loader.
-double neighbours_within(const Positions& x, double reach, double stop_at) {
-  if (x.size() < 2 || !(reach > 0)) return 0;
+/// Sum over the points `who` (all of `x` when empty) of how many others of them lie within
+/// `reach` and pass `accept(a, b)` (each pair counted from both sides), by hashing them into
+/// cells of that size. Counting stops once it passes `stop_at` (what the memory limit allows:
+/// such a scene is refused anyway), so that a million points packed far below the reach cannot
+/// stall the loader.
+template <class Accept>
+double pairs_within(const Positions& x, std::vector<Index> who, double reach, double stop_at, Accept accept) {
+  if (who.empty())
+    for (size_t a = 0; a < x.size(); ++a) who.push_back(static_cast<Index>(a));
+  if (who.size() < 2 || !(reach > 0)) return 0;
   std::unordered_map<std::uint64_t, std::vector<Index>> cells;
   auto key = [](std::int64_t i, std::int64_t j, std::int64_t k) {
     return (std::uint64_t(i & 0x1fffff) << 42) | (std::uint64_t(j & 0x1fffff) << 21) | std::uint64_t(k & 0x1fffff);
@@ -91,13 +94,13 @@ double neighbours_within(const Positions& x, double reach, double stop_at) {
     return std::int64_t(std::clamp(std::floor(v / reach), -4.0e18, 4.0e18));  // a tiny reach must not overflow
   };
   auto cell = [&](const Vec3& p) -> std::array<std::int64_t, 3> { return {index(p.x()), index(p.y()), index(p.z())}; };
-  for (size_t a = 0; a < x.size(); ++a) {
+  for (const Index a : who) {
     const auto c = cell(x[a]);
-    cells[key(c[0], c[1], c[2])].push_back(static_cast<Index>(a));
+    cells[key(c[0], c[1], c[2])].push_back(a);
   }
   double n = 0;
   const double r2 = reach * reach;
-  for (size_t a = 0; a < x.size(); ++a) {
+  for (const Index a : who) {
     const auto c = cell(x[a]);
     for (int di = -1; di <= 1; ++di)
       for (int dj = -1; dj <= 1; ++dj)
@@ -105,11 +108,37 @@ double neighbours_within(const Positions& x, double reach, double stop_at) {
           const auto it = cells.find(key(c[0] + di, c[1] + dj, c[2] + dk));
           if (it == cells.end()) continue;
           for (const Index b : it->second)
-            if (b != Index(a) && (x[b] - x[a]).squaredNorm() <= r2) n += 1;
+            if (b != a && (x[b] - x[a]).squaredNorm() <= r2 && accept(a, b)) n += 1;
         }
     if (n > stop_at) return n;
   }
   return n;
+}
+
+/// A block of particles pairs with itself from the first frame, and a pile packs no looser.
+double neighbours_within(const Positions& x, double reach, double stop_at) {
+  return pairs_within(x, {}, reach, stop_at, [](Index, Index) { return true; });
+}
+
+/// Vertices of a surface within one disc of radius D: π D² over the area per vertex, √3 h² / 2.
+constexpr double kVerticesPerFineUnit = 2 * std::numbers::pi / std::numbers::sqrt3;
+
+/// Fine units of a surface's thin parts: per vertex, the vertices within `reach` that face it
+/// (area-weighted normals more than 90° apart), over the vertices of one fine unit. A closed scan
+/// pairs across its fingers and ears, and a folded sheet across its fold, at rest; the flat
+/// neighbourhood that the fine term counts has them all on one side.
+double facing_units(const RawGeometry& g, const std::vector<Vec3i>& faces, double reach, double stop_at) {
+  std::vector<Vec3> normal(g.v.size(), Vec3::Zero());
+  for (const auto& f : faces) {
+    const Vec3 n = (g.v[f[1]] - g.v[f[0]]).cross(g.v[f[2]] - g.v[f[0]]);
+    for (int k = 0; k < 3; ++k) normal[f[k]] += n;
+  }
+  std::vector<Index> on;
+  for (size_t a = 0; a < g.v.size(); ++a)
+    if (normal[a].squaredNorm() > 0) on.push_back(static_cast<Index>(a));
+  const double pairs =
+      pairs_within(g.v, std::move(on), reach, stop_at, [&](Index a, Index b) { return normal[a].dot(normal[b]) < 0; });
+  return pairs / kVerticesPerFineUnit;
 }
 
 /// 3 V / A of a closed triangle surface (every edge in exactly two faces): the radius of a
@@ -219,6 +248,8 @@ Counts MemoryBudget::counts(const RawGeometry& g, ObjectKind kind, double reach,
         if (driven) c.driven += std::min((1 + q) * (1 + q), primitives);
       }
     }
+  if (c.h > 0 && !is_body(kind) && kind != ObjectKind::strand)
+    c.fine += facing_units(g, kind == ObjectKind::tet_solid ? boundary : g.faces, reach, grain_cap);
   if (kind == ObjectKind::particles) c.grains = neighbours_within(g.v, reach, grain_cap);
   if (is_body(kind)) c.rho = body_radius(g);
   return as_kind(c, kind);

@@ -29,7 +29,9 @@ inline constexpr long long kMaxFrames = 10000000;
 ///              (rigid bodies and obstacles: kBytesPerBodyVertex V + kBytesPerBodyFace F)
 ///   self:      per vertex that collides, h_v its mean edge: kBytesPerFineUnit (D / h_v)^2 of a
 ///              surface (a sheet or a tet boundary finer than D pairs with its own flat
-///              neighbourhood), plus kBytesPerDrivenUnit (1 + D / h_v)^2 when scripted pins move it
+///              neighbourhood; its thin parts add, per vertex, the vertices within D whose normals
+///              face it, over the 2π/√3 vertices of one unit: a scan's fingers, a folded sheet),
+///              plus kBytesPerDrivenUnit (1 + D / h_v)^2 when scripted pins move it
 ///              (it can be wound onto itself, like the twisting cloth); each vertex's term at
 ///              most the object's colliding vertices + edges + faces; kBytesPerStrandSelfUnit
 ///              (1 + D / h_v) of strands; kBytesPerGrainUnit per pair of particles of one object
