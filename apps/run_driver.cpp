@@ -113,7 +113,8 @@ void add_run_options(CLI::App* cmd, RunOptions& opts) {
           "INT in [0, 1e7]", "frames"));
   cmd->add_option("--solver", opts.solver, "Contact solver (overrides contact.solver)");
   cmd->add_option("--set", opts.overrides,
-                  "Override a scene key: key.path=value (repeatable), e.g. --set contact.radius=0.01");
+                  "Override a scene key: key.path=value (repeatable), e.g. --set contact.radius=0.01; a map value "
+                  "merges key by key (--set 'time={frames: 3}' keeps the other time keys)");
   cmd->add_option("--max-memory", opts.max_memory,
                   "Largest estimated memory (GB) the scene may need to load (overrides max_memory; default: what "
                   "the machine has available). Raise it knowingly: a scene above the machine's memory is OOM-killed")

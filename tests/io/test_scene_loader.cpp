@@ -156,6 +156,28 @@ TEST(SceneLoader, SetOverridesAnyKeyAndIsValidated) {
   EXPECT_THROW(io::load_scene_text(kBase, "scene.yaml", ".", {"novalue"}), Error);
 }
 
+// A map value merges into the map there key by key, as one key path per leaf would: `time`
+// keeps its frames (2, against the default 1), the grid its size. A value naming another variant replaces it whole: a
+// mesh shape's keys would not belong to a sphere.
+TEST(SceneLoader, SetWithAMapValueMergesKeyByKey) {
+  const std::string y = std::string(kBase) + "    velocity: [0, 2, 0]\n";
+  auto s = io::load_scene_text(
+      y, "scene.yaml", ".",
+      {"time={substeps: 3}", "objects.sheet={velocity: [1, 0, 0]}", "objects[0].shape={resolution: [2, 3]}"});
+  EXPECT_EQ(s.scene.params.time.frames, 2);
+  EXPECT_EQ(s.scene.params.time.substeps, 3);
+  EXPECT_EQ(s.scene.topo.num_vertices(), 12);
+  EXPECT_DOUBLE_EQ(s.scene.state.v[0].x(), 1.0);
+  double xmin = 1e9, xmax = -1e9;
+  for (const auto& p : s.scene.state.x) xmin = std::min(xmin, p.x()), xmax = std::max(xmax, p.x());
+  EXPECT_NEAR(xmax - xmin, 1.0, 1e-12);  // size [1, 1] kept
+  s = io::load_scene_text(kBase, "scene.yaml", ".", {"objects.sheet.shape={type: grid, resolution: [3, 3]}"});
+  EXPECT_EQ(s.scene.topo.num_vertices(), 16);  // 3 x 3 cells
+  // Another variant replaces: a sphere has no `size`, which a merge would have kept (and refused).
+  s = io::load_scene_text(kBase, "scene.yaml", ".", {"objects.sheet.shape={type: sphere, radius: 0.1}"});
+  EXPECT_GT(s.scene.topo.num_vertices(), 12);
+}
+
 TEST(SceneLoader, PinsByBoxAndIndicesBecomeKinematic) {
   std::string y = std::string(kBase) +
                   "    pins:\n      - indices: [0, 4]\n      - box_min: [-1, -1, 0.49]\n        box_max: [1, 1, 1]\n";

@@ -518,6 +518,53 @@ YAML::Node load_override_value(const std::string& value, const std::string& assi
                   "': the value holds a second YAML document (after '---' or '...'); give one value");
   return YAML::Load(value);
 }
+
+/// The schema node of `key` under `n` (a list's or dict's item, a map's or variant's field); null
+/// when unknown.
+const Node* child_schema(const Node* n, const std::string& key) {
+  if (!n) return nullptr;
+  const Node* next = nullptr;
+  if (n->kind == Kind::list || n->kind == Kind::dict) next = n->item.get();
+  for (const auto& f : n->fields)
+    if (f.key == key) next = f.node.get();
+  for (const auto& [name, v] : n->variants)
+    for (const auto& f : v->fields)
+      if (f.key == key) next = f.node.get();
+  return next;
+}
+
+/// True if `value` is written into the map `there` key by key rather than replacing it: both are
+/// maps, `value` non-empty, and it keeps the variant (a mesh shape set to a sphere is replaced
+/// whole: the mesh's keys do not belong to a sphere).
+bool merges(const YAML::Node& there, const YAML::Node& value, const Node* sn) {
+  if (!value.IsMap() || value.size() == 0 || !there.IsMap()) return false;
+  if (!sn || sn->kind != Kind::variant || !value[sn->discriminator]) return true;
+  const YAML::Node was = there[sn->discriminator], now = value[sn->discriminator];
+  return was && was.IsScalar() && now.IsScalar() && was.Scalar() == now.Scalar();
+}
+
+/// Writes the map `value` into the map `target` key by key, recursively (as a key path per leaf
+/// would); `sn` is the schema node of `target`.
+void merge_into(YAML::Node target, const YAML::Node& value, const Node* sn) {
+  for (auto it = value.begin(); it != value.end(); ++it) {
+    const std::string key = it->first.as<std::string>();
+    const Node* sub = child_schema(sn, key);
+    if (merges(target[key], it->second, sub))
+      merge_into(target[key], it->second, sub);
+    else
+      target[key] = it->second;
+  }
+}
+
+/// Sets `parent[key]` (a map's key or a list's index) to `value`, merged into a map already there
+/// (merges); `sn` is the schema node of the key.
+template <class Key>
+void set_value(YAML::Node parent, const Key& key, const YAML::Node& value, const Node* sn) {
+  if (merges(parent[key], value, sn))
+    merge_into(parent[key], value, sn);
+  else
+    parent[key] = value;
+}
 }  // namespace
 
 std::string apply_override(YAML::Node& root, const std::string& assignment, const NodePtr& sch,
@@ -551,17 +598,7 @@ std::string apply_override(YAML::Node& root, const std::string& assignment, cons
     }
     throw Error("--set '" + assignment + "': '" + norm + "' is " + got + ", not a map of keys");
   };
-  auto descend = [&](const std::string& seg) {
-    if (!sn) return;
-    const Node* next = nullptr;
-    if (sn->kind == Kind::list || sn->kind == Kind::dict) next = sn->item.get();
-    for (const auto& f : sn->fields)
-      if (f.key == seg) next = f.node.get();
-    for (const auto& [name, v] : sn->variants)
-      for (const auto& f : v->fields)
-        if (f.key == seg) next = f.node.get();
-    sn = next;
-  };
+  auto descend = [&](const std::string& seg) { sn = child_schema(sn, seg); };
   for (size_t i = 0; i < segs.size(); ++i) {
     const std::string& seg = segs[i];
     const bool last = i + 1 == segs.size();
@@ -579,7 +616,7 @@ std::string apply_override(YAML::Node& root, const std::string& assignment, cons
       norm += "[" + std::to_string(idx) + "]";
       descend(seg);
       if (last) {
-        cur[static_cast<size_t>(idx)] = load_override_value(value, assignment);
+        set_value(cur, static_cast<size_t>(idx), load_override_value(value, assignment), sn);
       } else {
         YAML::Node next = cur[static_cast<size_t>(idx)];
         cur.reset(next);
@@ -589,7 +626,7 @@ std::string apply_override(YAML::Node& root, const std::string& assignment, cons
       norm = join(norm, seg);
       descend(seg);
       if (last) {
-        cur[seg] = load_override_value(value, assignment);
+        set_value(cur, seg, load_override_value(value, assignment), sn);
       } else {
         YAML::Node next = cur[seg];
         cur.reset(next);

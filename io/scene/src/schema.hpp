@@ -104,7 +104,9 @@ struct Context {
 YAML::Node resolve(const YAML::Node& in, const NodePtr& schema, const Context& ctx, const std::string& path = "");
 
 /// Applies one "key.path=value" override (value parsed as YAML) to `root`. List elements are
-/// addressed by index (`objects.0`, `objects[0]`) or by their `name` (`objects.sheet`).
+/// addressed by index (`objects.0`, `objects[0]`) or by their `name` (`objects.sheet`). A map
+/// value is merged into a map already there key by key (`time={frames: 3}` is `time.frames=3`),
+/// unless it names another variant (`shape={type: sphere, ...}` over a mesh replaces the shape).
 /// Returns the normalised key path. A node of `root` in the way that `schema` says must be a map
 /// or list is the scene file's error (ConfigError naming `file` and its line); other mistakes are
 /// the override's (Error naming `--set assignment`).
