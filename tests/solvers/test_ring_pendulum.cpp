@@ -42,12 +42,13 @@ gen::TriMesh torus(double big, double small, Index around, Index across) {
   return m;
 }
 
-/// A ring (torus of major radius 0.1 m, minor 0.01 m, density 1000) around a fixed pin (a
-/// cylinder of radius 0.01 m along z through the origin, 32 faces), its centre `arm` from the
-/// pin's axis at angle `start` from straight down, so that its inner side rests on the pin.
-Scene ring_on_pin(const std::string& solver, double arm, double start, bool sliding) {
+/// A ring (torus of major radius 0.1 m, minor 0.01 m, 96 x 8 quads, density 1000) around a fixed
+/// pin (a cylinder of radius 0.01 m along z through the origin, `pin_faces` faces around), its
+/// centre `arm` from the pin's axis at angle `start` from straight down, so that its inner side
+/// rests on the pin.
+Scene ring_on_pin(const std::string& solver, double arm, double start, bool sliding, Index pin_faces, int substeps) {
   const gen::TriMesh ring = torus(0.1, 0.01, 96, 8);
-  gen::TriMesh pin = gen::cylinder(0.01, 0.1, 32, true);
+  gen::TriMesh pin = gen::cylinder(0.01, 0.1, pin_faces, true);
   const Eigen::Matrix3d to_z = Eigen::AngleAxisd(kPi / 2, Vec3::UnitX()).toRotationMatrix();
   for (Vec3& p : pin.v) p = to_z * p;
   TopologyBuilder tb;
@@ -75,7 +76,7 @@ Scene ring_on_pin(const std::string& solver, double arm, double start, bool slid
   s.params.contact.radius = 0.003;
   s.params.contact.offset = 0.002;
   s.params.time.fps = 60;
-  s.params.time.substeps = 10;
+  s.params.time.substeps = substeps;
   s.params.time.iterations = 2;
   s.params.time.damping = 0.0;
   s.params.contact.sliding = sliding;
@@ -91,51 +92,83 @@ Vec3 ring_centre(const Simulation& sim) {
   return c / total;
 }
 
+constexpr double kG = 9.81, kOffset = 0.002;
+constexpr double kArm = 0.1 - 0.01 - 0.01 - kOffset - 0.0005;  // the centre's distance from the pin's axis
+
+struct Swing {
+  double height = 0.0;  ///< the far side's highest point over the starting height, from the bottom
+  double half_period = 0.0;
+};
+
+/// Releases the ring at 90° and measures its first swing to the far side from its centre, every
+/// frame checked for violations.
+Swing swing(const std::string& solver, bool sliding, Index pin_faces, int substeps) {
+  Simulation sim(ring_on_pin(solver, kArm, -kPi / 2, sliding, pin_faces, substeps));
+  const double y0 = ring_centre(sim).y();
+  std::vector<double> t{0.0}, x{ring_centre(sim).x()}, y{y0};
+  for (int f = 1; f <= 40; ++f) {
+    EXPECT_EQ(sim.step_frame().violations_remaining, 0) << solver;
+    const Vec3 c = ring_centre(sim);
+    t.push_back(f / 60.0);
+    x.push_back(c.x());
+    y.push_back(c.y());
+  }
+  // The far side's highest point: the frame of largest y with x > 0, refined by the parabola
+  // through it and its neighbours.
+  size_t best = 0;
+  for (size_t i = 1; i + 1 < y.size(); ++i)
+    if (x[i] > 0.0 && (best == 0 || y[i] > y[best])) best = i;
+  if (best == 0) {
+    ADD_FAILURE() << solver << ": never reached the far side";
+    return {};
+  }
+  const double y_m = y[best - 1], y_c = y[best], y_p = y[best + 1], h = 1.0 / 60.0;
+  const double denom = y_m - 2.0 * y_c + y_p;
+  const double shift = denom < 0.0 ? 0.5 * (y_m - y_p) / denom : 0.0;
+  const double peak_y = y_c - 0.125 * (y_m - y_p) * (y_m - y_p) / (denom < 0.0 ? denom : -1.0);
+  const double bottom = -kArm;  // the centre's lowest point
+  return {(peak_y - bottom) / (y0 - bottom), t[best] + shift * h};
+}
+
+}  // namespace
+
 TEST(RingPendulum, RingOnAFrictionlessPinSwingsToTheFarSideWithThePendulumsPeriod) {
   // The pin pushes along the normal of the ring's inner circle, through the ring's centre: no
   // torque, so the ring does not turn and its centre swings on a circle of radius
   // ℓ = 0.1 − 0.01 − 0.01 − ξ about the pin's axis, a pendulum on a string. Released at 90°, it
   // reaches the far side after half a period, T/2 = 2 √(ℓ/g) K(sin 45°), K = 1.854075 (the complete
-  // elliptic integral), at its starting height. Measured: 0.81 of the height at 10 substeps (0.86
-  // at 20, 0.70 at 40: the contact's inelastic steps over the 32 + 96 faces take energy, not
-  // monotonically in the substep), 0.33 with the paper's planes alone (contact.sliding off: the
-  // pin's tilted planes hold the ring's inner side back, the issue's chain that cannot swing).
-  // Asserted: 0.75 of the height (the issue asks 0.85: not met), the half period within 5 %.
-  const double g = 9.81, offset = 0.002, arm = 0.1 - 0.01 - 0.01 - offset - 0.0005;
-  for (const bool sliding : {true, false})
-    for (const char* solver : {"ccfr", "exact_projection"}) {
-      if (!sliding && std::string(solver) != "ccfr") continue;
-      Simulation sim(ring_on_pin(solver, arm, -kPi / 2, sliding));
-      const double y0 = ring_centre(sim).y();
-      std::vector<double> t{0.0}, x{ring_centre(sim).x()}, y{y0};
-      for (int f = 1; f <= 40; ++f) {
-        EXPECT_EQ(sim.step_frame().violations_remaining, 0) << solver;
-        const Vec3 c = ring_centre(sim);
-        t.push_back(f / 60.0);
-        x.push_back(c.x());
-        y.push_back(c.y());
-      }
-      // The far side's highest point: the frame of largest y with x > 0, refined by the parabola
-      // through it and its neighbours.
-      size_t best = 0;
-      for (size_t i = 1; i + 1 < y.size(); ++i)
-        if (x[i] > 0.0 && (best == 0 || y[i] > y[best])) best = i;
-      ASSERT_GT(best, 0u) << solver << ": never reached the far side";
-      const double y_m = y[best - 1], y_c = y[best], y_p = y[best + 1], h = 1.0 / 60.0;
-      const double denom = y_m - 2.0 * y_c + y_p;
-      const double shift = denom < 0.0 ? 0.5 * (y_m - y_p) / denom : 0.0;
-      const double peak_t = t[best] + shift * h;
-      const double peak_y = y_c - 0.125 * (y_m - y_p) * (y_m - y_p) / (denom < 0.0 ? denom : -1.0);
-      const double bottom = -arm;  // the centre's lowest point
-      const double height = (peak_y - bottom) / (y0 - bottom);
-      const double expected = 2.0 * std::sqrt(arm / g) * 1.854075;
-      const std::string tag = std::string(", ") + solver + (sliding ? "" : ", sliding off");
-      test::report_physics("ring on a pin: height reached on the far side" + tag, 1.0, height, "");
-      test::report_physics("ring on a pin: half period" + tag, expected, peak_t, "s");
-      if (!sliding) continue;  // the paper's planes alone: reported, not asserted
-      EXPECT_GE(height, 0.75) << solver;
-      EXPECT_NEAR(peak_t, expected, 0.05 * expected) << solver;
-    }
+  // elliptic integral), at its starting height.
+  //
+  // The closed form is of a round pin. A faceted one takes energy: the ring loses it in bursts
+  // at its fastest, while its inner side passes the pin's corners, where the pairs' planes (a
+  // pin face's normal each) turn by a face's angle and the motion across them is inelastic.
+  // Measured (ccfr, height at 10 / 20 / 40 substeps):
+  // a 32-face pin 0.81 / 0.86 / 0.70 (not monotonic: the corners and the substeps alias), 64
+  // faces 0.85 / 0.92 / 0.95, 128 faces 0.85 / 0.91 / 0.95, 256 faces 0.83 / 0.89 / 0.93; with
+  // the paper's planes alone (contact.sliding off) 0.33: the pin's tilted planes hold the ring's
+  // inner side back (the issue's chain that cannot swing). Asserted on a 128-face pin at 20
+  // substeps: at least 0.85 of the height, the half period within 5 %.
+  const double expected = 2.0 * std::sqrt(kArm / kG) * 1.854075;
+  for (const char* solver : {"ccfr", "exact_projection"}) {
+    const Swing s = swing(solver, true, 128, 20);
+    const std::string tag = std::string(", 128-face pin, 20 substeps, ") + solver;
+    test::report_physics("ring on a pin: height reached on the far side" + tag, 1.0, s.height, "");
+    test::report_physics("ring on a pin: half period" + tag, expected, s.half_period, "s");
+    EXPECT_GE(s.height, 0.85) << solver;
+    EXPECT_NEAR(s.half_period, expected, 0.05 * expected) << solver;
+  }
+  // Reported, not asserted: fewer substeps, the coarse pin, and the paper's planes alone.
+  const struct {
+    Index faces;
+    int substeps;
+    bool sliding;
+  } more[] = {{128, 10, true}, {32, 10, true}, {32, 10, false}};
+  for (const auto& m : more) {
+    const Swing s = swing("ccfr", m.sliding, m.faces, m.substeps);
+    const std::string tag = ", " + std::to_string(m.faces) + "-face pin, " + std::to_string(m.substeps) +
+                            " substeps, ccfr" + (m.sliding ? "" : ", sliding off");
+    test::report_physics("ring on a pin: height reached on the far side" + tag, 1.0, s.height, "");
+    test::report_physics("ring on a pin: half period" + tag, expected, s.half_period, "s");
+    EXPECT_GT(s.height, 0.0);
+  }
 }
-
-}  // namespace
