@@ -105,9 +105,10 @@ TEST_P(ContactMomentum, TwoSoftSolidsOfUnequalMassConserveMomentumThroughAHeadOn
 TEST_P(ContactMomentum, AGlancingImpactKeepsTheAngularMomentumAboutTheCommonCentre) {
   // The same pair, b a third of a box above a's axis: the impact turns both. The contact lasts
   // frames 1-2. Linear momentum within 2 % in every frame; angular momentum within 8 % after the
-  // impact: 5.4 % is lost in it (the regions pull back the vertices of a face that overshoot its
-  // plane, not its closest point) and the spinning soft bodies shed about 0.3 % per frame
-  // without any contact (XPBD's linear prediction). The paper's response loses all of it and more.
+  // impact: about 5 % is lost in it, half in the response's every-vertex sweeps (their pull-backs
+  // of a primitive's overshooting vertices are not at the closest points: a couple) and half in
+  // the projection, and the spinning soft bodies shed about 0.3 % per frame without any contact
+  // (XPBD's linear prediction; docs/results.md). The paper's response loses all of it and more.
   for (const bool momentum : {true, false}) {
     Simulation sim(two_boxes(GetParam(), 1e-3, 2e-3, 2.0, -0.5, 0.02, momentum));
     const Momenta before = momenta(sim);
