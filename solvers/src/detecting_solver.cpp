@@ -189,7 +189,7 @@ std::optional<Index> DetectingSolver::count_outside(const Positions& x, const Po
                       ctx.topo.object_of_vertex(c.v[0]).name + "' (vertex " + std::to_string(c.v[0]) +
                       ") through the face of '" + ctx.topo.object_of_vertex(c.v[1]).name + "' (vertices " +
                       std::to_string(c.v[1]) + ", " + std::to_string(c.v[2]) + ", " + std::to_string(c.v[3]) +
-                      "), crossed in this substep (a face that passed over a held vertex)";
+                      "), crossed in this substep (the face passed over the vertex)";
   } else if (close.load() > 0) {
     // The lowest-numbered violation, so the message does not depend on the thread count.
     const ContactPair& c = contacts_[first.load()];

@@ -573,8 +573,8 @@ void Simulation::check_violations(Index remaining, int substep_index, int iterat
       {"iterations_ran_out", "the outer iterations ran out"},
       {"halted", "a vertex of the pair halted (its projection failed and it stayed at its anchor)"},
       {"unresolved",
-       "the regions were not empty and the iterations did not run out, yet the pair ended inside its "
-       "offset"}};
+       "the regions were not empty and no vertex was left held back by r, yet the pair ended inside its "
+       "offset or crossed"}};
   what += ". Cause: " + kCause.at(rep.cause) +
           ccfr::format(" ({} of {} outer iterations ran, {} vertices held back at the end)", rep.iterations,
                        rep.iteration_bound, rep.held_back);

@@ -251,7 +251,7 @@ Scene comb_through_a_row(const std::string& solver, int substeps) {
 // Issue #54: "strands dragged through a comb at 2 m/s: finite, no stop, clean". At 20 substeps
 // (the comb 1.7 mm a substep against r = 5 mm) it runs through and drags the strands, every frame
 // audited exactly. At 10 substeps (3.3 mm) ccfr stops in frame 11 before writing it, with "a
-// segment through a face ... (a face that passed over a held vertex)": the clear stop, reported
+// segment through a face ... (the face passed over the vertex)": the clear stop, reported
 // here and asserted only to be clean up to it.
 TEST_P(StrandTipsStruck, CombAtTwoMetresPerSecondDragsARowOf400Strands) {
   test::ExpectWarnings may_warn;
