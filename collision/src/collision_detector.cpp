@@ -388,26 +388,38 @@ void add_counts(DetectionStats& total, const DetectionStats& part) {
 /// Then for displacements inside all half-spaces every vertex of A stays at
 /// n·x ≥ n·x_A − s_A φ and every vertex of B at n·x ≤ n·x_B + s_B φ (the closest points are
 /// extreme along n over each primitive): the plane in between keeps the primitives
-/// ≥ ‖x_A − x_B‖ − φ = ξ apart.
+/// ≥ ‖x_A − x_B‖ − φ = ξ apart. Any split summing to 1 keeps this argument.
 ///
-/// When both closest points sit on immovable vertices (w_A = w_B = 0) the other vertices may
-/// still move: the gap is then split between the sides that have a movable vertex. Any split
-/// summing to 1 keeps the argument (the immovable closest points stay put), whereas emitting
-/// nothing would let a free vertex swing its edge or face through the pair.
+/// Where immovable vertices hold part β_fixed of a side's closest point, that part counts with
+/// the mean inverse mass of the side's movable vertices:
+/// \f$ w_{side} = \sum_{i\,\mathrm{movable}} \beta_i w_i + \beta_{fixed}\,\bar w_{movable} \f$.
+/// The side can still turn about its pinned point; with the paper's weights alone a cloth vertex
+/// next to a handle vertex at the closest point got s = 0, no room in any such pair, and its
+/// cone of zero-room planes held it at its anchor for good while its cloth moved on (OGC's
+/// twisted square: one vertex held for 8 frames, its edges stretched 8x, then a squeeze). A side
+/// without immovable vertices keeps the paper's weight; both closest points on immovable vertices
+/// split the gap by the sides' movable means (½–½ for equal masses), where emitting nothing would
+/// let a free vertex swing its edge or face through the pair.
 double share_a(const ContactPair& c, std::span<const double> w) {
-  double w_a = 0.0, w_b = 0.0;
-  bool movable_a = false, movable_b = false;
-  const int na = c.side_a(), n = c.size();
-  for (int k = 0; k < na; ++k) {
-    w_a += c.w[k] * w[c.v[k]];
-    movable_a = movable_a || w[c.v[k]] > 0.0;
-  }
-  for (int k = na; k < n; ++k) {
-    w_b -= c.w[k] * w[c.v[k]];
-    movable_b = movable_b || w[c.v[k]] > 0.0;
-  }
-  if (w_a + w_b > 0.0) return w_a / (w_a + w_b);
-  return movable_a ? (movable_b ? 0.5 : 1.0) : 0.0;
+  // Σ β_i w_i over a side, its fixed part weighted by the movable mean: > 0 iff a vertex moves.
+  auto side = [&](int lo, int hi) {
+    double weighted = 0.0, fixed_beta = 0.0, movable_sum = 0.0;
+    int movable = 0;
+    for (int k = lo; k < hi; ++k) {
+      const double beta = std::abs(c.w[k]), wk = w[c.v[k]];
+      if (wk > 0.0) {
+        weighted += beta * wk;
+        movable_sum += wk;
+        ++movable;
+      } else {
+        fixed_beta += beta;
+      }
+    }
+    return movable > 0 ? weighted + fixed_beta * (movable_sum / movable) : 0.0;
+  };
+  const int na = c.side_a();
+  const double w_a = side(0, na), w_b = side(na, c.size());
+  return w_a + w_b > 0.0 ? w_a / (w_a + w_b) : 0.0;  // 0: no movable vertex (such pairs are skipped)
 }
 
 /// A sub-pair closer than ξ in the initial configuration (clarification 5).

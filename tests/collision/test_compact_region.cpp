@@ -3,6 +3,7 @@
 // contacts (Alg. NarrowPhase lines 10/26/41), including degenerate input.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 #include <random>
 #include <vector>
@@ -23,26 +24,29 @@ bool same_bits(const HalfSpace& a, const HalfSpace& b) {
 
 /// The per-vertex rows as the narrow phase wrote them before the compact region: for every
 /// contact in order, each movable vertex of side A gets (n, s_A φ), of side B (-n, s_B φ), with
-/// s_A = W_A / (W_A + W_B), W the side's barycentric-weighted inverse masses (1 or 0 if only one
-/// side can move, 1/2 if both can but carry no weight).
+/// s_A = W_A / (W_A + W_B), W a side's barycentric-weighted inverse masses, the weight its
+/// immovable vertices hold counted at the mean inverse mass of its movable ones (0 if none moves).
 std::vector<std::vector<HalfSpace>> brute_rows(const std::vector<ContactPair>& contacts,
                                                const std::vector<double>& inv_mass, Index nv) {
   std::vector<std::vector<HalfSpace>> rows(static_cast<size_t>(nv));
   for (const ContactPair& c : contacts) {
     const int na = c.side_a();
-    double wa = 0.0, wb = 0.0;
-    bool ma = false, mb = false;
+    double weight[2] = {0.0, 0.0}, fixed[2] = {0.0, 0.0}, sum[2] = {0.0, 0.0};
+    int movable[2] = {0, 0};
     for (int k = 0; k < c.size(); ++k) {
       const double w = inv_mass[static_cast<size_t>(c.v[k])];
-      if (k < na) {
-        wa += c.w[k] * w;
-        ma = ma || w > 0.0;
+      const int side = k < na ? 0 : 1;
+      if (w > 0.0) {
+        weight[side] += std::abs(c.w[k]) * w;
+        sum[side] += w;
+        ++movable[side];
       } else {
-        wb -= c.w[k] * w;
-        mb = mb || w > 0.0;
+        fixed[side] += std::abs(c.w[k]);
       }
     }
-    const double sa = wa + wb > 0.0 ? wa / (wa + wb) : (ma ? (mb ? 0.5 : 1.0) : 0.0);
+    for (int side = 0; side < 2; ++side)
+      weight[side] = movable[side] > 0 ? weight[side] + fixed[side] * (sum[side] / movable[side]) : 0.0;
+    const double sa = weight[0] + weight[1] > 0.0 ? weight[0] / (weight[0] + weight[1]) : 0.0;
     const double phi = c.distance - c.offset;
     for (int k = 0; k < c.size(); ++k) {
       if (!(inv_mass[static_cast<size_t>(c.v[k])] > 0.0)) continue;

@@ -245,3 +245,69 @@ TEST(KinematicStep, MixedPairWhoseFixedVerticesTouchHasNoPlane) {
   c.n = Vec3(1, 0, 0);
   EXPECT_FALSE(mixed_pair_record(c, p.x, p.w, p.step, 0.0).has_value());
 }
+
+// A side whose closest point sits on a fixed vertex but which holds a free one (a cloth vertex
+// beside a handle vertex): the free vertex can still turn its primitive about the fixed point,
+// and it gets a share of the gap for it. With the paper's β-weighted share alone its room was 0
+// in every such pair, and OGC's twisted square held a vertex beside the handle at its anchor for
+// good. Every admissible move of the free vertices keeps the pair at least ξ apart.
+TEST(KinematicStep, AFreeVertexBesideAFixedClosestPointGetsRoomAndStaysSound) {
+  auto g = ccfr::test::rng(3034);
+  std::uniform_real_distribution<double> u(0.0, 1.0), s(-1.0, 1.0);
+  int checked = 0, with_room = 0;
+  for (int trial = 0; trial < 2000; ++trial) {
+    const bool face = trial % 2 == 1;
+    TopologyBuilder tb;
+    // Vertices 0 P (fixed), 1 f (free), 2 Q (fixed, face only); the other side: a free edge
+    // (3, 4) over P, or a free particle (3).
+    if (face)
+      tb.add_object("handle", ObjectKind::cloth, 3, {{0, 1, 2}});
+    else
+      tb.add_object("handle", ObjectKind::strand, 2, {}, {}, {{0, 1}});
+    if (face)
+      tb.add_object("grain", ObjectKind::particles, 1);
+    else
+      tb.add_object("wire", ObjectKind::strand, 2, {}, {}, {{0, 1}});
+    const Topology topo = tb.finish();
+    // f (and Q) below P's level: the closest point of the handle's primitive is at P (or on PQ).
+    const Vec3 p(0, 0, 0);
+    const Vec3 f = p + 0.005 * Vec3(s(g), -0.2 - u(g), s(g)).normalized();
+    Positions x{p, f};
+    if (face) x.push_back(p + 0.005 * Vec3(s(g), -u(g) * 0.2, s(g)).normalized());
+    const Vec3 above(0.002 * s(g), kXi / 10.0 * (1.05 + 2.0 * u(g)), 0.002 * s(g));
+    x.push_back(above);
+    if (!face) x.push_back(above + Vec3(0.006 * s(g), 0.001 * u(g), 0.006 * s(g)));
+    std::vector<double> w(x.size(), 1.0);
+    w[0] = 0.0;
+    if (face) w[2] = 0.0;
+
+    CollisionDetector det(topo, x, {kR, kXi / 10.0, 0.0}, make_broad_phase("brute_force"));
+    RegionSet regions;
+    std::vector<ContactPair> contacts;
+    DetectionStats stats;
+    det.detect(x, w, regions, contacts, stats, {});
+    bool fixed_closest = false;
+    for (const ContactPair& c : contacts)
+      for (int k = 0; k < c.size(); ++k) fixed_closest = fixed_closest || (c.v[k] == 0 && std::abs(c.w[k]) > 0.5);
+    if (!fixed_closest) continue;
+    double room = std::numeric_limits<double>::infinity();
+    for (const auto& h : regions.of(1)) room = std::min(room, h.d);
+    with_room += room > 0.0;
+
+    Positions y = x;
+    bool moved = true;
+    for (Index v = 0; v < static_cast<Index>(x.size()); ++v) {
+      if (w[v] == 0.0) continue;
+      Vec3 m;
+      moved = moved && admissible_move(g, regions.of(v), m);
+      y[v] += m;
+    }
+    if (!moved) continue;
+    const double d = face ? std::sqrt(point_triangle(y[3], y[0], y[1], y[2]).distance_sq)
+                          : std::sqrt(edge_edge(y[0], y[1], y[2], y[3]).distance_sq);
+    EXPECT_GE(d, kXi / 10.0 * (1.0 - 1e-9)) << "trial " << trial << (face ? " (face)" : " (edge)");
+    ++checked;
+  }
+  EXPECT_GT(checked, 1000);
+  EXPECT_GT(with_room, 9 * checked / 10);
+}
