@@ -1,6 +1,6 @@
 // `ccfr ablate CONFIG --solvers a,b,c --out DIR`: the same scene once per contact solver, each run
 // audited, compared in DIR/ablation.csv, DIR/ablation.md and DIR/ablation.png. The solvers-only
-// case of `ccfr sweep` (sweep_runner.hpp): the cells are DIR/<solver>, DIR/sweep.json describes them.
+// case of `ccfr sweep` (sweep_layout.hpp): the cells are DIR/<solver>, DIR/sweep.json describes them.
 #include <spdlog/spdlog.h>
 #include <chrono>
 #include <cmath>
@@ -23,7 +23,9 @@
 #include "plot_script.hpp"
 #include "progress.hpp"
 #include "run_driver.hpp"
-#include "sweep_runner.hpp"
+#include "sweep_collect.hpp"
+#include "sweep_layout.hpp"
+#include "sweep_local.hpp"
 
 namespace ccfr::app {
 

@@ -172,16 +172,10 @@ double parse_slurm_duration(const std::string& text) {
   }
 }
 
-SweepSpec load_sweep_spec(const fs::path& file) {
-  SweepSpec s;
-  s.file = fs::absolute(file).lexically_normal();
-  const SpecReader r(s.file);
-  const YAML::Node root =
-      parse_bounded_yaml(read_user_file(s.file, "sweep spec", kMaxSceneFileBytes), s.file.string(), "sweep spec");
-  r.no_duplicate_keys(root, "");
-  r.only(root, "",
-         {"configs", "solvers", "parameters", "combine", "cases", "set", "frames", "audit_stride", "cell_time_limit",
-          "resources"});
+namespace {
+
+// configs: the scene files (relative to the spec's folder), each of which must exist.
+void read_configs(const SpecReader& r, const YAML::Node& root, SweepSpec& s) {
   if (!root["configs"]) r.fail(root, "configs", "is required: the scene files of the sweep");
   for (const auto& c : r.list(root["configs"], "configs")) {
     fs::path p = fs::path(c).is_absolute() ? fs::path(c) : s.file.parent_path() / c;
@@ -189,85 +183,114 @@ SweepSpec load_sweep_spec(const fs::path& file) {
     if (!fs::is_regular_file(p)) r.fail(root["configs"], "configs", "scene file '" + p.string() + "' does not exist");
     s.configs.push_back(p);
   }
-  if (root["solvers"]) {
-    s.solvers = r.list(root["solvers"], "solvers");
-    for (size_t i = 0; i < s.solvers.size(); ++i)
-      if (!contact_solvers().find(s.solvers[i])) {
-        std::string known;
-        for (const auto& n : registered_contact_solvers()) known += (known.empty() ? "" : ", ") + n;
-        r.fail(root["solvers"][i], "solvers[" + std::to_string(i) + "]",
-               "unknown contact solver '" + s.solvers[i] + "'; registered: " + known);
-      }
-  }
+}
+
+// solvers: registered contact solvers only; absent, each scene keeps its own.
+void read_solvers(const SpecReader& r, const YAML::Node& root, SweepSpec& s) {
+  if (!root["solvers"]) return;
+  s.solvers = r.list(root["solvers"], "solvers");
+  for (size_t i = 0; i < s.solvers.size(); ++i)
+    if (!contact_solvers().find(s.solvers[i])) {
+      std::string known;
+      for (const auto& n : registered_contact_solvers()) known += (known.empty() ? "" : ", ") + n;
+      r.fail(root["solvers"][i], "solvers[" + std::to_string(i) + "]",
+             "unknown contact solver '" + s.solvers[i] + "'; registered: " + known);
+    }
+}
+
+// combine: how the parameter lists make cases, product (the default) or zip.
+std::string read_combine(const SpecReader& r, const YAML::Node& root) {
   std::string combine = "product";
   if (root["combine"]) {
     combine = r.scalar(root["combine"], "combine");
     if (combine != "product" && combine != "zip")
       r.fail(root["combine"], "combine", "must be product or zip, got '" + combine + "'");
   }
-  if (root["parameters"] && root["cases"])
-    r.fail(root["cases"], "cases", "give either parameters (a grid) or cases (a list), not both");
-  if (const YAML::Node p = root["parameters"]) {
-    if (!p.IsMap()) r.fail(p, "parameters", "expected a map of key.path: [values]");
-    std::vector<std::vector<std::string>> values;
-    for (const auto& kv : p) {
-      const std::string key = kv.first.Scalar();
-      s.parameter_keys.push_back(key);
-      values.push_back(r.list(kv.second, "parameters." + key));
-    }
-    if (combine == "zip") {
-      for (size_t k = 1; k < values.size(); ++k)
-        if (values[k].size() != values[0].size())
-          r.fail(p[s.parameter_keys[k]], "parameters." + s.parameter_keys[k],
-                 "combine: zip needs lists of one length: " + std::to_string(values[k].size()) + " values, '" +
-                     s.parameter_keys[0] + "' has " + std::to_string(values[0].size()));
-      for (size_t i = 0; i < values[0].size(); ++i) {
-        std::vector<std::string> c;
-        for (const auto& v : values) c.push_back(v[i]);
-        s.cases.push_back(c);
+  return combine;
+}
+
+// zip: case i takes value i of every list, so the lists must be of one length.
+std::vector<std::vector<std::string>> zip_cases(const SpecReader& r, const YAML::Node& p,
+                                                const std::vector<std::string>& keys,
+                                                const std::vector<std::vector<std::string>>& values) {
+  std::vector<std::vector<std::string>> cases;
+  for (size_t k = 1; k < values.size(); ++k)
+    if (values[k].size() != values[0].size())
+      r.fail(p[keys[k]], "parameters." + keys[k],
+             "combine: zip needs lists of one length: " + std::to_string(values[k].size()) + " values, '" + keys[0] +
+                 "' has " + std::to_string(values[0].size()));
+  for (size_t i = 0; i < values[0].size(); ++i) {
+    std::vector<std::string> c;
+    for (const auto& v : values) c.push_back(v[i]);
+    cases.push_back(c);
+  }
+  return cases;
+}
+
+// product: every combination of the lists' values, the first key's outermost.
+std::vector<std::vector<std::string>> product_cases(const std::vector<std::vector<std::string>>& values) {
+  std::vector<std::vector<std::string>> cases = {{}};
+  for (const auto& v : values) {
+    std::vector<std::vector<std::string>> next;
+    for (const auto& c : cases)
+      for (const auto& x : v) {
+        next.push_back(c);
+        next.back().push_back(x);
       }
-    } else {
-      s.cases = {{}};
-      for (const auto& v : values) {
-        std::vector<std::vector<std::string>> next;
-        for (const auto& c : s.cases)
-          for (const auto& x : v) {
-            next.push_back(c);
-            next.back().push_back(x);
-          }
-        s.cases = std::move(next);
-      }
-    }
-    // A value given twice (however written) would run identical cells: in one list of a grid, in
-    // every list at once for zip.
-    const bool zip = combine == "zip";
-    for (size_t k = 0; k < (zip ? 1 : values.size()); ++k) {
-      std::map<std::string, size_t> seen;
-      for (size_t i = 0; i < values[k].size(); ++i) {
-        std::string key;
-        for (size_t m = zip ? 0 : k; m < (zip ? values.size() : k + 1); ++m) key += value_key(values[m][i]) + '\n';
-        const auto [at, fresh] = seen.emplace(key, i);
-        if (!fresh)
-          r.fail(p[s.parameter_keys[k]][i], "parameters." + s.parameter_keys[k] + "[" + std::to_string(i) + "]",
-                 "'" + values[k][i] + "' is the value of [" + std::to_string(at->second) + "] ('" +
-                     values[k][at->second] + "') again" + (zip ? " in every list" : "") +
-                     ": its cells would be identical; drop one");
-      }
-    }
-  } else if (const YAML::Node cs = root["cases"]) {
-    if (!cs.IsSequence() || cs.size() == 0) r.fail(cs, "cases", "expected a non-empty list of maps key.path: value");
-    for (size_t i = 0; i < cs.size(); ++i) {
-      const std::string key = "cases[" + std::to_string(i) + "]";
-      if (!cs[i].IsMap()) r.fail(cs[i], key, "expected a map key.path: value");
-      std::vector<std::string> keys, vals;
-      for (const auto& kv : cs[i])
-        keys.push_back(kv.first.Scalar()), vals.push_back(r.scalar(kv.second, key + "." + kv.first.Scalar()));
-      if (i == 0) s.parameter_keys = keys;
-      if (keys != s.parameter_keys)
-        r.fail(cs[i], key, "every case must set the same keys in the same order as cases[0]");
-      s.cases.push_back(vals);
+    cases = std::move(next);
+  }
+  return cases;
+}
+
+// A value given twice (however written) would run identical cells: in one list of a grid, in
+// every list at once for zip.
+void refuse_repeated_values(const SpecReader& r, const YAML::Node& p, const std::vector<std::string>& keys,
+                            const std::vector<std::vector<std::string>>& values, bool zip) {
+  for (size_t k = 0; k < (zip ? 1 : values.size()); ++k) {
+    std::map<std::string, size_t> seen;
+    for (size_t i = 0; i < values[k].size(); ++i) {
+      std::string key;
+      for (size_t m = zip ? 0 : k; m < (zip ? values.size() : k + 1); ++m) key += value_key(values[m][i]) + '\n';
+      const auto [at, fresh] = seen.emplace(key, i);
+      if (!fresh)
+        r.fail(p[keys[k]][i], "parameters." + keys[k] + "[" + std::to_string(i) + "]",
+               "'" + values[k][i] + "' is the value of [" + std::to_string(at->second) + "] ('" +
+                   values[k][at->second] + "') again" + (zip ? " in every list" : "") +
+                   ": its cells would be identical; drop one");
     }
   }
+}
+
+// parameters: a map of key path -> list of values, whose lists make the cases by `combine`.
+void read_parameters(const SpecReader& r, const YAML::Node& p, const std::string& combine, SweepSpec& s) {
+  if (!p.IsMap()) r.fail(p, "parameters", "expected a map of key.path: [values]");
+  std::vector<std::vector<std::string>> values;
+  for (const auto& kv : p) {
+    const std::string key = kv.first.Scalar();
+    s.parameter_keys.push_back(key);
+    values.push_back(r.list(kv.second, "parameters." + key));
+  }
+  s.cases = combine == "zip" ? zip_cases(r, p, s.parameter_keys, values) : product_cases(values);
+  refuse_repeated_values(r, p, s.parameter_keys, values, combine == "zip");
+}
+
+// cases: a list of maps key path -> value, every one with the keys of cases[0] in its order.
+void read_cases(const SpecReader& r, const YAML::Node& cs, SweepSpec& s) {
+  if (!cs.IsSequence() || cs.size() == 0) r.fail(cs, "cases", "expected a non-empty list of maps key.path: value");
+  for (size_t i = 0; i < cs.size(); ++i) {
+    const std::string key = "cases[" + std::to_string(i) + "]";
+    if (!cs[i].IsMap()) r.fail(cs[i], key, "expected a map key.path: value");
+    std::vector<std::string> keys, vals;
+    for (const auto& kv : cs[i])
+      keys.push_back(kv.first.Scalar()), vals.push_back(r.scalar(kv.second, key + "." + kv.first.Scalar()));
+    if (i == 0) s.parameter_keys = keys;
+    if (keys != s.parameter_keys) r.fail(cs[i], key, "every case must set the same keys in the same order as cases[0]");
+    s.cases.push_back(vals);
+  }
+}
+
+// set, frames, audit_stride and cell_time_limit: what every cell runs with.
+void read_cell_settings(const SpecReader& r, const YAML::Node& root, SweepSpec& s) {
   if (const YAML::Node st = root["set"]) {
     if (!st.IsMap()) r.fail(st, "set", "expected a map key.path: value");
     for (const auto& kv : st)
@@ -284,6 +307,10 @@ SweepSpec load_sweep_spec(const fs::path& file) {
              "got '" +
                  text + "'");
   }
+}
+
+// resources: what each Slurm array task asks for.
+void read_resources(const SpecReader& r, const YAML::Node& root, SweepSpec& s) {
   if (const YAML::Node res = root["resources"]) {
     r.only(res, "resources", {"cpus_per_task", "time", "memory", "partition", "account"});
     if (res["cpus_per_task"]) s.resources.cpus_per_task = r.integer(res["cpus_per_task"], "resources.cpus_per_task", 1);
@@ -292,9 +319,11 @@ SweepSpec load_sweep_spec(const fs::path& file) {
     if (res["partition"]) s.resources.partition = r.scalar(res["partition"], "resources.partition");
     if (res["account"]) s.resources.account = r.scalar(res["account"], "resources.account");
   }
-  s.cells = expand_sweep(s.configs, s.solvers, s.parameter_keys, s.cases, s.set, s.frames);
-  // Every cell's scene with its overrides goes through the schema now (keys, types, ranges), so a
-  // bad `parameters` or `set` key stops the sweep before any cell runs, not when each cell starts.
+}
+
+// Every cell's scene with its overrides goes through the schema now (keys, types, ranges), so a
+// bad `parameters` or `set` key stops the sweep before any cell runs, not when each cell starts.
+void check_cells(const SpecReader& r, const YAML::Node& root, const SweepSpec& s) {
   for (const SweepCell& c : s.cells) {
     try {
       check_scene_keys(c.config, c.overrides);
@@ -322,6 +351,33 @@ SweepSpec load_sweep_spec(const fs::path& file) {
       r.fail(at, key, "cell '" + c.id + "': " + shown);
     }
   }
+}
+
+}  // namespace
+
+SweepSpec load_sweep_spec(const fs::path& file) {
+  SweepSpec s;
+  s.file = fs::absolute(file).lexically_normal();
+  const SpecReader r(s.file);
+  const YAML::Node root =
+      parse_bounded_yaml(read_user_file(s.file, "sweep spec", kMaxSceneFileBytes), s.file.string(), "sweep spec");
+  r.no_duplicate_keys(root, "");
+  r.only(root, "",
+         {"configs", "solvers", "parameters", "combine", "cases", "set", "frames", "audit_stride", "cell_time_limit",
+          "resources"});
+  read_configs(r, root, s);
+  read_solvers(r, root, s);
+  const std::string combine = read_combine(r, root);
+  if (root["parameters"] && root["cases"])
+    r.fail(root["cases"], "cases", "give either parameters (a grid) or cases (a list), not both");
+  if (const YAML::Node p = root["parameters"])
+    read_parameters(r, p, combine, s);
+  else if (const YAML::Node cs = root["cases"])
+    read_cases(r, cs, s);
+  read_cell_settings(r, root, s);
+  read_resources(r, root, s);
+  s.cells = expand_sweep(s.configs, s.solvers, s.parameter_keys, s.cases, s.set, s.frames);
+  check_cells(r, root, s);
   return s;
 }
 
