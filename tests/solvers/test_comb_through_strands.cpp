@@ -164,6 +164,21 @@ TEST_P(CombThroughStrands, SingleRowIsAuditClean) {
 INSTANTIATE_TEST_SUITE_P(Solvers, CombThroughStrands, ::testing::ValuesIn(registered_contact_solvers()),
                          [](const auto& info) { return info.param; });
 
+/// The metre-long strands' contact and time stepping: r = 5 mm, ξ = 2 mm, δ = 1 mm, friction
+/// 0.3 / 0.2, 60 fps x `substeps` x 2 iterations, 6 sweeps.
+void with_strand_contact(Scene& s, const std::string& solver, int substeps) {
+  s.params.contact.solver = solver;
+  s.params.contact.radius = 0.005;
+  s.params.contact.offset = 0.002;
+  s.params.contact.repulsion_range = 0.001;
+  s.params.contact.friction_static = 0.3;
+  s.params.contact.friction_kinetic = 0.2;
+  s.params.time.fps = 60;
+  s.params.time.substeps = substeps;
+  s.params.time.iterations = 2;
+  s.params.time.xpbd_sweeps = 6;
+}
+
 /// A bar (1.2 x 0.04 x 0.04 m, 12 triangles) spinning about the vertical through its centre at
 /// `omega` rad/s, 2 cm above the tips of 60 strands (40 vertices, 1 m long, 2 g/m) that hang in a
 /// row 1 m wide, roots pinned at y = 1, 5 cm behind the bar's axis: the bar strikes the lowest
@@ -177,16 +192,7 @@ Scene bar_through_strand_tips(const std::string& solver, double omega) {
   s.params.objects[0].motion.axis = Vec3::UnitY();
   s.params.objects[0].motion.center = Vec3(0, 0.02, 0);
   s.params.objects[0].motion.angular_velocity = omega;
-  s.params.contact.solver = solver;
-  s.params.contact.radius = 0.005;
-  s.params.contact.offset = 0.002;
-  s.params.contact.repulsion_range = 0.001;
-  s.params.contact.friction_static = 0.3;
-  s.params.contact.friction_kinetic = 0.2;
-  s.params.time.fps = 60;
-  s.params.time.substeps = 10;
-  s.params.time.iterations = 2;
-  s.params.time.xpbd_sweeps = 6;
+  with_strand_contact(s, solver, 10);
   return s;
 }
 
@@ -235,16 +241,7 @@ Scene comb_through_a_row(const std::string& solver, int substeps) {
   Scene s =
       pinned_strands_by("comb", comb, gen::curly_strands(400, nv, 1.0, 2.0, 0.0, 0.0, true), nv, 1.0, Vec3(0, 1.0, 0));
   s.params.objects[0].motion.velocity = Vec3(0, 0, 2.0);
-  s.params.contact.solver = solver;
-  s.params.contact.radius = 0.005;
-  s.params.contact.offset = 0.002;
-  s.params.contact.repulsion_range = 0.001;
-  s.params.contact.friction_static = 0.3;
-  s.params.contact.friction_kinetic = 0.2;
-  s.params.time.fps = 60;
-  s.params.time.substeps = substeps;
-  s.params.time.iterations = 2;
-  s.params.time.xpbd_sweeps = 6;
+  with_strand_contact(s, solver, substeps);
   return s;
 }
 
