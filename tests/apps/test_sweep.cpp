@@ -74,6 +74,26 @@ TEST(SweepSpec, ProductZipAndCasesExpandToStableCells) {
   EXPECT_EQ(ccfr::io::load_sweep_spec(spec).cells.size(), 1u);
 }
 
+// parameters: {} and cases: [{}] sweep nothing: one cell per config and solver, as with neither,
+// whichever `combine`.
+TEST(SweepSpec, EmptyParametersAreOneCaseInEitherCombine) {
+  const fs::path d = ccfr::test::scratch_dir("sweep_spec_empty");
+  const fs::path spec = d / "s.yaml";
+  const std::string c = "configs: [" + cfg("drape.yaml") + "]\nsolvers: [ccfr, post_process]\n";
+  for (const std::string& rest :
+       {std::string(), std::string("parameters: {}\n"), std::string("parameters: {}\ncombine: product\n"),
+        std::string("parameters: {}\ncombine: zip\n"), std::string("cases: [{}]\n")}) {
+    SCOPED_TRACE(rest);
+    write(spec, c + rest);
+    const auto s = ccfr::io::load_sweep_spec(spec);
+    ASSERT_EQ(s.cells.size(), 2u);
+    EXPECT_EQ(s.cells[0].id, "drape__ccfr");
+    EXPECT_EQ(s.cells[1].id, "drape__post_process");
+    EXPECT_TRUE(s.parameter_keys.empty());
+    for (const auto& cell : s.cells) EXPECT_TRUE(cell.params.empty());
+  }
+}
+
 TEST(SweepSpec, ThePaperSweepCoversEveryConfigAndSolver) {
   const auto s = ccfr::io::load_sweep_spec(cfg("sweeps/paper.yaml"));
   size_t scenes = 0;
@@ -140,6 +160,13 @@ TEST(SweepSpec, BadSpecsNameFileKeyAndLine) {
                  {"parameters.contact.offset[2]", "again in every list"});
   write(spec, c + "parameters:\n  contact.offset: [0.01, 0.02]\n  contact.radius: [0.005, 0.005]\ncombine: zip\n");
   EXPECT_EQ(ccfr::io::load_sweep_spec(spec).cells.size(), 2u);
+  // Cases as in a grid: a case given twice, however its values are written, is refused where it is.
+  expect_refused(spec, c + "cases:\n  - {contact.offset: 0.01}\n  - {contact.offset: 1e-2}\n",
+                 {spec.string() + ":4:", "'cases[1]'", "repeats cases[0]"});
+  expect_refused(spec, c + "cases: [{}, {}]\n", {spec.string() + ":2:", "'cases[1]'", "repeats cases[0]"});
+  // combine is how parameter lists make cases; cases are listed one by one.
+  expect_refused(spec, c + "cases: [{contact.offset: 0.01}]\ncombine: zip\n",
+                 {spec.string() + ":3:", "'combine'", "only with parameters"});
 }
 
 // Slurm's --time forms, each against its value in seconds worked out by hand; anything else is -1.
