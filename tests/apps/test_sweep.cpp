@@ -373,8 +373,10 @@ TEST(Sweep, ACellStopsAtTheSpecsTimeLimitAndIsAuditedAsFarAsItRan) {
 
 namespace {
 
-// A stand-in for Slurm's commands in BIN: sbatch prints job 4242; squeue fails like the real one
-// when SLURM_CONF is unset and otherwise prints BIN/queue; sacct fails (no accounting).
+// A stand-in for every Slurm command ccfr calls, in BIN (a host's own Slurm, without a cluster at
+// SLURM_CONF, retries for 60 s): sbatch prints job 4242; squeue fails like the real one when
+// SLURM_CONF is unset and otherwise prints BIN/queue; sacct fails (no accounting); scontrol shows
+// Slurm's default MaxArraySize.
 void write_fake_slurm(const fs::path& bin) {
   fs::create_directories(bin);
   write(bin / "sbatch", "#!/bin/sh\necho 4242\n");
@@ -382,8 +384,9 @@ void write_fake_slurm(const fs::path& bin) {
         "#!/bin/sh\n[ -n \"$SLURM_CONF\" ] || { echo 'slurm_load_jobs error: Unable to contact slurm controller'; "
         "exit 1; }\ncat \"$(dirname \"$0\")/queue\"\n");
   write(bin / "sacct", "#!/bin/sh\necho 'Slurm accounting storage is disabled'; exit 1\n");
+  write(bin / "scontrol", "#!/bin/sh\necho 'MaxArraySize            = 1001'\n");
   write(bin / "queue", "");
-  for (const char* n : {"sbatch", "squeue", "sacct"})
+  for (const char* n : {"sbatch", "squeue", "sacct", "scontrol"})
     fs::permissions(bin / n, fs::perms::owner_all, fs::perm_options::replace);
 }
 
