@@ -171,6 +171,14 @@ TEST(CliErrors, StrictSweepSpecsFailBeforeAnyCellRuns) {
            {configs + "set: {time.no_such: 3}\n", "set.time.no_such", "unknown key", 2},
            {configs + "solvers: [ccfr]\nset: {contact.exact_projection.anything: 3}\n",
             "set.contact.exact_projection.anything", "unknown key 'exact_projection'", 3},
+           // A key that is no key path (null, a list, a map) is bad input, not an internal error.
+           {configs + "parameters:\n  ~: [1, 2]\n", "parameters", "expected a key path", 3},
+           {configs + "parameters:\n  [contact.offset]: [1, 2]\n", "parameters", "expected a key path", 3},
+           {configs + "set: {{time.fps: 1}: 3}\n", "set", "expected a key path", 2},
+           {configs + "cases:\n  - {[contact.offset]: 0.01}\n", "cases[0]", "expected a key path", 3},
+           // A case's bad value is blamed on that case.
+           {configs + "cases:\n  - {contact.radius: 0.01}\n  - {contact.radius: -5}\n", "cases[1].contact.radius",
+            "out of range", 4},
        }) {
     SCOPED_TRACE(c.spec);
     std::ofstream(d / "spec.yaml") << c.spec;

@@ -24,8 +24,10 @@ bool has(const std::string& s, const std::string& part) { return s.find(part) !=
 
 }  // namespace
 
+// Each test has its own CCFR_SLURM_DIR: ctest -j runs them at once, and each removes its directory
+// and checks whether one was created.
 TEST(SlurmLocal, BadUsageExits2NamingIt) {
-  const fs::path dir = ccfr::test::scratch_path("slurm_local_none");
+  const fs::path dir = ccfr::test::scratch_path("slurm_local_bad_usage");
   fs::remove_all(dir);
   auto r = slurm_local(dir, "frobnicate");
   EXPECT_EQ(r.code, 2) << r.out;
@@ -49,7 +51,7 @@ TEST(SlurmLocal, BadUsageExits2NamingIt) {
 }
 
 TEST(SlurmLocal, WithoutAClusterStopIsANoOpAndTheOthersSaySo) {
-  const fs::path dir = ccfr::test::scratch_path("slurm_local_none");
+  const fs::path dir = ccfr::test::scratch_path("slurm_local_no_cluster");
   fs::remove_all(dir);
   auto r = slurm_local(dir, "stop");
   EXPECT_EQ(r.code, 0) << r.out;

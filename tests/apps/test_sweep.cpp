@@ -74,6 +74,26 @@ TEST(SweepSpec, ProductZipAndCasesExpandToStableCells) {
   EXPECT_EQ(ccfr::io::load_sweep_spec(spec).cells.size(), 1u);
 }
 
+// parameters: {} and cases: [{}] sweep nothing: one cell per config and solver, as with neither,
+// whichever `combine`.
+TEST(SweepSpec, EmptyParametersAreOneCaseInEitherCombine) {
+  const fs::path d = ccfr::test::scratch_dir("sweep_spec_empty");
+  const fs::path spec = d / "s.yaml";
+  const std::string c = "configs: [" + cfg("drape.yaml") + "]\nsolvers: [ccfr, post_process]\n";
+  for (const std::string& rest :
+       {std::string(), std::string("parameters: {}\n"), std::string("parameters: {}\ncombine: product\n"),
+        std::string("parameters: {}\ncombine: zip\n"), std::string("cases: [{}]\n")}) {
+    SCOPED_TRACE(rest);
+    write(spec, c + rest);
+    const auto s = ccfr::io::load_sweep_spec(spec);
+    ASSERT_EQ(s.cells.size(), 2u);
+    EXPECT_EQ(s.cells[0].id, "drape__ccfr");
+    EXPECT_EQ(s.cells[1].id, "drape__post_process");
+    EXPECT_TRUE(s.parameter_keys.empty());
+    for (const auto& cell : s.cells) EXPECT_TRUE(cell.params.empty());
+  }
+}
+
 TEST(SweepSpec, ThePaperSweepCoversEveryConfigAndSolver) {
   const auto s = ccfr::io::load_sweep_spec(cfg("sweeps/paper.yaml"));
   size_t scenes = 0;
@@ -140,6 +160,13 @@ TEST(SweepSpec, BadSpecsNameFileKeyAndLine) {
                  {"parameters.contact.offset[2]", "again in every list"});
   write(spec, c + "parameters:\n  contact.offset: [0.01, 0.02]\n  contact.radius: [0.005, 0.005]\ncombine: zip\n");
   EXPECT_EQ(ccfr::io::load_sweep_spec(spec).cells.size(), 2u);
+  // Cases as in a grid: a case given twice, however its values are written, is refused where it is.
+  expect_refused(spec, c + "cases:\n  - {contact.offset: 0.01}\n  - {contact.offset: 1e-2}\n",
+                 {spec.string() + ":4:", "'cases[1]'", "repeats cases[0]"});
+  expect_refused(spec, c + "cases: [{}, {}]\n", {spec.string() + ":2:", "'cases[1]'", "repeats cases[0]"});
+  // combine is how parameter lists make cases; cases are listed one by one.
+  expect_refused(spec, c + "cases: [{contact.offset: 0.01}]\ncombine: zip\n",
+                 {spec.string() + ":3:", "'combine'", "only with parameters"});
 }
 
 // Slurm's --time forms, each against its value in seconds worked out by hand; anything else is -1.
@@ -346,8 +373,10 @@ TEST(Sweep, ACellStopsAtTheSpecsTimeLimitAndIsAuditedAsFarAsItRan) {
 
 namespace {
 
-// A stand-in for Slurm's commands in BIN: sbatch prints job 4242; squeue fails like the real one
-// when SLURM_CONF is unset and otherwise prints BIN/queue; sacct fails (no accounting).
+// A stand-in for every Slurm command ccfr calls, in BIN (a host's own Slurm, without a cluster at
+// SLURM_CONF, retries for 60 s): sbatch prints job 4242; squeue fails like the real one when
+// SLURM_CONF is unset and otherwise prints BIN/queue; sacct fails (no accounting); scontrol shows
+// Slurm's default MaxArraySize.
 void write_fake_slurm(const fs::path& bin) {
   fs::create_directories(bin);
   write(bin / "sbatch", "#!/bin/sh\necho 4242\n");
@@ -355,8 +384,9 @@ void write_fake_slurm(const fs::path& bin) {
         "#!/bin/sh\n[ -n \"$SLURM_CONF\" ] || { echo 'slurm_load_jobs error: Unable to contact slurm controller'; "
         "exit 1; }\ncat \"$(dirname \"$0\")/queue\"\n");
   write(bin / "sacct", "#!/bin/sh\necho 'Slurm accounting storage is disabled'; exit 1\n");
+  write(bin / "scontrol", "#!/bin/sh\necho 'MaxArraySize            = 1001'\n");
   write(bin / "queue", "");
-  for (const char* n : {"sbatch", "squeue", "sacct"})
+  for (const char* n : {"sbatch", "squeue", "sacct", "scontrol"})
     fs::permissions(bin / n, fs::perms::owner_all, fs::perm_options::replace);
 }
 

@@ -1,5 +1,6 @@
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cstdlib>
 #include <map>
@@ -31,8 +32,15 @@ class SpecReader {
  public:
   explicit SpecReader(fs::path file) : file_(std::move(file)), label_(file_.string()) {}
 
+  /// `n` may be a node looked up and not found: the error then has no line (0).
   [[noreturn]] void fail(const YAML::Node& n, const std::string& key, const std::string& msg) const {
-    throw ConfigError(label_, key, n.Mark().is_null() ? 0 : n.Mark().line + 1, msg);
+    throw ConfigError(label_, key, !n.IsDefined() || n.Mark().is_null() ? 0 : n.Mark().line + 1, msg);
+  }
+  /// The key of a map entry under `key`: a key path, so text; null, a list or a map names nothing.
+  std::string key_path(const YAML::Node& k, const std::string& key) const {
+    if (!k.IsScalar() || k.Scalar().empty())
+      fail(k, key, "expected a key path as a map key, not null, a list or a map");
+    return k.Scalar();
   }
   std::string scalar(const YAML::Node& n, const std::string& key) const {
     if (!n.IsScalar()) fail(n, key, "expected a value, not a list or map");
@@ -198,21 +206,27 @@ void read_solvers(const SpecReader& r, const YAML::Node& root, SweepSpec& s) {
     }
 }
 
-// combine: how the parameter lists make cases, product (the default) or zip.
+// combine: how the parameter lists make cases, product (the default) or zip; `cases` are listed
+// one by one, so combine beside them would be ignored.
 std::string read_combine(const SpecReader& r, const YAML::Node& root) {
   std::string combine = "product";
   if (root["combine"]) {
     combine = r.scalar(root["combine"], "combine");
     if (combine != "product" && combine != "zip")
       r.fail(root["combine"], "combine", "must be product or zip, got '" + combine + "'");
+    if (root["cases"] && !root["parameters"])
+      r.fail(root["combine"], "combine",
+             "applies only with parameters (how their lists make cases); cases are listed one by one: drop combine");
   }
   return combine;
 }
 
-// zip: case i takes value i of every list, so the lists must be of one length.
+// zip: case i takes value i of every list, so the lists must be of one length. No lists: one
+// case that sets nothing, as product gives.
 std::vector<std::vector<std::string>> zip_cases(const SpecReader& r, const YAML::Node& p,
                                                 const std::vector<std::string>& keys,
                                                 const std::vector<std::vector<std::string>>& values) {
+  if (values.empty()) return {{}};
   std::vector<std::vector<std::string>> cases;
   for (size_t k = 1; k < values.size(); ++k)
     if (values[k].size() != values[0].size())
@@ -242,22 +256,31 @@ std::vector<std::vector<std::string>> product_cases(const std::vector<std::vecto
   return cases;
 }
 
-// A value given twice (however written) would run identical cells: in one list of a grid, in
-// every list at once for zip.
+// The first row that loads as an earlier one (values however written) as {earlier, later}, else
+// {0, 0}: two such rows would run identical cells.
+std::pair<size_t, size_t> repeated_row(const std::vector<std::vector<std::string>>& rows) {
+  std::map<std::string, size_t> seen;
+  for (size_t i = 0; i < rows.size(); ++i) {
+    std::string key;
+    for (const auto& v : rows[i]) key += value_key(v) + '\n';
+    const auto [at, fresh] = seen.emplace(key, i);
+    if (!fresh) return {at->second, i};
+  }
+  return {0, 0};
+}
+
+// A value repeated in one list of a grid, or in every list at once for zip (a repeated case).
 void refuse_repeated_values(const SpecReader& r, const YAML::Node& p, const std::vector<std::string>& keys,
-                            const std::vector<std::vector<std::string>>& values, bool zip) {
-  for (size_t k = 0; k < (zip ? 1 : values.size()); ++k) {
-    std::map<std::string, size_t> seen;
-    for (size_t i = 0; i < values[k].size(); ++i) {
-      std::string key;
-      for (size_t m = zip ? 0 : k; m < (zip ? values.size() : k + 1); ++m) key += value_key(values[m][i]) + '\n';
-      const auto [at, fresh] = seen.emplace(key, i);
-      if (!fresh)
-        r.fail(p[keys[k]][i], "parameters." + keys[k] + "[" + std::to_string(i) + "]",
-               "'" + values[k][i] + "' is the value of [" + std::to_string(at->second) + "] ('" +
-                   values[k][at->second] + "') again" + (zip ? " in every list" : "") +
-                   ": its cells would be identical; drop one");
-    }
+                            const std::vector<std::vector<std::string>>& values,
+                            const std::vector<std::vector<std::string>>& cases, bool zip) {
+  for (size_t k = 0; k < (zip ? std::min<size_t>(1, keys.size()) : keys.size()); ++k) {
+    std::vector<std::vector<std::string>> rows;
+    for (const auto& v : values[k]) rows.push_back({v});
+    const auto [was, i] = repeated_row(zip ? cases : rows);
+    if (i != 0)
+      r.fail(p[keys[k]][i], "parameters." + keys[k] + "[" + std::to_string(i) + "]",
+             "'" + values[k][i] + "' is the value of [" + std::to_string(was) + "] ('" + values[k][was] + "') again" +
+                 (zip ? " in every list" : "") + ": its cells would be identical; drop one");
   }
 }
 
@@ -266,15 +289,16 @@ void read_parameters(const SpecReader& r, const YAML::Node& p, const std::string
   if (!p.IsMap()) r.fail(p, "parameters", "expected a map of key.path: [values]");
   std::vector<std::vector<std::string>> values;
   for (const auto& kv : p) {
-    const std::string key = kv.first.Scalar();
+    const std::string key = r.key_path(kv.first, "parameters");
     s.parameter_keys.push_back(key);
     values.push_back(r.list(kv.second, "parameters." + key));
   }
   s.cases = combine == "zip" ? zip_cases(r, p, s.parameter_keys, values) : product_cases(values);
-  refuse_repeated_values(r, p, s.parameter_keys, values, combine == "zip");
+  refuse_repeated_values(r, p, s.parameter_keys, values, s.cases, combine == "zip");
 }
 
-// cases: a list of maps key path -> value, every one with the keys of cases[0] in its order.
+// cases: a list of maps key path -> value, every one with the keys of cases[0] in its order, no
+// two alike; [{}] sets nothing (one case, as no cases).
 void read_cases(const SpecReader& r, const YAML::Node& cs, SweepSpec& s) {
   if (!cs.IsSequence() || cs.size() == 0) r.fail(cs, "cases", "expected a non-empty list of maps key.path: value");
   for (size_t i = 0; i < cs.size(); ++i) {
@@ -282,19 +306,25 @@ void read_cases(const SpecReader& r, const YAML::Node& cs, SweepSpec& s) {
     if (!cs[i].IsMap()) r.fail(cs[i], key, "expected a map key.path: value");
     std::vector<std::string> keys, vals;
     for (const auto& kv : cs[i])
-      keys.push_back(kv.first.Scalar()), vals.push_back(r.scalar(kv.second, key + "." + kv.first.Scalar()));
+      keys.push_back(r.key_path(kv.first, key)), vals.push_back(r.scalar(kv.second, key + "." + keys.back()));
     if (i == 0) s.parameter_keys = keys;
     if (keys != s.parameter_keys) r.fail(cs[i], key, "every case must set the same keys in the same order as cases[0]");
     s.cases.push_back(vals);
   }
+  const auto [was, i] = repeated_row(s.cases);
+  if (i != 0)
+    r.fail(cs[i], "cases[" + std::to_string(i) + "]",
+           "repeats cases[" + std::to_string(was) + "] (the same values): its cells would be identical; drop one");
 }
 
 // set, frames, audit_stride and cell_time_limit: what every cell runs with.
 void read_cell_settings(const SpecReader& r, const YAML::Node& root, SweepSpec& s) {
   if (const YAML::Node st = root["set"]) {
     if (!st.IsMap()) r.fail(st, "set", "expected a map key.path: value");
-    for (const auto& kv : st)
-      s.set.push_back(kv.first.Scalar() + "=" + r.scalar(kv.second, "set." + kv.first.Scalar()));
+    for (const auto& kv : st) {
+      const std::string k = r.key_path(kv.first, "set");
+      s.set.push_back(k + "=" + r.scalar(kv.second, "set." + k));
+    }
   }
   if (root["frames"]) s.frames = r.integer(root["frames"], "frames", 0);
   if (root["audit_stride"]) s.audit_stride = r.integer(root["audit_stride"], "audit_stride", 1);
@@ -324,7 +354,8 @@ void read_resources(const SpecReader& r, const YAML::Node& root, SweepSpec& s) {
 // Every cell's scene with its overrides goes through the schema now (keys, types, ranges), so a
 // bad `parameters` or `set` key stops the sweep before any cell runs, not when each cell starts.
 void check_cells(const SpecReader& r, const YAML::Node& root, const SweepSpec& s) {
-  for (const SweepCell& c : s.cells) {
+  for (size_t ci = 0; ci < s.cells.size(); ++ci) {
+    const SweepCell& c = s.cells[ci];
     try {
       check_scene_keys(c.config, c.overrides);
     } catch (const Error& e) {
@@ -344,8 +375,15 @@ void check_cells(const SpecReader& r, const YAML::Node& root, const SweepSpec& s
       };
       YAML::Node at = root["configs"];
       std::string key = "configs";
-      for (const auto& [k, v] : c.params)
-        if (blamed(k)) at = root["parameters"] ? root["parameters"][k] : root["cases"], key = "parameters." + k;
+      for (const auto& [k, v] : c.params) {
+        if (!blamed(k)) continue;
+        if (root["parameters"]) {
+          at = root["parameters"][k], key = "parameters." + k;
+        } else {  // cases are the innermost loop of the cells (expand_sweep)
+          const size_t i = ci % s.cases.size();
+          at = root["cases"][i][k], key = "cases[" + std::to_string(i) + "]." + k;
+        }
+      }
       for (const auto& kv : root["set"] ? root["set"] : YAML::Node())
         if (blamed(kv.first.Scalar())) at = kv.first, key = "set." + kv.first.Scalar();
       r.fail(at, key, "cell '" + c.id + "': " + shown);
