@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <map>
 
 #include "ccfr/core/bounds.hpp"
 #include "ccfr/core/error.hpp"
@@ -363,231 +362,6 @@ void Simulation::report_capped_speed(Index vertex, double advance, double dt) {
       n * p.contact.radius / dt);
 }
 
-StopReport Simulation::diagnose_stop(Index remaining, int substep_index, int iterations, Index held_back,
-                                     const FrameStats& fs) const {
-  const auto& p = scene_.params;
-  const auto& topo = scene_.topo;
-  const auto& st = scene_.state;
-  StopReport rep;
-  rep.frame = frame_ + 1;
-  rep.substep = substep_index + 1;
-  rep.remaining = remaining;
-  rep.solver = std::string(contact_->name());
-  rep.iterations = iterations;
-  rep.iteration_bound = p.time.iteration_bound();
-  rep.held_back = held_back;
-  rep.stats = fs;
-  rep.stats.frame = frame_ + 1;
-  rep.stats.sim_time = st.time;
-  rep.stats.violations_remaining = std::max(rep.stats.violations_remaining, remaining);
-  std::vector<std::int32_t> half_spaces;
-  std::vector<double> distance;
-  std::vector<std::uint8_t> halted;
-  contact_->vertex_diagnostics(half_spaces, distance, halted);
-  const double keep = 1.0 - p.debug.audit_tolerance;
-  // anchor_ holds where the substep ends, solve_ the last pass's anchors (where its regions were built).
-  const auto close = contact_->close_pairs(anchor_, keep, 64);
-  auto vertex = [&](Index v) {
-    StopReport::Vertex x;
-    const auto& o = topo.object_of_vertex(v);
-    x.object = o.name;
-    x.kind = std::string(to_string(o.kind));
-    x.local = v - o.vertex_begin;
-    x.fixed = !(st.inv_mass[v] > 0.0);
-    if (x.fixed && static_cast<size_t>(v) < kinematic_step_.size()) x.scripted_step = kinematic_step_[v].norm();
-    x.halted = static_cast<size_t>(v) < halted.size() && halted[v];
-    // held_marks_ also frees the neighbourhood of violated pairs for the next pass: not a hold-back.
-    x.held_back = static_cast<size_t>(v) < held_marks_.size() && held_marks_[v] &&
-                  !(static_cast<size_t>(v) < violated_marks_.size() && violated_marks_[v]);
-    if (!x.fixed && static_cast<size_t>(v) < solve_.size()) x.region_empty = contact_->region_empty(v, solve_);
-    return x;
-  };
-  static constexpr const char* kKind[] = {"vertex-face", "edge-edge", "vertex-edge", "vertex-vertex"};
-  for (size_t i = 0; i < close.size() && i < 3; ++i) {
-    const auto& c = close[i];
-    StopReport::Pair pr;
-    pr.kind = kKind[std::clamp(c.kind, 0, 3)];
-    for (int k = 0; k < c.size; ++k) (k < c.side_a ? pr.a : pr.b).push_back(vertex(c.v[static_cast<size_t>(k)]));
-    pr.distance = c.distance;
-    pr.offset = c.offset;
-    rep.pairs.push_back(std::move(pr));
-  }
-  // What holds the reported pairs' movable vertices: every object that cannot move and is on the
-  // other side of one of their close pairs (up to 64 scanned).
-  std::vector<std::uint8_t> reported(static_cast<size_t>(st.size()), 0);
-  for (size_t i = 0; i < close.size() && i < 3; ++i)
-    for (int k = 0; k < close[i].size; ++k) reported[static_cast<size_t>(close[i].v[static_cast<size_t>(k)])] = 1;
-  std::vector<Index> holders;
-  double fastest = 0.0;
-  std::string fastest_object;
-  for (const auto& c : close) {
-    bool touches = false;
-    for (int k = 0; k < c.size; ++k)
-      touches = touches || (reported[static_cast<size_t>(c.v[static_cast<size_t>(k)])] &&
-                            st.inv_mass[c.v[static_cast<size_t>(k)]] > 0.0);
-    if (!touches) continue;
-    for (int k = 0; k < c.size; ++k) {
-      const Index v = c.v[static_cast<size_t>(k)];
-      if (st.inv_mass[v] > 0.0) continue;
-      const Index oi = topo.vertex_object[v];
-      if (std::find(holders.begin(), holders.end(), oi) == holders.end()) holders.push_back(oi);
-    }
-  }
-  for (const auto& pr : rep.pairs)
-    for (const auto* side : {&pr.a, &pr.b})
-      for (const auto& x : *side)
-        if (x.fixed && x.scripted_step > fastest) fastest = x.scripted_step, fastest_object = x.object;
-  for (Index oi : holders) {
-    const auto& o = topo.objects[oi];
-    double step = 0.0;
-    for (Index v = o.vertex_begin; v < o.vertex_end && static_cast<size_t>(v) < kinematic_step_.size(); ++v)
-      if (!(st.inv_mass[v] > 0.0)) step = std::max(step, kinematic_step_[v].norm());
-    if (step > fastest) fastest = step, fastest_object = o.name;
-    rep.held_by.push_back(ccfr::format("'{}' ({}{})", o.name, to_string(o.kind),
-                                       step > 0.0
-                                           ? ccfr::format(", scripted, {:.3g} m per substep piece", step)
-                                           : std::string(o.kind == ObjectKind::obstacle ? ", fixed" : ", pinned")));
-  }
-  // The cause, most specific first.
-  bool fixed_pair = false, empty = false, halted_any = false;
-  for (const auto& pr : rep.pairs) {
-    bool a_fixed = true, b_fixed = true;
-    for (const auto& x : pr.a) {
-      a_fixed = a_fixed && x.fixed;
-      empty = empty || x.region_empty.value_or(false);
-      halted_any = halted_any || x.halted;
-    }
-    for (const auto& x : pr.b) {
-      b_fixed = b_fixed && x.fixed;
-      empty = empty || x.region_empty.value_or(false);
-      halted_any = halted_any || x.halted;
-    }
-    fixed_pair = fixed_pair || (a_fixed && b_fixed);
-  }
-  const bool ran_out = held_back > 0 && iterations >= rep.iteration_bound;
-  rep.cause = fixed_pair   ? "fixed_pair"
-              : empty      ? "region_empty"
-              : ran_out    ? "iterations_ran_out"
-              : halted_any ? "halted"
-                           : "unresolved";
-  const double xi = p.contact.offset, r = p.contact.radius;
-  if (!fastest_object.empty())
-    rep.suggestions.push_back(
-        ccfr::format("slow the scripted motion of '{}' ({:.3g} m per substep piece against "
-                     "r = {:.3g}) or stop it before it closes the gap",
-                     fastest_object, fastest, r));
-  if (rep.cause == "iterations_ran_out" || !fastest_object.empty())
-    rep.suggestions.push_back(ccfr::format("raise time.substeps (now {}) for smaller steps", p.time.substeps));
-  if (rep.cause == "iterations_ran_out")
-    rep.suggestions.push_back(
-        ccfr::format("raise time.max_iterations (now {}: all {} outer iterations ran with {} "
-                     "vertices still held back)",
-                     p.time.max_iterations, iterations, held_back));
-  if (rep.cause == "region_empty" || holders.size() >= 2 || rep.cause == "fixed_pair")
-    rep.suggestions.push_back(
-        ccfr::format("give the squeezed objects room: a gap narrower than their offsets "
-                     "(contact.offset = {:.3g} per pair) cannot hold them; lower the offset, or "
-                     "move the objects that cannot move apart",
-                     xi));
-  if (rep.cause == "halted" || rep.cause == "unresolved")
-    rep.suggestions.push_back(
-        ccfr::format("raise time.substeps (now {}) or contact.radius (r = {:.3g}) so that "
-                     "vertices can get away in time",
-                     p.time.substeps, r));
-  rep.suggestions.push_back(
-      "contact.on_violation: warn continues past it (the frames then keep the violations; ccfr audit reports them)");
-  return rep;
-}
-
-namespace {
-std::string describe_side(const std::vector<StopReport::Vertex>& side) {
-  if (side.empty()) return "?";
-  std::string s = "'" + side.front().object + "' vert" + (side.size() > 1 ? "ices " : "ex ");
-  for (size_t k = 0; k < side.size(); ++k) s += (k ? ", " : "") + std::to_string(side[k].local);
-  std::vector<std::string> notes;
-  const auto& f = side.front();
-  if (f.scripted_step > 0.0)
-    notes.push_back("scripted");
-  else if (f.fixed)
-    notes.push_back(f.kind == "obstacle" ? "obstacle" : "pinned");
-  bool halted = false, held = false, empty = false, nonempty = false;
-  for (const auto& x : side) {
-    halted = halted || x.halted;
-    held = held || x.held_back;
-    empty = empty || x.region_empty.value_or(false);
-    nonempty = nonempty || (x.region_empty.has_value() && !*x.region_empty);
-  }
-  if (halted) notes.push_back("halted");
-  if (held) notes.push_back("held back by the step bound");
-  if (empty) notes.push_back("region empty");
-  if (nonempty && !empty) notes.push_back("region not empty");
-  if (!notes.empty()) {
-    s += " (";
-    for (size_t k = 0; k < notes.size(); ++k) s += (k ? ", " : "") + notes[k];
-    s += ")";
-  }
-  return s;
-}
-}  // namespace
-
-void Simulation::check_violations(Index remaining, int substep_index, int iterations, Index held_back,
-                                  const FrameStats& fs) {
-  if (remaining <= 0) return;
-  const auto& p = scene_.params;
-  const bool fatal = p.contact.on_violation == ViolationPolicy::error ||
-                     (p.contact.on_violation == ViolationPolicy::automatic && contact_->guarantees_separation());
-  if (!fatal) {
-    if (!warned_violation_) {
-      const std::string example = contact_->last_violation();
-      log::error(
-          "frame {}: {} violation(s) remain at the end of substep {} under contact solver '{}'{}; continuing "
-          "(contact.on_violation: warn)",
-          frame_ + 1, remaining, substep_index + 1, contact_->name(),
-          example.empty() ? std::string() : "; e.g. a " + example);
-    }
-    warned_violation_ = true;
-    return;
-  }
-  StopReport rep = diagnose_stop(remaining, substep_index, iterations, held_back, fs);
-  std::string what = std::to_string(remaining) + " violation(s) remain at the end of substep " +
-                     std::to_string(substep_index + 1) + " under contact solver '" + rep.solver +
-                     "' (pairs closer than their offset, or a deformed rigid body)";
-  if (rep.pairs.empty()) {
-    const std::string example = contact_->last_violation();
-    if (!example.empty()) what += "; e.g. a " + example;
-  } else {
-    what += "; " + std::string(rep.pairs.size() < static_cast<size_t>(remaining) ? "among them " : "");
-    for (size_t i = 0; i < rep.pairs.size(); ++i) {
-      const auto& pr = rep.pairs[i];
-      what += (i ? "; " : "") + pr.kind + " " + describe_side(pr.a) + " - " + describe_side(pr.b) +
-              ccfr::format(" at {:.6g} ({:.4f} of its offset {:.6g})", pr.distance, pr.distance / pr.offset, pr.offset);
-    }
-  }
-  static const std::map<std::string, std::string> kCause = {
-      {"fixed_pair",
-       "neither side of a pair can move (obstacles, pinned or scripted vertices): the scene drives "
-       "them into each other"},
-      {"region_empty",
-       "a squeeze: the region of a movable vertex is empty (certified by the exact projection), "
-       "no position keeps it its offset from everything around it"},
-      {"iterations_ran_out", "the outer iterations ran out"},
-      {"halted", "a vertex of the pair halted (its projection failed and it stayed at its anchor)"},
-      {"unresolved",
-       "the regions were not empty and no vertex was left held back by r, yet the pair ended inside its "
-       "offset or crossed"}};
-  what += ". Cause: " + kCause.at(rep.cause) +
-          ccfr::format(" ({} of {} outer iterations ran, {} vertices held back at the end)", rep.iterations,
-                       rep.iteration_bound, rep.held_back);
-  if (!rep.held_by.empty()) {
-    what += ". Held by: ";
-    for (size_t i = 0; i < rep.held_by.size(); ++i) what += (i ? ", " : "") + rep.held_by[i];
-  }
-  what += ". What to change: ";
-  for (size_t i = 0; i < rep.suggestions.size(); ++i) what += (i ? "; " : "") + rep.suggestions[i];
-  stop_ = std::move(rep);
-  throw GuaranteeError(frame_ + 1, what + "; stopping before the frame is written");
-}
-
 Simulation::OuterIterationEnd Simulation::end_outer_iteration(const SolveResult& res, double t1, StepContext& ctx,
                                                               std::span<std::uint8_t> held) {
   const auto& st = scene_.state;
@@ -614,13 +388,30 @@ Simulation::OuterIterationEnd Simulation::end_outer_iteration(const SolveResult&
   return end;
 }
 
-Simulation::PassesEnd Simulation::run_passes(FrameStats& fs, int substep_index, double t1, bool kin_moves,
-                                             StepContext& ctx) {
-  auto& st = scene_.state;
-  const auto& params = scene_.params;
-  const auto& tp = params.time;
-  const Index nv = st.size();
-  anchor_ = st.x;
+namespace {
+/// Adds one pass's detection counts to the frame's.
+void add_detection(FrameStats& fs, const DetectResult& det) {
+  fs.candidates = std::max(fs.candidates, det.candidates);
+  fs.candidates_total += det.candidates;
+  fs.detections_reused += det.reused;
+  fs.constraints = std::max(fs.constraints, det.constraints);
+  fs.min_distance = std::min(fs.min_distance, det.min_distance);
+}
+
+/// Adds one pass's resolution counts to the frame's; distinct counts are running, the largest is the frame's.
+void add_resolution(FrameStats& fs, const SolveResult& res) {
+  fs.violations_detected += res.violations_detected;
+  fs.halted_vertices += res.halted_vertices;
+  fs.contact_vertices += res.contact_vertices;
+  fs.projector_fallbacks += res.projector_fallbacks;
+  fs.projector_rescues += res.projector_rescues;
+  fs.halted_vertices_distinct = std::max(fs.halted_vertices_distinct, res.halted_vertices_distinct);
+  fs.contact_vertices_distinct = std::max(fs.contact_vertices_distinct, res.contact_vertices_distinct);
+  ++fs.outer_iterations;
+}
+}  // namespace
+
+bool Simulation::reset_continuation_marks() {
   // time.continuation: held_back. A pass after the first moves only the vertices of the pass
   // before that the step bound held back or whose pairs its recount found closer than their
   // offset; every other vertex runs it with an inverse mass of 0, so detection, response and
@@ -628,20 +419,98 @@ Simulation::PassesEnd Simulation::run_passes(FrameStats& fs, int substep_index, 
   // vertices. Those pairs were recounted clean by an earlier pass and did not move, so the recount
   // of the moving vertices' pairs is the whole scene's. A rigid body moves as a whole, so a scene
   // with one runs full passes, and so does a pass after a recount that could not name its pairs.
-  const bool local = tp.continuation == TimeParams::Continuation::held_back && contact_->clamps_to_radius() &&
+  const bool local = scene_.params.time.continuation == TimeParams::Continuation::held_back &&
+                     contact_->clamps_to_radius() &&
                      std::none_of(scene_.topo.objects.begin(), scene_.topo.objects.end(),
                                   [](const auto& o) { return o.kind == ObjectKind::rigid; });
-  bool next_local = false;
-  if (local) {
-    held_marks_.assign(static_cast<size_t>(nv), 0);
-    violated_marks_.assign(static_cast<size_t>(nv), 0);
-    deferred_marks_.assign(static_cast<size_t>(nv), 0);
-  } else {
-    held_marks_.clear();
-    violated_marks_.clear();
-    deferred_marks_.clear();
+  const size_t n = local ? static_cast<size_t>(scene_.state.size()) : 0;
+  held_marks_.assign(n, 0);
+  violated_marks_.assign(n, 0);
+  deferred_marks_.assign(n, 0);
+  return local;
+}
+
+void Simulation::solve_materials(FrameStats& fs, int substep_index, const StepContext& ctx) {
+  // Solve from the prediction (design clarification 6) with fresh multipliers: paper Alg.
+  // "Our simulation loop" lines 5-9. Their result depends only on the prediction, dt and the
+  // masses, all fixed within the substep, so the sweeps run in the first outer iteration and
+  // later iterations start from their result (bit-identical; a third of the twisting cloth's
+  // XPBD stage, whose rope frames run up to 5 outer iterations per substep).
+  ScopedTimer t(fs.times.xpbd, fs.times.xpbd_serial);
+  material_solved_ = predicted_;
+  materials_.reset_multipliers();
+  for (int s = 0; s < scene_.params.time.xpbd_sweeps; ++s) {
+    if (s > 0 && s % 64 == 0) check_cancel(substep_index);
+    materials_.solve(material_solved_, scene_.state.inv_mass, ctx.dt);
   }
-  const double r = params.contact.radius;
+  check_finite(material_solved_, "xpbd");
+}
+
+Index Simulation::carry_before_detection(FrameStats& fs) {
+  // A body touching nothing is carried by its rigid motion before the regions are built: its
+  // own pairs would otherwise hold back some vertices while the others fly on (a soft knot at
+  // 3 m/s tore by 15 mm in a frame and intersected itself).
+  if (!contact_->clamps_to_radius()) return 0;
+  ScopedTimer t(fs.times.check, fs.times.check_serial);
+  if (carry_isolated_objects() == 0) return 0;
+  return static_cast<Index>(std::count(carry_capped_.begin(), carry_capped_.end(), std::uint8_t{1}));
+}
+
+void Simulation::start_from_materials(FrameStats& fs, bool masked, Index capped, StepContext& ctx) {
+  const auto& st = scene_.state;
+  ScopedTimer t(fs.times.xpbd, fs.times.xpbd_serial);
+  solve_ = material_solved_;
+  // Vertices fixed for this pass (or carried only part of their way) start and stay where they are.
+  if (masked || capped > 0)
+    parallel_for(
+        st.size(),
+        [&](Index b, Index e) {
+          for (Index i = b; i < e; ++i)
+            if (!(st.inv_mass[i] > 0.0) || (capped > 0 && carry_capped_[i])) solve_[i] = anchor_[i];
+        },
+        4096);
+  contact_->respond(solve_, anchor_, st, ctx);
+  check_finite(solve_, "contact response");
+}
+
+bool Simulation::finish_pass(const SolveResult& res, double t1, bool local, bool masked, Index capped, StepContext& ctx,
+                             OuterIterationEnd& end) {
+  if (local) std::fill(violated_marks_.begin(), violated_marks_.end(), std::uint8_t{0});
+  ctx.violated = violated_marks_;
+  end = end_outer_iteration(res, t1, ctx, held_marks_);
+  ctx.violated = {};
+  if (capped > 0) {
+    // A body carried only part of its way has not reached its intended advance: held back.
+    end.held_back += capped;
+    // Its farthest vertex names it in the warning of a capped speed, as for held-back ones.
+    if (!end.worst)
+      for (Index i = 0; i < scene_.state.size(); ++i)
+        if (carry_capped_[i]) {
+          const double len = (material_solved_[i] - anchor_[i]).norm();
+          if (!end.worst || len > end.worst_length) end.worst = i, end.worst_length = len;
+        }
+    if (local)
+      for (size_t i = 0; i < held_marks_.size(); ++i) held_marks_[i] |= carry_capped_[i];
+  }
+  if (!local) return false;
+  // The next pass frees the held back and the vertices around violated pairs. A full pass
+  // follows a recount that found violations but named no vertex, and a moving few that
+  // could not clear theirs.
+  bool named = false;
+  for (size_t i = 0; i < held_marks_.size(); ++i) {
+    named = named || violated_marks_[i];
+    held_marks_[i] |= violated_marks_[i] | deferred_marks_[i];
+  }
+  return end.remaining == 0 || (named && !masked);
+}
+
+Simulation::PassesEnd Simulation::run_passes(FrameStats& fs, int substep_index, double t1, bool kin_moves,
+                                             StepContext& ctx) {
+  auto& st = scene_.state;
+  const auto& tp = scene_.params.time;
+  anchor_ = st.x;
+  const bool local = reset_continuation_marks();
+  bool next_local = false;
   const bool guarantees = contact_->guarantees_separation();
   PassesEnd end;
   // Until no vertex is held back by r (often after one pass, so fewer than time.iterations may
@@ -655,52 +524,10 @@ Simulation::PassesEnd Simulation::run_passes(FrameStats& fs, int substep_index, 
         st.inv_mass, inv_mass_saved_,
         next_local ? std::span<const std::uint8_t>(held_marks_) : std::span<const std::uint8_t>());
     ctx.kinematic_step = (it == 0 && kin_moves) ? std::span<const Vec3>(kinematic_step_) : std::span<const Vec3>();
-    if (it == 0) {
-      // Solve from the prediction (design clarification 6) with fresh multipliers: paper Alg.
-      // "Our simulation loop" lines 5-9. Their result depends only on the prediction, dt and the
-      // masses, all fixed within the substep, so the sweeps run in the first outer iteration and
-      // later iterations start from their result (bit-identical; a third of the twisting cloth's
-      // XPBD stage, whose rope frames run up to 5 outer iterations per substep).
-      ScopedTimer t(fs.times.xpbd, fs.times.xpbd_serial);
-      material_solved_ = predicted_;
-      materials_.reset_multipliers();
-      for (int s = 0; s < tp.xpbd_sweeps; ++s) {
-        if (s > 0 && s % 64 == 0) check_cancel(substep_index);
-        materials_.solve(material_solved_, st.inv_mass, ctx.dt);
-      }
-      check_finite(material_solved_, "xpbd");
-    }
-    // A body touching nothing is carried by its rigid motion before the regions are built: its
-    // own pairs would otherwise hold back some vertices while the others fly on (a soft knot at
-    // 3 m/s tore by 15 mm in a frame and intersected itself).
-    Index capped = 0;
-    if (contact_->clamps_to_radius()) {
-      ScopedTimer t(fs.times.check, fs.times.check_serial);
-      if (carry_isolated_objects() > 0)
-        capped = static_cast<Index>(std::count(carry_capped_.begin(), carry_capped_.end(), std::uint8_t{1}));
-    }
-    const DetectResult det = contact_->detect(anchor_, st, ctx);
-    fs.candidates = std::max(fs.candidates, det.candidates);
-    fs.candidates_total += det.candidates;
-    fs.detections_reused += det.reused;
-    fs.constraints = std::max(fs.constraints, det.constraints);
-    fs.min_distance = std::min(fs.min_distance, det.min_distance);
-
-    {
-      ScopedTimer t(fs.times.xpbd, fs.times.xpbd_serial);
-      solve_ = material_solved_;
-      if (mask.active() || capped > 0)  // vertices fixed for this pass (or carried only part of
-                                        // their way) start and stay where they are
-        parallel_for(
-            nv,
-            [&](Index b, Index e) {
-              for (Index i = b; i < e; ++i)
-                if (!(st.inv_mass[i] > 0.0) || (capped > 0 && carry_capped_[i])) solve_[i] = anchor_[i];
-            },
-            4096);
-      contact_->respond(solve_, anchor_, st, ctx);
-      check_finite(solve_, "contact response");
-    }
+    if (it == 0) solve_materials(fs, substep_index, ctx);
+    const Index capped = carry_before_detection(fs);
+    add_detection(fs, contact_->detect(anchor_, st, ctx));
+    start_from_materials(fs, mask.active(), capped, ctx);
     SolveResult res;
     {
       ScopedTimer t(fs.times.resolution, fs.times.resolution_serial);
@@ -709,45 +536,10 @@ Simulation::PassesEnd Simulation::run_passes(FrameStats& fs, int substep_index, 
       res = contact_->resolve(solve_, anchor_, st, ctx);
       ctx.deferred = {};
     }
-    fs.violations_detected += res.violations_detected;
-    fs.halted_vertices += res.halted_vertices;
-    fs.contact_vertices += res.contact_vertices;
-    fs.projector_fallbacks += res.projector_fallbacks;
-    fs.projector_rescues += res.projector_rescues;
-    // Running distinct counts of the frame: the largest is the frame's.
-    fs.halted_vertices_distinct = std::max(fs.halted_vertices_distinct, res.halted_vertices_distinct);
-    fs.contact_vertices_distinct = std::max(fs.contact_vertices_distinct, res.contact_vertices_distinct);
-    ++fs.outer_iterations;
+    add_resolution(fs, res);
     {
       ScopedTimer check_timer(fs.times.check, fs.times.check_serial);
-      if (local) std::fill(violated_marks_.begin(), violated_marks_.end(), std::uint8_t{0});
-      ctx.violated = violated_marks_;
-      static_cast<OuterIterationEnd&>(end) = end_outer_iteration(res, t1, ctx, held_marks_);
-      ctx.violated = {};
-      if (capped > 0) {
-        // A body carried only part of its way has not reached its intended advance: held back.
-        end.held_back += capped;
-        // Its farthest vertex names it in the warning of a capped speed, as for held-back ones.
-        if (!end.worst)
-          for (Index i = 0; i < nv; ++i)
-            if (carry_capped_[i]) {
-              const double len = (material_solved_[i] - anchor_[i]).norm();
-              if (!end.worst || len > end.worst_length) end.worst = i, end.worst_length = len;
-            }
-        if (local)
-          for (size_t i = 0; i < held_marks_.size(); ++i) held_marks_[i] |= carry_capped_[i];
-      }
-      if (local) {
-        // The next pass frees the held back and the vertices around violated pairs. A full pass
-        // follows a recount that found violations but named no vertex, and a moving few that
-        // could not clear theirs.
-        bool named = false;
-        for (size_t i = 0; i < held_marks_.size(); ++i) {
-          named = named || violated_marks_[i];
-          held_marks_[i] |= violated_marks_[i] | deferred_marks_[i];
-        }
-        next_local = end.remaining == 0 || (named && !mask.active());
-      }
+      next_local = finish_pass(res, t1, local, mask.active(), capped, ctx, end);
     }
     anchor_.swap(solve_);
     // A solver that guarantees separation does not end a substep on a pass that left pairs inside

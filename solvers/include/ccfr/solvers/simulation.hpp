@@ -156,6 +156,21 @@ class Simulation {
   /// (paper Alg. 1 lines 5-17): XPBD from the prediction, detection, response, resolution and the
   /// common tail, until no vertex is held back or time.iteration_bound() passes ran.
   PassesEnd run_passes(FrameStats& fs, int substep_index, double t1, bool kin_moves, StepContext& ctx);
+  /// Sizes (time.continuation: held_back) or clears the per-vertex marks of the passes; true when
+  /// passes after the first may move only the marked vertices.
+  bool reset_continuation_marks();
+  /// material_solved_ = the material sweeps from the prediction with fresh multipliers (first pass only).
+  void solve_materials(FrameStats& fs, int substep_index, const StepContext& ctx);
+  /// Carries isolated bodies along their rigid motion (carry_isolated_objects); returns the
+  /// vertices carried only part of their way (at most r).
+  Index carry_before_detection(FrameStats& fs);
+  /// solve_ = the material solve, fixed and capped vertices kept at their anchors, then the
+  /// contact solver's response.
+  void start_from_materials(FrameStats& fs, bool masked, Index capped, StepContext& ctx);
+  /// The pass's common tail (end_outer_iteration) into `end`, capped bodies counted as held back;
+  /// returns whether the next pass moves only the marked vertices.
+  bool finish_pass(const SolveResult& res, double t1, bool local, bool masked, Index capped, StepContext& ctx,
+                   OuterIterationEnd& end);
   /// Pieces the next substep of length dt must be split into so that scripted vertices move at
   /// most r per piece and the intended advance fits in the outer iterations' step bounds.
   int subdivision(double dt);
@@ -164,6 +179,8 @@ class Simulation {
   /// The facts of a stop for `remaining` violations (StopReport), with its message.
   StopReport diagnose_stop(Index remaining, int substep_index, int iterations, Index held_back,
                            const FrameStats& fs) const;
+  /// A vertex of a reported pair as the stop describes it; `halted` from vertex_diagnostics().
+  StopReport::Vertex stop_vertex(Index v, std::span<const std::uint8_t> halted) const;
   /// Applies contact.on_violation to a failed in-simulation audit.
   void check_audit(Index penetrations);
   /// Adds the substep's lag behind the material step (FrameStats::lag_mean, lag_max).
