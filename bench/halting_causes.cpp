@@ -26,7 +26,7 @@
 #include "ccfr/feasibility/exact_projector.hpp"
 #include "ccfr/feasibility/plesnik.hpp"
 #include "ccfr/io/scene_loader.hpp"
-#include "ccfr/solvers/detecting_solvers.hpp"
+#include "ccfr/solvers/region_projection_solver.hpp"
 #include "ccfr/solvers/simulation.hpp"
 
 namespace {

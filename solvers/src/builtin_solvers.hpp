@@ -15,9 +15,9 @@ struct TrustRegionParams;
 #undef CCFR_BUILTIN_CONTACT_SOLVER
 
 /// A RegionProjectionSolver entry: CCFR's regions with `projector`, whose parameters it exposes
-/// under contact.<name>.* (region_projection.cpp).
+/// under contact.<name>.* (region_projection_solver.cpp).
 ContactSolverRegistry::Entry region_projection_entry(const char* name, const char* projector, const char* description);
 /// The parameters `ogc` and `dat` share (gamma_p, gamma_e, query_radius), with defaults `d`.
 std::vector<ParamSpec> trust_region_param_specs(const TrustRegionParams& d);
-TrustRegionParams trust_region_params(const ParamValues& v);  ///< trust_region.cpp
+TrustRegionParams trust_region_params(const ParamValues& v);  ///< trust_region_solver.cpp
 }  // namespace ccfr

@@ -1,11 +1,12 @@
 // The detection every region-based and trust-region solver shares: CCFR's per-vertex regions and
 // the contacts of the current positions, rebuilt each pass (docs/collision.md), plus the contact
 // response and the counts the loop and the audit read.
-#include "ccfr/solvers/detecting_solvers.hpp"
+#include "ccfr/solvers/detecting_solver.hpp"
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
 #include "ccfr/core/parallel.hpp"
+#include "ccfr/feasibility/projector.hpp"
 #include "ccfr/geometry/distance.hpp"
 #include "ccfr/geometry_exact/predicates.hpp"
 

@@ -12,7 +12,7 @@
 #include "ccfr/feasibility/projector.hpp"
 #include "ccfr/geometry/generators.hpp"
 #include "ccfr/solvers/contact_response.hpp"
-#include "ccfr/solvers/detecting_solvers.hpp"
+#include "ccfr/solvers/region_projection_solver.hpp"
 #include "ccfr/solvers/simulation.hpp"
 #include "scenes.hpp"
 #include "test_support.hpp"

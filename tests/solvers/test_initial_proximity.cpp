@@ -9,7 +9,7 @@
 #include "ccfr/collision/collision_detector.hpp"
 #include "ccfr/geometry/distance.hpp"
 #include "ccfr/geometry/generators.hpp"
-#include "ccfr/solvers/detecting_solvers.hpp"
+#include "ccfr/solvers/region_projection_solver.hpp"
 #include "ccfr/solvers/simulation.hpp"
 #include "test_support.hpp"
 

@@ -1,6 +1,6 @@
 // `post_process`: the paper's baseline, conventional XPBD thickness constraints on the detected
 // pairs inside ξ, solved after the material step by Gauss-Seidel sweeps, with no regions.
-#include "ccfr/solvers/detecting_solvers.hpp"
+#include "ccfr/solvers/post_process.hpp"
 
 #include <tuple>
 

@@ -7,7 +7,7 @@
 #include <span>
 #include <vector>
 
-#include "ccfr/solvers/ogc.hpp"
+#include "ccfr/solvers/trust_region_solver.hpp"
 
 namespace ccfr {
 

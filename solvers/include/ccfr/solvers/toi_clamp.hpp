@@ -7,7 +7,7 @@
 /// Additive CCD (Li et al. 2021): conservative advancement with a distance lower bound.
 /// See docs/toi_clamp.md.
 #include "ccfr/collision/additive_ccd.hpp"
-#include "ccfr/solvers/detecting_solvers.hpp"
+#include "ccfr/solvers/detecting_solver.hpp"
 
 namespace ccfr {
 

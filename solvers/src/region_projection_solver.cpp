@@ -1,7 +1,7 @@
 // RegionProjectionSolver: a vertex outside its region is projected back onto it by a registered
 // projector (paper Alg. 1); `ccfr`, `exact_projection` and `successive_projection` are its
 // registrations (contact/*.cpp), differing only in the projector.
-#include "ccfr/solvers/detecting_solvers.hpp"
+#include "ccfr/solvers/region_projection_solver.hpp"
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"

@@ -1,20 +1,14 @@
 #pragma once
-/// @file detecting_solvers.hpp
-/// The contact solvers of the ablation, all on the same detection (CollisionDetector):
-/// - `ccfr`: per-vertex convex regions, Plesník projection, halting fallback (the paper);
-/// - `exact_projection`: the same regions, the exact Euclidean projection;
-/// - `successive_projection`: the same regions, naive cyclic projection (related work);
-/// - `post_process`: conventional XPBD thickness constraints on pairs inside ξ, no regions.
-/// All share the contact response (repulsion within δ, friction).
+/// @file detecting_solver.hpp
+/// DetectingSolver: the detection (CollisionDetector) and contact response (repulsion within δ,
+/// friction, contact.momentum) that every contact solver on the CCFR narrow phase shares.
 #include <atomic>
 #include <memory>
 
 #include "ccfr/collision/collision_detector.hpp"
-#include "ccfr/feasibility/projector.hpp"
 #include "ccfr/feasibility/region.hpp"
 #include "ccfr/solvers/contact_response.hpp"
 #include "ccfr/solvers/contact_solver.hpp"
-#include "ccfr/solvers/rigid_bodies.hpp"
 
 namespace ccfr {
 
@@ -81,55 +75,6 @@ class DetectingSolver : public ContactSolver {
   std::vector<std::uint8_t> contact_marks_;  ///< #V: in contact during frame `contact_marks_frame_`
   int contact_marks_frame_ = -1;
   Index contact_marks_count_ = 0;  ///< ones in contact_marks_
-};
-
-/// Projects every vertex that left its region back onto it with a Projector.
-class RegionProjectionSolver final : public DetectingSolver {
- public:
-  /// `solver_name` is the registry name; `projector_name` one of projector_names(); `params` the
-  /// values of the projector's own specs (e.g. plesnik's max_iterations), folded into its ProjectorParams.
-  RegionProjectionSolver(std::string solver_name, std::string projector_name, ParamValues params = {});
-  std::string_view name() const override { return name_; }
-  void initialize(const Topology& topo, const SimState& state, const SimulationParams& params) override;
-  SolveResult resolve(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) override;
-  /// The contact response of every vertex but those of unpinned rigid bodies (their pose solve has its own).
-  void respond(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) override;
-  bool clamps_to_radius() const override { return true; }
-  bool guarantees_separation() const override { return projector_name_ != "successive_projection"; }
-  void vertex_diagnostics(std::vector<std::int32_t>& half_spaces, std::vector<double>& distance,
-                          std::vector<std::uint8_t>& halted) const override;
-  /// Close sub-pairs (DetectingSolver) plus rigid-body vertices off their body's rigid placement.
-  std::optional<Index> count_outside(const Positions& x, const Positions& anchor, const SimState& state,
-                                     StepContext& ctx) const override;
-
- protected:
-  /// The scene's inverse masses with unpinned rigid bodies masked, as respond() passes them.
-  std::span<const double> response_mass(const SimState& state) override;
-
- private:
-  std::string name_, projector_name_;
-  ParamValues projector_params_;
-  std::unique_ptr<Projector> projector_;
-  RigidBodies rigid_;                       ///< rigid bodies, whose correction is taken as a rigid motion
-  Positions candidates_;                    ///< the candidates before the pose solves (the other sides' motion)
-  std::vector<double> other_inverse_mass_;  ///< per contact: a rigid other side's generalized inverse mass
-  std::vector<double> free_mask_;  ///< inverse masses with unpinned rigid bodies' vertices at 0 (not projected alone)
-  std::vector<std::uint8_t> halted_;  ///< #V: halted during frame `halted_frame_`
-  int halted_frame_ = -1;
-};
-
-/// The paper's baseline: after XPBD, every detected pair whose gap along its detection normal is
-/// below ξ gets a thickness constraint \f$C = \mathbf{n}^\top\sum_k w_k\mathbf{x}_k - \xi \ge 0\f$,
-/// solved Gauss-Seidel in pair order for `contact.post_process.sweeps` sweeps. No regions, no step bound.
-class PostProcessSolver final : public DetectingSolver {
- public:
-  static constexpr int kDefaultSweeps = 16;
-  explicit PostProcessSolver(int sweeps = kDefaultSweeps) : sweeps_(sweeps) {}
-  std::string_view name() const override { return "post_process"; }
-  SolveResult resolve(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) override;
-
- private:
-  int sweeps_;
 };
 
 }  // namespace ccfr

@@ -1,6 +1,6 @@
 // TrustRegionSolver: what `ogc` and `dat` share (Chen et al. 2025): a detection kept while every
 // vertex stays inside the limits built from it, truncation toward them, re-detection past γ_e.
-#include "ccfr/solvers/ogc.hpp"
+#include "ccfr/solvers/trust_region_solver.hpp"
 
 #include <algorithm>
 #include <array>

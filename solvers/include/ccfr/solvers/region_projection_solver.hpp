@@ -1,0 +1,50 @@
+#pragma once
+/// @file region_projection_solver.hpp
+/// RegionProjectionSolver: per-vertex convex regions projected onto by a Projector, the solver of
+/// the keys `ccfr` (Plesník's projection with halting, the paper), `exact_projection` (the exact
+/// Euclidean projection) and `successive_projection` (naive cyclic projection, related work).
+#include <memory>
+#include <string>
+
+#include "ccfr/feasibility/projector.hpp"
+#include "ccfr/solvers/detecting_solver.hpp"
+#include "ccfr/solvers/rigid_bodies.hpp"
+
+namespace ccfr {
+
+/// Projects every vertex that left its region back onto it with a Projector.
+class RegionProjectionSolver final : public DetectingSolver {
+ public:
+  /// `solver_name` is the registry name; `projector_name` one of projector_names(); `params` the
+  /// values of the projector's own specs (e.g. plesnik's max_iterations), folded into its ProjectorParams.
+  RegionProjectionSolver(std::string solver_name, std::string projector_name, ParamValues params = {});
+  std::string_view name() const override { return name_; }
+  void initialize(const Topology& topo, const SimState& state, const SimulationParams& params) override;
+  SolveResult resolve(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) override;
+  /// The contact response of every vertex but those of unpinned rigid bodies (their pose solve has its own).
+  void respond(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) override;
+  bool clamps_to_radius() const override { return true; }
+  bool guarantees_separation() const override { return projector_name_ != "successive_projection"; }
+  void vertex_diagnostics(std::vector<std::int32_t>& half_spaces, std::vector<double>& distance,
+                          std::vector<std::uint8_t>& halted) const override;
+  /// Close sub-pairs (DetectingSolver) plus rigid-body vertices off their body's rigid placement.
+  std::optional<Index> count_outside(const Positions& x, const Positions& anchor, const SimState& state,
+                                     StepContext& ctx) const override;
+
+ protected:
+  /// The scene's inverse masses with unpinned rigid bodies masked, as respond() passes them.
+  std::span<const double> response_mass(const SimState& state) override;
+
+ private:
+  std::string name_, projector_name_;
+  ParamValues projector_params_;
+  std::unique_ptr<Projector> projector_;
+  RigidBodies rigid_;                       ///< rigid bodies, whose correction is taken as a rigid motion
+  Positions candidates_;                    ///< the candidates before the pose solves (the other sides' motion)
+  std::vector<double> other_inverse_mass_;  ///< per contact: a rigid other side's generalized inverse mass
+  std::vector<double> free_mask_;  ///< inverse masses with unpinned rigid bodies' vertices at 0 (not projected alone)
+  std::vector<std::uint8_t> halted_;  ///< #V: halted during frame `halted_frame_`
+  int halted_frame_ = -1;
+};
+
+}  // namespace ccfr
