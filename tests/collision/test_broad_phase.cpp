@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "ccfr/collision/broad_phase.hpp"
+#include "ccfr/collision/broad_phase/brute_force.hpp"
 #include "ccfr/collision/collision_detector.hpp"
 #include "ccfr/collision/primitives.hpp"
 #include "ccfr/core/error.hpp"

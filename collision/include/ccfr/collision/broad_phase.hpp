@@ -14,7 +14,6 @@
 
 #include "ccfr/core/registry.hpp"
 #include "ccfr/geometry/aabb.hpp"
-#include "ccfr/geometry/bvh.hpp"
 
 namespace ccfr {
 
@@ -61,55 +60,6 @@ class BroadPhase {
   std::vector<std::uint8_t> fixed_;
   std::vector<std::uint32_t> groups_;
   std::uint64_t groups_version_ = 0;  ///< bumped by set_groups(), for trees that partition by group
-};
-
-/// O(P²) reference: tests every pair. For tests and tiny scenes only.
-class BruteForceBroadPhase final : public BroadPhase {
- public:
-  void build(std::span<const AABB> boxes) override;
-  void update(std::span<const AABB> boxes) override;
-  void query_pairs(std::vector<IndexPair>& out) override;
-  std::string_view name() const override { return "brute_force"; }
-
- private:
-  std::vector<AABB> boxes_;
-};
-
-/// The flat BVH of ccfr::geometry (at most 4 boxes per leaf): built once, refitted by update(),
-/// self-queried in parallel, skipping subtrees of one group or of fixed boxes against each other.
-/// About 5x faster than FCL's tree on 2 cores (docs/perf/collision.md).
-class BvhBroadPhase final : public BroadPhase {
- public:
-  void build(std::span<const AABB> boxes) override;
-  void update(std::span<const AABB> boxes) override;
-  void query_pairs(std::vector<IndexPair>& out) override;
-  std::string_view name() const override { return "bvh"; }
-
- private:
-  Bvh bvh_;
-};
-
-/// FCL's DynamicAABBTreeCollisionManager, the AABB tree of the paper's implementation. Objects are
-/// registered once; update() writes the new boxes into them and refits the tree (FCL's `update()`
-/// without arguments); query_pairs() runs FCL's self-collide. The objects of each nonzero group
-/// (set_groups) live in a tree of their own that is only collided against the other trees, so a
-/// group's internal pairs are never enumerated. Single-threaded. FCL stays private
-/// to fcl_broad_phase.cpp, hence the opaque implementation.
-class FclBroadPhase final : public BroadPhase {
- public:
-  FclBroadPhase();
-  ~FclBroadPhase() override;
-  FclBroadPhase(const FclBroadPhase&) = delete;
-  FclBroadPhase& operator=(const FclBroadPhase&) = delete;
-
-  void build(std::span<const AABB> boxes) override;
-  void update(std::span<const AABB> boxes) override;
-  void query_pairs(std::vector<IndexPair>& out) override;
-  std::string_view name() const override { return "fcl"; }
-
- private:
-  struct Impl;
-  std::unique_ptr<Impl> impl_;
 };
 
 /// Throws ccfr::Error naming `who` and the first box whose bounds are not finite. Every broad
