@@ -9,7 +9,7 @@
 
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/geometry/mass_properties.hpp"
-#include "ccfr/solvers/materials.hpp"
+#include "ccfr/solvers/polar_decomposition.hpp"
 
 namespace ccfr {
 

@@ -10,8 +10,8 @@
 #include "ccfr/core/log.hpp"
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/geometry/aabb.hpp"
-#include "ccfr/solvers/materials.hpp"
 #include "ccfr/solvers/obstacles.hpp"
+#include "ccfr/solvers/polar_decomposition.hpp"
 #include "ccfr/solvers/step_bound.hpp"
 
 namespace ccfr {

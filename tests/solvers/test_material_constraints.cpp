@@ -9,7 +9,7 @@
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/geometry/generators.hpp"
-#include "ccfr/solvers/materials.hpp"
+#include "ccfr/solvers/material_system.hpp"
 #include "ccfr/solvers/params.hpp"
 #include "ccfr/solvers/scene.hpp"
 #include "component_files.hpp"

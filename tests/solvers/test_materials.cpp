@@ -10,12 +10,18 @@
 #include <numbers>
 #include <random>
 #include <set>
+#include <stdexcept>
 #include <string>
 
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/core/state.hpp"
 #include "ccfr/core/topology.hpp"
-#include "ccfr/solvers/materials.hpp"
+#include "ccfr/solvers/material_system.hpp"
+#include "ccfr/solvers/materials/dihedral_bending.hpp"
+#include "ccfr/solvers/materials/strand_bending.hpp"
+#include "ccfr/solvers/materials/stretch.hpp"
+#include "ccfr/solvers/materials/tet_elasticity.hpp"
+#include "ccfr/solvers/polar_decomposition.hpp"
 #include "test_support.hpp"
 
 namespace ccfr {
@@ -95,6 +101,14 @@ Mat3 rest_inverse_of(const std::array<Vec3, 4>& r) {
 
 // ---------------------------------------------------------------------------------------------
 // Gradients against finite differences
+
+/// The batch of the material constraint `name` as its type; fails the test when the scene has none.
+template <class B>
+const B& batch_of(const MaterialSystem& ms, std::string_view name) {
+  const auto* b = dynamic_cast<const B*>(ms.batch(name));
+  if (!b) throw std::runtime_error("no batch '" + std::string(name) + "' of that type");
+  return *b;
+}
 
 TEST(MaterialGradients, DihedralAngleMatchesFiniteDifferences) {
   auto g = test::rng(11);
@@ -658,10 +672,14 @@ void expect_valid_colouring(const std::vector<Eigen::Matrix<Index, N, 1>>& ids, 
 TEST(MaterialSystem, ColouringSeparatesDynamicVertices) {
   const auto s = make_mixed_scene();
   const MaterialSystem ms(s.topo, s.state, s.params);
-  expect_valid_colouring<2>(ms.distance().ids, ms.distance().colouring, s.state.inv_mass);
-  expect_valid_colouring<4>(ms.bending().ids, ms.bending().colouring, s.state.inv_mass);
-  expect_valid_colouring<3>(ms.strand_bending().ids, ms.strand_bending().colouring, s.state.inv_mass);
-  expect_valid_colouring<4>(ms.tets().ids, ms.tets().colouring, s.state.inv_mass);
+  expect_valid_colouring<2>(batch_of<DistanceBatch>(ms, "stretch").ids,
+                            batch_of<DistanceBatch>(ms, "stretch").colouring, s.state.inv_mass);
+  expect_valid_colouring<4>(batch_of<BendingBatch>(ms, "dihedral_bending").ids,
+                            batch_of<BendingBatch>(ms, "dihedral_bending").colouring, s.state.inv_mass);
+  expect_valid_colouring<3>(batch_of<StrandBendingBatch>(ms, "strand_bending").ids,
+                            batch_of<StrandBendingBatch>(ms, "strand_bending").colouring, s.state.inv_mass);
+  expect_valid_colouring<4>(batch_of<TetBatch>(ms, "tet_elasticity").ids,
+                            batch_of<TetBatch>(ms, "tet_elasticity").colouring, s.state.inv_mass);
 }
 
 TEST(MaterialSystem, RestStateIsAnEquilibrium) {
@@ -744,11 +762,15 @@ TEST(MaterialSystem, IslandScheduleIsBitIdenticalToColourByColour) {
       }
       for (size_t i = 0; i < xa.size(); ++i)
         ASSERT_EQ(xa[i], xb[i]) << "vertex " << i << ", n " << n << ", " << threads << " threads";
-      EXPECT_EQ(islands.distance().lambda, colours.distance().lambda);
-      EXPECT_EQ(islands.bending().lambda, colours.bending().lambda);
-      EXPECT_EQ(islands.strand_bending().lambda, colours.strand_bending().lambda);
-      EXPECT_EQ(islands.tets().lambda_volume, colours.tets().lambda_volume);
-      EXPECT_EQ(islands.tets().lambda_deviatoric, colours.tets().lambda_deviatoric);
+      EXPECT_EQ(batch_of<DistanceBatch>(islands, "stretch").lambda, batch_of<DistanceBatch>(colours, "stretch").lambda);
+      EXPECT_EQ(batch_of<BendingBatch>(islands, "dihedral_bending").lambda,
+                batch_of<BendingBatch>(colours, "dihedral_bending").lambda);
+      EXPECT_EQ(batch_of<StrandBendingBatch>(islands, "strand_bending").lambda,
+                batch_of<StrandBendingBatch>(colours, "strand_bending").lambda);
+      EXPECT_EQ(batch_of<TetBatch>(islands, "tet_elasticity").lambda_volume,
+                batch_of<TetBatch>(colours, "tet_elasticity").lambda_volume);
+      EXPECT_EQ(batch_of<TetBatch>(islands, "tet_elasticity").lambda_deviatoric,
+                batch_of<TetBatch>(colours, "tet_elasticity").lambda_deviatoric);
       // The sweeps did something: the comparison is not between two untouched copies.
       EXPECT_NE(xa, perturbed(s, 54));
     }
@@ -834,7 +856,7 @@ TEST(MaterialSystem, SweepsRestoreShapesAndKeepKinematicVertices) {
   }
   EXPECT_NEAR(v / v0, 1.0, 1e-3);
   // Strand bending brings the turning angles back toward the rest helix.
-  const auto& sb = ms.strand_bending();
+  const auto& sb = batch_of<StrandBendingBatch>(ms, "strand_bending");
   for (Index c = 0; c < sb.size(); ++c) {
     const Vec3i& id = sb.ids[c];
     EXPECT_NEAR(xpbd::turning_angle(x[id[0]], x[id[1]], x[id[2]]), sb.rest_angle[c], 0.05);

@@ -15,7 +15,7 @@
 #include "ccfr/geometry/generators.hpp"
 #include "ccfr/geometry/mass_properties.hpp"
 #include "ccfr/solvers/kinematics.hpp"
-#include "ccfr/solvers/materials.hpp"
+#include "ccfr/solvers/polar_decomposition.hpp"
 #include "ccfr/solvers/simulation.hpp"
 #include "test_support.hpp"
 

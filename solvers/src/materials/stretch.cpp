@@ -1,12 +1,32 @@
 // The material constraint `stretch`: edge lengths of cloth, shells and strands (DistanceBatch),
 // compliance materials.*.stretch_compliance. Solids keep their shape through tet_elasticity and
 // rigid bodies through shape matching, so their edges get none.
+#include "ccfr/solvers/materials/stretch.hpp"
+
+#include <algorithm>
+
 #include "ccfr/solvers/params.hpp"
-#include "ccfr/solvers/xpbd.hpp"
 
 #include "../builtin_materials.hpp"
 
 namespace ccfr {
+
+void DistanceBatch::add(Index i, Index j, double rest_length, double alpha) {
+  ids.emplace_back(i, j);
+  rest.push_back(rest_length);
+  compliance.push_back(alpha);
+  lambda.push_back(0.0);
+}
+
+void DistanceBatch::reset_multipliers() { std::fill(lambda.begin(), lambda.end(), 0.0); }
+
+void DistanceBatch::solve_in_order(std::span<const Index> order, Positions& x, std::span<const double> w, double dt) {
+  const double inv_dt2 = 1.0 / (dt * dt);
+  for (const Index c : order) {
+    const Index i = ids[c][0], j = ids[c][1];
+    xpbd::solve_distance(x[i], x[j], w[i], w[j], rest[c], compliance[c] * inv_dt2, lambda[c]);
+  }
+}
 
 void register_material_constraint_stretch(MaterialConstraintRegistry& registry) {
   registry.add({"stretch",

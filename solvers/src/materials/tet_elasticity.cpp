@@ -1,11 +1,115 @@
 // The material constraint `tet_elasticity`: volume and deviatoric (co-rotational) terms per tet of
 // tet solids (TetBatch), compliances materials.*.volume_compliance (1/λ) and shear_compliance (1/μ).
+#include "ccfr/solvers/materials/tet_elasticity.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/LU>
+
 #include "ccfr/core/log.hpp"
-#include "ccfr/solvers/materials.hpp"
+#include "ccfr/solvers/params.hpp"
+#include "ccfr/solvers/polar_decomposition.hpp"
 
 #include "../builtin_materials.hpp"
 
 namespace ccfr {
+
+namespace xpbd {
+
+double tet_six_volume(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Vec3& x3) {
+  return (x1 - x0).dot((x2 - x0).cross(x3 - x0));
+}
+
+double tet_volume_constraint(const std::array<Vec3, 4>& x, double rest_volume, std::array<Vec3, 4>& grad) {
+  const Vec3 d1 = x[1] - x[0], d2 = x[2] - x[0], d3 = x[3] - x[0];
+  grad[1] = d2.cross(d3);
+  grad[2] = d3.cross(d1);
+  grad[3] = d1.cross(d2);
+  grad[0] = -grad[1] - grad[2] - grad[3];
+  return d1.dot(grad[1]) - 6.0 * rest_volume;
+}
+
+void solve_tet_volume(const std::array<Vec3*, 4>& x, const std::array<double, 4>& w, double rest_volume,
+                      double alpha_tilde, double& lambda) {
+  std::array<Vec3, 4> g;
+  const double c = tet_volume_constraint({*x[0], *x[1], *x[2], *x[3]}, rest_volume, g);
+  apply_update<4>(x, w, g, c, alpha_tilde, lambda);
+}
+
+bool tet_deviatoric_constraint(const std::array<Vec3, 4>& x, const Eigen::Matrix3d& rest_inverse, double& c,
+                               std::array<Vec3, 4>& grad) {
+  Eigen::Matrix3d ds;
+  ds.col(0) = x[1] - x[0];
+  ds.col(1) = x[2] - x[0];
+  ds.col(2) = x[3] - x[0];
+  const Eigen::Matrix3d f = ds * rest_inverse;
+  if (!f.allFinite()) return false;
+  // Newton instead of the SVD: the material stage of tet scenes is dominated by this (issue 13).
+  const Eigen::Matrix3d diff = f - polar_rotation_newton(f);
+  const double norm = diff.norm();
+  // At (or within round-off of) a rotation the constraint holds and its direction is undefined.
+  if (!(norm > 1e-14)) return false;
+  c = norm;
+  const Eigen::Matrix3d h = (diff / norm) * rest_inverse.transpose();
+  grad[1] = h.col(0);
+  grad[2] = h.col(1);
+  grad[3] = h.col(2);
+  grad[0] = -grad[1] - grad[2] - grad[3];
+  return true;
+}
+
+void solve_tet_deviatoric(const std::array<Vec3*, 4>& x, const std::array<double, 4>& w,
+                          const Eigen::Matrix3d& rest_inverse, double alpha_tilde, double& lambda) {
+  double c = 0.0;
+  std::array<Vec3, 4> g;
+  if (!tet_deviatoric_constraint({*x[0], *x[1], *x[2], *x[3]}, rest_inverse, c, g)) return;
+  apply_update<4>(x, w, g, c, alpha_tilde, lambda);
+}
+
+}  // namespace xpbd
+
+// ---- TetBatch -----------------------------------------------------------------------------------
+
+bool TetBatch::add(const Vec4i& v, const Positions& rest, double volume_compliance_per_volume,
+                   double shear_compliance_per_volume) {
+  Eigen::Matrix3d dm;
+  dm.col(0) = rest[v[1]] - rest[v[0]];
+  dm.col(1) = rest[v[2]] - rest[v[0]];
+  dm.col(2) = rest[v[3]] - rest[v[0]];
+  const double six_v = dm.determinant();
+  // Scale-free degeneracy test: 6V against the cube of the longest edge of the rest tet.
+  double lmax = std::max({dm.col(0).norm(), dm.col(1).norm(), dm.col(2).norm(), (dm.col(1) - dm.col(0)).norm(),
+                          (dm.col(2) - dm.col(0)).norm(), (dm.col(2) - dm.col(1)).norm()});
+  if (!(std::abs(six_v) > 1e-12 * lmax * lmax * lmax)) return false;
+  const double v0 = six_v / 6.0;
+  ids.push_back(v);
+  rest_volume.push_back(v0);
+  rest_inverse.push_back(dm.inverse());
+  // Energy densities λ/2 (J-1)² and μ/2 ‖F-R‖² integrated over V_0 give these per-tet compliances,
+  // so the stiffness does not depend on the mesh resolution.
+  volume_compliance.push_back(36.0 * std::abs(v0) * volume_compliance_per_volume);
+  deviatoric_compliance.push_back(shear_compliance_per_volume / std::abs(v0));
+  lambda_volume.push_back(0.0);
+  lambda_deviatoric.push_back(0.0);
+  return true;
+}
+
+void TetBatch::reset_multipliers() {
+  std::fill(lambda_volume.begin(), lambda_volume.end(), 0.0);
+  std::fill(lambda_deviatoric.begin(), lambda_deviatoric.end(), 0.0);
+}
+
+void TetBatch::solve_in_order(std::span<const Index> order, Positions& x, std::span<const double> w, double dt) {
+  const double inv_dt2 = 1.0 / (dt * dt);
+  for (const Index c : order) {
+    const Vec4i& v = ids[c];
+    const std::array<Vec3*, 4> p{&x[v[0]], &x[v[1]], &x[v[2]], &x[v[3]]};
+    const std::array<double, 4> wv{w[v[0]], w[v[1]], w[v[2]], w[v[3]]};
+    xpbd::solve_tet_deviatoric(p, wv, rest_inverse[c], deviatoric_compliance[c] * inv_dt2, lambda_deviatoric[c]);
+    xpbd::solve_tet_volume(p, wv, rest_volume[c], volume_compliance[c] * inv_dt2, lambda_volume[c]);
+  }
+}
 
 void register_material_constraint_tet_elasticity(MaterialConstraintRegistry& registry) {
   registry.add({"tet_elasticity",

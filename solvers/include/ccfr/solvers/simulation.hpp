@@ -14,9 +14,8 @@
 #include "ccfr/core/error.hpp"
 #include "ccfr/solvers/contact_solver.hpp"
 #include "ccfr/solvers/frame_stats.hpp"
-#include "ccfr/solvers/materials.hpp"
+#include "ccfr/solvers/material_system.hpp"
 #include "ccfr/solvers/scene.hpp"
-#include "ccfr/solvers/xpbd.hpp"
 
 namespace ccfr {
 

@@ -1,54 +1,38 @@
 #pragma once
 /// @file xpbd.hpp
-/// XPBD material constraints as batches (struct of arrays per type) with stateless kernels.
-/// Batches are graph-coloured once from the static topology: constraints of one colour share no
-/// vertex and are solved in parallel, colours in sequence (Gauss-Seidel across colours), which is
-/// deterministic for any thread count.
-#include <span>
-#include <vector>
+/// The XPBD update of one scalar constraint (Macklin et al. 2016, Eq. 18), which every material
+/// constraint's kernel applies:
+/// \f[ \Delta\lambda = \frac{-C - \tilde\alpha\lambda}{\sum_i w_i \|\nabla_i C\|^2 + \tilde\alpha}, \qquad
+///     \mathbf{x}_i \mathrel{+}= w_i \nabla_i C\, \Delta\lambda, \qquad \tilde\alpha = \alpha / \Delta t^2 \f]
+/// It writes only vertices with \f$w_i > 0\f$, so kinematic vertices shared by constraints of one
+/// colour are never written concurrently. Each constraint lives beside its math in
+/// ccfr/solvers/materials/<key>.hpp (C(x), gradient, kernel, batch); the batches and their colouring
+/// in material_constraint.hpp, the system that sweeps them in material_system.hpp. Degenerate
+/// configurations (zero-area triangles, collinear strand points, collapsed tets) skip the update
+/// instead of producing NaN. See docs/materials.md.
+#include <array>
 
 #include "ccfr/core/types.hpp"
-#include "ccfr/solvers/material_constraint.hpp"
 
 namespace ccfr {
 
 namespace xpbd {
 
-/// Distance constraint \f$C = \|\mathbf{x}_i - \mathbf{x}_j\| - L\f$ with compliance \f$\alpha\f$:
-/// \f$\Delta\lambda = (-C - \tilde\alpha\lambda)/(w_i + w_j + \tilde\alpha)\f$, \f$\tilde\alpha = \alpha/\Delta t^2\f$
-/// (Macklin et al. 2016, Eq. 18). Updates x_i, x_j and λ in place.
-inline void solve_distance(Vec3& xi, Vec3& xj, double wi, double wj, double rest, double alpha_tilde, double& lambda) {
-  const double wsum = wi + wj + alpha_tilde;
-  if (wsum <= 0.0) return;
-  Vec3 d = xi - xj;
-  const double len = d.norm();
-  if (len < 1e-12) return;  // direction undefined: leave to neighbouring constraints
-  d /= len;
-  const double c = len - rest;
-  const double dl = (-c - alpha_tilde * lambda) / wsum;
+/// Applies one XPBD update for a scalar constraint of `N` vertices given its value and gradient.
+/// Returns Δλ (0 when every vertex is kinematic or the gradient vanishes).
+template <int N>
+double apply_update(const std::array<Vec3*, N>& x, const std::array<double, N>& w, const std::array<Vec3, N>& grad,
+                    double c, double alpha_tilde, double& lambda) {
+  double denom = alpha_tilde;
+  for (int k = 0; k < N; ++k) denom += w[k] * grad[k].squaredNorm();
+  if (!(denom > 0.0)) return 0.0;
+  const double dl = (-c - alpha_tilde * lambda) / denom;
   lambda += dl;
-  // Kinematic vertices (w = 0) may be shared within a colour: never write them.
-  if (wi > 0.0) xi += wi * dl * d;
-  if (wj > 0.0) xj -= wj * dl * d;
+  for (int k = 0; k < N; ++k)
+    if (w[k] > 0.0) *x[k] += (w[k] * dl) * grad[k];
+  return dl;
 }
 
 }  // namespace xpbd
-
-/// A colour of a distance batch is split into parallel tasks only beyond this many constraints;
-/// smaller colours run inline on the calling thread.
-inline constexpr Index kDistanceGrain = 512;
-
-/// Edge length constraints (the material constraint `stretch`).
-struct DistanceBatch final : FixedArityBatch<2> {
-  std::vector<double> rest;
-  std::vector<double> compliance;
-  std::vector<double> lambda;
-
-  void add(Index i, Index j, double rest_length, double alpha);
-  void reset_multipliers() override;
-  void solve_in_order(std::span<const Index> order, Positions& x, std::span<const double> inv_mass, double dt) override;
-  Index grain() const override { return kDistanceGrain; }
-  int sweep_rank() const override { return 10; }
-};
 
 }  // namespace ccfr
