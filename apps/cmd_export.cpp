@@ -40,7 +40,7 @@ std::string viewer_command(const std::vector<std::string>& formats, const std::f
 void register_export(CLI::App& app) {
   auto opts = std::make_shared<ExportOptions>();
   std::string names;
-  for (const auto& n : io::output_format_names()) names += (names.empty() ? "" : ", ") + n;
+  for (const auto& n : io::frame_writer_names()) names += (names.empty() ? "" : ", ") + n;
   auto* cmd = app.add_subcommand("export", "Write a run's frames in other formats (" + names + ")");
   cmd->add_option("dir", opts->dir, "Run directory (with run.json and frames/frame_*.obj)")->required();
   cmd->add_option("--format,-f", opts->formats, "Formats, comma-separated or repeated: " + names)

@@ -19,7 +19,7 @@ TEST(FrameWriterFiles, EveryFileUnderFrameWritersIsTheRegisteredWriterOfItsName)
     EXPECT_NE(f.text.find("void register_frame_writer_" + f.key + "("), std::string::npos) << f.path;
     EXPECT_NE(f.text.find("\"" + f.key + "\""), std::string::npos) << f.path;
   }
-  EXPECT_EQ(io::output_format_names(), test::keys_of(files));
+  EXPECT_EQ(io::frame_writer_names(), test::keys_of(files));
   const Topology empty;
   for (const auto& f : files) EXPECT_NE(io::make_frame_sink(f.key, io::FrameSinkContext{empty}), nullptr) << f.key;
 }

@@ -25,14 +25,14 @@ FrameWriterRegistry& frame_writers() {
   return registry;
 }
 
-std::vector<std::string> output_format_names() { return frame_writers().names(); }
+std::vector<std::string> frame_writer_names() { return frame_writers().names(); }
 
 std::vector<std::string> parse_output_formats(const std::vector<std::string>& names) {
   std::vector<std::string> out;
   for (const auto& n : names) {
     if (!frame_writers().find(n)) {
       std::string list;
-      for (const auto& k : output_format_names()) list += (list.empty() ? "" : ", ") + k;
+      for (const auto& k : frame_writer_names()) list += (list.empty() ? "" : ", ") + k;
       throw Error("unknown output format '" + n + "' (supported: " + list + ")");
     }
     if (std::find(out.begin(), out.end(), n) == out.end()) out.push_back(n);

@@ -190,7 +190,7 @@ bool is_run_entry(const std::string& n) {
   for (const char* k : kNames)
     if (is(k)) return true;
   // A frame writer added to the registry writes into the folder named by its key (docs/extending.md).
-  for (const auto& k : output_format_names())
+  for (const auto& k : frame_writer_names())
     if (is(k)) return true;
   return false;
 }

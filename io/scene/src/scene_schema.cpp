@@ -202,7 +202,7 @@ const scene::Section<OutputParams>& output_section() {
           // list is refused there, with the key's line)
           .other("formats", list("formats of the frames; absent: [obj]; each one of the registered frame "
                                  "writers (table of output formats below)",
-                                 choice("obj", output_format_names, "an output format")));
+                                 choice("obj", frame_writer_names, "an output format")));
   return s;
 }
 

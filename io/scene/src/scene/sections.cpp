@@ -77,7 +77,7 @@ void read_output(const Input& in, OutputParams& o) {
     for (size_t k = 0; k < fm.size(); ++k) o.formats.push_back(fm[k].as<std::string>());
     if (o.formats.empty()) {
       std::string names;  // the schema's choices
-      for (const auto& n : output_format_names()) names += (names.empty() ? "" : ", ") + n;
+      for (const auto& n : frame_writer_names()) names += (names.empty() ? "" : ", ") + n;
       in.ctx.fail("output.formats", in.in_node("output.formats"), "list at least one format (" + names + ")");
     }
   }

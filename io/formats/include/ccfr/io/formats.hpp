@@ -40,7 +40,7 @@ using FrameWriterRegistry = Registry<FrameSink, const FrameSinkContext&>;
 FrameWriterRegistry& frame_writers();
 
 /// Names accepted by `output.formats` and `ccfr export --format`: the registered writers.
-std::vector<std::string> output_format_names();
+std::vector<std::string> frame_writer_names();
 /// Checks a list of names ("obj", "vtu", ...) against the registry, dropping repeats; throws
 /// ccfr::Error naming the unknown one and the registered ones.
 std::vector<std::string> parse_output_formats(const std::vector<std::string>& names);
