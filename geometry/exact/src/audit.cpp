@@ -490,25 +490,27 @@ struct PenetrationAudit::Scan {
     const Vec3i& fv = audit_.topo_.faces[f];
     if (edge_face_share(ev, fv)) return;
     if (!segment_triangle_intersect(x_[ev[0]], x_[ev[1]], x_[fv[0]], x_[fv[1]], x_[fv[2]])) return;
-    const std::uint64_t k = key(0, e, f);
-    if (ranges_.reference_pass) {
-      st.push_back(k);
-    } else if (!contains(audit_.excluded_st_, k)) {
-      count(result.segment_crossings);
-      example(AuditExample::Kind::segment_triangle, e, f, 0.0);
-    }
+    crossing(key(0, e, f), st, audit_.excluded_st_, result.segment_crossings, AuditExample::Kind::segment_triangle, e,
+             f);
   }
 
   void triangle_triangle(Index f, Index g) {
     const Vec3i &fv = audit_.topo_.faces[f], &gv = audit_.topo_.faces[g];
     if (faces_share(fv, gv)) return;  // do_intersect is slowest exactly on these
     if (!triangles_intersect(x_[fv[0]], x_[fv[1]], x_[fv[2]], x_[gv[0]], x_[gv[1]], x_[gv[2]])) return;
-    const std::uint64_t k = key(0, f, g);
+    crossing(key(0, f, g), tt, audit_.excluded_tt_, result.triangle_intersections,
+             AuditExample::Kind::triangle_triangle, f, g);
+  }
+
+  /// Elements a and b cross (key k): the reference pass records the key, a later pass counts
+  /// the crossing unless the reference excluded it.
+  void crossing(std::uint64_t k, std::vector<std::uint64_t>& reference_keys, const std::vector<std::uint64_t>& excluded,
+                Index& counter, AuditExample::Kind kind, Index a, Index b) {
     if (ranges_.reference_pass) {
-      tt.push_back(k);
-    } else if (!contains(audit_.excluded_tt_, k)) {
-      count(result.triangle_intersections);
-      example(AuditExample::Kind::triangle_triangle, f, g, 0.0);
+      reference_keys.push_back(k);
+    } else if (!contains(excluded, k)) {
+      count(counter);
+      example(kind, a, b, 0.0);
     }
   }
 
