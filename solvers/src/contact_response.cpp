@@ -297,7 +297,181 @@ double approach(const ContactPair& c, int k, const Positions& x, const Positions
   const double along = c.n.dot(x[c.v[k]] - anchor[c.v[k]]);
   return k < c.side_a() ? -along : along;
 }
+
+/// What the pull-back of one overlapping contact reads and writes.
+struct PullBack {
+  std::span<const double> inv_mass;  ///< #V
+  std::span<const Index> count;      ///< per vertex < nv: its overlapping contacts this sweep
+  Index nv = 0;
+  double excess = 0.0;      ///< E: the contact's overlap
+  double w_o = 0.0;         ///< inverse mass of an other side that answers in its own solve; 0: none
+  Vec3* corr = nullptr;     ///< the contact's 4 correction slots
+  double* given = nullptr;  ///< the contact's give so far of a self-answering side (read only when w_o > 0)
+};
+
+/// Barycentric sweeps: the closest points' overlap split in proportion to each vertex's
+/// w_k² m_k⁻¹ (its split mass, n_k contacts), the self-answering side taking its w_o share.
+void barycentric_pull_back(const ContactPair& c, const PullBack& p) {
+  const int nk = c.size();
+  double wsum = p.w_o;
+  for (int k = 0; k < nk; ++k) {
+    const Index v = c.v[k];
+    if (v < p.nv && p.inv_mass[v] > 0.0)
+      wsum += static_cast<double>(std::max<Index>(1, p.count[v])) * c.w[k] * c.w[k] * p.inv_mass[v];
+  }
+  if (p.w_o > 0.0 && wsum > 0.0) *p.given += p.w_o * p.excess / wsum;
+  for (int k = 0; k < nk; ++k) {
+    const Index v = c.v[k];
+    p.corr[k] = wsum > 0.0 && v < p.nv && p.inv_mass[v] > 0.0
+                    ? Vec3((static_cast<double>(p.count[v]) * p.inv_mass[v] * c.w[k] * p.excess / wsum) * c.n)
+                    : Vec3::Zero();
+  }
+}
+
+/// Vertex sweeps: the share s of E that balances the momentum of the two sides' pull-backs, each
+/// vertex with its split mass m_k / n_k (an unpinned rigid body on the other side with 1 / w_o
+/// at its closest point; a side with an immovable vertex does not give way), then each vertex's
+/// pull-back along n.
+void vertex_pull_back(const ContactPair& c, const PullBack& p, const Positions& x, const Positions& anchor) {
+  const int na = c.side_a(), nk = c.size();
+  const double excess = p.excess, w_o = p.w_o;
+  double app[4], mass[4], a[2] = {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+  bool fixed[2] = {false, false}, free[2] = {false, false};
+  for (int k = 0; k < nk; ++k) {
+    const Index v = c.v[k];
+    const int side = k < na ? 0 : 1;
+    app[k] = approach(c, k, x, anchor);
+    a[side] = std::max(a[side], app[k]);
+    if (p.inv_mass[v] > 0.0) {
+      free[side] = true;
+      mass[k] = 1.0 / (p.inv_mass[v] * static_cast<double>(std::max<Index>(1, v < p.nv ? p.count[v] : 1)));
+    } else {
+      fixed[side] = true;
+      mass[k] = 0.0;
+    }
+  }
+  // Momentum of side's pull-back at share t of E (its vertices beyond a_side - t E).
+  auto pulled = [&](int side, double t) {
+    if (!free[side] && w_o > 0.0) return t * excess / w_o;  // a rigid body answering for itself
+    double m = 0.0;
+    for (int k = side == 0 ? 0 : na; k < (side == 0 ? na : nk); ++k)
+      m += mass[k] * std::max(0.0, app[k] - a[side] + t * excess);
+    return m;
+  };
+  const bool gives[2] = {free[0] && !fixed[0], free[1] && !fixed[1]};
+  auto answers = [&](int side) { return gives[side] || (!free[side] && w_o > 0.0); };
+  double share = gives[0] ? 1.0 : 0.0;  // one side gives way, the other cannot
+  if (!gives[0] && !gives[1]) {
+    share = -1.0;  // neither can
+  } else if (answers(0) && answers(1)) {
+    double lo = 0.0, hi = 1.0;  // pulled(A, s) - pulled(B, 1 - s) rises from <= 0 to >= 0
+    for (int it = 0; it < 48; ++it) {
+      const double mid = 0.5 * (lo + hi);
+      (pulled(0, mid) < pulled(1, 1.0 - mid) ? lo : hi) = mid;
+    }
+    share = 0.5 * (lo + hi);
+    for (int side = 0; side < 2; ++side)
+      if (!free[side] && w_o > 0.0) *p.given += (side == 0 ? share : 1.0 - share) * excess;
+  }
+  for (int k = 0; k < nk; ++k) {
+    const int side = k < na ? 0 : 1;
+    const double t = side == 0 ? share : 1.0 - share;
+    const double back = share < 0.0 || !(p.inv_mass[c.v[k]] > 0.0) ? 0.0 : std::max(0.0, app[k] - a[side] + t * excess);
+    // Side A gives way along +n, side B along -n.
+    p.corr[k] = (side == 0 ? back : -back) * c.n;
+  }
+}
 }  // namespace
+
+Index ContactResponse::mark_overlaps(const Positions& x, const Positions& anchor, std::span<const double> inv_mass,
+                                     bool barycentric) {
+  auto given = [&](Index ci) { return separate_given_.empty() ? 0.0 : separate_given_[static_cast<size_t>(ci)]; };
+  std::atomic<Index> closed{0};
+  parallel_for(
+      static_cast<Index>(contacts_.size()),
+      [&](Index b, Index e) {
+        Index local = 0;
+        for (Index ci = b; ci < e; ++ci) {
+          const ContactPair& c = contacts_[ci];
+          double& excess = separate_dl_[static_cast<size_t>(ci)];
+          excess = 0.0;
+          if (c.neighbours) continue;
+          double a[2] = {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+          bool moves = false;
+          Vec3 at = Vec3::Zero();
+          for (int k = 0; k < c.size(); ++k) {
+            a[k < c.side_a() ? 0 : 1] = std::max(a[k < c.side_a() ? 0 : 1], approach(c, k, x, anchor));
+            moves = moves || inv_mass[c.v[k]] > 0.0;
+            at += c.w[k] * (x[c.v[k]] - anchor[c.v[k]]);
+          }
+          // Barycentric sweeps: the closest points' approach; then every vertex's. Overlaps
+          // below 1e-9 of the offset are rounding, left to the planes.
+          const double e_c =
+              (barycentric ? -(c.distance - c.offset + c.n.dot(at)) : a[0] + a[1] - (c.distance - c.offset)) -
+              given(ci);
+          if (!moves || !(e_c > 1e-9 * c.offset)) continue;
+          excess = e_c;
+          ++local;
+        }
+        closed += local;
+      },
+      2048);
+  return closed.load();
+}
+
+void ContactResponse::count_overlaps(Index nv, std::span<const double> inv_mass) {
+  parallel_for(
+      nv,
+      [&](Index b, Index e) {
+        for (Index v = b; v < e; ++v) {
+          Index cnt = 0;
+          if (inv_mass[v] > 0.0)
+            for (Index q = row_start_[v]; q < row_start_[v + 1]; ++q) cnt += separate_dl_[slots_[q] / 4] != 0.0;
+          separate_count_[v] = cnt;
+        }
+      },
+      4096);
+}
+
+void ContactResponse::pull_back(const Positions& x, const Positions& anchor, std::span<const double> inv_mass, Index nv,
+                                bool barycentric, std::span<const double> other_inverse_mass) {
+  parallel_for(
+      static_cast<Index>(contacts_.size()),
+      [&](Index b, Index e) {
+        for (Index ci = b; ci < e; ++ci) {
+          const double excess = separate_dl_[static_cast<size_t>(ci)];
+          if (excess == 0.0) continue;
+          PullBack p;
+          p.inv_mass = inv_mass;
+          p.count = separate_count_;
+          p.nv = nv;
+          p.excess = excess;
+          p.w_o = other_inverse_mass.empty() ? 0.0 : other_inverse_mass[static_cast<size_t>(ci)];
+          p.corr = &corr_[static_cast<size_t>(ci) * 4];
+          p.given = separate_given_.empty() ? nullptr : &separate_given_[static_cast<size_t>(ci)];
+          if (barycentric)
+            barycentric_pull_back(contacts_[ci], p);
+          else
+            vertex_pull_back(contacts_[ci], p, x, anchor);
+        }
+      },
+      2048);
+}
+
+void ContactResponse::move_by_mean(Positions& x, std::span<const double> inv_mass, Index nv) const {
+  parallel_for(
+      nv,
+      [&](Index b, Index e) {
+        for (Index v = b; v < e; ++v) {
+          if (!(inv_mass[v] > 0.0) || separate_count_[v] == 0) continue;
+          Vec3 sum = Vec3::Zero();
+          for (Index q = row_start_[v]; q < row_start_[v + 1]; ++q)
+            if (separate_dl_[slots_[q] / 4] != 0.0) sum += corr_[slots_[q]];
+          x[v] += sum / static_cast<double>(separate_count_[v]);
+        }
+      },
+      4096);
+}
 
 Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span<const double> inv_mass, int sweeps,
                                 std::span<const double> other_inverse_mass) {
@@ -311,156 +485,25 @@ Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span
   // Per contact: how far a side that answers in its own solve (w_o > 0, not moved here) has given
   // way so far, so that later sweeps leave it its share instead of handing it to the other side.
   separate_given_.assign(other_inverse_mass.empty() ? 0 : static_cast<size_t>(n), 0.0);
-  auto given = [&](Index ci) { return separate_given_.empty() ? 0.0 : separate_given_[static_cast<size_t>(ci)]; };
   Index most = 0;
   const int first_vertex_sweep = sweeps * 3 / 4;
   for (int sweep = 0; sweep < sweeps; ++sweep) {
     const bool barycentric = sweep < first_vertex_sweep;
     // Overlapping contacts of this sweep: separate_dl_ holds E (0: none).
-    std::atomic<Index> closed{0};
-    parallel_for(
-        n,
-        [&](Index b, Index e) {
-          Index local = 0;
-          for (Index ci = b; ci < e; ++ci) {
-            const ContactPair& c = contacts_[ci];
-            double& excess = separate_dl_[static_cast<size_t>(ci)];
-            excess = 0.0;
-            if (c.neighbours) continue;
-            double a[2] = {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
-            bool moves = false;
-            Vec3 at = Vec3::Zero();
-            for (int k = 0; k < c.size(); ++k) {
-              a[k < c.side_a() ? 0 : 1] = std::max(a[k < c.side_a() ? 0 : 1], approach(c, k, x, anchor));
-              moves = moves || inv_mass[c.v[k]] > 0.0;
-              at += c.w[k] * (x[c.v[k]] - anchor[c.v[k]]);
-            }
-            // Barycentric sweeps: the closest points' approach; then every vertex's. Overlaps
-            // below 1e-9 of the offset are rounding, left to the planes.
-            const double e_c =
-                (barycentric ? -(c.distance - c.offset + c.n.dot(at)) : a[0] + a[1] - (c.distance - c.offset)) -
-                given(ci);
-            if (!moves || !(e_c > 1e-9 * c.offset)) continue;
-            excess = e_c;
-            ++local;
-          }
-          closed += local;
-        },
-        2048);
-    most = std::max(most, closed.load());
-    if (closed.load() == 0) {
+    const Index closed = mark_overlaps(x, anchor, inv_mass, barycentric);
+    most = std::max(most, closed);
+    if (closed == 0) {
       if (!barycentric) break;
       sweep = first_vertex_sweep - 1;  // the closest points are apart: on to every vertex's approach
       continue;
     }
     // Active contacts per vertex, read through the vertex -> contact-slot incidence.
-    parallel_for(
-        nv,
-        [&](Index b, Index e) {
-          for (Index v = b; v < e; ++v) {
-            Index cnt = 0;
-            if (inv_mass[v] > 0.0)
-              for (Index q = row_start_[v]; q < row_start_[v + 1]; ++q) cnt += separate_dl_[slots_[q] / 4] != 0.0;
-            separate_count_[v] = cnt;
-          }
-        },
-        4096);
-    // Per contact: the share s that balances the momentum of the two sides' pull-backs, each
-    // vertex with its split mass m_k / n_k (an unpinned rigid body on the other side with
-    // 1 / w_o at its closest point; a side with an immovable vertex does not give way), then
-    // each vertex's pull-back along n.
-    parallel_for(
-        n,
-        [&](Index b, Index e) {
-          for (Index ci = b; ci < e; ++ci) {
-            const double excess = separate_dl_[static_cast<size_t>(ci)];
-            if (excess == 0.0) continue;
-            const ContactPair& c = contacts_[ci];
-            const int na = c.side_a(), nk = c.size();
-            const double w_o = other_inverse_mass.empty() ? 0.0 : other_inverse_mass[static_cast<size_t>(ci)];
-            if (barycentric) {
-              double wsum = w_o;
-              for (int k = 0; k < nk; ++k) {
-                const Index v = c.v[k];
-                if (v < nv && inv_mass[v] > 0.0)
-                  wsum += static_cast<double>(std::max<Index>(1, separate_count_[v])) * c.w[k] * c.w[k] * inv_mass[v];
-              }
-              if (w_o > 0.0 && wsum > 0.0) separate_given_[static_cast<size_t>(ci)] += w_o * excess / wsum;
-              for (int k = 0; k < nk; ++k) {
-                const Index v = c.v[k];
-                corr_[static_cast<size_t>(ci) * 4 + k] =
-                    wsum > 0.0 && v < nv && inv_mass[v] > 0.0
-                        ? Vec3((static_cast<double>(separate_count_[v]) * inv_mass[v] * c.w[k] * excess / wsum) * c.n)
-                        : Vec3::Zero();
-              }
-              continue;
-            }
-            double app[4], mass[4],
-                a[2] = {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
-            bool fixed[2] = {false, false}, free[2] = {false, false};
-            for (int k = 0; k < nk; ++k) {
-              const Index v = c.v[k];
-              const int side = k < na ? 0 : 1;
-              app[k] = approach(c, k, x, anchor);
-              a[side] = std::max(a[side], app[k]);
-              if (inv_mass[v] > 0.0) {
-                free[side] = true;
-                mass[k] =
-                    1.0 / (inv_mass[v] * static_cast<double>(std::max<Index>(1, v < nv ? separate_count_[v] : 1)));
-              } else {
-                fixed[side] = true;
-                mass[k] = 0.0;
-              }
-            }
-            // Momentum of side's pull-back at share t of E (its vertices beyond a_side - t E).
-            auto pulled = [&](int side, double t) {
-              if (!free[side] && w_o > 0.0) return t * excess / w_o;  // a rigid body answering for itself
-              double m = 0.0;
-              for (int k = side == 0 ? 0 : na; k < (side == 0 ? na : nk); ++k)
-                m += mass[k] * std::max(0.0, app[k] - a[side] + t * excess);
-              return m;
-            };
-            const bool gives[2] = {free[0] && !fixed[0], free[1] && !fixed[1]};
-            auto answers = [&](int side) { return gives[side] || (!free[side] && w_o > 0.0); };
-            double share = gives[0] ? 1.0 : 0.0;  // one side gives way, the other cannot
-            if (!gives[0] && !gives[1]) {
-              share = -1.0;  // neither can
-            } else if (answers(0) && answers(1)) {
-              double lo = 0.0, hi = 1.0;  // pulled(A, s) - pulled(B, 1 - s) rises from <= 0 to >= 0
-              for (int it = 0; it < 48; ++it) {
-                const double mid = 0.5 * (lo + hi);
-                (pulled(0, mid) < pulled(1, 1.0 - mid) ? lo : hi) = mid;
-              }
-              share = 0.5 * (lo + hi);
-              for (int side = 0; side < 2; ++side)
-                if (!free[side] && w_o > 0.0)
-                  separate_given_[static_cast<size_t>(ci)] += (side == 0 ? share : 1.0 - share) * excess;
-            }
-            for (int k = 0; k < nk; ++k) {
-              const int side = k < na ? 0 : 1;
-              const double t = side == 0 ? share : 1.0 - share;
-              const double back =
-                  share < 0.0 || !(inv_mass[c.v[k]] > 0.0) ? 0.0 : std::max(0.0, app[k] - a[side] + t * excess);
-              // Side A gives way along +n, side B along -n.
-              corr_[static_cast<size_t>(ci) * 4 + k] = (side == 0 ? back : -back) * c.n;
-            }
-          }
-        },
-        2048);
+    count_overlaps(nv, inv_mass);
+    // Per contact: each vertex's pull-back (barycentric_pull_back, vertex_pull_back).
+    pull_back(x, anchor, inv_mass, nv, barycentric, other_inverse_mass);
     // Each vertex moves by the mean of its contacts' pull-backs: with split masses every contact
     // is balanced, so Σ_k (m_k / n_k) Σ_c Δx_k^c = 0 stays after the mean.
-    parallel_for(
-        nv,
-        [&](Index b, Index e) {
-          for (Index v = b; v < e; ++v) {
-            if (!(inv_mass[v] > 0.0) || separate_count_[v] == 0) continue;
-            Vec3 sum = Vec3::Zero();
-            for (Index q = row_start_[v]; q < row_start_[v + 1]; ++q)
-              if (separate_dl_[slots_[q] / 4] != 0.0) sum += corr_[slots_[q]];
-            x[v] += sum / static_cast<double>(separate_count_[v]);
-          }
-        },
-        4096);
+    move_by_mean(x, inv_mass, nv);
   }
   return most;
 }

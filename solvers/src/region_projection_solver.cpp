@@ -169,7 +169,7 @@ SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& ancho
     options.plane_contact = plane_contact;
     options.plane_repel = plane_repel;
     const RigidEnforceStats rs =
-        rigid_.enforce(x, anchor, regions_, *projector_, ctx.params.contact.radius, ctx.params.time.advance_tolerance,
+        rigid_.enforce(x, anchor, regions_, ctx.params.contact.radius, ctx.params.time.advance_tolerance,
                        rigid_.predicted_cores(state, ctx.dt, ctx.params.time.gravity), options);
     r.violations_detected += rs.vertices_violated;
     r.halted_vertices += rs.vertices_halted;

@@ -161,331 +161,404 @@ double angle_between(const Eigen::Quaterniond& from, const Eigen::Quaterniond& t
   return 2.0 * std::atan2(d.vec().norm(), std::abs(d.w()));
 }
 
+/// The pair data of plane q: asked of the caller, or read from its per-plane spans.
+RigidPlaneContact pair_of(const RigidContactOptions& options, Index q) {
+  if (options.plane_contact) return options.plane_contact(q);
+  const size_t s = static_cast<size_t>(q);
+  RigidPlaneContact p;
+  p.repel = options.repulsion_target.empty() ? options.repulsion_range : options.repulsion_target[s];
+  p.other_w = options.repulsion_other.empty() ? 0.0 : options.repulsion_other[s];
+  p.other_motion = options.other_motion.empty() ? Vec3::Zero() : options.other_motion[s];
+  p.other_wt = options.friction_other.empty() ? 0.0 : options.friction_other[s];
+  return p;
+}
+
 }  // namespace
 
+/// One body's placement in one enforce() pass. Its contacts are resolved in the body's pose space
+/// (Müller et al. 2020, positional constraints with generalized inverse masses): projected
+/// Gauss-Seidel on the pose's kinetic metric, rotation linearized about the current pose and
+/// re-linearized after every correction, the inverse inertia once per sweep. A pose the exact
+/// check rejects falls back to a line search from the anchor pose, or halts the body there.
+class RigidBodies::PoseSolver {
+ public:
+  /// `mass`: the vertices' mass plus the core (kg). Lengths are in the units of the positions.
+  PoseSolver(const Body& b, Workspace& ws, const Positions& anchor, const RegionSet& regions,
+             const RigidContactOptions& options, double step_bound, double mass)
+      : b_(b),
+        ws_(ws),
+        anchor_(anchor),
+        regions_(regions),
+        options_(options),
+        step_bound_(step_bound),
+        mass_(mass),
+        n_(b.rest.size()),
+        q_begin_(regions.row_start[b.begin]),
+        q_end_(regions.row_start[b.end]),
+        margin_(kMarginOfBound * step_bound),
+        slack_(kLiveSlack * step_bound) {}
+
+  /// A pinned body: the pins decide the pose (`target`); only the dynamic vertices move.
+  void follow_pins(const Pose& target, std::span<Vec3> xb) {
+    place(target, ws_.y);
+    for (size_t i = 0; i < n_; ++i)
+      if (!b_.kinematic[i]) xb[i] = ws_.y[i];
+  }
+
+  /// An unpinned body from its unconstrained fit `target`: writes its vertices to `xb`.
+  void solve(const Pose& target, double advance_tolerance, std::span<Vec3> xb, RigidEnforceStats& st) {
+    // The contacts: the half-spaces of the body's vertices, recorded (with their pair data
+    // and multipliers) only once they come within reach of acting: in a pile most of a
+    // body's planes never do, and copying them all each pass cost more than the sweeps.
+    ws_.contacts.clear();
+    if (ws_.slot.size() < static_cast<size_t>(q_end_ - q_begin_))
+      ws_.slot.resize(static_cast<size_t>(q_end_ - q_begin_), -1);
+    std::vector<Vec3>& y = ws_.y;
+    place(target, y);
+    for (size_t i = 0; i < n_; ++i) {
+      const Index v = b_.begin + static_cast<Index>(i);
+      if (regions_.count(v) > 0 && regions_.falls_below(v, anchor_[v], y[i], 0.0)) ++st.vertices_violated;
+    }
+    pose_ = target;
+    converged_ = q_end_ == q_begin_;
+    if (!converged_) rebuild_live();
+    pose_sweeps();
+    translation_sweeps();
+    for (const PoseContact& c : ws_.contacts) ws_.slot[static_cast<size_t>(c.q - q_begin_)] = -1;
+    place(pose_, y);
+    const bool regions_ok = regions_hold(y);
+    if (regions_ok && longest_step(y) <= step_bound_ * (1.0 + 1e-12)) {
+      std::copy(y.begin(), y.end(), xb.begin());
+      return;
+    }
+    // The line search runs toward the pose solve's result: when the sweeps left a small
+    // violation, a step short of it by about that fraction is admissible (toward the
+    // unconstrained pose, the violated contacts stop it near the anchor and the body halts).
+    line_search(pose_, regions_ok, advance_tolerance, xb, st);
+  }
+
+ private:
+  void place(const Pose& p, std::vector<Vec3>& out) const {
+    const Eigen::Matrix3d r = p.q.toRotationMatrix();
+    out.resize(n_);
+    for (size_t i = 0; i < n_; ++i) out[i] = r * b_.rest[i] + p.c;
+  }
+  bool regions_hold(const std::vector<Vec3>& p) const {
+    for (size_t i = 0; i < n_; ++i) {
+      const Index v = b_.begin + static_cast<Index>(i);
+      if (regions_.falls_below(v, anchor_[v], p[i], kOutside)) return false;
+    }
+    return true;
+  }
+  double longest_step(const std::vector<Vec3>& p) const {
+    double l = 0.0;
+    for (size_t i = 0; i < n_; ++i) l = std::max(l, (p[i] - anchor_[b_.begin + static_cast<Index>(i)]).norm());
+    return l;
+  }
+  /// Inside every region and within the step bound of the anchor.
+  bool admissible(const std::vector<Vec3>& p) const {
+    return regions_hold(p) && longest_step(p) <= step_bound_ * (1.0 + 1e-12);
+  }
+
+  // What the pose solve aims at per half-space: the margin, but no more than the anchor's own
+  // value d. A body squeezed between contacts with d ~ 0 on opposite sides (a slab under a
+  // box on a floor, the middle body of a pile) cannot clear the margin on both, although sliding
+  // along both planes (value d) or staying put is admissible. Accepted once every value is within
+  // half its aim (or, for an aim <= 0, a tenth of the recount's tolerance below it); the exact
+  // check follows anyway.
+  double aim_of(const HalfSpace& h) const { return std::min(margin_, h.d); }
+  double accept_of(const HalfSpace& h) const {
+    const double a = aim_of(h);
+    return a > 0.0 ? 0.5 * a : a + 0.1 * kOutside;
+  }
+  double aim(const PoseContact& c) const { return aim_of(c.h); }
+  double accept(const PoseContact& c) const { return accept_of(c.h); }
+
+  // Most half-spaces of a resting body are far from acting: a contact does nothing in a
+  // sweep while its value clears both the margin and its repulsion target and it carries no
+  // multiplier. The sweeps visit only the live ones: those within `slack` of acting when the
+  // list was built (against δ, which bounds every repulsion target). While the pose has
+  // moved no point by more than slack since (the centre's move plus the turn's angle times
+  // the extent), the others cannot act; past it the list is rebuilt, and a sweep that
+  // crossed it does not count as converged.
+  double reach_of(const HalfSpace& h) const {
+    return options_.repulsion_range > 0.0 ? std::max(aim_of(h), options_.repulsion_range) : aim_of(h);
+  }
+  double threshold(const PoseContact& c) const {
+    return options_.repulsion_range > 0.0 ? std::max(aim(c), c.pair.repel) : aim(c);
+  }
+  double moved_since_build() const {
+    return (pose_.c - built_.c).norm() + angle_between(built_.q, pose_.q) * b_.extent;
+  }
+  void rebuild_live() {
+    const Eigen::Matrix3d r = pose_.q.toRotationMatrix();
+    std::vector<PoseContact>& contacts = ws_.contacts;
+    ws_.live.clear();
+    for (size_t i = 0; i < n_; ++i) {
+      const Index v = b_.begin + static_cast<Index>(i);
+      const Index q0 = regions_.row_start[v], q1 = regions_.row_start[v + 1];
+      if (q0 == q1) continue;
+      const Vec3 at = r * b_.rest[i] + pose_.c;
+      for (Index q = q0; q < q1; ++q) {
+        const HalfSpace h = regions_.plane(q);
+        Index& s = ws_.slot[static_cast<size_t>(q - q_begin_)];
+        const double value = h.value(anchor_[v], at);
+        // δ bounds every repulsion target: a plane beyond it needs no pair data; nor does
+        // one beyond its own target (cheap to ask), which most of those within δ are.
+        if (s < 0 && value > reach_of(h) + slack_) continue;
+        if (s < 0 && options_.plane_repel && options_.repulsion_range > 0.0 &&
+            value > std::max(aim_of(h), options_.plane_repel(q)) + slack_)
+          continue;
+        if (s < 0) {
+          s = static_cast<Index>(contacts.size());
+          contacts.push_back({static_cast<Index>(i), q, h, pair_of(options_, q)});
+        }
+        const PoseContact& c = contacts[static_cast<size_t>(s)];
+        if (value <= threshold(c) + slack_ || c.lambda_n != 0.0 || c.lambda_r != 0.0 || c.lambda_t.squaredNorm() != 0.0)
+          ws_.live.push_back(s);
+      }
+    }
+    built_ = pose_;
+  }
+
+  /// One impulse on the pose: the centre moves by dc, the body turns by dtheta (radians).
+  void apply(const Vec3& dc, const Vec3& dtheta) {
+    pose_.c += dc;
+    pose_.q = rotated(pose_.q, dtheta);
+  }
+
+  /// Projected Gauss-Seidel over the live contacts until every value is accepted.
+  void pose_sweeps() {
+    for (int sweep = 0; sweep < kPoseSweeps && !converged_; ++sweep) {
+      if (sweep > 0 && moved_since_build() > slack_) rebuild_live();
+      const Eigen::Matrix3d r = pose_.q.toRotationMatrix();
+      const Eigen::Matrix3d inv_inertia = r * b_.inv_inertia * r.transpose();
+      double worst = 0.0;
+      for (const Index k : ws_.live) worst = std::min(worst, visit(ws_.contacts[static_cast<size_t>(k)], inv_inertia));
+      // Friction and repulsion need a few sweeps to settle among the contacts even when the
+      // hard constraints hold from the start.
+      bool acting = false;
+      for (const Index k : ws_.live) {
+        const PoseContact& c = ws_.contacts[static_cast<size_t>(k)];
+        acting = acting || c.lambda_n > 0.0 || c.lambda_r > 0.0 || c.lambda_t.squaredNorm() > 0.0;
+      }
+      converged_ = worst >= 0.0 && moved_since_build() <= slack_ && (!acting || sweep + 1 >= kMinPoseSweeps);
+    }
+  }
+
+  /// One contact's normal, repulsion and friction corrections; returns its value less its
+  /// acceptance before them (< 0: not yet accepted).
+  double visit(PoseContact& c, const Eigen::Matrix3d& inv_inertia) {
+    const Index v = b_.begin + c.i;
+    const Vec3 arm = pose_.q * b_.rest[c.i];
+    const Vec3 at = arm + pose_.c;
+    const double value = c.h.value(anchor_[v], at);
+    const double short_of = value - accept(c);
+    // Normal: C = n·(p - a) + d >= aim, with λ_n >= 0 accumulated over the sweeps.
+    const Vec3 rn = arm.cross(c.h.n);
+    const double w = 1.0 / mass_ + rn.dot(inv_inertia * rn);
+    const double next = std::max(0.0, c.lambda_n + (aim(c) - value) / w);
+    const double dl = next - c.lambda_n;
+    if (dl != 0.0) {
+      c.lambda_n = next;
+      apply((dl / mass_) * c.h.n, inv_inertia * rn * dl);
+    }
+    if (options_.repulsion_range > 0.0) {
+      // XPBD repulsion of the pair's gap toward δ with compliance α̃, its multiplier kept >= 0.
+      // A movable other side (cloth) answers the same λ_r in the per-vertex response and
+      // so moves away by other_w λ_r: counted here, the sweeps converge to the pair's
+      // impulse λ_r = -C / (w + other_w + α̃), not to the whole correction as if that side
+      // were fixed.
+      const double alpha = options_.repulsion_compliance;
+      const double now_value = c.h.value(anchor_[v], pose_.q * b_.rest[c.i] + pose_.c) + c.pair.responds_w * c.lambda_r;
+      const double rep =
+          std::max(0.0, c.lambda_r + (c.pair.repel - now_value - alpha * c.lambda_r) / (w + c.pair.other_w + alpha));
+      const double dr = rep - c.lambda_r;
+      if (dr != 0.0) {
+        c.lambda_r = rep;
+        apply((dr / mass_) * c.h.n, inv_inertia * rn * dr);
+      }
+    }
+    rub(c, inv_inertia);
+    return short_of;
+  }
+
+  /// Friction on the contact point's tangential motion over the substep relative to the
+  /// other side's closest point: static cancels it while |λ_t| <= μ_s λ_n, kinetic is
+  /// bounded by μ_k λ_n (Müller et al. 2020, Sec. 3.5, with Coulomb's cone on the
+  /// accumulated λ_t); the other side takes its share, Δλ = -C / (w_body + w_other).
+  void rub(PoseContact& c, const Eigen::Matrix3d& inv_inertia) {
+    const double pressed = c.lambda_n + c.lambda_r;
+    if (!options_.x_start || (b_.mu_s <= 0.0 && b_.mu_k <= 0.0)) return;
+    if (pressed <= 0.0 && c.lambda_t.squaredNorm() == 0.0) return;
+    const Index v = b_.begin + c.i;
+    const Vec3 now = pose_.q * b_.rest[c.i] + pose_.c;
+    const Vec3 moved = now - (*options_.x_start)[v] - c.pair.other_motion;
+    const Vec3 slip = moved - c.h.n.dot(moved) * c.h.n;
+    const double sl = slip.norm();
+    Vec3 want = c.lambda_t;
+    if (sl > 0.0) {
+      const Vec3 t = slip / sl;
+      const Vec3 rt = (now - pose_.c).cross(t);
+      want -= (sl / (1.0 / mass_ + rt.dot(inv_inertia * rt) + c.pair.other_wt)) * t;
+    }
+    const double wl = want.norm();
+    if (wl > b_.mu_s * pressed) want *= b_.mu_k * pressed / wl;
+    const Vec3 dt = want - c.lambda_t;
+    if (dt.squaredNorm() == 0.0) return;
+    c.lambda_t = want;
+    apply(dt / mass_, inv_inertia * (now - pose_.c).cross(dt));
+  }
+
+  /// Redundant contacts (a face resting on four corners) leave the sweeps converging
+  /// slowly through the rotation's coupling: the last fraction of a violation is removed by
+  /// translation alone (w = 1/M), a residual of a fraction of a percent of g dt² that
+  /// would otherwise fail the exact check and halt the body. Over the live contacts,
+  /// rebuilt when the centre has moved past the slack (the others cannot be reached before).
+  void translation_sweeps() {
+    const Eigen::Matrix3d turned = pose_.q.toRotationMatrix();
+    for (int sweep = 0; sweep < kPoseSweeps && !converged_; ++sweep) {
+      if (moved_since_build() > slack_) rebuild_live();
+      double worst = 0.0;
+      for (const Index k : ws_.live) {
+        PoseContact& c = ws_.contacts[static_cast<size_t>(k)];
+        const double value = c.h.value(anchor_[b_.begin + c.i], turned * b_.rest[c.i] + pose_.c);
+        worst = std::min(worst, value - accept(c));
+        if (value < aim(c)) {
+          c.lambda_n += (aim(c) - value) * mass_;
+          pose_.c += (aim(c) - value) * c.h.n;
+        }
+      }
+      converged_ = worst >= 0.0 && moved_since_build() <= slack_;
+    }
+  }
+
+  /// The largest α in [0, 1] for which the linear blend anchor + α (y - anchor) keeps every
+  /// half-space and the step bound; `bound_limits`: the step bound set it.
+  double blend_bound(const std::vector<Vec3>& y, bool& bound_limits) const {
+    double alpha = 1.0;
+    bound_limits = false;
+    for (size_t i = 0; i < n_; ++i) {
+      const Index v = b_.begin + static_cast<Index>(i);
+      const Vec3 step = y[i] - anchor_[v];
+      const double len = step.norm();
+      if (len > step_bound_ && step_bound_ / len < alpha) {
+        alpha = step_bound_ / len;
+        bound_limits = true;
+      }
+      for (const HalfSpace& h : regions_.planes_of(v)) {
+        const double along = h.n.dot(step);
+        if (along < 0.0 && h.d >= 0.0 && h.d / -along < alpha) {
+          alpha = h.d / -along;
+          bound_limits = false;
+        }
+      }
+    }
+    return alpha;
+  }
+
+  /// The rigid path curves off the blend by O(α(1-α)θ²): a plane with d ~ 0 that the blend
+  /// slides along is then crossed by that much at every α, and the body halted although
+  /// both ends were admissible. Translation alone removes such a residual (as after the
+  /// sweeps), over every plane of the body in order; the caller's exact check decides.
+  void clear_by_translation(Pose& p) const {
+    const Eigen::Matrix3d turned_p = p.q.toRotationMatrix();
+    bool clear = false;
+    for (int sweep = 0; sweep < kPoseSweeps && !clear; ++sweep) {
+      clear = true;
+      for (size_t i = 0; i < n_; ++i) {
+        const Index v = b_.begin + static_cast<Index>(i);
+        for (const HalfSpace& h : regions_.planes_of(v)) {
+          const double value = h.value(anchor_[v], turned_p * b_.rest[i] + p.c);
+          if (value < accept_of(h)) clear = false;
+          if (value < aim_of(h)) p.c += (aim_of(h) - value) * h.n;
+        }
+      }
+    }
+  }
+
+  /// Fallback (rare when the pose solve converged: the step bound, or a body the sweeps could
+  /// not free). Line search along the rigid interpolation from the anchor pose (slerp, lerp)
+  /// toward `target`. The bound of the linear blend is exact per half-space and per step-bound
+  /// ball (both convex, both hold at α = 0); the rigid pose at that α is then verified and
+  /// shrunk until admissible, since it deviates from the blend by O(α(1-α)θ²). No admissible α:
+  /// the body halts at its anchor pose.
+  void line_search(const Pose& target, bool regions_ok, double advance_tolerance, std::span<Vec3> xb,
+                   RigidEnforceStats& st) {
+    const std::span<const Vec3> ab(anchor_.data() + b_.begin, n_);
+    const Pose from = fit(ab, std::span<const Vec3>(b_.rest), b_.weight);
+    place(target, ws_.y);
+    bool bound_limits = false;
+    const double alpha = blend_bound(ws_.y, bound_limits);
+    std::vector<Vec3>& z = ws_.z;
+    bool found = false;
+    // Small cuts first (the rigid pose leaves the blend by a second-order amount), then halvings.
+    static constexpr double kShrink[] = {1.0, 1.0 - 1e-6, 1.0 - 1e-4, 0.99, 0.9};
+    for (int k = 0; k < static_cast<int>(std::size(kShrink)) + kLineSearchHalvings && alpha > 0.0; ++k) {
+      const double a = k < static_cast<int>(std::size(kShrink))
+                           ? alpha * kShrink[k]
+                           : alpha * 0.9 * std::ldexp(1.0, -(k - static_cast<int>(std::size(kShrink)) + 1));
+      Pose p;
+      p.q = from.q.slerp(a, target.q);
+      p.c = from.c + a * (target.c - from.c);
+      place(p, z);
+      if (!admissible(z) && longest_step(z) <= step_bound_ * (1.0 - 1e-3)) {
+        clear_by_translation(p);
+        place(p, z);
+      }
+      if (admissible(z)) {
+        found = true;
+        if (bound_limits) bound_limits = a * (1.0 + advance_tolerance) < 1.0;
+        break;
+      }
+    }
+    if (found) {
+      std::copy(z.begin(), z.end(), xb.begin());
+      if (!regions_ok) ++st.bodies_shortened;
+      if (bound_limits) ++st.bodies_bounded;
+    } else {
+      std::copy(ab.begin(), ab.end(), xb.begin());
+      ++st.bodies_halted;
+      st.vertices_halted += static_cast<Index>(n_);
+    }
+  }
+
+  const Body& b_;
+  Workspace& ws_;
+  const Positions& anchor_;
+  const RegionSet& regions_;
+  const RigidContactOptions& options_;
+  const double step_bound_;
+  const double mass_;
+  const size_t n_;
+  const Index q_begin_, q_end_;  ///< the body's planes: one contiguous range of the RegionSet
+  const double margin_;          ///< the pose solve aims this far inside every half-space
+  const double slack_;           ///< how far beyond acting a plane joins the live contacts
+  Pose pose_;                    ///< the pose the sweeps move
+  Pose built_;                   ///< the pose the live contacts were listed at
+  bool converged_ = false;
+};
+
 RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, const RegionSet& regions,
-                                       const Projector&, double step_bound, double advance_tolerance,
-                                       std::span<const Vec3> cores, const RigidContactOptions& options) const {
+                                       double step_bound, double advance_tolerance, std::span<const Vec3> cores,
+                                       const RigidContactOptions& options) const {
   std::vector<RigidEnforceStats> per(bodies_.size());
   work_.resize(bodies_.size());
-  // The pair data of plane q: asked of the caller, or read from its per-plane spans.
-  auto pair_of = [&](Index q) {
-    if (options.plane_contact) return options.plane_contact(q);
-    const size_t s = static_cast<size_t>(q);
-    RigidPlaneContact p;
-    p.repel = options.repulsion_target.empty() ? options.repulsion_range : options.repulsion_target[s];
-    p.other_w = options.repulsion_other.empty() ? 0.0 : options.repulsion_other[s];
-    p.other_motion = options.other_motion.empty() ? Vec3::Zero() : options.other_motion[s];
-    p.other_wt = options.friction_other.empty() ? 0.0 : options.friction_other[s];
-    return p;
-  };
   parallel_for(
       size(),
       [&](Index lo, Index hi) {
         for (Index bi = lo; bi < hi; ++bi) {
           const Body& b = bodies_[bi];
-          Workspace& ws = work_[static_cast<size_t>(bi)];
-          std::vector<Vec3>& y = ws.y;
-          std::vector<PoseContact>& contacts = ws.contacts;
-          std::vector<Index>& live = ws.live;
-          RigidEnforceStats& st = per[bi];
-          const size_t n = b.rest.size();
-          const std::span<const Vec3> rest(b.rest);
-          // The body's planes are one contiguous range of the RegionSet.
-          const Index q_begin = regions.row_start[b.begin], q_end = regions.row_start[b.end];
-          auto place = [&](const Pose& p, std::vector<Vec3>& out) {
-            const Eigen::Matrix3d r = p.q.toRotationMatrix();
-            out.resize(n);
-            for (size_t i = 0; i < n; ++i) out[i] = r * b.rest[i] + p.c;
-          };
-          auto regions_hold = [&](const std::vector<Vec3>& p) {
-            for (size_t i = 0; i < n; ++i) {
-              const Index v = b.begin + static_cast<Index>(i);
-              if (regions.falls_below(v, anchor[v], p[i], kOutside)) return false;
-            }
-            return true;
-          };
-          auto longest_step = [&](const std::vector<Vec3>& p) {
-            double l = 0.0;
-            for (size_t i = 0; i < n; ++i) l = std::max(l, (p[i] - anchor[b.begin + static_cast<Index>(i)]).norm());
-            return l;
-          };
-          // Largest violation of the regions and the step bound; >= 0 means admissible.
-          auto admissible = [&](const std::vector<Vec3>& p) {
-            return regions_hold(p) && longest_step(p) <= step_bound * (1.0 + 1e-12);
-          };
-          const std::span<Vec3> xb(x.data() + b.begin, n);
+          const std::span<Vec3> xb(x.data() + b.begin, b.rest.size());
           const double core = cores.empty() ? 0.0 : b.core;
-          Pose target = fit(xb, rest, b.weight, core, cores.empty() ? Vec3::Zero() : cores[bi]);
-          if (b.pinned) {  // pins decide the pose; only the dynamic vertices move
-            place(target, y);
-            for (size_t i = 0; i < n; ++i)
-              if (!b.kinematic[i]) xb[i] = y[i];
-            ++st.bodies_refitted;
-            continue;
-          }
-          ++st.bodies_refitted;
-          // The contacts: the half-spaces of the body's vertices, recorded (with their pair data
-          // and multipliers) only once they come within reach of acting: in a pile most of a
-          // body's planes never do, and copying them all each pass cost more than the sweeps.
-          contacts.clear();
-          if (ws.slot.size() < static_cast<size_t>(q_end - q_begin))
-            ws.slot.resize(static_cast<size_t>(q_end - q_begin), -1);
-          place(target, y);
-          for (size_t i = 0; i < n; ++i) {
-            const Index v = b.begin + static_cast<Index>(i);
-            if (regions.count(v) > 0 && regions.falls_below(v, anchor[v], y[i], 0.0)) ++st.vertices_violated;
-          }
-          // Resolve the contacts in the body's pose space (Müller et al. 2020, positional
-          // constraints with generalized inverse masses): projected Gauss-Seidel on the pose's
-          // kinetic metric, rotation linearized about the current pose and re-linearized after
-          // every correction, the inverse inertia once per sweep.
-          const double mass = b.mass + core;
-          const double margin = kMarginOfBound * step_bound;
-          // What the pose solve aims at per half-space: the margin, but no more than the anchor's own
-          // value d. A body squeezed between contacts with d ~ 0 on opposite sides (a slab under a
-          // box on a floor, the middle body of a pile) cannot clear the margin on both: aiming there
-          // failed the solve and halted the body, although sliding along both planes (value d) or
-          // staying put is admissible. Accepted once every value is within half its aim (or, for an
-          // aim <= 0, a tenth of the recount's tolerance below it); the exact check follows anyway.
-          auto aim_of = [&](const HalfSpace& h) { return std::min(margin, h.d); };
-          auto accept_of = [&](const HalfSpace& h) {
-            const double a = aim_of(h);
-            return a > 0.0 ? 0.5 * a : a + 0.1 * kOutside;
-          };
-          auto aim = [&](const PoseContact& c) { return aim_of(c.h); };
-          auto accept = [&](const PoseContact& c) { return accept_of(c.h); };
-          Pose pose = target;
-          bool converged = q_end == q_begin;
-          // Most half-spaces of a resting body are far from acting: a contact does nothing in a
-          // sweep while its value clears both the margin and its repulsion target and it carries no
-          // multiplier. The sweeps visit only the live ones: those within `slack` of acting when the
-          // list was built (against δ, which bounds every repulsion target). While the pose has
-          // moved no point by more than slack since (the centre's move plus the turn's angle times
-          // the extent), the others cannot act; past it the list is rebuilt, and a sweep that
-          // crossed it does not count as converged.
-          const double slack = kLiveSlack * step_bound;
-          Pose built;
-          auto reach_of = [&](const HalfSpace& h) {
-            return options.repulsion_range > 0.0 ? std::max(aim_of(h), options.repulsion_range) : aim_of(h);
-          };
-          auto threshold = [&](const PoseContact& c) {
-            return options.repulsion_range > 0.0 ? std::max(aim(c), c.pair.repel) : aim(c);
-          };
-          auto moved_since_build = [&] {
-            return (pose.c - built.c).norm() + angle_between(built.q, pose.q) * b.extent;
-          };
-          auto rebuild_live = [&] {
-            const Eigen::Matrix3d r = pose.q.toRotationMatrix();
-            live.clear();
-            for (size_t i = 0; i < n; ++i) {
-              const Index v = b.begin + static_cast<Index>(i);
-              const Index q0 = regions.row_start[v], q1 = regions.row_start[v + 1];
-              if (q0 == q1) continue;
-              const Vec3 at = r * b.rest[i] + pose.c;
-              for (Index q = q0; q < q1; ++q) {
-                const HalfSpace h = regions.plane(q);
-                Index& s = ws.slot[static_cast<size_t>(q - q_begin)];
-                const double value = h.value(anchor[v], at);
-                // δ bounds every repulsion target: a plane beyond it needs no pair data; nor does
-                // one beyond its own target (cheap to ask), which most of those within δ are.
-                if (s < 0 && value > reach_of(h) + slack) continue;
-                if (s < 0 && options.plane_repel && options.repulsion_range > 0.0 &&
-                    value > std::max(aim_of(h), options.plane_repel(q)) + slack)
-                  continue;
-                if (s < 0) {
-                  s = static_cast<Index>(contacts.size());
-                  contacts.push_back({static_cast<Index>(i), q, h, pair_of(q)});
-                }
-                const PoseContact& c = contacts[static_cast<size_t>(s)];
-                if (value <= threshold(c) + slack || c.lambda_n != 0.0 || c.lambda_r != 0.0 ||
-                    c.lambda_t.squaredNorm() != 0.0)
-                  live.push_back(s);
-              }
-            }
-            built = pose;
-          };
-          // One impulse on the pose: the centre moves by dc, the body turns by dtheta.
-          auto apply = [&](const Vec3& dc, const Vec3& dtheta) {
-            pose.c += dc;
-            pose.q = rotated(pose.q, dtheta);
-          };
-          if (!converged) rebuild_live();
-          for (int sweep = 0; sweep < kPoseSweeps && !converged; ++sweep) {
-            if (sweep > 0 && moved_since_build() > slack) rebuild_live();
-            const Eigen::Matrix3d r = pose.q.toRotationMatrix();
-            const Eigen::Matrix3d inv_inertia = r * b.inv_inertia * r.transpose();
-            double worst = 0.0;
-            for (const Index k : live) {
-              PoseContact& c = contacts[static_cast<size_t>(k)];
-              const Index v = b.begin + c.i;
-              const Vec3 arm = pose.q * b.rest[c.i];
-              const Vec3 at = arm + pose.c;
-              const double value = c.h.value(anchor[v], at);
-              worst = std::min(worst, value - accept(c));
-              // Normal: C = n·(p - a) + d >= aim, with λ_n >= 0 accumulated over the sweeps.
-              const Vec3 rn = arm.cross(c.h.n);
-              const double w = 1.0 / mass + rn.dot(inv_inertia * rn);
-              const double next = std::max(0.0, c.lambda_n + (aim(c) - value) / w);
-              const double dl = next - c.lambda_n;
-              if (dl != 0.0) {
-                c.lambda_n = next;
-                apply((dl / mass) * c.h.n, inv_inertia * rn * dl);
-              }
-              if (options.repulsion_range > 0.0) {
-                // XPBD repulsion of the pair's gap toward δ with compliance α̃, its multiplier kept >= 0.
-                // A movable other side (cloth) answers the same λ_r in the per-vertex response and
-                // so moves away by other_w λ_r: counted here, the sweeps converge to the pair's
-                // impulse λ_r = -C / (w + other_w + α̃), and not to the whole correction as if that
-                // side were fixed (momentum grew by the body's part).
-                const double alpha = options.repulsion_compliance;
-                const double now_value =
-                    c.h.value(anchor[v], pose.q * b.rest[c.i] + pose.c) + c.pair.responds_w * c.lambda_r;
-                const double rep = std::max(
-                    0.0, c.lambda_r + (c.pair.repel - now_value - alpha * c.lambda_r) / (w + c.pair.other_w + alpha));
-                const double dr = rep - c.lambda_r;
-                if (dr != 0.0) {
-                  c.lambda_r = rep;
-                  apply((dr / mass) * c.h.n, inv_inertia * rn * dr);
-                }
-              }
-              const double pressed = c.lambda_n + c.lambda_r;
-              if (!options.x_start || (b.mu_s <= 0.0 && b.mu_k <= 0.0)) continue;
-              if (pressed <= 0.0 && c.lambda_t.squaredNorm() == 0.0) continue;
-              // Friction on the contact point's tangential motion over the substep relative to the
-              // other side's closest point: static cancels it while |λ_t| <= μ_s λ_n, kinetic is
-              // bounded by μ_k λ_n (Müller et al. 2020, Sec. 3.5, with Coulomb's cone on the
-              // accumulated λ_t); the other side takes its share, Δλ = -C / (w_body + w_other).
-              const Vec3 now = pose.q * b.rest[c.i] + pose.c;
-              const Vec3 moved = now - (*options.x_start)[v] - c.pair.other_motion;
-              const Vec3 slip = moved - c.h.n.dot(moved) * c.h.n;
-              const double sl = slip.norm();
-              Vec3 want = c.lambda_t;
-              if (sl > 0.0) {
-                const Vec3 t = slip / sl;
-                const Vec3 rt = (now - pose.c).cross(t);
-                want -= (sl / (1.0 / mass + rt.dot(inv_inertia * rt) + c.pair.other_wt)) * t;
-              }
-              const double wl = want.norm();
-              if (wl > b.mu_s * pressed) want *= b.mu_k * pressed / wl;
-              const Vec3 dt = want - c.lambda_t;
-              if (dt.squaredNorm() == 0.0) continue;
-              c.lambda_t = want;
-              apply(dt / mass, inv_inertia * (now - pose.c).cross(dt));
-            }
-            // Friction and repulsion need a few sweeps to settle among the contacts even when the
-            // hard constraints hold from the start.
-            bool acting = false;
-            for (const Index k : live) {
-              const PoseContact& c = contacts[static_cast<size_t>(k)];
-              acting = acting || c.lambda_n > 0.0 || c.lambda_r > 0.0 || c.lambda_t.squaredNorm() > 0.0;
-            }
-            converged = worst >= 0.0 && moved_since_build() <= slack && (!acting || sweep + 1 >= kMinPoseSweeps);
-          }
-          // Redundant contacts (a face resting on four corners) leave the sweeps converging
-          // slowly through the rotation's coupling: the last fraction of a violation is removed by
-          // translation alone (w = 1/M), a residual of a fraction of a percent of g dt² that
-          // would otherwise fail the exact check below and halt the body. Over the live contacts,
-          // rebuilt when the centre has moved past the slack (the others cannot be reached before).
-          const Eigen::Matrix3d turned = pose.q.toRotationMatrix();
-          for (int sweep = 0; sweep < kPoseSweeps && !converged; ++sweep) {
-            if (moved_since_build() > slack) rebuild_live();
-            double worst = 0.0;
-            for (const Index k : live) {
-              PoseContact& c = contacts[static_cast<size_t>(k)];
-              const double value = c.h.value(anchor[b.begin + c.i], turned * b.rest[c.i] + pose.c);
-              worst = std::min(worst, value - accept(c));
-              if (value < aim(c)) {
-                c.lambda_n += (aim(c) - value) * mass;
-                pose.c += (aim(c) - value) * c.h.n;
-              }
-            }
-            converged = worst >= 0.0 && moved_since_build() <= slack;
-          }
-          for (const PoseContact& c : contacts) ws.slot[static_cast<size_t>(c.q - q_begin)] = -1;
-          place(pose, y);
-          const bool regions_ok = regions_hold(y);
-          if (regions_ok && longest_step(y) <= step_bound * (1.0 + 1e-12)) {
-            std::copy(y.begin(), y.end(), xb.begin());
-            continue;
-          }
-          // The line search runs toward the pose solve's result: when the sweeps left a small
-          // violation, a step short of it by about that fraction is admissible (toward the
-          // unconstrained pose, the violated contacts stop it near the anchor and the body halts).
-          target = pose;
-          // Fallback (rare when the pose solve converged: the step bound, or a body the sweeps could
-          // not free). Line search along the rigid interpolation from the anchor pose (slerp, lerp).
-          // The bound of the linear blend anchor + α (y - anchor) is exact per half-space and per
-          // step-bound ball (both convex, both hold at α = 0); the rigid pose at that α is then
-          // verified and shrunk until admissible, since it deviates from the blend by O(α(1-α)θ²).
-          const std::span<const Vec3> ab(anchor.data() + b.begin, n);
-          const Pose from = fit(ab, rest, b.weight);
-          place(target, y);
-          double alpha = 1.0;
-          bool bound_limits = false;
-          for (size_t i = 0; i < n; ++i) {
-            const Index v = b.begin + static_cast<Index>(i);
-            const Vec3 step = y[i] - anchor[v];
-            const double len = step.norm();
-            if (len > step_bound && step_bound / len < alpha) {
-              alpha = step_bound / len;
-              bound_limits = true;
-            }
-            for (const HalfSpace& h : regions.planes_of(v)) {
-              const double along = h.n.dot(step);
-              if (along < 0.0 && h.d >= 0.0 && h.d / -along < alpha) {
-                alpha = h.d / -along;
-                bound_limits = false;
-              }
-            }
-          }
-          std::vector<Vec3>& z = ws.z;
-          bool found = false;
-          // Small cuts first (the rigid pose leaves the blend by a second-order amount), then halvings.
-          static constexpr double kShrink[] = {1.0, 1.0 - 1e-6, 1.0 - 1e-4, 0.99, 0.9};
-          for (int k = 0; k < static_cast<int>(std::size(kShrink)) + kLineSearchHalvings && alpha > 0.0; ++k) {
-            const double a = k < static_cast<int>(std::size(kShrink))
-                                 ? alpha * kShrink[k]
-                                 : alpha * 0.9 * std::ldexp(1.0, -(k - static_cast<int>(std::size(kShrink)) + 1));
-            Pose p;
-            p.q = from.q.slerp(a, target.q);
-            p.c = from.c + a * (target.c - from.c);
-            place(p, z);
-            if (!admissible(z) && longest_step(z) <= step_bound * (1.0 - 1e-3)) {
-              // The rigid path curves off the blend by O(α(1-α)θ²): a plane with d ~ 0 that the blend
-              // slides along is then crossed by that much at every α, and the body halted although
-              // both ends were admissible. Translation alone removes such a residual (as after the
-              // sweeps), over every plane of the body in order; the exact check below decides.
-              const Eigen::Matrix3d turned_p = p.q.toRotationMatrix();
-              bool clear = false;
-              for (int sweep = 0; sweep < kPoseSweeps && !clear; ++sweep) {
-                clear = true;
-                for (size_t i = 0; i < n; ++i) {
-                  const Index v = b.begin + static_cast<Index>(i);
-                  for (const HalfSpace& h : regions.planes_of(v)) {
-                    const double value = h.value(anchor[v], turned_p * b.rest[i] + p.c);
-                    if (value < accept_of(h)) clear = false;
-                    if (value < aim_of(h)) p.c += (aim_of(h) - value) * h.n;
-                  }
-                }
-              }
-              place(p, z);
-            }
-            if (admissible(z)) {
-              found = true;
-              if (bound_limits) bound_limits = a * (1.0 + advance_tolerance) < 1.0;
-              break;
-            }
-          }
-          if (found) {
-            std::copy(z.begin(), z.end(), xb.begin());
-            if (!regions_ok) ++st.bodies_shortened;
-            if (bound_limits) ++st.bodies_bounded;
-          } else {
-            std::copy(ab.begin(), ab.end(), xb.begin());
-            ++st.bodies_halted;
-            st.vertices_halted += static_cast<Index>(n);
-          }
+          const Pose target =
+              fit(xb, std::span<const Vec3>(b.rest), b.weight, core, cores.empty() ? Vec3::Zero() : cores[bi]);
+          PoseSolver solver(b, work_[static_cast<size_t>(bi)], anchor, regions, options, step_bound, b.mass + core);
+          ++per[bi].bodies_refitted;
+          if (b.pinned)
+            solver.follow_pins(target, xb);
+          else
+            solver.solve(target, advance_tolerance, xb, per[bi]);
         }
       },
       1);

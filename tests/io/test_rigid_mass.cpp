@@ -13,7 +13,6 @@
 #include <numbers>
 
 #include "ccfr/core/error.hpp"
-#include "ccfr/feasibility/projector.hpp"
 #include "ccfr/geometry/generators.hpp"
 #include "ccfr/geometry/mass_properties.hpp"
 #include "ccfr/io/scene_loader.hpp"
@@ -110,13 +109,12 @@ TEST(RigidMass, OneVertexCorrectionGivesTheSolidsImpulseResponse) {
   ASSERT_EQ(bodies.size(), 1);
   RegionSet regions;
   regions.clear(s.state.size());
-  const auto projector = make_projector("plesnik");
   for (Index k : {0, 4, 9}) {
     const Vec3 delta = 1e-6 * Vec3(0.3, -1.0, 0.6);
     Positions x = s.state.x;
     x[k] += delta;
     const std::vector<Vec3> cores{p.centroid};
-    bodies.enforce(x, s.state.x, regions, *projector, 1.0, 0.01, cores);
+    bodies.enforce(x, s.state.x, regions, 1.0, 0.01, cores);
     // A rigid body given the impulse m_k δ at q_k: Δc = m_k δ / M, θ = I⁻¹ (q_k × m_k δ).
     const Vec3 impulse = s.state.mass[k] * delta;
     const Vec3 dc = impulse / mass;
@@ -210,7 +208,7 @@ TEST(RigidMass, RimOnlyMeshFallsBackToExactMassAndCentre) {
   const Vec3 delta(0, 1e-6, 0);
   x[2] += delta;
   const std::vector<Vec3> cores{p.centroid};
-  bodies.enforce(x, st.x, regions, *make_projector("plesnik"), 1.0, 0.01, cores);
+  bodies.enforce(x, st.x, regions, 1.0, 0.01, cores);
   Vec3 moved = Vec3::Zero();
   for (size_t i = 0; i < st.x.size(); ++i) moved += st.mass[i] * x[i] / total;
   EXPECT_LT((moved - p.centroid - st.mass[2] * delta / total).norm(), 1e-6 * st.mass[2] * 1e-6 / total);

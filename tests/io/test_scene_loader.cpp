@@ -41,7 +41,7 @@ TEST(SceneLoader, MinimalSceneFillsDefaults) {
   double m = 0;
   for (double mi : s.scene.state.mass) m += mi;
   EXPECT_NEAR(m, 0.1, 1e-12);
-  EXPECT_NE(s.resolved_json.find("\"repulsion_range\": 5e-04"), std::string::npos) << s.resolved_json;
+  EXPECT_NE(s.resolved_json.find("\"repulsion_range\": 0.0005"), std::string::npos) << s.resolved_json;
 }
 
 TEST(SceneLoader, MisspeltKeyNamesKeyLineAndSuggestion) {

@@ -315,66 +315,62 @@ FrameAudit PenetrationAudit::audit_next(const Positions& x) {
   return r;
 }
 
-// Per-chunk results, merged in chunk order so that the report is deterministic.
-struct PenetrationAudit::Scan {
-  FrameAudit result;
-  std::vector<CloseKey> close;
-  std::vector<std::uint64_t> tt, st;
+namespace {
+
+/// What one pass compares distances against (squared lengths, in the positions' units).
+struct AuditRanges {
+  bool reference_pass = false;
+  double xi = 0.0;           ///< the offset
+  double xi_range_sq = 0.0;  ///< xi² with the double prefilter's slack: close verdicts
+  double range_sq = 0.0;     ///< the minimum-distance report's reach, squared, with the slack
+  double limit_sq = 0.0;     ///< ((1 - tolerance) xi)²: closer is a close pair
+  size_t max_examples = 0;
 };
 
-FrameAudit PenetrationAudit::run(const Positions& x, bool reference_pass, std::vector<CloseKey>* close_keys,
-                                 std::vector<std::uint64_t>* tt_keys, std::vector<std::uint64_t>* st_keys) const {
-  const Index nv = topo_.num_vertices(), ne = topo_.num_edges(), nf = topo_.num_faces();
-  const double xi = opt_.offset;
-  // Close verdicts need candidates within xi only; the minimum-distance report looks further
-  // (report_range xi) so that a clean run shows how much margin it kept.
-  const double xi_range_sq = xi * xi * (1.0 + kRangeSlack);
-  const double reach = (reference_pass ? 1.0 : std::max(opt_.report_range, 1.0)) * xi;
-  const double range_sq = reach * reach * (1.0 + kRangeSlack);
-  const double limit = (1.0 - opt_.tolerance) * xi;
-  const double limit_sq = limit * limit;
-  const double grow = 0.5 * reach * (1.0 + kRangeSlack);
+/// The object of element i: vertices [0, nv), edges [nv, nv + ne), faces [nv + ne, ...).
+Index object_of(const Topology& topo, Index i) {
+  const Index nv = topo.num_vertices(), ne = topo.num_edges();
+  return i < nv ? topo.vertex_object[i] : i < nv + ne ? topo.edge_object[i - nv] : topo.face_object[i - nv - ne];
+}
 
-  // One box per element: vertices [0, nv), edges [nv, nv + ne), faces [nv + ne, ...), grown by
-  // xi / 2 so every pair of primitives within xi has overlapping boxes.
+/// One box per element (ids as object_of), grown by `grow`; vertices of role 0 (tet interiors,
+/// unused vertices: no primitive) get an empty box.
+std::vector<AABB> element_boxes(const Topology& topo, const std::vector<std::uint8_t>& vertex_role, const Positions& x,
+                                double grow) {
+  const Index nv = topo.num_vertices(), ne = topo.num_edges(), nf = topo.num_faces();
   std::vector<AABB> boxes(static_cast<size_t>(nv + ne + nf));
   parallel_for(nv + ne + nf, [&](Index begin, Index end) {
     for (Index i = begin; i < end; ++i) {
       AABB b;
       if (i < nv) {
-        if (vertex_role_[i] == 0) continue;  // tet interiors and unused vertices: no primitive
+        if (vertex_role[i] == 0) continue;
         b = AABB::of(x[i]);
       } else if (i < nv + ne) {
-        const Vec2i& e = topo_.edges[i - nv];
+        const Vec2i& e = topo.edges[i - nv];
         b = AABB::of(x[e[0]], x[e[1]]);
       } else {
-        const Vec3i& f = topo_.faces[i - nv - ne];
+        const Vec3i& f = topo.faces[i - nv - ne];
         b = AABB::of(x[f[0]], x[f[1]], x[f[2]]);
       }
       b.inflate(grow);
       boxes[i] = b;
     }
   });
-  // Rigid objects that moved rigidly: their pairs with themselves are skipped (unchanged but for
-  // round-off since the reference); scripted objects: their pairs with each other are a scene error.
-  FrameAudit rigid_report;
-  const std::vector<std::uint8_t> rigid =
-      reference_pass ? std::vector<std::uint8_t>(topo_.objects.size(), 0) : rigid_now(x, &rigid_report);
-  const bool roles = !opt_.object_roles.empty();
-  auto object_of = [&](Index i) {
-    return i < nv ? topo_.vertex_object[i] : i < nv + ne ? topo_.edge_object[i - nv] : topo_.face_object[i - nv - ne];
-  };
+  return boxes;
+}
 
+/// The element pairs whose boxes overlap, but for those inside one object with rigid[object] set:
+/// a rigid pile of scanned meshes costs only its pairs between objects.
+std::vector<std::pair<Index, Index>> candidate_pairs(const Topology& topo, const std::vector<AABB>& boxes,
+                                                     const std::vector<std::uint8_t>& rigid) {
   Bvh bvh;
   bvh.build(boxes, 4);
   std::vector<std::pair<Index, Index>> pairs;
-  // The pairs inside a rigid object that moved rigidly are never enumerated: a rigid pile of
-  // scanned meshes costs only its pairs between objects.
   std::vector<std::uint32_t> groups;
   if (std::find(rigid.begin(), rigid.end(), 1) != rigid.end()) {
     groups.assign(boxes.size(), 0);
-    for (Index i = 0; i < nv + ne + nf; ++i) {
-      const Index o = object_of(i);
+    for (Index i = 0; i < static_cast<Index>(boxes.size()); ++i) {
+      const Index o = object_of(topo, i);
       if (rigid[o]) groups[i] = static_cast<std::uint32_t>(o + 1);
     }
   }
@@ -382,117 +378,180 @@ FrameAudit PenetrationAudit::run(const Positions& x, bool reference_pass, std::v
     bvh.self_pairs(pairs);
   else
     bvh.self_pairs(pairs, {}, groups);
+  return pairs;
+}
+
+}  // namespace
+
+// One chunk of the candidate pairs, classified in pair order; the chunks' results are merged in
+// chunk order so that the report is deterministic.
+struct PenetrationAudit::Scan {
+  Scan(const PenetrationAudit& audit, const Positions& x, const AuditRanges& ranges,
+       const std::vector<std::uint8_t>& rigid)
+      : audit_(audit), x_(x), ranges_(ranges), rigid_(rigid) {}
+
+  FrameAudit result;
+  std::vector<CloseKey> close;
+  std::vector<std::uint64_t> tt, st;
+
+  /// Tests elements i < j (so i's element type comes first: V < E < F) and records the verdict.
+  void classify(Index i, Index j) {
+    const Topology& topo = audit_.topo_;
+    const Index nv = topo.num_vertices(), ne = topo.num_edges();
+    const Positions& x = x_;
+    if (!audit_.opt_.object_roles.empty() && !ranges_.reference_pass) {
+      const Index oi = object_of(topo, i), oj = object_of(topo, j);
+      if (oi == oj && rigid_[oi]) return;  // not enumerated by the BVH; kept for clarity
+      scene_ = (audit_.opt_.object_roles[oi] & kScriptedObject) && (audit_.opt_.object_roles[oj] & kScriptedObject);
+      scene_a_ = oi, scene_b_ = oj;
+    }
+    const std::vector<std::uint8_t>& role = audit_.vertex_role_;
+    if (j < nv) {
+      // vertex-vertex: only between particles (meshes and strands: covered by VF / EE)
+      if (role[i] != 2 || role[j] != 2) return;
+      distance_pair(sym_key(kVV, i, j), (x[i] - x[j]).squaredNorm(), AuditExample::Kind::vertex_vertex, i, j,
+                    [&](double t) { return compare_point_point_distance_sq(x[i], x[j], t); });
+    } else if (i < nv && j < nv + ne) {
+      const Index e = j - nv;
+      const Vec2i& ev = topo.edges[e];
+      if (role[i] != 2 || edge_has(ev, i)) return;
+      const Vec3 &a = x[ev[0]], &b = x[ev[1]];
+      distance_pair(key(kVE, i, e), point_edge(x[i], a, b).distance_sq, AuditExample::Kind::vertex_edge, i, e,
+                    [&](double t) { return compare_point_edge_distance_sq(x[i], a, b, t); });
+    } else if (i < nv) {
+      const Index f = j - nv - ne;
+      const Vec3i& fv = topo.faces[f];
+      if (face_has(fv, i)) return;
+      const Vec3 &a = x[fv[0]], &b = x[fv[1]], &cc = x[fv[2]];
+      distance_pair(key(kVF, i, f), point_triangle(x[i], a, b, cc).distance_sq, AuditExample::Kind::vertex_face, i, f,
+                    [&](double t) { return compare_point_triangle_distance_sq(x[i], a, b, cc, t); });
+    } else if (j < nv + ne) {
+      const Index e = i - nv, g = j - nv;
+      const Vec2i &ev = topo.edges[e], &gv = topo.edges[g];
+      if (edges_share(ev, gv)) return;
+      const Vec3 &a0 = x[ev[0]], &a1 = x[ev[1]], &b0 = x[gv[0]], &b1 = x[gv[1]];
+      distance_pair(sym_key(kEE, e, g), edge_edge(a0, a1, b0, b1).distance_sq, AuditExample::Kind::edge_edge, e, g,
+                    [&](double t) { return compare_edge_edge_distance_sq(a0, a1, b0, b1, t); });
+    } else if (i < nv + ne) {
+      segment_triangle(i - nv, j - nv - ne);
+    } else {
+      triangle_triangle(i - nv - ne, j - nv - ne);
+    }
+  }
+
+ private:
+  void example(AuditExample::Kind kind, Index a, Index b, double d) {
+    auto& list = scene_ ? result.scene_examples : result.examples;
+    if (list.size() >= ranges_.max_examples) return;
+    list.push_back(AuditExample{kind, a, b, d, {}});
+    if (scene_)
+      list.back().object = audit_.topo_.objects[scene_a_].name + "' and '" + audit_.topo_.objects[scene_b_].name;
+  }
+  void count(Index& counter) { ++(scene_ ? result.scene_pairs : counter); }
+
+  /// A distance sub-pair: range filter in double, exclusions, then the exact verdict.
+  template <class ExactCompare>
+  void distance_pair(std::uint64_t k, double d2, AuditExample::Kind kind, Index a, Index b, ExactCompare&& exact_cmp) {
+    const AuditRanges& rg = ranges_;
+    if (!(d2 < (rg.reference_pass ? rg.xi_range_sq : rg.range_sq))) return;
+    if (rg.reference_pass) {
+      // The same exact comparison as the verdict, so the reference itself always audits clean.
+      if (d2 < rg.xi_range_sq && exact_cmp(rg.xi * rg.xi) < 0) close.push_back({k, std::sqrt(d2)});
+      return;
+    }
+    if (contains(audit_.excluded_close_, k)) return;
+    const double d = std::sqrt(d2);
+    if (!scene_) {  // the margin the method kept, not the scene's
+      ++result.checked_pairs;
+      result.min_distance = std::min(result.min_distance, d);
+    }
+    // A pair that started closer than xi is checked against its own (reduced) offset.
+    double pair_limit_sq = rg.limit_sq, pair_range_sq = rg.xi_range_sq;
+    const std::vector<std::uint64_t>& reduced = audit_.reduced_key_;
+    if (!reduced.empty()) {
+      const auto it = std::lower_bound(reduced.begin(), reduced.end(), k);
+      if (it != reduced.end() && *it == k) {
+        const double off = audit_.reduced_offset_[static_cast<size_t>(it - reduced.begin())];
+        const double tol = audit_.opt_.tolerance;
+        pair_limit_sq = (1.0 - tol) * off * (1.0 - tol) * off;
+        pair_range_sq = off * off * (1.0 + kRangeSlack);
+      }
+    }
+    if (d2 < pair_range_sq && exact_cmp(pair_limit_sq) < 0) {
+      count(result.close_pairs);
+      example(kind, a, b, d);
+    }
+  }
+
+  /// A strand segment e through triangle f; face edges are covered by triangle-triangle tests.
+  void segment_triangle(Index e, Index f) {
+    if (!audit_.strand_edge_[e]) return;
+    const Vec2i& ev = audit_.topo_.edges[e];
+    const Vec3i& fv = audit_.topo_.faces[f];
+    if (edge_face_share(ev, fv)) return;
+    if (!segment_triangle_intersect(x_[ev[0]], x_[ev[1]], x_[fv[0]], x_[fv[1]], x_[fv[2]])) return;
+    crossing(key(0, e, f), st, audit_.excluded_st_, result.segment_crossings, AuditExample::Kind::segment_triangle, e,
+             f);
+  }
+
+  void triangle_triangle(Index f, Index g) {
+    const Vec3i &fv = audit_.topo_.faces[f], &gv = audit_.topo_.faces[g];
+    if (faces_share(fv, gv)) return;  // do_intersect is slowest exactly on these
+    if (!triangles_intersect(x_[fv[0]], x_[fv[1]], x_[fv[2]], x_[gv[0]], x_[gv[1]], x_[gv[2]])) return;
+    crossing(key(0, f, g), tt, audit_.excluded_tt_, result.triangle_intersections,
+             AuditExample::Kind::triangle_triangle, f, g);
+  }
+
+  /// Elements a and b cross (key k): the reference pass records the key, a later pass counts
+  /// the crossing unless the reference excluded it.
+  void crossing(std::uint64_t k, std::vector<std::uint64_t>& reference_keys, const std::vector<std::uint64_t>& excluded,
+                Index& counter, AuditExample::Kind kind, Index a, Index b) {
+    if (ranges_.reference_pass) {
+      reference_keys.push_back(k);
+    } else if (!contains(excluded, k)) {
+      count(counter);
+      example(kind, a, b, 0.0);
+    }
+  }
+
+  const PenetrationAudit& audit_;
+  const Positions& x_;
+  const AuditRanges& ranges_;
+  const std::vector<std::uint8_t>& rigid_;
+  bool scene_ = false;  ///< the pair being tested joins two scripted objects
+  Index scene_a_ = 0, scene_b_ = 0;
+};
+
+FrameAudit PenetrationAudit::run(const Positions& x, bool reference_pass, std::vector<CloseKey>* close_keys,
+                                 std::vector<std::uint64_t>* tt_keys, std::vector<std::uint64_t>* st_keys) const {
+  AuditRanges rg;
+  rg.reference_pass = reference_pass;
+  rg.xi = opt_.offset;
+  const double xi = rg.xi;
+  // Close verdicts need candidates within xi only; the minimum-distance report looks further
+  // (report_range xi) so that a clean run shows how much margin it kept.
+  rg.xi_range_sq = xi * xi * (1.0 + kRangeSlack);
+  const double reach = (reference_pass ? 1.0 : std::max(opt_.report_range, 1.0)) * xi;
+  rg.range_sq = reach * reach * (1.0 + kRangeSlack);
+  const double limit = (1.0 - opt_.tolerance) * xi;
+  rg.limit_sq = limit * limit;
+  rg.max_examples = static_cast<size_t>(std::max(opt_.max_examples, 0));
+  // Grown by half the reach, every pair of primitives within it has overlapping boxes.
+  const std::vector<AABB> boxes = element_boxes(topo_, vertex_role_, x, 0.5 * reach * (1.0 + kRangeSlack));
+  // Rigid objects that moved rigidly: their pairs with themselves are skipped (unchanged but for
+  // round-off since the reference); scripted objects: their pairs with each other are a scene error.
+  FrameAudit rigid_report;
+  const std::vector<std::uint8_t> rigid =
+      reference_pass ? std::vector<std::uint8_t>(topo_.objects.size(), 0) : rigid_now(x, &rigid_report);
+  const std::vector<std::pair<Index, Index>> pairs = candidate_pairs(topo_, boxes, rigid);
 
   const Index num_pairs = static_cast<Index>(pairs.size());
   const Index chunks = default_chunk_count(std::max<Index>(num_pairs, 1));
-  std::vector<Scan> scans(static_cast<size_t>(chunks));
-  const auto max_examples = static_cast<size_t>(std::max(opt_.max_examples, 0));
-
+  std::vector<Scan> scans;
+  scans.reserve(static_cast<size_t>(chunks));
+  for (Index c = 0; c < chunks; ++c) scans.emplace_back(*this, x, rg, rigid);
   parallel_chunks(num_pairs, chunks, [&](Index c, Index begin, Index end) {
-    Scan& sc = scans[c];
-    FrameAudit& r = sc.result;
-    bool scene = false;  // the pair being tested joins two scripted objects
-    Index scene_a = 0, scene_b = 0;
-    auto example = [&](AuditExample::Kind kind, Index a, Index b, double d) {
-      auto& list = scene ? r.scene_examples : r.examples;
-      if (list.size() >= max_examples) return;
-      list.push_back(AuditExample{kind, a, b, d, {}});
-      if (scene) list.back().object = topo_.objects[scene_a].name + "' and '" + topo_.objects[scene_b].name;
-    };
-    auto count = [&](Index& counter) { ++(scene ? r.scene_pairs : counter); };
-    // A distance sub-pair: range filter in double, exclusions, then the exact verdict.
-    auto distance_pair = [&](std::uint64_t k, double d2, AuditExample::Kind kind, Index a, Index b, auto&& exact_cmp) {
-      if (!(d2 < (reference_pass ? xi_range_sq : range_sq))) return;
-      if (reference_pass) {
-        // The same exact comparison as the verdict, so the reference itself always audits clean.
-        if (d2 < xi_range_sq && exact_cmp(xi * xi) < 0) sc.close.push_back({k, std::sqrt(d2)});
-        return;
-      }
-      if (contains(excluded_close_, k)) return;
-      const double d = std::sqrt(d2);
-      if (!scene) {  // the margin the method kept, not the scene's
-        ++r.checked_pairs;
-        r.min_distance = std::min(r.min_distance, d);
-      }
-      // A pair that started closer than xi is checked against its own (reduced) offset.
-      double pair_limit_sq = limit_sq, pair_range_sq = xi_range_sq;
-      if (!reduced_key_.empty()) {
-        const auto it = std::lower_bound(reduced_key_.begin(), reduced_key_.end(), k);
-        if (it != reduced_key_.end() && *it == k) {
-          const double off = reduced_offset_[static_cast<size_t>(it - reduced_key_.begin())];
-          pair_limit_sq = (1.0 - opt_.tolerance) * off * (1.0 - opt_.tolerance) * off;
-          pair_range_sq = off * off * (1.0 + kRangeSlack);
-        }
-      }
-      if (d2 < pair_range_sq && exact_cmp(pair_limit_sq) < 0) {
-        count(r.close_pairs);
-        example(kind, a, b, d);
-      }
-    };
-
-    for (Index p = begin; p < end; ++p) {
-      const auto [i, j] = pairs[p];  // i < j, so i's element type comes first: V < E < F
-      if (roles && !reference_pass) {
-        const Index oi = object_of(i), oj = object_of(j);
-        if (oi == oj && rigid[oi]) continue;  // not enumerated by the BVH; kept for clarity
-        scene = (opt_.object_roles[oi] & kScriptedObject) && (opt_.object_roles[oj] & kScriptedObject);
-        scene_a = oi, scene_b = oj;
-      }
-      if (j < nv) {
-        // vertex-vertex: only between particles (meshes and strands: covered by VF / EE)
-        if (vertex_role_[i] != 2 || vertex_role_[j] != 2) continue;
-        distance_pair(sym_key(kVV, i, j), (x[i] - x[j]).squaredNorm(), AuditExample::Kind::vertex_vertex, i, j,
-                      [&](double t) { return compare_point_point_distance_sq(x[i], x[j], t); });
-      } else if (i < nv && j < nv + ne) {
-        const Index e = j - nv;
-        const Vec2i& ev = topo_.edges[e];
-        if (vertex_role_[i] != 2 || edge_has(ev, i)) continue;
-        const Vec3 &a = x[ev[0]], &b = x[ev[1]];
-        distance_pair(key(kVE, i, e), point_edge(x[i], a, b).distance_sq, AuditExample::Kind::vertex_edge, i, e,
-                      [&](double t) { return compare_point_edge_distance_sq(x[i], a, b, t); });
-      } else if (i < nv) {
-        const Index f = j - nv - ne;
-        const Vec3i& fv = topo_.faces[f];
-        if (face_has(fv, i)) continue;
-        const Vec3 &a = x[fv[0]], &b = x[fv[1]], &cc = x[fv[2]];
-        distance_pair(key(kVF, i, f), point_triangle(x[i], a, b, cc).distance_sq, AuditExample::Kind::vertex_face, i, f,
-                      [&](double t) { return compare_point_triangle_distance_sq(x[i], a, b, cc, t); });
-      } else if (j < nv + ne) {
-        const Index e = i - nv, g = j - nv;
-        const Vec2i &ev = topo_.edges[e], &gv = topo_.edges[g];
-        if (edges_share(ev, gv)) continue;
-        const Vec3 &a0 = x[ev[0]], &a1 = x[ev[1]], &b0 = x[gv[0]], &b1 = x[gv[1]];
-        distance_pair(sym_key(kEE, e, g), edge_edge(a0, a1, b0, b1).distance_sq, AuditExample::Kind::edge_edge, e, g,
-                      [&](double t) { return compare_edge_edge_distance_sq(a0, a1, b0, b1, t); });
-      } else if (i < nv + ne) {
-        // A strand segment through a triangle; face edges are covered by triangle-triangle tests.
-        const Index e = i - nv, f = j - nv - ne;
-        if (!strand_edge_[e]) continue;
-        const Vec2i& ev = topo_.edges[e];
-        const Vec3i& fv = topo_.faces[f];
-        if (edge_face_share(ev, fv)) continue;
-        if (!segment_triangle_intersect(x[ev[0]], x[ev[1]], x[fv[0]], x[fv[1]], x[fv[2]])) continue;
-        const std::uint64_t k = key(0, e, f);
-        if (reference_pass) {
-          sc.st.push_back(k);
-        } else if (!contains(excluded_st_, k)) {
-          count(r.segment_crossings);
-          example(AuditExample::Kind::segment_triangle, e, f, 0.0);
-        }
-      } else {
-        const Index f = i - nv - ne, g = j - nv - ne;
-        const Vec3i &fv = topo_.faces[f], &gv = topo_.faces[g];
-        if (faces_share(fv, gv)) continue;  // do_intersect is slowest exactly on these
-        if (!triangles_intersect(x[fv[0]], x[fv[1]], x[fv[2]], x[gv[0]], x[gv[1]], x[gv[2]])) continue;
-        const std::uint64_t k = key(0, f, g);
-        if (reference_pass) {
-          sc.tt.push_back(k);
-        } else if (!contains(excluded_tt_, k)) {
-          count(r.triangle_intersections);
-          example(AuditExample::Kind::triangle_triangle, f, g, 0.0);
-        }
-      }
-    }
+    for (Index p = begin; p < end; ++p) scans[c].classify(pairs[p].first, pairs[p].second);
   });
 
   FrameAudit out;
@@ -506,10 +565,10 @@ FrameAudit PenetrationAudit::run(const Positions& x, bool reference_pass, std::v
     out.checked_pairs += r.checked_pairs;
     out.scene_pairs += r.scene_pairs;
     for (const AuditExample& ex : r.scene_examples)
-      if (out.scene_examples.size() < max_examples) out.scene_examples.push_back(ex);
+      if (out.scene_examples.size() < rg.max_examples) out.scene_examples.push_back(ex);
     out.min_distance = std::min(out.min_distance, r.min_distance);
     for (const AuditExample& ex : r.examples)
-      if (out.examples.size() < max_examples) out.examples.push_back(ex);
+      if (out.examples.size() < rg.max_examples) out.examples.push_back(ex);
     if (reference_pass) {
       close_keys->insert(close_keys->end(), sc.close.begin(), sc.close.end());
       tt_keys->insert(tt_keys->end(), sc.tt.begin(), sc.tt.end());

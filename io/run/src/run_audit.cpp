@@ -132,14 +132,10 @@ std::string audit_options_problem(const RunAuditOptions& o) {
   return {};
 }
 
-RunAuditResult audit_run(const fs::path& dir, const RunAuditOptions& o, const FrameAuditCallback& on_frame,
-                         const std::function<void(const RunAuditResult&)>& on_start) {
-  if (const std::string problem = audit_options_problem(o); !problem.empty()) throw Error("audit: " + problem);
-  if (!fs::is_directory(dir)) throw Error("'" + dir.string() + "' is not a directory" + previous_run_note(dir));
-  if (!o.offset && !fs::exists(dir / "run.json"))
-    throw Error("'" + (dir / "run.json").string() +
-                "' is missing: pass --offset XI to audit frames without a run.json" + previous_run_note(dir));
-  const RunInfo info = read_run_info(dir, /*require_run_json=*/!o.offset.has_value());
+namespace {
+
+/// The result's description of the audit before any frame is read; throws without a positive xi.
+RunAuditResult start_result(const fs::path& dir, const RunAuditOptions& o, const RunInfo& info) {
   RunAuditResult res;
   res.dir = dir;
   res.has_run_json = info.has_run_json;
@@ -151,42 +147,46 @@ RunAuditResult audit_run(const fs::path& dir, const RunAuditOptions& o, const Fr
   if (!(res.offset > 0.0))
     throw Error("no positive offset xi: run.json has offset " + std::to_string(info.meta.contact.offset) +
                 "; pass --offset");
-  const std::vector<FrameFile> frames = frame_files(dir);
+  return res;
+}
+
+/// The frames on disk, which must be those run.json counts at the end of a run (not while it is
+/// "running").
+std::vector<FrameFile> frames_to_audit(const fs::path& dir, const RunInfo& info) {
+  std::vector<FrameFile> frames = frame_files(dir);
   if (frames.empty()) throw Error("no frames in '" + (dir / "frames").string() + "'");
-  // run.json counts the frames at the end of a run (not while it is "running").
   if (info.has_run_json && !info.progress.status.empty() && info.progress.status != "running" &&
       info.progress.frames_written >= 0 && static_cast<size_t>(info.progress.frames_written) != frames.size())
     throw Error("'" + (dir / "run.json").string() + "' records " + std::to_string(info.progress.frames_written) +
                 " frames written, but '" + (dir / "frames").string() + "' holds " + std::to_string(frames.size()));
+  return frames;
+}
 
-  // The exclusions come from frame 0 (or an explicit reference): a later frame as reference would
-  // excuse whatever is wrong in it, e.g. a sheet intersecting the floor in every frame.
+/// The reference the exclusions come from: frame 0 (or an explicit one). A later frame as
+/// reference would excuse whatever is wrong in it, e.g. a sheet intersecting the floor in every frame.
+fs::path reference_frame(const fs::path& dir, const RunAuditOptions& o, const std::vector<FrameFile>& frames) {
   if (o.reference.empty()) {
     if (frames.front().number != 0)
       throw Error("'" + (dir / "frames" / "frame_00000.obj").string() +
                   "' is missing: frame 0 defines the pairs the audit excludes; pass --reference FILE (an OBJ of the "
                   "initial state with the same topology) to audit this run");
-    res.reference = frames.front().path;
-  } else {
-    if (!fs::is_regular_file(o.reference)) throw Error("reference '" + o.reference.string() + "' does not exist");
-    res.reference = o.reference;
+    return frames.front().path;
   }
+  if (!fs::is_regular_file(o.reference)) throw Error("reference '" + o.reference.string() + "' does not exist");
+  return o.reference;
+}
 
-  // A sequence with a hole certifies nothing about the hole: refuse it, naming what is missing.
-  check_frame_sequence(dir, o.reference.empty() ? 0 : frames.front().number,
-                       info.has_run_json ? std::optional<long>(info.meta.every) : std::optional<long>(),
-                       "the audit certifies");
-
-  // Frames 0, K, 2K, ... (by position on disk) and always the last one.
-  const size_t stride = static_cast<size_t>(res.stride);
+/// Positions in `frames` of the frames audited: 0, K, 2K, ... and always the last one.
+std::vector<size_t> picked_frames(size_t count, size_t stride) {
   std::vector<size_t> picks;
-  for (size_t i = 0; i < frames.size(); i += stride) picks.push_back(i);
-  if (picks.back() != frames.size() - 1) picks.push_back(frames.size() - 1);
-  res.frames_total = frames.size();
-  res.frames_checked = picks.size();
+  for (size_t i = 0; i < count; i += stride) picks.push_back(i);
+  if (picks.back() != count - 1) picks.push_back(count - 1);
+  return picks;
+}
 
-  const auto t0 = std::chrono::steady_clock::now();
-  const Frame reference = read_frame_obj(res.reference);
+/// Refuses a reference that cannot be this run's, or an offset that would excuse every pair.
+void check_reference(const Frame& reference, const fs::path& dir, const RunAuditOptions& o, const RunInfo& info,
+                     const RunAuditResult& res) {
   // Frames of another scene certify nothing about this run: run.json counts the run's vertices.
   if (info.has_run_json && info.progress.vertices > 0 &&
       static_cast<long>(reference.v.size()) != info.progress.vertices)
@@ -207,21 +207,107 @@ RunAuditResult audit_run(const fs::path& dir, const RunAuditOptions& o, const Fr
                        "pair would be excluded as close in frame 0; give the run's offset xi",
                        *o.offset, res.reference.string(), size));
   }
+}
+
+/// The roles run.json gives the objects of `topo` (rigid, scripted), counted into `res`.
+std::vector<std::uint8_t> object_roles(const Topology& topo, const RunInfo& info, RunAuditResult& res) {
+  std::vector<std::uint8_t> roles;
+  if (info.objects.empty()) return roles;
+  roles.assign(topo.objects.size(), 0);
+  for (const RunInfo::RigidObject& ro : info.objects)
+    for (size_t k = 0; k < topo.objects.size(); ++k)
+      if (topo.objects[k].name == ro.name) {
+        roles[k] = static_cast<std::uint8_t>((ro.rigid ? exact::kRigidObject : 0) |
+                                             (ro.scripted ? exact::kScriptedObject : 0));
+        res.rigid_objects += ro.rigid;
+        res.scripted_objects += ro.scripted;
+      }
+  return roles;
+}
+
+/// Refuses a frame that is not this run's: another scene's fingerprint or another topology.
+void check_frame(const Frame& fr, const fs::path& path, const Frame& reference, const fs::path& dir,
+                 const RunInfo& info, const RunAuditResult& res) {
+  // Frames a run wrote carry its scene fingerprint: another scene's frames (same topology,
+  // other positions or masses) are not this run's.
+  if (info.meta.scene_fingerprint != 0 && reference.scene_fingerprint != 0 &&
+      fr.scene_fingerprint != info.meta.scene_fingerprint)
+    throw Error(
+        ccfr::format("'{}' was written by a run of scene fingerprint {:016x}, but '{}' records {:016x}: "
+                     "these frames are not this run's; audit the run that wrote them",
+                     path.string(), fr.scene_fingerprint, (dir / "run.json").string(), info.meta.scene_fingerprint));
+  if (!same_structure(reference, fr)) {
+    topology_from_frame(fr, path);  // names the offending line if the frame itself is malformed
+    throw Error("the topology of '" + path.string() + "' differs from the reference '" + res.reference.string() +
+                "' (objects, faces, lines or points)");
+  }
+}
+
+/// Adds frame n's audit `r` to the result: its row and the run's totals.
+void record_frame(RunAuditResult& res, long n, const fs::path& path, const exact::FrameAudit& r) {
+  FrameAuditRow row;
+  row.frame = n;
+  row.file = path.filename().string();
+  row.triangle_intersections = r.triangle_intersections;
+  row.segment_crossings = r.segment_crossings;
+  row.close_pairs = r.close_pairs;
+  row.rigid_deformations = r.rigid_deformations;
+  row.scene_pairs = r.scene_pairs;
+  row.min_distance = r.min_distance;
+  for (const exact::AuditExample& e : r.examples) row.examples.push_back(e.describe());
+  for (const exact::AuditExample& e : r.scene_examples) row.scene_examples.push_back(e.describe());
+  if (res.rigid_objects > 0 && r.rigid_deformations == 0) ++res.rigid_frames;
+  if (r.scene_pairs > 0) {
+    res.scene_pairs += r.scene_pairs;
+    ++res.scene_frames;
+    if (res.first_scene_frame < 0) {
+      res.first_scene_frame = n;
+      if (!r.scene_examples.empty()) res.first_scene_example = r.scene_examples.front().describe();
+    }
+  }
+  res.rows.push_back(std::move(row));
+  res.min_distance = std::min(res.min_distance, r.min_distance);
+  res.violations += r.penetrations();
+  if (!r.clean()) {
+    ++res.bad_frames;
+    if (res.first_bad_frame < 0) {
+      res.first_bad_frame = n;
+      if (!r.examples.empty()) res.first_example = r.examples.front().describe();
+    }
+  }
+}
+
+}  // namespace
+
+RunAuditResult audit_run(const fs::path& dir, const RunAuditOptions& o, const FrameAuditCallback& on_frame,
+                         const std::function<void(const RunAuditResult&)>& on_start) {
+  if (const std::string problem = audit_options_problem(o); !problem.empty()) throw Error("audit: " + problem);
+  if (!fs::is_directory(dir)) throw Error("'" + dir.string() + "' is not a directory" + previous_run_note(dir));
+  if (!o.offset && !fs::exists(dir / "run.json"))
+    throw Error("'" + (dir / "run.json").string() +
+                "' is missing: pass --offset XI to audit frames without a run.json" + previous_run_note(dir));
+  const RunInfo info = read_run_info(dir, /*require_run_json=*/!o.offset.has_value());
+  RunAuditResult res = start_result(dir, o, info);
+  const std::vector<FrameFile> frames = frames_to_audit(dir, info);
+  res.reference = reference_frame(dir, o, frames);
+
+  // A sequence with a hole certifies nothing about the hole: refuse it, naming what is missing.
+  check_frame_sequence(dir, o.reference.empty() ? 0 : frames.front().number,
+                       info.has_run_json ? std::optional<long>(info.meta.every) : std::optional<long>(),
+                       "the audit certifies");
+
+  const std::vector<size_t> picks = picked_frames(frames.size(), static_cast<size_t>(res.stride));
+  res.frames_total = frames.size();
+  res.frames_checked = picks.size();
+
+  const auto t0 = std::chrono::steady_clock::now();
+  const Frame reference = read_frame_obj(res.reference);
+  check_reference(reference, dir, o, info, res);
   exact::AuditOptions opt;
   opt.offset = res.offset;
   opt.tolerance = o.tolerance;
   Topology topo = topology_from_frame(reference, res.reference);
-  if (!info.objects.empty()) {
-    opt.object_roles.assign(topo.objects.size(), 0);
-    for (const RunInfo::RigidObject& ro : info.objects)
-      for (size_t k = 0; k < topo.objects.size(); ++k)
-        if (topo.objects[k].name == ro.name) {
-          opt.object_roles[k] = static_cast<std::uint8_t>((ro.rigid ? exact::kRigidObject : 0) |
-                                                          (ro.scripted ? exact::kScriptedObject : 0));
-          res.rigid_objects += ro.rigid;
-          res.scripted_objects += ro.scripted;
-        }
-  }
+  opt.object_roles = object_roles(topo, info, res);
   exact::PenetrationAudit audit(std::move(topo), reference.v, opt);
   res.excluded_close_pairs = audit.excluded_close_pairs();
   res.reduced_offset_pairs = audit.reduced_offset_pairs();
@@ -235,52 +321,10 @@ RunAuditResult audit_run(const fs::path& dir, const RunAuditOptions& o, const Fr
   for (const size_t i : picks) {
     const fs::path& path = frames[i].path;
     const Frame fr = path == res.reference ? reference : read_frame_obj(path);
-    // Frames a run wrote carry its scene fingerprint: another scene's frames (same topology,
-    // other positions or masses) are not this run's.
-    if (info.meta.scene_fingerprint != 0 && reference.scene_fingerprint != 0 &&
-        fr.scene_fingerprint != info.meta.scene_fingerprint)
-      throw Error(
-          ccfr::format("'{}' was written by a run of scene fingerprint {:016x}, but '{}' records {:016x}: "
-                       "these frames are not this run's; audit the run that wrote them",
-                       path.string(), fr.scene_fingerprint, (dir / "run.json").string(), info.meta.scene_fingerprint));
-    if (!same_structure(reference, fr)) {
-      topology_from_frame(fr, path);  // names the offending line if the frame itself is malformed
-      throw Error("the topology of '" + path.string() + "' differs from the reference '" + res.reference.string() +
-                  "' (objects, faces, lines or points)");
-    }
+    check_frame(fr, path, reference, dir, info, res);
     const exact::FrameAudit r = audit.audit_next(fr.v);  // in frame order: raises the reduced offsets
-    const long n = frames[i].number;
-    FrameAuditRow row;
-    row.frame = n;
-    row.file = path.filename().string();
-    row.triangle_intersections = r.triangle_intersections;
-    row.segment_crossings = r.segment_crossings;
-    row.close_pairs = r.close_pairs;
-    row.rigid_deformations = r.rigid_deformations;
-    row.scene_pairs = r.scene_pairs;
-    row.min_distance = r.min_distance;
-    for (const exact::AuditExample& e : r.examples) row.examples.push_back(e.describe());
-    for (const exact::AuditExample& e : r.scene_examples) row.scene_examples.push_back(e.describe());
-    if (res.rigid_objects > 0 && r.rigid_deformations == 0) ++res.rigid_frames;
-    if (r.scene_pairs > 0) {
-      res.scene_pairs += r.scene_pairs;
-      ++res.scene_frames;
-      if (res.first_scene_frame < 0) {
-        res.first_scene_frame = n;
-        if (!r.scene_examples.empty()) res.first_scene_example = r.scene_examples.front().describe();
-      }
-    }
-    res.rows.push_back(std::move(row));
-    res.min_distance = std::min(res.min_distance, r.min_distance);
-    res.violations += r.penetrations();
-    if (!r.clean()) {
-      ++res.bad_frames;
-      if (res.first_bad_frame < 0) {
-        res.first_bad_frame = n;
-        if (!r.examples.empty()) res.first_example = r.examples.front().describe();
-      }
-    }
-    if (on_frame) on_frame(n, r);
+    record_frame(res, frames[i].number, path, r);
+    if (on_frame) on_frame(frames[i].number, r);
   }
   res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return res;

@@ -8,6 +8,7 @@
 
 #include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/parser.h>
+#include <nlohmann/json.hpp>
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/io/user_file.hpp"
@@ -637,115 +638,64 @@ std::string apply_override(YAML::Node& root, const std::string& assignment, cons
 }
 
 namespace {
-std::string json_escape(const std::string& s) {
-  std::string o = "\"";
-  for (char c : s) {
-    switch (c) {
-      case '"':
-        o += "\\\"";
-        break;
-      case '\\':
-        o += "\\\\";
-        break;
-      case '\n':
-        o += "\\n";
-        break;
-      case '\t':
-        o += "\\t";
-        break;
-      default:
-        if (static_cast<unsigned char>(c) < 0x20) {
-          char b[8];
-          std::snprintf(b, sizeof b, "\\u%04x", c);
-          o += b;
-        } else {
-          o += c;
-        }
-    }
-  }
-  return o + "\"";
+using Json = nlohmann::ordered_json;
+
+/// A resolved scalar's text as JSON: resolve() writes numbers in their shortest round-trip text
+/// (an integral one without a fraction, so it reads as an integer), integers and booleans as JSON does.
+Json scalar_json(const std::string& text) { return Json::parse(text); }
+
+Json emit(const YAML::Node& n, const Node& sch);
+
+/// The fields of `n` that are present, in the schema's order (`disc`, a variant's tag, first).
+Json emit_map(const YAML::Node& n, const std::vector<Field>& fields, const std::string& disc = "") {
+  Json o = Json::object();
+  if (!disc.empty() && n[disc]) o[disc] = n[disc].Scalar();
+  for (const auto& f : fields)
+    if (n[f.key]) o[f.key] = emit(n[f.key], *f.node);
+  return o;
 }
 
-void emit(std::string& o, const YAML::Node& n, const Node& sch, int ind);
-
-void emit_map(std::string& o, const YAML::Node& n, const std::vector<Field>& fields, int ind,
-              const std::string& disc = "") {
-  const std::string pad(static_cast<size_t>(ind + 2), ' ');
-  o += "{";
-  bool first = true;
-  if (!disc.empty() && n[disc]) {
-    o += "\n" + pad + json_escape(disc) + ": " + json_escape(n[disc].Scalar());
-    first = false;
-  }
-  for (const auto& f : fields) {
-    if (!n[f.key]) continue;
-    o += first ? "\n" : ",\n";
-    first = false;
-    o += pad + json_escape(f.key) + ": ";
-    emit(o, n[f.key], *f.node, ind + 2);
-  }
-  o += first ? "}" : "\n" + std::string(static_cast<size_t>(ind), ' ') + "}";
-}
-
-void emit(std::string& o, const YAML::Node& n, const Node& sch, int ind) {
-  const std::string pad(static_cast<size_t>(ind + 2), ' ');
+Json emit(const YAML::Node& n, const Node& sch) {
   switch (sch.kind) {
     case Kind::map:
-      emit_map(o, n, sch.fields, ind);
-      return;
+      return emit_map(n, sch.fields);
     case Kind::variant:
       for (const auto& [name, v] : sch.variants)
         if (n[sch.discriminator] && n[sch.discriminator].Scalar() == name)
-          return emit_map(o, n, v->fields, ind, sch.discriminator);
-      o += "{}";
-      return;
+          return emit_map(n, v->fields, sch.discriminator);
+      return Json::object();
     case Kind::dict: {
-      o += "{";
-      bool first = true;
-      for (auto it = n.begin(); it != n.end(); ++it) {
-        o += first ? "\n" : ",\n";
-        first = false;
-        o += pad + json_escape(it->first.as<std::string>()) + ": ";
-        emit(o, it->second, *sch.item, ind + 2);
-      }
-      o += first ? "}" : "\n" + std::string(static_cast<size_t>(ind), ' ') + "}";
-      return;
+      Json o = Json::object();
+      for (auto it = n.begin(); it != n.end(); ++it) o[it->first.as<std::string>()] = emit(it->second, *sch.item);
+      return o;
     }
     case Kind::list: {
-      o += "[";
-      for (size_t i = 0; i < n.size(); ++i) {
-        o += i ? ",\n" : "\n";
-        o += pad;
-        emit(o, n[i], *sch.item, ind + 2);
-      }
-      o += n.size() ? "\n" + std::string(static_cast<size_t>(ind), ' ') + "]" : "]";
-      return;
+      Json o = Json::array();
+      for (size_t i = 0; i < n.size(); ++i) o.push_back(emit(n[i], *sch.item));
+      return o;
     }
     case Kind::vec3:
     case Kind::vec2:
     case Kind::ivec3:
     case Kind::ivec2:
     case Kind::index_list: {
-      o += "[";
-      for (size_t i = 0; i < n.size(); ++i) o += (i ? ", " : "") + n[i].Scalar();
-      o += "]";
-      return;
+      Json o = Json::array();
+      for (size_t i = 0; i < n.size(); ++i) o.push_back(scalar_json(n[i].Scalar()));
+      return o;
     }
     case Kind::number: {
       double v = 0;
       parse_double(n, v);
-      o += fmt_double(v);
-      return;
+      return scalar_json(fmt_double(v));
     }
     case Kind::integer:
     case Kind::boolean:
-      o += n.Scalar();
-      return;
+      return scalar_json(n.Scalar());
     case Kind::string:
     case Kind::choice:
-      o += json_escape(n.Scalar());
-      return;
+      return n.Scalar();
   }
+  return nullptr;
 }
 
 void reference_rows(std::string& o, const Node& sch, const std::string& path, const std::string& note) {
@@ -805,8 +755,12 @@ void reference_rows(std::string& o, const Node& sch, const std::string& path, co
 }  // namespace
 
 std::string to_json(const YAML::Node& resolved, const NodePtr& sch, int indent) {
+  const std::string text = emit(resolved, *sch).dump(2, ' ', false, Json::error_handler_t::replace);
   std::string o;
-  emit(o, resolved, *sch, indent);
+  for (const char c : text) {
+    o += c;
+    if (c == '\n') o.append(static_cast<size_t>(indent), ' ');
+  }
   return o;
 }
 

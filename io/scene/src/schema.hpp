@@ -113,7 +113,8 @@ YAML::Node resolve(const YAML::Node& in, const NodePtr& schema, const Context& c
 std::string apply_override(YAML::Node& root, const std::string& assignment, const NodePtr& schema = nullptr,
                            const std::string& file = "");
 
-/// Emits a resolved tree as JSON, typed by the schema (numbers stay numbers).
+/// Emits a resolved tree as JSON, typed by the schema (numbers stay numbers), two spaces per
+/// level; every line after the first is indented by `indent` more.
 std::string to_json(const YAML::Node& resolved, const NodePtr& schema, int indent = 0);
 
 /// Markdown reference of every key: path, type, default, range/choices, description.

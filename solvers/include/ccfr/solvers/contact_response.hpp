@@ -103,6 +103,16 @@ class ContactResponse {
   void prepare_common(std::span<const ContactPair> contacts, const ContactParams& params,
                       std::span<const Index> row_start, std::span<const Index> slots,
                       std::span<const double> movable = {});
+  // The phases of one sweep of separate().
+  /// Sets separate_dl_ to each contact's overlap E (0: none); returns how many overlap.
+  Index mark_overlaps(const Positions& x, const Positions& anchor, std::span<const double> inv_mass, bool barycentric);
+  /// separate_count_: each movable vertex's overlapping contacts.
+  void count_overlaps(Index nv, std::span<const double> inv_mass);
+  /// corr_: every overlapping contact's pull-back of its vertices.
+  void pull_back(const Positions& x, const Positions& anchor, std::span<const double> inv_mass, Index nv,
+                 bool barycentric, std::span<const double> other_inverse_mass);
+  /// Moves each vertex by the mean of its overlapping contacts' pull-backs.
+  void move_by_mean(Positions& x, std::span<const double> inv_mass, Index nv) const;
 
   std::span<const ContactPair> contacts_;
   std::vector<double> visibility_;

@@ -1,5 +1,5 @@
 #pragma once
-/// @file rigid_projection.hpp
+/// @file rigid_bodies.hpp
 /// Contact resolution for rigid bodies taken as a rigid motion. A region projection moves single
 /// vertices; applied to a rigid body it crushes it (vertices pushed in by a floor, the rest left
 /// where XPBD put them), and its pairs with itself are never detected, so nothing would report
@@ -17,7 +17,6 @@
 #include "ccfr/core/state.hpp"
 #include "ccfr/core/topology.hpp"
 #include "ccfr/core/types.hpp"
-#include "ccfr/feasibility/projector.hpp"
 #include "ccfr/feasibility/region.hpp"
 #include "ccfr/solvers/params.hpp"
 
@@ -105,14 +104,12 @@ class RigidBodies {
   /// Makes every rigid body a rigid placement that keeps each of its vertices inside its region
   /// (anchored at `anchor`) and within `step_bound` of its anchor. `x` holds the candidate
   /// positions (#V, already projected vertex by vertex); rigid bodies' vertices are overwritten.
-  /// `projector` re-projects the fitted positions in the refit iterations. A body whose step the
-  /// bound shortened by more than `advance_tolerance` (relative) counts in bodies_bounded, so the
-  /// substep keeps iterating until it arrives.
+  /// A body whose step the bound shortened by more than `advance_tolerance` (relative) counts in
+  /// bodies_bounded, so the substep keeps iterating until it arrives.
   /// `cores` (#bodies, from predicted_cores) places the cores; empty: no core.
-  /// `contact` adds friction and repulsion (see RigidContactOptions). The projector is not used
-  /// (kept for the callers of the refit the pose solve replaced).
-  RigidEnforceStats enforce(Positions& x, const Positions& anchor, const RegionSet& regions, const Projector& projector,
-                            double step_bound, double advance_tolerance = 0.01, std::span<const Vec3> cores = {},
+  /// `contact` adds friction and repulsion (see RigidContactOptions).
+  RigidEnforceStats enforce(Positions& x, const Positions& anchor, const RegionSet& regions, double step_bound,
+                            double advance_tolerance = 0.01, std::span<const Vec3> cores = {},
                             const RigidContactOptions& contact = {}) const;
 
   /// Sets the inverse masses of the vertices of every unpinned body to 0: those bodies' contacts
@@ -164,6 +161,7 @@ class RigidBodies {
     std::vector<Index> live;            ///< indices into contacts, in plane order
     std::vector<Index> slot;            ///< per plane of the body: its index in contacts, or -1
   };
+  class PoseSolver;  ///< one body's pose solve in enforce() (rigid_bodies.cpp)
   std::vector<Body> bodies_;
   mutable std::vector<Workspace> work_;
 };
