@@ -3,7 +3,7 @@
 /// Material constraints as registered components. A material constraint is a batch of XPBD
 /// constraints of one type (`ConstraintBatch`: the vertices of each constraint and the kernel that
 /// solves a list of them), built for a scene by the factory registered under its name in
-/// `material_constraints()`. `MaterialSystem` (materials.hpp) builds every registered batch,
+/// `material_constraints()`. `MaterialSystem` (material_system.hpp) builds every registered batch,
 /// colours them, groups them into islands and sweeps them; it knows no constraint type by name.
 ///
 /// The built-in entries (solvers/src/materials/, one file each, named by its key) are `stretch`
