@@ -22,7 +22,7 @@ constexpr int kPoseSweeps = 32;
 /// Sweeps a body with acting contacts runs at least.
 constexpr int kMinPoseSweeps = 4;
 /// The pose solve aims this fraction of r inside every half-space, so that the exact check of the
-/// rigid pose (rotation no longer linearized) passes.
+/// rigid pose (the exact rotation, not its linearization) passes.
 constexpr double kMarginOfBound = 1e-4;
 /// How far (a fraction of r) beyond acting a plane joins a pose solve's live contacts. A sweep
 /// costs the live contacts, a rebuild every plane of the body: a bunny in a pile has ~300k planes,

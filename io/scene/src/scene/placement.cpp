@@ -112,7 +112,7 @@ void check_faces(const Input& in, const Positions& v, const std::vector<Vec3i>& 
     log::info("{}: {}: {}: faces wound inward; taken as the solid they enclose", in.ctx.file, path, what);
 }
 
-/// A rotation by a non-zero angle about the zero vector has no axis: it used to be skipped.
+/// A rotation by a non-zero angle about the zero vector has no axis: an error at `rotate_axis`.
 void check_rotation(const Input& in, const YAML::Node& t, const std::string& tpath) {
   if (t["rotate_deg"].as<double>() != 0.0 && v3(t["rotate_axis"]).norm() == 0.0)
     in.ctx.fail(tpath + ".rotate_axis", in.in_node(tpath + ".rotate_axis"),

@@ -35,7 +35,7 @@ struct TimeParams {
   double advance_tolerance = 1e-6;
   /// Also stop once the step bound cut at most this fraction of the pass's total intended advance
   /// (sum over movable vertices), even if a few vertices are still held back; 0 keeps the
-  /// per-vertex rule alone. A handful of whipping vertices then no longer costs the whole scene
+  /// per-vertex rule alone. A handful of whipping vertices then does not cost the whole scene
   /// another pass; they keep their clamped step (counted in clamped_vertices).
   double advance_shortfall = 0.0;
   /// What the outer iterations after a substep's first one solve again.
@@ -78,8 +78,8 @@ struct ContactParams : ContactModel {
   bool analytic_obstacles = false;  ///< obstacles with an analytic shape also collide through their SDF
   /// Contact carries momentum between its two sides: inelastic contact on the candidate positions
   /// (ContactResponse::separate) and region planes split by the motion it leaves (split_by_motion). false (default):
-  /// the paper's response (repulsion within δ) and mass-share planes. Off by default until a heavy body on a light,
-  /// pinned cloth no longer stretches it (docs/feasibility.md, "Momentum through contact").
+  /// the paper's response (repulsion within δ) and mass-share planes. Off by default: with it, a heavy body on a light,
+  /// pinned cloth stretches the cloth (docs/feasibility.md, "Momentum through contact").
   bool momentum = false;
   /// Each pair's plane may turn toward the candidates' closest-point direction where that keeps the
   /// anchors apart by the offset and cuts the candidates less (turn_by_motion): bodies and cloth

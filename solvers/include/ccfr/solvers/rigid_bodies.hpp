@@ -153,8 +153,8 @@ class RigidBodies {
     double lambda_r = 0.0;  ///< repulsion: C >= δ, compliant
     Vec3 lambda_t = Vec3::Zero();
   };
-  /// A body's buffers, kept between passes (allocating them anew each pass was a fifth of a
-  /// landing frame, in page faults).
+  /// A body's buffers, kept between passes so that a pass allocates nothing (docs/performance.md
+  /// measures the page faults of per-pass buffers).
   struct Workspace {
     std::vector<Vec3> y, z;
     std::vector<PoseContact> contacts;  ///< only the planes that came within reach of acting
