@@ -17,10 +17,12 @@ Eigen::Matrix3d polar_rotation(const Eigen::Matrix3d& a);
 /// The same rotation by Higham's scaled Newton iteration (Higham 1986, "Computing the polar
 /// decomposition with applications"): \f$\mathbf{X}_0 = \mathbf{A}\f$, \f$\mathbf{X}_{k+1} =
 /// \tfrac12(\zeta_k\mathbf{X}_k + \zeta_k^{-1}\mathbf{X}_k^{-T})\f$ with \f$\zeta_k = (\|\mathbf{X}_k^{-1}\|_F /
-/// \|\mathbf{X}_k\|_F)^{1/2}\f$, until the step is below 1e-7 (quadratic convergence leaves the last iterate within
-/// about 5e-15 of the limit: 3-4 steps for a tet's F, 4-5x cheaper than the SVD and equal to it within a few ulps). The
-/// iteration yields the orthogonal factor with det = sign det A, so an inverted, flat or nearly flat A (det A ≤ 1e-6
-/// ‖A‖³) goes to polar_rotation() instead.
+/// \|\mathbf{X}_k\|_F)^{1/2}\f$ while the steps are at least 1e-2 and \f$\zeta_k = 1\f$ after, or from the start for an
+/// A within about 1 % of a rotation (Higham's advice: scaling helps only far from convergence; the step
+/// count is the same), until the step is below 1e-7 (quadratic
+/// convergence leaves the last iterate within about 5e-15 of the limit: 3-4 steps for a tet's F, 4-5x cheaper than the
+/// SVD and equal to it within a few ulps). The iteration yields the orthogonal factor with det = sign det A, so an
+/// inverted, flat or nearly flat A (det A ≤ 1e-6 ‖A‖³) goes to polar_rotation() instead.
 Eigen::Matrix3d polar_rotation_newton(const Eigen::Matrix3d& a);
 
 }  // namespace xpbd
