@@ -141,9 +141,6 @@ ReuseMotion measure_reuse_motion(const Topology& topo, std::span<const Vec3> x, 
 
 /// What the initial configuration did to contact (counts of sub-pairs), for the log and run.json.
 struct InitialProximity {
-  /// Always 0 now: adjacent sub-pairs closer than ξ are kept (adjacent_kept); excluding them let a
-  /// held-back soft knot intersect itself 319 times with no violation counted.
-  Index adjacent_excluded = 0;
   /// Closer than ξ at rest and topologically adjacent: kept with the fixed offset (1 − m) d₀.
   Index adjacent_kept = 0;
   Index intersecting_pairs = 0;     ///< primitive pairs crossing each other (exact test)
