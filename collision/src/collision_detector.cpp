@@ -141,19 +141,20 @@ void CollisionDetector::enumerate_candidates(const Positions& x, std::span<const
   // Without listing the old chunks stay allocated but invalid: the next listing pass refills them.
   if (listing) list.resize(chunks);
   parallel_chunks(n, chunks, [&](Index chunk, Index begin, Index end) {
-    detail::ContactPolicy policy = detail::contact_policy(inv_mass, stages_->initial, params_, contact_buffers_[chunk]);
+    detail::ContactSink sink{topo_, x,
+                             detail::contact_policy(inv_mass, stages_->initial, params_, contact_buffers_[chunk])};
     if (listing) {
+      detail::ContactPolicy& policy = sink.policy;
       list.chunk(chunk).clear();
       policy.list = &list.chunk(chunk);
       policy.list_reach = policy.reach_m + list.skin();
       policy.list_reach_sq = policy.list_reach * policy.list_reach;
     }
-    detail::ContactSink sink{topo_, x, policy};
     for (Index i = begin; i < end; ++i) {
       const auto [p, q] = candidates_[i];
       if (movable_[p] || movable_[q]) detail::visit_sub_pairs(topo_, prims_, p, q, sink);
     }
-    policy.add_to(counts[chunk]);
+    sink.policy.add_to(counts[chunk]);
   });
   for (Index c = 0; c < chunks; ++c) {
     detail::add_counts(stats, counts[c]);

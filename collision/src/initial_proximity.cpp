@@ -217,8 +217,7 @@ std::vector<CloseSubPair> find_close_sub_pairs(const Topology& topo, const Colli
   const Index chunks = default_chunk_count(n);
   std::vector<std::vector<CloseSubPair>> close(static_cast<size_t>(chunks));
   parallel_chunks(n, chunks, [&](Index chunk, Index begin, Index end) {
-    ClosePolicy policy{reach, close[chunk]};
-    ClosestPoints<ClosePolicy> cp{topo, initial, policy};
+    ClosestPoints<ClosePolicy> cp{topo, initial, ClosePolicy{reach, close[chunk]}};
     for (Index i = begin; i < end; ++i) visit_sub_pairs(topo, prims, candidates[i].first, candidates[i].second, cp);
   });
   std::vector<CloseSubPair> all;

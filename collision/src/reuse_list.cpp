@@ -186,8 +186,7 @@ void SubPairList::evaluate(const Topology& topo, const Positions& x, std::span<c
   // displacement of each side) already clears the range, with a margin for rounding.
   const double clear = (2.0 * params.radius + params.offset) * (1.0 + 1e-9) + 1e-12;
   parallel_chunks(chunks, chunks, [&](Index chunk, Index, Index) {
-    ContactPolicy policy = contact_policy(inv_mass, initial, params, buffers[chunk]);
-    ContactSink sink{topo, x, policy};
+    ContactSink sink{topo, x, contact_policy(inv_mass, initial, params, buffers[chunk])};
     const auto& d = disp_;
     for (const ListedSubPair& p : chunks_[chunk]) {
       const double listed = p.distance;
@@ -216,7 +215,7 @@ void SubPairList::evaluate(const Topology& topo, const Positions& x, std::span<c
           break;
       }
     }
-    policy.add_to(counts[chunk]);
+    sink.policy.add_to(counts[chunk]);
   });
   for (Index c = 0; c < chunks; ++c) {
     add_counts(stats, counts[c]);

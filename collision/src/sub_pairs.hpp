@@ -27,9 +27,11 @@ inline bool boxes_within(const Vec3& alo, const Vec3& ahi, const Vec3& blo, cons
 /// kRepresented: only the vertices and edges each primitive represents (Curtis et al. 2008), so
 /// that over all primitive pairs each sub-pair comes up exactly once; otherwise all of them (every
 /// sub-pair of a crossing pair). Sub-pairs sharing a vertex are skipped, and so are pairs of
-/// triangles of one rigid or obstacle object (face_no_self).
+/// triangles of one rigid or obstacle object (face_no_self). Always inlined: a call per candidate
+/// pair costs the detection pass about 8 % more instructions in its candidate loop.
 template <bool kRepresented, class Sink>
-void visit_sub_pairs_of(const Topology& topo, const CollisionPrimitives& prims, Index p, Index q, Sink& sink) {
+[[gnu::always_inline]] inline void visit_sub_pairs_of(const Topology& topo, const CollisionPrimitives& prims, Index p,
+                                                      Index q, Sink& sink) {
   PrimitiveKind kp = prims.kind(p), kq = prims.kind(q);
   if (kp > kq) {
     std::swap(p, q);
@@ -83,7 +85,8 @@ void visit_sub_pairs_of(const Topology& topo, const CollisionPrimitives& prims, 
 
 /// The represented sub-pairs of (p, q): each sub-pair of the scene once over all primitive pairs.
 template <class Sink>
-void visit_sub_pairs(const Topology& topo, const CollisionPrimitives& prims, Index p, Index q, Sink& sink) {
+[[gnu::always_inline]] inline void visit_sub_pairs(const Topology& topo, const CollisionPrimitives& prims, Index p,
+                                                   Index q, Sink& sink) {
   visit_sub_pairs_of<true>(topo, prims, p, q, sink);
 }
 
@@ -104,7 +107,7 @@ template <class Policy>
 struct ClosestPoints {
   const Topology& topo;
   const Positions& x;
-  Policy& policy;
+  Policy policy;  ///< by value: its fields then sit in the sink, one load nearer than a reference
 
   void vf(Index v, Index f) {
     const Vec3& p = x[v];

@@ -57,11 +57,10 @@ struct Scene {
     topo.edges = {Vec2i(0, 1), Vec2i(1, 2), Vec2i(3, 4), Vec2i(4, 5)};
   }
   Record run(void (detail::ClosestPoints<RecordPolicy>::*fn)(Index, Index), Index a, Index b) {
-    RecordPolicy policy;
-    detail::ClosestPoints<RecordPolicy> cp{topo, x, policy};
+    detail::ClosestPoints<RecordPolicy> cp{topo, x, RecordPolicy{}};
     (cp.*fn)(a, b);
-    EXPECT_EQ(policy.out.size(), 1u);
-    return policy.out.empty() ? Record{} : policy.out[0];
+    EXPECT_EQ(cp.policy.out.size(), 1u);
+    return cp.policy.out.empty() ? Record{} : cp.policy.out[0];
   }
 };
 
@@ -177,9 +176,9 @@ TEST(ClosestPoints, RandomPairs) {
 
 TEST(ClosestPoints, BoxPreCheckDropsOnlyFarPairs) {
   Scene s({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 2}, {1, 0, 2}, {0, 1, 2}, {0.2, 0.2, 2}});
-  RecordPolicy policy;
+  CP cp{s.topo, s.x, RecordPolicy{}};
+  RecordPolicy& policy = cp.policy;
   policy.r = 1.5;  // below the sub-pairs' distance of 2
-  CP cp{s.topo, s.x, policy};
   cp.vf(6, 0);
   cp.ee(0, 2);
   EXPECT_TRUE(policy.out.empty());
