@@ -46,6 +46,14 @@ std::string without_build(const std::string& text) {
   return text.substr(0, a) + text.substr(b + 1);
 }
 
+/// `text` without the keys run.json no longer writes: initial_proximity.adjacent_excluded (always
+/// 0). Reading a file that has them still works.
+std::string without_dropped_keys(std::string text) {
+  const std::string line = "    \"adjacent_excluded\": 0,\n";
+  if (const size_t a = text.find(line); a != std::string::npos) text.erase(a, line.size());
+  return text;
+}
+
 TEST(RunJson, WhatIsWrittenIsReadBackEqual) {
   RunMeta m;
   m.scene = "stack";
@@ -126,7 +134,8 @@ TEST(RunJson, FilesWrittenByMainAreReadAndRewrittenByteForByte) {
     const std::string text = read_text(fixture(c.name));
     ASSERT_FALSE(text.empty());
     const RunInfo info = parse_run_json(text, fixture(c.name));
-    EXPECT_EQ(without_build(format_run_json(info.meta, info.progress, config_of(text))), without_build(text));
+    EXPECT_EQ(without_build(format_run_json(info.meta, info.progress, config_of(text))),
+              without_build(without_dropped_keys(text)));
     EXPECT_EQ(info.progress.status, "completed");
     EXPECT_EQ(info.progress.frames_written, 2);
     EXPECT_EQ(info.meta.contact.radius, c.r);

@@ -68,7 +68,7 @@ TEST(InitialProximity, ClothStartingCloserThanTheOffsetDoesNotFallThroughTheFloo
     ASSERT_NE(det, nullptr);
     const InitialProximity& ip = det->initial_proximity();
     EXPECT_GT(ip.reduced_offset, 0) << solver;
-    EXPECT_EQ(ip.adjacent_excluded, 0) << solver << ": 50 mm edges have no neighbours within 2 ξ";
+    EXPECT_EQ(ip.adjacent_kept, 0) << solver << ": 50 mm edges have no neighbours within 2 ξ";
     EXPECT_NEAR(ip.min_reduced_offset, 0.9 * 0.005, 1e-12) << solver;
     double lowest = std::numeric_limits<double>::infinity();
     for (int f = 0; f < 20; ++f) {

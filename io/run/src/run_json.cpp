@@ -47,8 +47,7 @@ std::string format_run_json(const RunMeta& meta, const RunProgress& progress, co
     j["scene_fingerprint"] = fp;
   }
   if (const auto& ip = meta.initial_proximity) {
-    j["initial_proximity"] = {{"adjacent_excluded", ip->adjacent_excluded},
-                              {"adjacent_kept", ip->adjacent_kept},
+    j["initial_proximity"] = {{"adjacent_kept", ip->adjacent_kept},
                               {"reduced_offset_pairs", ip->reduced_offset},
                               {"min_reduced_offset", ip->min_reduced_offset},
                               {"intersecting_pairs", ip->intersecting_pairs},
@@ -167,7 +166,6 @@ RunInfo parse_run_json(std::string_view text, const fs::path& file) {
     if (const Json* ip = rd.find(n, "initial_proximity")) {
       InitialProximity& q = m.initial_proximity.emplace();
       const std::string pre = "initial_proximity.";
-      rd.optional_number(*ip, "adjacent_excluded", pre + "adjacent_excluded", q.adjacent_excluded);
       rd.optional_number(*ip, "adjacent_kept", pre + "adjacent_kept", q.adjacent_kept);
       rd.optional_number(*ip, "reduced_offset_pairs", pre + "reduced_offset_pairs", q.reduced_offset);
       rd.optional_number(*ip, "min_reduced_offset", pre + "min_reduced_offset", q.min_reduced_offset);

@@ -1,5 +1,5 @@
 #pragma once
-/// @file narrow_phase.hpp
+/// @file collision_detector.hpp
 /// Collision detection of CCFR (paper §3.1 and appendix, Alg. NarrowPhase): broad phase over
 /// inflated primitive boxes, then closest points of every vertex-face, edge-edge, vertex-edge and
 /// vertex-vertex sub-pair within the search range, each turned into one half-space per involved
@@ -118,62 +118,6 @@ inline std::uint64_t sub_pair_key(ContactKind kind, Index a, Index b) {
          static_cast<std::uint64_t>(b);
 }
 
-namespace detail {
-/// Sub-pairs recorded in the initial configuration, each with a slot: kExcluded (never tested in
-/// the run) or the index of its reduced offset. One CSR per kind (row = first canonical id, sorted
-/// second ids): a lookup touches one short contiguous row, which keeps the millions of lookups of
-/// a fine cloth in cache far better than a hash table over 64-bit keys. Safe for concurrent reads.
-class InitialPairTable {
- public:
-  static constexpr Index kExcluded = -1;  ///< slot of a sub-pair excluded for the run
-  static constexpr Index kAbsent = -2;    ///< find() of a sub-pair not in the table
-
-  /// Replaces the table by (sub_pair_key, slot) entries. A key given twice keeps its smallest
-  /// slot, so an exclusion wins over a reduced offset.
-  void assign(std::vector<std::pair<std::uint64_t, Index>> entries);
-  /// The slot of a sub-pair (canonical ids), or kAbsent. Inline: the narrow phase looks up
-  /// millions of sub-pairs per pass. Rows are short (the sub-pairs closer than ξ around one vertex
-  /// or edge), so a linear scan of the sorted row beats a binary search up to a few dozen entries.
-  Index find(ContactKind kind, Index a, Index b) const {
-    const Rows& r = rows_[static_cast<size_t>(kind)];
-    if (a + 1 >= static_cast<Index>(r.row_start.size())) return kAbsent;
-    const Index* base = r.cols.data();
-    const Index* first = base + r.row_start[a];
-    const Index* last = base + r.row_start[a + 1];
-    if (last - first > kLinearScan) {
-      first = std::lower_bound(first, last, b);
-    } else {
-      for (; first != last && *first < b; ++first) {
-      }
-    }
-    return first != last && *first == b ? r.slots[static_cast<size_t>(first - base)] : kAbsent;
-  }
-  bool excluded(ContactKind kind, Index a, Index b) const { return find(kind, a, b) == kExcluded; }
-  size_t size() const { return size_; }
-  size_t num_excluded() const { return excluded_; }
-
- private:
-  struct Rows {
-    std::vector<Index> row_start, cols, slots;
-  };
-  static constexpr std::ptrdiff_t kLinearScan = 32;
-  std::array<Rows, 4> rows_;
-  size_t size_ = 0, excluded_ = 0;
-};
-}  // namespace detail
-
-namespace detail {
-/// One sub-pair of the reusable list (CollisionDetector::set_reuse_skin): what a later pass needs
-/// to evaluate it without the broad phase, the enumeration or the exclusion look-up.
-struct ListedSubPair {
-  Index a = 0, b = 0;  ///< canonical ids (see sub_pair_key)
-  Index slot = -2;     ///< reduced-offset slot, negative (InitialPairTable::kAbsent) for ξ
-  ContactKind kind = ContactKind::vf;
-  float distance = 0.0f;  ///< distance when listed, rounded down: a lower bound
-  static ListedSubPair make(ContactKind kind, Index a, Index b, Index slot, double dist_sq);
-};
-}  // namespace detail
-
 /// How far a motion (x − ref per vertex) can have brought two primitives closer, as the kept
 /// sub-pair list needs it (CollisionDetector::set_reuse_skin; docs/feasibility.md, "Reusing
 /// detection"). The distance of two primitives does not change when both translate by the same t,
@@ -197,9 +141,6 @@ ReuseMotion measure_reuse_motion(const Topology& topo, std::span<const Vec3> x, 
 
 /// What the initial configuration did to contact (counts of sub-pairs), for the log and run.json.
 struct InitialProximity {
-  /// Always 0 now: adjacent sub-pairs closer than ξ are kept (adjacent_kept); excluding them let a
-  /// held-back soft knot intersect itself 319 times with no violation counted.
-  Index adjacent_excluded = 0;
   /// Closer than ξ at rest and topologically adjacent: kept with the fixed offset (1 − m) d₀.
   Index adjacent_kept = 0;
   Index intersecting_pairs = 0;     ///< primitive pairs crossing each other (exact test)
@@ -231,7 +172,7 @@ std::optional<RegionRecord> mixed_pair_record(const ContactPair& c, const std::v
 /// Collision detection for one scene. Owns the primitive set, the broad phase and the exclusions
 /// computed from the initial configuration; `topo` must outlive the detector.
 ///
-/// Exclusions (design clarification 5, corrected twice; paper §4.1): sub-pairs whose primitives
+/// Exclusions (design clarification 5; paper §4.1): sub-pairs whose primitives
 /// share a vertex are never tested, and neither is any sub-pair of a primitive pair
 /// (triangle-triangle, triangle-segment) that crosses in the initial configuration (exact
 /// predicates). Every other sub-pair closer than ξ there keeps contact with a reduced offset
@@ -289,9 +230,9 @@ class CollisionDetector {
   /// reuses to pay for them.
   /// `skin` = 0 (the default) detects from scratch in every pass.
   void set_reuse_skin(double skin);
-  double reuse_skin() const { return skin_; }
+  double reuse_skin() const;
   /// Drops the kept list: the next pass runs the broad phase.
-  void invalidate_reuse() { list_valid_ = false; }
+  void invalidate_reuse();
   /// Drops the kept list and the previous pass's positions, and takes `recent_step` (the spread of
   /// the last substep's displacements, e.g. ReuseMotion::spread of dt · v) as the motion that decides whether the
   /// next pass lists. Called at every frame start, it makes the reuse decisions depend only on
@@ -304,20 +245,20 @@ class CollisionDetector {
   /// The primitive pairs of the last broad-phase query.
   const std::vector<IndexPair>& candidates() const { return candidates_; }
   /// Whether the sub-pair (canonical ids, see sub_pair_key) was excluded at construction.
-  bool is_excluded(ContactKind kind, Index a, Index b) const { return initial_.excluded(kind, a, b); }
+  bool is_excluded(ContactKind kind, Index a, Index b) const;
   /// Excluded sub-pairs in total.
-  Index num_excluded() const { return static_cast<Index>(initial_.num_excluded()); }
+  Index num_excluded() const;
   /// Primitive pairs found intersecting in the initial configuration.
-  Index num_initially_intersecting() const { return proximity_.intersecting_pairs; }
+  Index num_initially_intersecting() const { return initial_proximity().intersecting_pairs; }
   /// The sub-pair's current offset: ξ, or its reduced offset while that is below ξ.
   double pair_offset(ContactKind kind, Index a, Index b) const;
   /// Counts of the initial configuration's exclusions and reduced offsets.
-  const InitialProximity& initial_proximity() const { return proximity_; }
+  const InitialProximity& initial_proximity() const;
   /// Sub-pairs whose offset is still below ξ.
-  Index num_reduced_active() const { return static_cast<Index>(active_.size()); }
+  Index num_reduced_active() const;
   /// The current offset of every sub-pair that started closer than ξ, by slot: the detector's only
   /// state that changes during a run (checkpoints).
-  const std::vector<double>& reduced_offsets() const { return reduced_offset_; }
+  const std::vector<double>& reduced_offsets() const;
   /// Restores reduced_offsets() saved from a detector built on the same initial configuration.
   /// Throws ccfr::Error when they cannot be: another count, a non-finite value, or an offset below
   /// its initial value or above ξ (offsets are only ever raised, up to ξ).
@@ -325,64 +266,39 @@ class CollisionDetector {
 
   /// Whether detect() also records, for every half-space it writes, the contact slot it came
   /// from (off by default; the contact response turns it on to skip indexing the contacts again).
-  void set_record_plane_sources(bool on) { record_sources_ = on; }
+  void set_record_plane_sources(bool on);
   /// The next pass rebuilds the broad phase over the current boxes instead of updating it. It
   /// also drops the kept list: a list enumerates in the order of the tree it was made with, and
   /// the passes after a rebuild must come out in the new tree's order, as fresh passes do.
-  void rebuild_broad_phase() {
-    rebuild_ = true;
-    list_valid_ = false;
-  }
+  void rebuild_broad_phase();
   /// Per half-space of the last pass's RegionSet, in the same order: 4·c + k for contact c of the
   /// returned contacts and its vertex c.v[k]. A vertex's entries are in contact order. Empty
   /// unless set_record_plane_sources(true).
-  std::span<const Index> plane_sources() const { return plane_sources_; }
+  std::span<const Index> plane_sources() const;
 
  private:
-  void compute_exclusions(const Positions& initial);
-  /// Raises the reduced offsets at the (feasible) positions x; drops pairs that reached ξ.
-  void raise_reduced_offsets(const Positions& x);
-  /// Whether the kept list still covers every sub-pair within range at `x` (displacements from
-  /// the listing positions in disp_, movable flags unchanged).
-  bool list_covers(const Positions& x, std::span<const double> inv_mass);
-  /// The spread of x - last_x_ (ReuseMotion; infinity without a previous pass or on NaN); then last_x_ = x.
-  double step_since_last_pass(const Positions& x);
-  /// A pass over the kept list instead of the broad phase and the enumeration.
-  void detect_from_list(const Positions& x, std::span<const double> inv_mass, DetectionStats& stats);
-  void assemble(const Positions& x, std::span<const double> inv_mass, std::span<const Vec3> kinematic_step,
-                std::vector<ContactPair>& contacts, RegionSet& regions);
+  /// The stages' state, defined in collision_detector.cpp: the initial pairs, the kept list and
+  /// the assembly's buffers (collision/src).
+  struct Stages;
+  /// movable_[p]: primitive p has a vertex of inverse mass > 0; fixed_ = !movable_.
+  void flag_movable_primitives(std::span<const double> inv_mass);
+  /// Boxes at x (grown by s/2 when listing), the tree updated or rebuilt, the candidates queried.
+  void run_broad_phase(const Positions& x, bool listing);
+  /// The candidates' sub-pairs into the per-chunk contact buffers (and the list when listing).
+  void enumerate_candidates(const Positions& x, std::span<const double> inv_mass, bool listing, DetectionStats& stats);
 
   const Topology& topo_;
   ContactModel params_;
   CollisionPrimitives prims_;
   std::unique_ptr<BroadPhase> broad_;
-  detail::InitialPairTable initial_;
-  InitialProximity proximity_;
-  /// Per slot: the sub-pair key and its current offset (never lowered, at most ξ).
-  std::vector<std::uint64_t> reduced_key_;
-  std::vector<double> reduced_offset_;
-  std::vector<std::uint8_t> reduced_fixed_;  ///< per slot: an adjacent pair, its offset never raised
-  std::vector<Index> active_;                ///< slots whose offset is still below ξ and may rise, ascending
+  std::unique_ptr<Stages> stages_;
   // Reused between passes to avoid reallocating millions of entries per outer iteration.
   std::vector<AABB> boxes_;
   std::vector<IndexPair> candidates_;
   std::vector<std::uint8_t> movable_;
-  std::vector<std::uint8_t> fixed_;  ///< !movable_, handed to the broad phase
-  std::vector<std::vector<ContactPair>> contact_buffers_;
-  std::vector<Index> block_cursor_;  ///< #blocks by #V plane counts, then write cursors
-  bool record_sources_ = false;
+  std::vector<std::uint8_t> fixed_;                        ///< !movable_, handed to the broad phase
+  std::vector<std::vector<ContactPair>> contact_buffers_;  ///< per candidate chunk, in enumeration order
   bool rebuild_ = false;
-  std::vector<Index> plane_sources_;  ///< per plane: 4 · contact + vertex slot (record_sources_ only)
-  // The kept sub-pair list (set_reuse_skin), its listing positions and movable flags.
-  double skin_ = 0.0;
-  bool list_valid_ = false;
-  std::vector<std::vector<detail::ListedSubPair>> list_;  ///< per chunk, in enumeration order
-  Positions list_x_;
-  Positions last_x_;                        ///< positions of the previous pass (skin > 0 only)
-  double restart_step_ = -1.0;              ///< restart_reuse()'s step for the next pass (< 0: none)
-  std::vector<std::uint8_t> list_movable_;  ///< per vertex
-  std::vector<double> disp_;                ///< per vertex: |x - list_x_ - t| of the current pass
-  std::vector<AABB> list_boxes_;            ///< per object: box of its vertices at listing
 };
 
 }  // namespace ccfr
