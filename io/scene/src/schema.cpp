@@ -314,41 +314,33 @@ NodePtr choice(std::string def, std::function<std::vector<std::string>()> choice
   n->choices = std::move(choices);
   return n;
 }
-NodePtr vec3(std::optional<std::array<double, 3>> def, std::string doc, Range r) {
-  auto n = make(Kind::vec3, std::move(doc));
+namespace {
+/// A fixed-length array node: its default written as YAML, or, without one, `absent` (vec3: may be
+/// left out) or required (the others).
+template <class T, size_t N>
+NodePtr array_node(Kind kind, const std::optional<std::array<T, N>>& def, std::string doc, Range r, bool absent) {
+  auto n = make(kind, std::move(doc));
   if (def)
     n->default_yaml = fmt_array(*def);
-  else
+  else if (absent)
     n->optional_absent = true;
+  else
+    n->required = true;
   n->range = r;
   return n;
+}
+}  // namespace
+NodePtr vec3(std::optional<std::array<double, 3>> def, std::string doc, Range r) {
+  return array_node(Kind::vec3, def, std::move(doc), r, true);
 }
 NodePtr vec2(std::optional<std::array<double, 2>> def, std::string doc, Range r) {
-  auto n = make(Kind::vec2, std::move(doc));
-  if (def)
-    n->default_yaml = fmt_array(*def);
-  else
-    n->required = true;
-  n->range = r;
-  return n;
+  return array_node(Kind::vec2, def, std::move(doc), r, false);
 }
 NodePtr ivec3(std::optional<std::array<long long, 3>> def, std::string doc, Range r) {
-  auto n = make(Kind::ivec3, std::move(doc));
-  if (def)
-    n->default_yaml = fmt_array(*def);
-  else
-    n->required = true;
-  n->range = r;
-  return n;
+  return array_node(Kind::ivec3, def, std::move(doc), r, false);
 }
 NodePtr ivec2(std::optional<std::array<long long, 2>> def, std::string doc, Range r) {
-  auto n = make(Kind::ivec2, std::move(doc));
-  if (def)
-    n->default_yaml = fmt_array(*def);
-  else
-    n->required = true;
-  n->range = r;
-  return n;
+  return array_node(Kind::ivec2, def, std::move(doc), r, false);
 }
 NodePtr index_list(std::string doc) {
   auto n = make(Kind::index_list, std::move(doc));
