@@ -51,7 +51,7 @@ bool tet_deviatoric_constraint(const std::array<Vec3, 4>& x, const Eigen::Matrix
   // At (or within round-off of) a rotation the constraint holds and its direction is undefined.
   if (!(norm > 1e-14)) return false;
   c = norm;
-  const Eigen::Matrix3d h = (diff / norm) * rest_inverse.transpose();
+  const Eigen::Matrix3d h = (diff * (1.0 / norm)) * rest_inverse.transpose();
   grad[1] = h.col(0);
   grad[2] = h.col(1);
   grad[3] = h.col(2);
