@@ -10,4 +10,11 @@ namespace ccfr {
   void register_material_constraint_##key(MaterialConstraintRegistry& registry);
 #include "builtin_material_constraints.inc"
 #undef CCFR_BUILTIN_MATERIAL_CONSTRAINT
+
+/// `compliance` of the two bending constraints, both read from the material's `bend_compliance`.
+inline ParamSpec bend_compliance_param() {
+  return ParamSpec::number("compliance", 0.1, "XPBD compliance of bending (1/(N m)); cloth, shells and strands", 0.0,
+                           kMaxCompliance)
+      .from_material("bend_compliance");
+}
 }  // namespace ccfr

@@ -3,6 +3,9 @@
 // (builtin_materials.hpp).
 #include "ccfr/solvers/material_constraint.hpp"
 
+#include <algorithm>
+
+#include "ccfr/core/error.hpp"
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/solvers/params.hpp"
 
@@ -39,6 +42,51 @@ MaterialConstraintRegistry& material_constraints() {
     return r;
   }();
   return registry;
+}
+
+bool on_for_every_material(const MaterialConstraintRegistry::Entry& e) {
+  size_t keyed = 0;
+  for (const auto& p : e.params) keyed += p.material_key.empty() ? 0 : 1;
+  if (keyed != 0 && keyed != e.params.size())
+    throw Error("material constraint '" + e.name +
+                "': either every parameter is a key of the material (ParamSpec::from_material) or none is");
+  return keyed == e.params.size();
+}
+
+std::vector<ParamSpec> material_keys(const MaterialConstraintRegistry& registry) {
+  std::vector<ParamSpec> keys;
+  for (const auto& e : registry.entries()) {
+    if (e.params.empty() || !on_for_every_material(e)) continue;
+    for (const auto& p : e.params) {
+      ParamSpec spec = p;
+      spec.key = p.material_key;
+      const auto same = std::find_if(keys.begin(), keys.end(), [&](const ParamSpec& k) { return k.key == spec.key; });
+      if (same == keys.end()) {
+        keys.push_back(std::move(spec));
+        continue;
+      }
+      if (same->type != spec.type || same->default_value != spec.default_value || same->min != spec.min ||
+          same->max != spec.max || same->min_open != spec.min_open || same->max_open != spec.max_open ||
+          same->choices != spec.choices)
+        throw Error("material constraint '" + e.name + "': its parameter '" + p.key + "' reads the material key '" +
+                    spec.key + "', which another constraint declares with another type, default or range");
+    }
+  }
+  return keys;
+}
+
+void set_material_key(MaterialParams& m, std::string_view key, ParamValue value) {
+  bool read = false;
+  for (const auto& e : material_constraints().entries())
+    for (const auto& p : e.params)
+      if (p.material_key == key) {
+        m.constraints[e.name].set(p.key, value);
+        read = true;
+      }
+  if (read) return;
+  std::string known;
+  for (const ParamSpec& k : material_keys()) known += (known.empty() ? "" : ", ") + k.key;
+  throw Error("no material constraint reads the material key '" + std::string(key) + "' (keys read: " + known + ")");
 }
 
 Colouring colour_constraints(Index num_vertices, std::span<const Index> vertices, int arity,

@@ -43,13 +43,16 @@ MaterialSystem::MaterialSystem(const Topology& topo, const SimState& state, cons
 
   const Index nv = topo.num_vertices();
   for (const auto& e : registry.entries()) {
+    // Values from the material's keys or its section: every object for a constraint on for every
+    // material (its defaults where the material gives none), else only where the section is set.
+    const bool every = !e.params.empty() && on_for_every_material(e);
     std::vector<ParamValues> complete(topo.objects.size());
     MaterialContext ctx{topo, state, params, std::vector<const ParamValues*>(topo.objects.size(), nullptr)};
     for (size_t oi = 0; oi < topo.objects.size(); ++oi) {
       const auto& given = params.objects[oi].material.constraints;
       const auto it = given.find(e.name);
-      if (it == given.end()) continue;
-      complete[oi] = complete_params(e.params, it->second,
+      if (it == given.end() && !every) continue;
+      complete[oi] = complete_params(e.params, it == given.end() ? ParamValues{} : it->second,
                                      "material constraint '" + e.name + "' of object '" + topo.objects[oi].name + "'");
       ctx.object_params[oi] = &complete[oi];
     }

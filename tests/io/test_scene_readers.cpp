@@ -11,6 +11,7 @@
 
 #include "ccfr/core/error.hpp"
 #include "ccfr/io/scene_loader.hpp"
+#include "ccfr/solvers/material_constraint.hpp"
 #include "config_support.hpp"
 
 using namespace ccfr;
@@ -137,8 +138,11 @@ TEST(SceneReaders, UnsetKeysTakeTheParameterStructsDefaults) {
   EXPECT_TRUE(p.output.formats.empty());  // absent: obj only
   const MaterialParams m;
   EXPECT_EQ(p.objects[0].material.density, m.density);
-  EXPECT_EQ(p.objects[0].material.bend_compliance, m.bend_compliance);
-  EXPECT_EQ(p.objects[0].material.shear_compliance, m.shear_compliance);
+  // Every material key the constraints read is at its registered default.
+  for (const auto& e : material_constraints().entries())
+    for (const ParamSpec& spec : e.params)
+      EXPECT_EQ(p.objects[0].material.constraints.at(e.name).values().at(spec.key), spec.default_value)
+          << e.name << "." << spec.key;
   EXPECT_EQ(p.objects[0].material.friction, m.friction);
   // An absent motion is the struct's (holding for ever); a given one ends at the schema's 1e9 s.
   EXPECT_EQ(p.objects[0].motion.end, Motion{}.end);

@@ -72,7 +72,7 @@ Strip strip_over_cylinder(const std::string& solver, double left, double right, 
   for (size_t i = 0; i < drum.v.size(); ++i) s.state.x[nv_strip + static_cast<Index>(i)] = to_z * drum.v[i];
   s.state.rest = s.state.x_prev = s.state.x;
   s.params.objects.resize(2);
-  s.params.objects[0].material.bend_compliance = 1e8;
+  set_material_key(s.params.objects[0].material, "bend_compliance", kMaxCompliance);  // no bending
   s.params.contact.solver = solver;
   s.params.contact.radius = 0.004;
   s.params.contact.offset = 0.002;

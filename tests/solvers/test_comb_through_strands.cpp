@@ -53,8 +53,8 @@ Scene pinned_strands_by(const char* obstacle_name, const gen::TriMesh& obstacle,
   s.state.rest = s.state.x_prev = s.state.x;
   s.params.objects[1].pins.push_back(roots);
   s.params.objects[1].material.density = density;
-  s.params.objects[1].material.stretch_compliance = 1e-7;
-  s.params.objects[1].material.bend_compliance = 0.1;
+  set_material_key(s.params.objects[1].material, "stretch_compliance", 1e-7);
+  set_material_key(s.params.objects[1].material, "bend_compliance", 0.1);
   return s;
 }
 

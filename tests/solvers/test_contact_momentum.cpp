@@ -40,8 +40,8 @@ Scene two_boxes(const std::string& solver, double m_a, double m_b, double v_a, d
   s.state.rest = s.state.x_prev = s.state.x;
   s.params.objects.resize(2);
   for (auto& o : s.params.objects) {
-    o.material.volume_compliance = 1e-6;
-    o.material.shear_compliance = 1e-5;
+    set_material_key(o.material, "volume_compliance", 1e-6);
+    set_material_key(o.material, "shear_compliance", 1e-5);
   }
   s.params.contact.solver = solver;
   s.params.contact.radius = 0.004;

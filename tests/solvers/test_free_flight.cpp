@@ -36,8 +36,8 @@ Scene flying_box(const Vec3& v, const Vec3& omega, const std::string& solver, do
   }
   s.state.rest = s.state.x_prev = s.state.x;
   s.params.objects.resize(1);
-  s.params.objects[0].material.volume_compliance = 0.1 * compliance;
-  s.params.objects[0].material.shear_compliance = compliance;
+  set_material_key(s.params.objects[0].material, "volume_compliance", 0.1 * compliance);
+  set_material_key(s.params.objects[0].material, "shear_compliance", compliance);
   s.params.contact.solver = solver;
   s.params.contact.radius = 0.004;
   s.params.contact.offset = 0.002;

@@ -90,8 +90,8 @@ Scene ball_over_cloth(double speed) {
   for (Index v = nc; v < s.topo.num_vertices(); ++v) s.state.v[v] = Vec3(0, -speed, 0);
   s.state.rest = s.state.x_prev = s.state.x;
   s.params.objects.resize(2);
-  s.params.objects[0].material.stretch_compliance = 1e-7;
-  s.params.objects[0].material.bend_compliance = 1e-2;
+  set_material_key(s.params.objects[0].material, "stretch_compliance", 1e-7);
+  set_material_key(s.params.objects[0].material, "bend_compliance", 1e-2);
   s.params.objects[0].pins.push_back({{0, 16, 272, 288}, {}});
   s.params.contact.radius = 0.01;
   s.params.contact.offset = 0.005;

@@ -38,8 +38,8 @@ Scene cloth_over_floor(double gap, const std::string& solver) {
   }
   s.state.rest = s.state.x_prev = s.state.x;
   s.params.objects.resize(2);
-  s.params.objects[1].material.stretch_compliance = 1e-7;
-  s.params.objects[1].material.bend_compliance = 1e-2;
+  set_material_key(s.params.objects[1].material, "stretch_compliance", 1e-7);
+  set_material_key(s.params.objects[1].material, "bend_compliance", 1e-2);
   s.params.contact.solver = solver;
   s.params.contact.radius = 0.005;
   s.params.contact.offset = kXi;

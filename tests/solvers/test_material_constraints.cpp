@@ -10,6 +10,7 @@
 #include "ccfr/core/error.hpp"
 #include "ccfr/geometry/generators.hpp"
 #include "ccfr/solvers/material_system.hpp"
+#include "ccfr/solvers/materials/stretch.hpp"
 #include "ccfr/solvers/params.hpp"
 #include "ccfr/solvers/scene.hpp"
 #include "component_files.hpp"
@@ -179,11 +180,67 @@ TEST(MaterialConstraints, WrongNamesAndValuesAreClearErrors) {
   EXPECT_NE(e.find("object 'beads'"), std::string::npos) << e;
   EXPECT_NE(e.find("unknown material constraint 'test_lesh'"), std::string::npos) << e;
   EXPECT_NE(e.find("test_leash"), std::string::npos) << e;  // lists the ones a material can set
-  e = message(with("stretch", {}));
-  EXPECT_NE(e.find("takes no parameters"), std::string::npos) << e;
+  e = message(with("stretch", {{"compliance", -1.0}}));     // a built-in's value, set in code
+  EXPECT_NE(e.find("material constraint 'stretch' of object 'beads'"), std::string::npos) << e;
+  EXPECT_NE(e.find("'compliance'"), std::string::npos) << e;
   e = message(with("test_leash", {{"length", -1.0}}));
   EXPECT_NE(e.find("'length'"), std::string::npos) << e;
   EXPECT_NE(e.find("beads"), std::string::npos) << e;
   e = message(with("test_leash", {{"lenght", 1.0}}));
   EXPECT_NE(e.find("lenght"), std::string::npos) << e;
+}
+
+TEST(MaterialConstraints, TheBuiltInsReadTheMaterialKeysThroughTheirRegisteredParameters) {
+  // Each key once, in registration order; bend_compliance serves both bending constraints.
+  std::vector<std::string> keys;
+  for (const ParamSpec& k : material_keys()) keys.push_back(k.key);
+  EXPECT_EQ(keys, (std::vector<std::string>{"bend_compliance", "stretch_compliance", "volume_compliance",
+                                            "shear_compliance"}));
+  MaterialParams m;
+  set_material_key(m, "bend_compliance", 0.5);
+  set_material_key(m, "stretch_compliance", 1e-5);
+  EXPECT_EQ(m.constraints.at("dihedral_bending").number("compliance"), 0.5);
+  EXPECT_EQ(m.constraints.at("strand_bending").number("compliance"), 0.5);
+  // The cloth's stretch batch holds the compliance set for its material, per edge.
+  Scene s = cloth_and_particles(MaterialParams{});
+  s.params.objects[0].material = m;
+  const MaterialSystem ms(s.topo, s.state, s.params);
+  const auto* stretch = dynamic_cast<const DistanceBatch*>(ms.batch("stretch"));
+  ASSERT_NE(stretch, nullptr);
+  ASSERT_GT(stretch->size(), 0);
+  for (const double alpha : stretch->compliance) EXPECT_EQ(alpha, 1e-5);
+  try {
+    set_material_key(m, "stretch_complience", 1.0);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("'stretch_complience'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("stretch_compliance"), std::string::npos) << e.what();  // the keys read
+  }
+}
+
+TEST(MaterialConstraints, AnEntryMixingMaterialKeysAndASectionIsRefused) {
+  MaterialConstraintRegistry::Entry e{
+      "mixed",
+      "test",
+      {ParamSpec::number("a", 1.0, "doc").from_material("mixed_a"), ParamSpec::number("b", 1.0, "doc")},
+      [](const ParamValues&, const MaterialContext&) -> std::unique_ptr<ConstraintBatch> { return nullptr; }};
+  EXPECT_THROW(on_for_every_material(e), Error);
+  e.params.pop_back();
+  EXPECT_TRUE(on_for_every_material(e));
+  e.params.front().material_key.clear();
+  EXPECT_FALSE(on_for_every_material(e));
+  e.params.clear();
+  EXPECT_TRUE(on_for_every_material(e));  // no parameters: always on
+  // Two constraints may share a material key only with one type, default and range.
+  MaterialConstraintRegistry r("material constraint");
+  auto entry = [&](std::string name, double def) {
+    return MaterialConstraintRegistry::Entry{
+        std::move(name), "test", {ParamSpec::number("k", def, "doc", 0.0, 1.0).from_material("shared_k")}, e.make};
+  };
+  r.add(entry("first", 0.5));
+  r.add(entry("second", 0.5));
+  ASSERT_EQ(material_keys(r).size(), 1u);
+  EXPECT_EQ(material_keys(r).front().key, "shared_k");
+  r.add(entry("third", 0.25));
+  EXPECT_THROW(material_keys(r), Error);
 }

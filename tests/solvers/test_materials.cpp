@@ -629,10 +629,10 @@ MixedScene make_mixed_scene(int n = 4) {
   for (Index v = s.topo.objects[5].vertex_begin; v < s.topo.objects[5].vertex_end; ++v) s.state.inv_mass[v] = 0.0;
   s.params.objects.resize(s.topo.objects.size());
   for (auto& o : s.params.objects) {
-    o.material.stretch_compliance = 1e-6;
-    o.material.bend_compliance = 1e-3;
-    o.material.volume_compliance = 1e-7;
-    o.material.shear_compliance = 1e-6;
+    set_material_key(o.material, "stretch_compliance", 1e-6);
+    set_material_key(o.material, "bend_compliance", 1e-3);
+    set_material_key(o.material, "volume_compliance", 1e-7);
+    set_material_key(o.material, "shear_compliance", 1e-6);
   }
   return s;
 }
@@ -808,8 +808,8 @@ TEST(MaterialSystem, ManySmallIslandsAreDeterministicAcrossThreadCounts) {
   }
   s.params.objects.resize(s.topo.objects.size());
   for (auto& o : s.params.objects) {
-    o.material.volume_compliance = 1e-7;
-    o.material.shear_compliance = 1e-6;
+    set_material_key(o.material, "volume_compliance", 1e-7);
+    set_material_key(o.material, "shear_compliance", 1e-6);
   }
   std::vector<Positions> results;
   for (int threads : {1, 2}) {
@@ -893,7 +893,7 @@ double cantilever_tip_drop(double bend_compliance) {
   st.inv_mass[0] = st.inv_mass[1] = 0.0;
   SimulationParams p;
   p.objects.resize(1);
-  p.objects[0].material.bend_compliance = bend_compliance;
+  set_material_key(p.objects[0].material, "bend_compliance", bend_compliance);
   MaterialSystem ms(topo, st, p);
   const double dt = 1.0 / 600.0;
   const Vec3 gravity(0, -9.81, 0);

@@ -51,8 +51,8 @@ Scene sheet_over_box(const std::string& solver, int substeps, int sweeps) {
   s.params.objects.resize(3);
   s.params.objects[1].material.density = 500.0;
   s.params.objects[2].material.density = 0.2;
-  s.params.objects[2].material.stretch_compliance = 1e-8;
-  s.params.objects[2].material.bend_compliance = 1e-2;
+  set_material_key(s.params.objects[2].material, "stretch_compliance", 1e-8);
+  set_material_key(s.params.objects[2].material, "bend_compliance", 1e-2);
   s.params.contact.solver = solver;
   s.params.contact.radius = 0.01;
   s.params.contact.offset = offset;

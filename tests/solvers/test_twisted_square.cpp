@@ -54,8 +54,8 @@ Scene twisted_square(const std::string& solver) {
   }
   MaterialParams& m = s.params.objects[0].material;
   m.density = 0.2;
-  m.stretch_compliance = 1e-8;
-  m.bend_compliance = 1e-2;
+  set_material_key(m, "stretch_compliance", 1e-8);
+  set_material_key(m, "bend_compliance", 1e-2);
   ContactParams& c = s.params.contact;
   c.solver = solver;
   c.radius = 0.0025;

@@ -288,8 +288,12 @@ void component_table(std::string& o, const R& registry, const std::string& secti
   o += "\n| " + registry.kind() + " | parameters | description |\n|---|---|---|\n";
   for (const auto& e : registry.entries()) {
     std::string keys;
-    for (const auto& p : e.params)
-      keys += (keys.empty() ? "`" : ", `") + (section.empty() ? p.key : section + e.name + "." + p.key) + "`";
+    for (const auto& p : e.params) {
+      const std::string key = section.empty()           ? p.key
+                              : !p.material_key.empty() ? section + p.material_key
+                                                        : section + e.name + "." + p.key;
+      keys += (keys.empty() ? "`" : ", `") + key + "`";
+    }
     o += "| `" + e.name + "` | " + (keys.empty() ? std::string("none") : keys) + " | " + e.description + " |\n";
   }
 }

@@ -208,20 +208,12 @@ const scene::Section<OutputParams>& output_section() {
 
 const scene::Section<MaterialParams>& material_section() {
   using S = MaterialParams;
-  const Range compliance = Range::up_to(kMaxCompliance);
+  // The material constraints' keys (stretch_compliance, ...) join these in material_fields().
   static const scene::Section<S> s =
       scene::Section<S>()
           .field("density", &S::density,
                  "kg/m² for cloth and shells, kg/m for strands, kg/m³ for solids and rigids, kg per particle",
                  Range::positive_up_to(kMaxDensity))
-          .field("stretch_compliance", &S::stretch_compliance,
-                 "XPBD compliance of edge lengths (m/N); 0 is inextensible", compliance)
-          .field("bend_compliance", &S::bend_compliance,
-                 "XPBD compliance of bending (1/(N m)); cloth, shells and strands", compliance)
-          .field("volume_compliance", &S::volume_compliance,
-                 "tet solids: compliance of volume preservation, 1/λ (1/Pa)", compliance)
-          .field("shear_compliance", &S::shear_compliance,
-                 "tet solids: compliance of the deviatoric (shape) term, 1/μ (1/Pa)", compliance)
           .field("friction", &S::friction, "friction coefficient of this material; < 0 uses contact.friction",
                  Range::within(kMaxFriction));
   return s;
@@ -282,7 +274,7 @@ NodePtr param_node(const ParamSpec& spec) {
 template <class R, class When>
 void add_component_sections(std::vector<Field>& fields, const R& registry, When when) {
   for (const auto& e : registry.entries()) {
-    if (e.params.empty()) continue;
+    if (e.params.empty() || !e.params.front().material_key.empty()) continue;
     for (const auto& f : fields)
       if (f.key == e.name)
         throw Error(registry.kind() + " '" + e.name + "': its name is already a key of the section its parameters " +
@@ -314,6 +306,16 @@ std::vector<Field> output_fields() {
 
 std::vector<Field> material_fields() {
   std::vector<Field> f = material_section().fields();
+  // The keys the material constraints read, after density (material_keys(): each key once).
+  std::vector<Field> keys;
+  for (const ParamSpec& spec : material_keys()) {
+    for (const auto& field : f)
+      if (field.key == spec.key)
+        throw Error("material constraint parameter '" + spec.key +
+                    "': a material already has this key; read it under another name");
+    keys.push_back({spec.key, param_node(spec)});
+  }
+  f.insert(f.begin() + 1, keys.begin(), keys.end());
   add_component_sections(f, material_constraints(), [](const std::string&) {
     return std::string("setting the section switches the constraint on for the objects of this material");
   });

@@ -28,9 +28,6 @@ inline constexpr double kMinScale = 1e-6;
 inline constexpr long long kMaxCount = 10000;
 inline constexpr long long kMaxIterations = 1024;
 inline constexpr long long kMaxOuterIterations = 4096;  ///< time.max_iterations, time.max_subdivision
-/// XPBD compliances (m/N, 1/(N m), 1/Pa): 1e6 is softer than any material (the defaults are 0 to
-/// 1e-3); 1e308 overflowed α / Δt² to inf and the run stopped on a non-finite position.
-inline constexpr double kMaxCompliance = 1e6;
 /// Repulsion stiffness k (its compliance is 1/k): both ends kept where 1/k and k Δt² stay finite.
 inline constexpr double kMinStiffness = 1e-6, kMaxStiffness = 1e12;
 /// Friction coefficients: a Coulomb coefficient of 100 already sticks every contact.

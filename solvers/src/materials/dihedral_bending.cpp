@@ -1,12 +1,11 @@
 // The material constraint `dihedral_bending`: bending of cloth and shells across interior edges
-// (BendingBatch, xpbd::solve_dihedral_bending), compliance materials.*.bend_compliance.
+// (BendingBatch, xpbd::solve_dihedral_bending), its compliance read from materials.*.bend_compliance.
 #include "ccfr/solvers/materials/dihedral_bending.hpp"
 
 #include <cmath>
 #include <numbers>
 
 #include "ccfr/core/log.hpp"
-#include "ccfr/solvers/params.hpp"
 
 #include "../builtin_materials.hpp"
 
@@ -122,7 +121,7 @@ std::unique_ptr<ConstraintBatch> build(const MaterialContext& ctx) {
       ++skipped;
       continue;
     }
-    b->add(Vec4i(a, c0, c, d), theta0, ctx.material(topo.edge_object[e]).bend_compliance);
+    b->add(Vec4i(a, c0, c, d), theta0, ctx.object_params[topo.edge_object[e]]->number("compliance"));
   }
   if (skipped > 0) log::warn("{} interior edges with degenerate rest triangles get no bending constraint", skipped);
   return b;
@@ -132,8 +131,8 @@ std::unique_ptr<ConstraintBatch> build(const MaterialContext& ctx) {
 
 void register_material_constraint_dihedral_bending(MaterialConstraintRegistry& registry) {
   registry.add({"dihedral_bending",
-                "bending of cloth and shells across interior edges (compliance: the material's bend_compliance)",
-                {},
+                "bending of cloth and shells across interior edges",
+                {bend_compliance_param()},
                 [](const ParamValues&, const MaterialContext& ctx) { return build(ctx); }});
 }
 

@@ -1,12 +1,11 @@
 // The material constraint `strand_bending`: turning-angle bending at interior polyline vertices
-// of strands (StrandBendingBatch, xpbd::solve_strand_bending), compliance
+// of strands (StrandBendingBatch, xpbd::solve_strand_bending), its compliance read from
 // materials.*.bend_compliance.
 #include "ccfr/solvers/materials/strand_bending.hpp"
 
 #include <cmath>
 
 #include "../builtin_materials.hpp"
-#include "ccfr/solvers/params.hpp"
 
 namespace ccfr {
 
@@ -67,8 +66,8 @@ void StrandBendingBatch::solve_in_order(std::span<const Index> order, Positions&
 
 void register_material_constraint_strand_bending(MaterialConstraintRegistry& registry) {
   registry.add({"strand_bending",
-                "turning-angle bending of strands (compliance: the material's bend_compliance)",
-                {},
+                "turning-angle bending of strands",
+                {bend_compliance_param()},
                 [](const ParamValues&, const MaterialContext& ctx) -> std::unique_ptr<ConstraintBatch> {
                   auto b = std::make_unique<StrandBendingBatch>();
                   const Topology& topo = ctx.topo;
@@ -76,7 +75,7 @@ void register_material_constraint_strand_bending(MaterialConstraintRegistry& reg
                   for (size_t oi = 0; oi < topo.objects.size(); ++oi) {
                     const auto& o = topo.objects[oi];
                     if (o.kind != ObjectKind::strand) continue;
-                    const double alpha = ctx.material(static_cast<Index>(oi)).bend_compliance;
+                    const double alpha = ctx.object_params[oi]->number("compliance");
                     for (Index p = o.polyline_begin; p < o.polyline_end; ++p) {
                       const auto row = topo.polylines.row(p);
                       for (size_t k = 1; k + 1 < row.size(); ++k) {

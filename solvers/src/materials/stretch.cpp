@@ -1,11 +1,9 @@
 // The material constraint `stretch`: edge lengths of cloth, shells and strands (DistanceBatch),
-// compliance materials.*.stretch_compliance. Solids keep their shape through tet_elasticity and
+// its compliance read from materials.*.stretch_compliance. Solids keep their shape through tet_elasticity and
 // rigid bodies through shape matching, so their edges get none.
 #include "ccfr/solvers/materials/stretch.hpp"
 
 #include <algorithm>
-
-#include "ccfr/solvers/params.hpp"
 
 #include "../builtin_materials.hpp"
 
@@ -30,8 +28,10 @@ void DistanceBatch::solve_in_order(std::span<const Index> order, Positions& x, s
 
 void register_material_constraint_stretch(MaterialConstraintRegistry& registry) {
   registry.add({"stretch",
-                "edge lengths of cloth, shells and strands (compliance: the material's stretch_compliance)",
-                {},
+                "edge lengths of cloth, shells and strands",
+                {ParamSpec::number("compliance", 0.0, "XPBD compliance of edge lengths (m/N); 0 is inextensible", 0.0,
+                                   kMaxCompliance)
+                     .from_material("stretch_compliance")},
                 [](const ParamValues&, const MaterialContext& ctx) -> std::unique_ptr<ConstraintBatch> {
                   auto b = std::make_unique<DistanceBatch>();
                   const Topology& topo = ctx.topo;
@@ -42,7 +42,7 @@ void register_material_constraint_stretch(MaterialConstraintRegistry& registry) 
                     const ObjectKind kind = topo.objects[oi].kind;
                     if (kind != ObjectKind::cloth && kind != ObjectKind::shell && kind != ObjectKind::strand) continue;
                     const Index i = topo.edges[e][0], j = topo.edges[e][1];
-                    b->add(i, j, (rest[i] - rest[j]).norm(), ctx.material(oi).stretch_compliance);
+                    b->add(i, j, (rest[i] - rest[j]).norm(), ctx.object_params[oi]->number("compliance"));
                   }
                   return b;
                 }});

@@ -1,5 +1,6 @@
 // The material constraint `tet_elasticity`: volume and deviatoric (co-rotational) terms per tet of
-// tet solids (TetBatch), compliances materials.*.volume_compliance (1/λ) and shear_compliance (1/μ).
+// tet solids (TetBatch), its compliances read from materials.*.volume_compliance (1/λ) and
+// materials.*.shear_compliance (1/μ).
 #include "ccfr/solvers/materials/tet_elasticity.hpp"
 
 #include <algorithm>
@@ -8,7 +9,6 @@
 #include <Eigen/LU>
 
 #include "ccfr/core/log.hpp"
-#include "ccfr/solvers/params.hpp"
 #include "ccfr/solvers/polar_decomposition.hpp"
 
 #include "../builtin_materials.hpp"
@@ -112,25 +112,31 @@ void TetBatch::solve_in_order(std::span<const Index> order, Positions& x, std::s
 }
 
 void register_material_constraint_tet_elasticity(MaterialConstraintRegistry& registry) {
-  registry.add({"tet_elasticity",
-                "volume and deviatoric terms per tet of tet solids (compliances: the material's volume_compliance and "
-                "shear_compliance)",
-                {},
-                [](const ParamValues&, const MaterialContext& ctx) -> std::unique_ptr<ConstraintBatch> {
-                  auto b = std::make_unique<TetBatch>();
-                  const Topology& topo = ctx.topo;
-                  for (size_t oi = 0; oi < topo.objects.size(); ++oi) {
-                    const auto& o = topo.objects[oi];
-                    if (o.kind != ObjectKind::tet_solid) continue;
-                    const MaterialParams& mat = ctx.material(static_cast<Index>(oi));
-                    Index skipped = 0;
-                    for (Index t = o.tet_begin; t < o.tet_end; ++t)
-                      if (!b->add(topo.tets[t], ctx.state.rest, mat.volume_compliance, mat.shear_compliance)) ++skipped;
-                    if (skipped > 0)
-                      log::warn("object '{}': {} degenerate rest tets get no material constraint", o.name, skipped);
-                  }
-                  return b;
-                }});
+  registry.add(
+      {"tet_elasticity",
+       "volume and deviatoric terms per tet of tet solids",
+       {ParamSpec::number("volume_compliance", 0.0, "tet solids: compliance of volume preservation, 1/λ (1/Pa)", 0.0,
+                          kMaxCompliance)
+            .from_material("volume_compliance"),
+        ParamSpec::number("shear_compliance", 1e-6, "tet solids: compliance of the deviatoric (shape) term, 1/μ (1/Pa)",
+                          0.0, kMaxCompliance)
+            .from_material("shear_compliance")},
+       [](const ParamValues&, const MaterialContext& ctx) -> std::unique_ptr<ConstraintBatch> {
+         auto b = std::make_unique<TetBatch>();
+         const Topology& topo = ctx.topo;
+         for (size_t oi = 0; oi < topo.objects.size(); ++oi) {
+           const auto& o = topo.objects[oi];
+           if (o.kind != ObjectKind::tet_solid) continue;
+           const ParamValues& mat = *ctx.object_params[oi];
+           const double volume = mat.number("volume_compliance"), shear = mat.number("shear_compliance");
+           Index skipped = 0;
+           for (Index t = o.tet_begin; t < o.tet_end; ++t)
+             if (!b->add(topo.tets[t], ctx.state.rest, volume, shear)) ++skipped;
+           if (skipped > 0)
+             log::warn("object '{}': {} degenerate rest tets get no material constraint", o.name, skipped);
+         }
+         return b;
+       }});
 }
 
 }  // namespace ccfr

@@ -32,6 +32,8 @@ enum class ParamType { boolean, integer, number, choice };
 
 /// One parameter of a component: its key (under the component's own section of the scene file,
 /// e.g. `contact.toi_clamp.scale`), type, default, admissible range or choices, and description.
+/// A material constraint's parameter may instead be a key of the material itself
+/// (`material_key`, e.g. `materials.<m>.stretch_compliance`): see material_constraint.hpp.
 struct ParamSpec {
   std::string key;
   ParamType type = ParamType::number;
@@ -41,6 +43,9 @@ struct ParamSpec {
   double max = std::numeric_limits<double>::infinity();
   bool min_open = false, max_open = false;  ///< open interval ends (e.g. (0, 1])
   std::vector<std::string> choices;         ///< ParamType::choice only
+  /// Material constraints only: the key of the material section this parameter is read from,
+  /// shared by every constraint that names it; empty: the key lies in the component's own section.
+  std::string material_key;
 
   static ParamSpec number(std::string key, double def, std::string doc,
                           double min = -std::numeric_limits<double>::infinity(),
@@ -51,6 +56,11 @@ struct ParamSpec {
                            long long max = std::numeric_limits<long long>::max());
   static ParamSpec boolean(std::string key, bool def, std::string doc);
   static ParamSpec choice(std::string key, std::string def, std::vector<std::string> choices, std::string doc);
+  /// This spec read from the material's key `key` (see `material_key`).
+  ParamSpec from_material(std::string key) && {
+    material_key = std::move(key);
+    return std::move(*this);
+  }
 
   /// Why `v` is not admissible ("must be > 0", "must be an integer", ...); empty if it is.
   std::string check(const ParamValue& v) const;

@@ -17,11 +17,12 @@ namespace ccfr::io::scene {
 
 namespace {
 
-/// The values of `specs` from `node`, a section the schema resolved (every key present).
+/// The values of `specs` from `node`, a section the schema resolved (every key present); a spec
+/// naming a material key reads that key.
 ParamValues read_params(std::span<const ParamSpec> specs, const YAML::Node& node) {
   ParamValues v;
   for (const auto& spec : specs) {
-    const YAML::Node n = node[spec.key];
+    const YAML::Node n = node[spec.material_key.empty() ? spec.key : spec.material_key];
     switch (spec.type) {
       case ParamType::boolean:
         v.set(spec.key, n.as<bool>());
@@ -155,11 +156,16 @@ MaterialParams read_material(const Input& in, const std::string& name, const std
   }
   MaterialParams mp;
   material_section().read(mp, m);
-  // A registered constraint is on for this material when its section is in the input.
+  // A constraint reading the material's keys gets them from `m` (defaults filled); one with a
+  // section of its own is on for this material when that section is in the input.
   const YAML::Node given = in.in["materials"] ? in.in["materials"][name] : YAML::Node();
-  if (given && given.IsMap())
-    for (const auto& e : material_constraints().entries())
-      if (!e.params.empty() && given[e.name]) mp.constraints[e.name] = read_params(e.params, m[e.name]);
+  for (const auto& e : material_constraints().entries()) {
+    if (e.params.empty()) continue;
+    if (on_for_every_material(e))
+      mp.constraints[e.name] = read_params(e.params, m);
+    else if (given && given.IsMap() && given[e.name])
+      mp.constraints[e.name] = read_params(e.params, m[e.name]);
+  }
   return mp;
 }
 

@@ -7,10 +7,17 @@
 /// colours them, groups them into islands and sweeps them; it knows no constraint type by name.
 ///
 /// The built-in entries (solvers/src/materials/, one file each, named by its key) are `stretch`
-/// (edge lengths), `dihedral_bending`, `strand_bending` and `tet_elasticity`; they read the material
-/// keys they always had (`stretch_compliance`, ...). A constraint that declares parameters is
-/// switched on per material by its section `materials.<material>.<name>` (docs/extending.md):
-///   static ccfr::Registration<ccfr::MaterialConstraintRegistry> reg(ccfr::material_constraints(), {...});
+/// (edge lengths), `dihedral_bending`, `strand_bending` and `tet_elasticity`.
+///
+/// A constraint's parameters live in one of two places:
+/// - its own section `materials.<material>.<name>`, which switches it on for that material's
+///   objects (docs/extending.md):
+///     static ccfr::Registration<ccfr::MaterialConstraintRegistry> reg(ccfr::material_constraints(), {...});
+/// - keys of the material itself (`ParamSpec::from_material`): the constraint is on for every
+///   material, and one key may feed several constraints. The built-ins register theirs this way
+///   (`stretch.compliance` is `materials.<material>.stretch_compliance`; `dihedral_bending` and
+///   `strand_bending` share `bend_compliance`).
+/// Either way the factory reads the values from `MaterialContext::object_params`.
 #include <span>
 #include <string>
 #include <string_view>
@@ -37,6 +44,10 @@ struct Colouring {
 /// (never written by a kernel) do not separate constraints.
 Colouring colour_constraints(Index num_vertices, std::span<const Index> vertices, int arity,
                              std::span<const double> inv_mass);
+
+/// Largest XPBD compliance a material key accepts (m/N, 1/(N m), 1/Pa): softer than any material
+/// (the defaults are 0 to 0.1), and α / Δt² stays finite for every admissible Δt.
+inline constexpr double kMaxCompliance = 1e6;
 
 /// A colour of a batch is split into parallel tasks only beyond this many constraints (its
 /// `grain()`); smaller colours run inline on the calling thread.
@@ -95,9 +106,10 @@ struct MaterialContext {
   const Topology& topo;
   const SimState& state;  ///< rest shapes are `state.rest`; kinematic vertices have inv_mass 0
   const SimulationParams& params;
-  /// Per object: this constraint's parameters from its material's section
-  /// `materials.<material>.<name>` (complete, checked), or nullptr when the material does not set
-  /// the section. Constraints without parameters of their own see nullptr everywhere.
+  /// Per object: this constraint's parameters (complete, checked). For a constraint switched on
+  /// by its section, nullptr where the material does not set it; for one on for every material
+  /// (`on_for_every_material`), set for every object, except that a constraint without parameters
+  /// sees nullptr everywhere.
   std::vector<const ParamValues*> object_params;
 
   const MaterialParams& material(Index object) const;
@@ -109,5 +121,20 @@ using MaterialConstraintRegistry = Registry<ConstraintBatch, const MaterialConte
 /// The registry of material constraints (kind "material constraint"). A factory may return
 /// nullptr when the scene has nothing for it.
 MaterialConstraintRegistry& material_constraints();
+
+/// Whether `e` is on for every material: it takes no parameters, or every parameter is a key of
+/// the material (`ParamSpec::material_key`). Otherwise a material switches it on with its section.
+/// Throws ccfr::Error for an entry that mixes the two kinds.
+bool on_for_every_material(const MaterialConstraintRegistry::Entry& e);
+
+/// The material keys the constraints of `registry` read, each once, in registration order: the
+/// spec of its first reader with `key` set to the material key. Throws ccfr::Error where two
+/// constraints give one key different types, defaults or ranges.
+std::vector<ParamSpec> material_keys(const MaterialConstraintRegistry& registry = material_constraints());
+
+/// Sets the material key `key` of `m` (e.g. "bend_compliance") for every registered constraint
+/// that reads it, as `materials.<m>.<key>` does in a scene file; the value is checked when the
+/// scene's MaterialSystem is built. Throws ccfr::Error for a key no constraint reads.
+void set_material_key(MaterialParams& m, std::string_view key, ParamValue value);
 
 }  // namespace ccfr

@@ -112,15 +112,14 @@ struct OutputParams {
 };
 
 struct MaterialParams {
-  double density = 0.1;             ///< kg/m² (cloth, shell), kg/m (strand), kg/m³ (solids, rigid), kg per particle
-  double stretch_compliance = 0.0;  ///< m/N, XPBD compliance of edge length constraints
-  double bend_compliance = 0.1;     ///< bending compliance (1/(N·m)) for dihedral / strand bending
-  double volume_compliance = 0.0;   ///< tet volume compliance
-  double shear_compliance = 1e-6;   ///< tet deviatoric (shape) compliance
-  double friction = -1.0;           ///< per-object friction override (<0: use contact.friction)
-  /// Registered material constraints with parameters of their own that this material switches on
-  /// (`materials.<name>.<constraint>` in YAML), by constraint name; values missing here take their
-  /// defaults (material_constraint.hpp).
+  double density = 0.1;    ///< kg/m² (cloth, shell), kg/m (strand), kg/m³ (solids, rigid), kg per particle
+  double friction = -1.0;  ///< per-object friction override (<0: use contact.friction)
+  /// Parameters of registered material constraints, by constraint name; values missing here take
+  /// their defaults (material_constraint.hpp). The built-ins read the material's keys
+  /// (`stretch_compliance` is `constraints["stretch"]["compliance"]`, `bend_compliance` is
+  /// `compliance` of both `dihedral_bending` and `strand_bending`, `volume_compliance` and
+  /// `shear_compliance` are `tet_elasticity`'s); a constraint with a section of its own is on only
+  /// where its entry is set (`materials.<name>.<constraint>` in YAML).
   std::map<std::string, ParamValues> constraints;
 };
 
