@@ -131,24 +131,31 @@ void visibility_weights(std::span<const ContactPair> contacts, std::span<const I
   if (!movable.empty() && std::none_of(movable.begin(), movable.end(), [](double w) { return w > 0.0; })) return;
   // A listed vertex's slots of k = 0 are exactly its contacts as query vertex, in contact order:
   // its group, read without the three passes over the 96-byte records the grouping needs.
+  std::atomic<Index> grouped{0};  // contacts in the listed groups: each is in one at most
   parallel_for(
       nv,
       [&](Index vb, Index ve) {
         GroupScratch scratch;
         std::vector<Index> group;
+        Index local = 0;
         for (Index v = vb; v < ve; ++v) {
           group.clear();
-          bool moves = movable.empty();
+          // v is vertex 0 of each contact of its group: a movable v settles `moves` without
+          // reading the 96-byte records, which weigh_group reads only for groups of two or more.
+          bool moves = movable.empty() || (static_cast<size_t>(v) < movable.size() && movable[v] > 0.0);
           for (Index q = row_start[v]; q < row_start[v + 1]; ++q)
             if (slots[q] % 4 == 0) {
               const Index ci = slots[q] / 4;
               group.push_back(ci);
-              for (int k = 0; k < contacts[ci].size() && !moves; ++k) moves = movable[contacts[ci].v[k]] > 0.0;
+              for (int k = 0; !moves && k < contacts[ci].size(); ++k) moves = movable[contacts[ci].v[k]] > 0.0;
             }
+          local += static_cast<Index>(group.size());
           if (moves) weigh_group(group, contacts, width, vis, scratch);
         }
+        grouped += local;
       },
       256);
+  if (grouped.load() == n) return;  // no contact left for the scan below
   // Contacts whose query vertex is not listed (not movable: every movable vertex lists its own
   // contacts) are grouped apart: collected per block in index order, then stably by vertex.
   const Index blocks = std::clamp<Index>(n / 4096, 1, 32);
