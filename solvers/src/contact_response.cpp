@@ -82,7 +82,7 @@ void visibility_weights(std::span<const ContactPair> contacts, double width, std
   // a serial counting sort would, for any thread count. (Serial, these three passes over the
   // 96-byte contact records were about 6 % of a soft-wire frame at one thread.) About 1,024
   // contacts per block, at most 32: the blocks x vertices cursors must not outweigh few contacts.
-  const Index blocks = std::clamp<Index>(n / 1024, 1, 32);
+  const Index blocks = cursor_blocks(n, 1024, 32);
   std::vector<Index> block_max(static_cast<size_t>(blocks), 0);
   parallel_chunks(n, blocks, [&](Index b, Index lo, Index hi) {
     Index m = 0;
