@@ -243,9 +243,11 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
         for (Index ci = b; ci < e; ++ci) {
           const ContactPair& c = contacts_[ci];
           if (c.neighbours) continue;  // a fine mesh's neighbours: their distance is the material's
-          const double gap = contact_gap(c, x);
+          // The weight first: an occluded contact (most of a dense pile's) then reads no position.
           const double vis = visibility_[ci];
-          if (gap >= p.repulsion_range || vis <= 1e-12) continue;
+          if (vis <= 1e-12) continue;
+          const double gap = contact_gap(c, x);
+          if (gap >= p.repulsion_range) continue;
           double wsum = 0.0;
           for (int k = 0; k < c.size(); ++k) wsum += c.w[k] * c.w[k] * inv_mass[c.v[k]];
           if (wsum <= 0.0) continue;
