@@ -132,6 +132,8 @@ void visibility_weights(std::span<const ContactPair> contacts, std::span<const I
   // A listed vertex's slots of k = 0 are exactly its contacts as query vertex, in contact order:
   // its group, read without the three passes over the 96-byte records the grouping needs.
   std::atomic<Index> grouped{0};  // contacts in the listed groups: each is in one at most
+  std::vector<std::uint8_t>& in_group = ws.grouped;
+  in_group.assign(static_cast<size_t>(n), 0);
   parallel_for(
       nv,
       [&](Index vb, Index ve) {
@@ -147,6 +149,7 @@ void visibility_weights(std::span<const ContactPair> contacts, std::span<const I
             if (slots[q] % 4 == 0) {
               const Index ci = slots[q] / 4;
               group.push_back(ci);
+              in_group[static_cast<size_t>(ci)] = 1;
               for (int k = 0; !moves && k < contacts[ci].size(); ++k) moves = movable[contacts[ci].v[k]] > 0.0;
             }
           local += static_cast<Index>(group.size());
@@ -157,11 +160,13 @@ void visibility_weights(std::span<const ContactPair> contacts, std::span<const I
       256);
   if (grouped.load() == n) return;  // no contact left for the scan below
   // Contacts whose query vertex is not listed (not movable: every movable vertex lists its own
-  // contacts) are grouped apart: collected per block in index order, then stably by vertex.
+  // contacts) are grouped apart: collected per block in index order, then stably by vertex. A
+  // grouped contact sits in its query vertex's non-empty row, so only the others are read.
   const Index blocks = std::clamp<Index>(n / 4096, 1, 32);
   std::vector<std::vector<Index>> found(static_cast<size_t>(blocks));
   parallel_chunks(n, blocks, [&](Index b, Index lo, Index hi) {
     for (Index i = lo; i < hi; ++i) {
+      if (in_group[static_cast<size_t>(i)]) continue;
       const Index v = contacts[i].v[0];
       if (v >= nv || row_start[v + 1] == row_start[v]) found[b].push_back(i);
     }
