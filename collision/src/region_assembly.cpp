@@ -253,7 +253,7 @@ void assemble_regions(Index nv, const Positions& x, std::span<const double> inv_
   }
   // Blocks x vertices cursors cost as much as the scatter they split once the contacts are few (a
   // pass that moves a handful of vertices): about 1,024 contacts per block, at most 32.
-  const Index blocks = std::clamp<Index>(static_cast<Index>(start.back() / 1024), 1, std::min<Index>(chunks, 32));
+  const Index blocks = cursor_blocks(static_cast<Index>(start.back()), 1024, std::min<Index>(chunks, 32));
   work.block_cursor.resize(static_cast<size_t>(blocks) * nv);
   count_planes(nv, inv_mass, buffers, blocks, work.block_cursor);
   counts_to_block_cursors(nv, blocks, work.block_cursor, regions.row_start);

@@ -82,7 +82,7 @@ void visibility_weights(std::span<const ContactPair> contacts, double width, std
   // a serial counting sort would, for any thread count. (Serial, these three passes over the
   // 96-byte contact records were about 6 % of a soft-wire frame at one thread.) About 1,024
   // contacts per block, at most 32: the blocks x vertices cursors must not outweigh few contacts.
-  const Index blocks = std::clamp<Index>(n / 1024, 1, 32);
+  const Index blocks = cursor_blocks(n, 1024, 32);
   std::vector<Index> block_max(static_cast<size_t>(blocks), 0);
   parallel_chunks(n, blocks, [&](Index b, Index lo, Index hi) {
     Index m = 0;
@@ -131,30 +131,42 @@ void visibility_weights(std::span<const ContactPair> contacts, std::span<const I
   if (!movable.empty() && std::none_of(movable.begin(), movable.end(), [](double w) { return w > 0.0; })) return;
   // A listed vertex's slots of k = 0 are exactly its contacts as query vertex, in contact order:
   // its group, read without the three passes over the 96-byte records the grouping needs.
+  std::atomic<Index> grouped{0};  // contacts in the listed groups: each is in one at most
+  std::vector<std::uint8_t>& in_group = ws.grouped;
+  in_group.assign(static_cast<size_t>(n), 0);
   parallel_for(
       nv,
       [&](Index vb, Index ve) {
         GroupScratch scratch;
         std::vector<Index> group;
+        Index local = 0;
         for (Index v = vb; v < ve; ++v) {
           group.clear();
-          bool moves = movable.empty();
+          // v is vertex 0 of each contact of its group: a movable v settles `moves` without
+          // reading the 96-byte records, which weigh_group reads only for groups of two or more.
+          bool moves = movable.empty() || (static_cast<size_t>(v) < movable.size() && movable[v] > 0.0);
           for (Index q = row_start[v]; q < row_start[v + 1]; ++q)
             if (slots[q] % 4 == 0) {
               const Index ci = slots[q] / 4;
               group.push_back(ci);
-              for (int k = 0; k < contacts[ci].size() && !moves; ++k) moves = movable[contacts[ci].v[k]] > 0.0;
+              in_group[static_cast<size_t>(ci)] = 1;
+              for (int k = 0; !moves && k < contacts[ci].size(); ++k) moves = movable[contacts[ci].v[k]] > 0.0;
             }
+          local += static_cast<Index>(group.size());
           if (moves) weigh_group(group, contacts, width, vis, scratch);
         }
+        grouped += local;
       },
       256);
+  if (grouped.load() == n) return;  // no contact left for the scan below
   // Contacts whose query vertex is not listed (not movable: every movable vertex lists its own
-  // contacts) are grouped apart: collected per block in index order, then stably by vertex.
+  // contacts) are grouped apart: collected per block in index order, then stably by vertex. A
+  // grouped contact sits in its query vertex's non-empty row, so only the others are read.
   const Index blocks = std::clamp<Index>(n / 4096, 1, 32);
   std::vector<std::vector<Index>> found(static_cast<size_t>(blocks));
   parallel_chunks(n, blocks, [&](Index b, Index lo, Index hi) {
     for (Index i = lo; i < hi; ++i) {
+      if (in_group[static_cast<size_t>(i)]) continue;
       const Index v = contacts[i].v[0];
       if (v >= nv || row_start[v + 1] == row_start[v]) found[b].push_back(i);
     }
@@ -236,9 +248,11 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
         for (Index ci = b; ci < e; ++ci) {
           const ContactPair& c = contacts_[ci];
           if (c.neighbours) continue;  // a fine mesh's neighbours: their distance is the material's
-          const double gap = contact_gap(c, x);
+          // The weight first: an occluded contact (most of a dense pile's) then reads no position.
           const double vis = visibility_[ci];
-          if (gap >= p.repulsion_range || vis <= 1e-12) continue;
+          if (vis <= 1e-12) continue;
+          const double gap = contact_gap(c, x);
+          if (gap >= p.repulsion_range) continue;
           double wsum = 0.0;
           for (int k = 0; k < c.size(); ++k) wsum += c.w[k] * c.w[k] * inv_mass[c.v[k]];
           if (wsum <= 0.0) continue;

@@ -246,6 +246,8 @@ TEST(ContactResponse, VisibilityWeightsFromTheIncidenceEqualTheGroupedOnes) {
     ASSERT_EQ(w.size(), cs.size());
     for (size_t c = 0; c < cs.size(); ++c)
       ASSERT_EQ(w[c], expect[c]) << "contact " << c << ", " << threads << " threads";
+    // The grouping's own path: one cursor block at one thread, several at two.
+    EXPECT_EQ(visibility_weights(cs, width), expect) << threads << " threads";
   }
   set_thread_count(0);
   std::vector<double> w;

@@ -2,6 +2,7 @@
 /// @file block_cursors.hpp
 /// The middle step of a parallel, stable counting sort over fixed blocks of input (the region
 /// assembly's half-spaces, the contact response's visibility groups).
+#include <algorithm>
 #include <numeric>
 #include <vector>
 
@@ -14,6 +15,14 @@ namespace ccfr {
 /// groups, and `cursor` holds each block's first write position per key: block b writes its items
 /// of key k from row_start[k] plus the counts of blocks 0..b-1. Scattering each block in input order
 /// then lists every group in input order, whatever the thread count.
+/// Blocks for `items` inputs split into about `per_block` each, between 1 and `most`: one on a
+/// single thread, where the blocks run in turn and each extra one only adds #keys cursors to fill,
+/// sum and scatter through. The groups come out the same for any block count.
+inline Index cursor_blocks(Index items, Index per_block, Index most) {
+  if (thread_count() == 1) return 1;
+  return std::clamp<Index>(items / per_block, 1, std::max<Index>(most, 1));
+}
+
 inline void counts_to_block_cursors(Index keys, Index blocks, std::vector<Index>& cursor,
                                     std::vector<Index>& row_start) {
   row_start.assign(static_cast<size_t>(keys) + 1, 0);

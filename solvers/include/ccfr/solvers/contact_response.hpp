@@ -4,6 +4,7 @@
 /// beyond the offset, attenuated by visibility weights, and position-based friction on the same
 /// contacts (Macklin et al. 2014). Solved Jacobi-style with per-vertex averaging, so it runs in
 /// parallel and deterministically.
+#include <cstdint>
 #include <span>
 #include <vector>
 
@@ -30,6 +31,7 @@ std::vector<double> visibility_weights(std::span<const ContactPair> contacts, do
 /// Buffers of visibility_weights() kept between passes (a dense scene has millions of contacts).
 struct VisibilityWorkspace {
   std::vector<Index> start, order, cursor;
+  std::vector<std::uint8_t> grouped;  ///< per contact: 1 once a listed vertex's group holds it
 };
 
 /// visibility_weights() into `out`, reusing `ws`'s buffers.
