@@ -342,11 +342,57 @@ void barycentric_pull_back(const ContactPair& c, const PullBack& p) {
   }
 }
 
-/// Vertex sweeps: the share s of E that balances the momentum of the two sides' pull-backs, each
-/// vertex with its split mass m_k / n_k (an unpinned rigid body on the other side with 1 / w_o
-/// at its closest point; a side with an immovable vertex does not give way), then each vertex's
-/// pull-back along n.
+/// How far the closest points' line may carry a vertex sweep: its impulse moves them apart by at
+/// most this many times the contact's overlap E (m / m). Beyond, the vertices that overshoot weigh
+/// too little at the closest points and are pulled back themselves (vertex_pull_back).
+constexpr double kLineReach = 4.0;
+
+/// Vertex sweeps on the closest points' line: one impulse J along n through the closest points,
+/// vertex k moved by β_k J, β_k = n_k m_k⁻¹ |w_k| / Σ_j n_j w_j² m_j⁻¹ (split masses, as in the
+/// barycentric sweeps: linear and angular momentum kept), J the least with
+/// \f$\max_A(\alpha_k - \beta_k J) + \max_B(\alpha_k - \beta_k J) \le a_A + a_B - E\f$,
+/// α_k the approaches. False, nothing written, where a vertex is immovable, the other side answers
+/// in its own solve, or J would exceed kLineReach E.
+bool line_pull_back(const ContactPair& c, const PullBack& p, const Positions& x, const Positions& anchor) {
+  const int na = c.side_a(), nk = c.size();
+  if (p.w_o > 0.0) return false;
+  double wsum = 0.0;
+  for (int k = 0; k < nk; ++k) {
+    const Index v = c.v[k];
+    if (!(v < p.nv && p.inv_mass[v] > 0.0)) return false;
+    wsum += static_cast<double>(std::max<Index>(1, p.count[v])) * c.w[k] * c.w[k] * p.inv_mass[v];
+  }
+  if (!(wsum > 0.0)) return false;
+  double app[4], beta[4];
+  for (int k = 0; k < nk; ++k) {
+    beta[k] = static_cast<double>(p.count[c.v[k]]) * p.inv_mass[c.v[k]] * std::abs(c.w[k]) / wsum;
+    app[k] = approach(c, k, x, anchor);
+  }
+  // Overlap left at impulse J: convex and non-increasing in J (every β_k >= 0), E at J = 0.
+  auto left = [&](double j) {
+    double a[2] = {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+    for (int k = 0; k < nk; ++k) a[k < na ? 0 : 1] = std::max(a[k < na ? 0 : 1], app[k] - beta[k] * j);
+    return a[0] + a[1];
+  };
+  const double allowed = left(0.0) - p.excess;
+  double lo = 0.0, hi = kLineReach * p.excess;
+  if (left(hi) > allowed) return false;
+  for (int it = 0; it < 48; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (left(mid) > allowed ? lo : hi) = mid;
+  }
+  // Side A (w_k > 0) gives way along +n, side B (w_k < 0) along -n.
+  for (int k = 0; k < nk; ++k)
+    p.corr[k] = Vec3((static_cast<double>(p.count[c.v[k]]) * p.inv_mass[c.v[k]] * c.w[k] * hi / wsum) * c.n);
+  return true;
+}
+
+/// Vertex sweeps where the closest points' line does not reach: the share s of E that balances
+/// the momentum of the two sides' pull-backs, each vertex with its split mass m_k / n_k (an
+/// unpinned rigid body on the other side with 1 / w_o at its closest point; a side with an
+/// immovable vertex does not give way), then each vertex's pull-back along n.
 void vertex_pull_back(const ContactPair& c, const PullBack& p, const Positions& x, const Positions& anchor) {
+  if (line_pull_back(c, p, x, anchor)) return;
   const int na = c.side_a(), nk = c.size();
   const double excess = p.excess, w_o = p.w_o;
   double app[4], mass[4], a[2] = {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};

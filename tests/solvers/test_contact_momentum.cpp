@@ -104,11 +104,10 @@ TEST_P(ContactMomentum, TwoSoftSolidsOfUnequalMassConserveMomentumThroughAHeadOn
 
 TEST_P(ContactMomentum, AGlancingImpactKeepsTheAngularMomentumAboutTheCommonCentre) {
   // The same pair, b a third of a box above a's axis: the impact turns both. The contact lasts
-  // frames 1-2. Linear momentum within 2 % in every frame; angular momentum within 8 % after the
-  // impact: about 5 % is lost in it, half in the response's every-vertex sweeps (their pull-backs
-  // of a primitive's overshooting vertices are not at the closest points: a couple) and half in
-  // the projection, and the spinning soft bodies shed about 0.3 % per frame without any contact
-  // (XPBD's linear prediction; docs/results.md). The paper's response loses all of it and more.
+  // frames 1-2. Linear momentum within 2 % in every frame; angular momentum within 5 % after the
+  // impact (measured: 3.9 %, lost where the response's every-vertex sweeps pull back a primitive's
+  // overshooting vertices off the closest points' line, and in the passes after the first, whose
+  // anchors have moved; docs/results.md). The paper's response loses all of it and more.
   for (const bool momentum : {true, false}) {
     Simulation sim(two_boxes(GetParam(), 1e-3, 2e-3, 2.0, -0.5, 0.02, momentum));
     const Momenta before = momenta(sim);
@@ -122,7 +121,7 @@ TEST_P(ContactMomentum, AGlancingImpactKeepsTheAngularMomentumAboutTheCommonCent
                            before.l.z(), now.l.z(), "kg m²/s");
     if (momentum) {
       EXPECT_LT((now.p - before.p).norm(), 0.02 * before.p.norm());
-      EXPECT_LT((now.l - before.l).norm(), 0.08 * before.l.norm());
+      EXPECT_LT((now.l - before.l).norm(), 0.05 * before.l.norm());
     } else {
       EXPECT_GT((now.l - before.l).norm(), 0.5 * before.l.norm());
     }

@@ -85,10 +85,14 @@ class ContactResponse {
   /// 2. the rest, every vertex: the regions let each vertex of a side approach the other side by
   ///    at most that side's share of φ, so the candidates fit a contact's planes iff
   ///    \f$a_A + a_B \le \varphi\f$, a_A, a_B the sides' largest approaches along ∓n. Where they
-  ///    overlap by E = a_A + a_B - φ > 0, side A gives way by s E and B by (1 - s) E (every vertex
-  ///    beyond its side's allowed approach pulled back to it along n), s chosen by bisection so
-  ///    that both sides' pull-backs carry equal momentum: linear momentum is kept, angular
-  ///    momentum not exactly (the pull-backs act at the vertices that overshoot).
+  ///    overlap by E = a_A + a_B - φ > 0, the least impulse J on the closest points' line that
+  ///    closes it, \f$\Delta\mathbf{x}_k = m_k^{-1} w_k \mathbf{n} J\f$ as in 1 (linear and angular
+  ///    momentum kept), where J ≤ 4 E reaches; elsewhere (an overshooting vertex weighs little at
+  ///    the closest points, a side has an immovable or self-answering vertex) side A gives way by
+  ///    s E and B by (1 - s) E (every vertex beyond its side's allowed approach pulled back to it
+  ///    along n), s chosen by bisection so that both sides' pull-backs carry equal momentum:
+  ///    linear momentum is kept, angular momentum not exactly (the pull-backs act at the vertices
+  ///    that overshoot, off the closest points' line).
   ///
   /// A side with an immovable vertex does not give way; `other_inverse_mass` (per contact, or
   /// empty) is the generalized inverse mass w_o of a side that answers in its own solve (an
