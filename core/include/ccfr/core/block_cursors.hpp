@@ -10,11 +10,6 @@
 
 namespace ccfr {
 
-/// `cursor` holds, for each of `blocks` consecutive input blocks, how many items it has per key
-/// (#blocks by #keys, block-major). On return `row_start` (#keys + 1) is the CSR of the keys'
-/// groups, and `cursor` holds each block's first write position per key: block b writes its items
-/// of key k from row_start[k] plus the counts of blocks 0..b-1. Scattering each block in input order
-/// then lists every group in input order, whatever the thread count.
 /// Blocks for `items` inputs split into about `per_block` each, between 1 and `most`: one on a
 /// single thread, where the blocks run in turn and each extra one only adds #keys cursors to fill,
 /// sum and scatter through. The groups come out the same for any block count.
@@ -23,6 +18,11 @@ inline Index cursor_blocks(Index items, Index per_block, Index most) {
   return std::clamp<Index>(items / per_block, 1, std::max<Index>(most, 1));
 }
 
+/// `cursor` holds, for each of `blocks` consecutive input blocks, how many items it has per key
+/// (#blocks by #keys, block-major). On return `row_start` (#keys + 1) is the CSR of the keys'
+/// groups, and `cursor` holds each block's first write position per key: block b writes its items
+/// of key k from row_start[k] plus the counts of blocks 0..b-1. Scattering each block in input order
+/// then lists every group in input order, whatever the thread count.
 inline void counts_to_block_cursors(Index keys, Index blocks, std::vector<Index>& cursor,
                                     std::vector<Index>& row_start) {
   row_start.assign(static_cast<size_t>(keys) + 1, 0);
