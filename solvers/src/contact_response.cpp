@@ -444,7 +444,7 @@ void vertex_pull_back(const ContactPair& c, const PullBack& p, const Positions& 
 }  // namespace
 
 Index ContactResponse::mark_overlaps(const Positions& x, const Positions& anchor, std::span<const double> inv_mass,
-                                     bool barycentric) {
+                                     bool barycentric, double rest_overlap) {
   auto given = [&](Index ci) { return separate_given_.empty() ? 0.0 : separate_given_[static_cast<size_t>(ci)]; };
   std::atomic<Index> closed{0};
   parallel_for(
@@ -464,11 +464,12 @@ Index ContactResponse::mark_overlaps(const Positions& x, const Positions& anchor
             moves = moves || inv_mass[c.v[k]] > 0.0;
             at += c.w[k] * (x[c.v[k]] - anchor[c.v[k]]);
           }
-          // Barycentric sweeps: the closest points' approach; then every vertex's. Overlaps
-          // below 1e-9 of the offset are rounding, left to the planes.
+          // Barycentric sweeps: the closest points' approach; then every vertex's. The first
+          // `rest_overlap` of it is resting contact, left to the planes; overlaps below 1e-9 of
+          // the offset are rounding, left to them too.
           const double e_c =
               (barycentric ? -(c.distance - c.offset + c.n.dot(at)) : a[0] + a[1] - (c.distance - c.offset)) -
-              given(ci);
+              given(ci) - rest_overlap;
           if (!moves || !(e_c > 1e-9 * c.offset)) continue;
           excess = e_c;
           ++local;
@@ -534,7 +535,7 @@ void ContactResponse::move_by_mean(Positions& x, std::span<const double> inv_mas
 }
 
 Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span<const double> inv_mass, int sweeps,
-                                std::span<const double> other_inverse_mass) {
+                                double rest_overlap, std::span<const double> other_inverse_mass) {
   const Index n = static_cast<Index>(contacts_.size());
   if (n == 0 || sweeps <= 0) return 0;
   if (row_start_.empty()) throw Error("ContactResponse::separate: called before prepare()");
@@ -550,7 +551,7 @@ Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span
   for (int sweep = 0; sweep < sweeps; ++sweep) {
     const bool barycentric = sweep < first_vertex_sweep;
     // Overlapping contacts of this sweep: separate_dl_ holds E (0: none).
-    const Index closed = mark_overlaps(x, anchor, inv_mass, barycentric);
+    const Index closed = mark_overlaps(x, anchor, inv_mass, barycentric, rest_overlap);
     most = std::max(most, closed);
     if (closed == 0) {
       if (!barycentric) break;

@@ -4,6 +4,7 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <mutex>
 
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/geometry/distance.hpp"
@@ -17,13 +18,14 @@ constexpr double kVacated = 0.1;
 
 Index split_by_motion(RegionSet& regions, std::span<const ContactPair> contacts, const Positions& anchor,
                       const Positions& x, std::span<const double> inv_mass, std::span<const double> responds,
-                      double min_room, std::span<std::uint8_t> deferred) {
+                      std::vector<HeldSplit>& held) {
+  held.clear();
   if (regions.records.size() != contacts.size()) return 0;
-  std::atomic<Index> held{0};
+  std::mutex gather;
   parallel_for(
       static_cast<Index>(contacts.size()),
       [&](Index b, Index e) {
-        Index local = 0;
+        std::vector<HeldSplit> local;
         for (Index ci = b; ci < e; ++ci) {
           const ContactPair& c = contacts[ci];
           RegionRecord& rec = regions.records[static_cast<size_t>(ci)];
@@ -57,24 +59,43 @@ Index split_by_motion(RegionSet& regions, std::span<const ContactPair> contacts,
           const double d_a = std::clamp(raw, 0.0, gap);
           rec.d[0] = d_a;
           rec.d[1] = gap - d_a;
-          // A side clamped at its anchor while it moves away: the other side waits for the next pass.
+          // A side clamped at its anchor while it moves away: the other side may wait for the next
+          // pass, if this one lets the retreating side go (held_followers).
           const double tol = 1e-9 * gap;
-          // Only where the room vacated is a fair part of the cut: a side that barely retreats
-          // from an overlap the response left gives the next pass nothing to use.
-          const bool hold_b =
-              raw < 0.0 && a_b > rec.d[1] + tol && -a_a > std::max(min_room, kVacated * (a_b - rec.d[1]));
-          const bool hold_a =
-              raw > gap && a_a > rec.d[0] + tol && -a_b > std::max(min_room, kVacated * (a_a - rec.d[0]));
-          if (!hold_a && !hold_b) continue;
-          ++local;
-          if (!deferred.empty())
-            for (int k = hold_a ? 0 : na; k < (hold_a ? na : nk); ++k)
-              std::atomic_ref<std::uint8_t>(deferred[static_cast<size_t>(c.v[k])]).store(1, std::memory_order_relaxed);
+          if (raw < 0.0 && a_b > rec.d[1] + tol && a_a < 0.0)
+            local.push_back({ci, 1, a_b - rec.d[1]});
+          else if (raw > gap && a_a > rec.d[0] + tol && a_b < 0.0)
+            local.push_back({ci, 0, a_a - rec.d[0]});
         }
-        held += local;
+        if (local.empty()) return;
+        const std::lock_guard<std::mutex> lock(gather);
+        held.insert(held.end(), local.begin(), local.end());
       },
       2048);
-  return held.load();
+  return static_cast<Index>(held.size());
+}
+
+Index held_followers(std::span<const ContactPair> contacts, std::span<const HeldSplit> held, const Positions& anchor,
+                     const Positions& x, double min_room, std::span<std::uint8_t> deferred) {
+  Index count = 0;
+  for (const HeldSplit& h : held) {
+    const ContactPair& c = contacts[static_cast<size_t>(h.contact)];
+    const int na = c.side_a(), nk = c.size();
+    // The retreating side's least retreat along n at x: the room its plane vacated.
+    const int lo = h.side == 0 ? na : 0, hi = h.side == 0 ? nk : na;
+    double vacated = std::numeric_limits<double>::infinity();
+    for (int k = lo; k < hi; ++k) {
+      const double along = c.n.dot(x[c.v[k]] - anchor[c.v[k]]);
+      vacated = std::min(vacated, h.side == 0 ? -along : along);
+    }
+    // Only where the room vacated is a fair part of the cut: a side that barely retreats
+    // from an overlap the response left gives the next pass nothing to use.
+    if (!(vacated > std::max(min_room, kVacated * h.cut))) continue;
+    ++count;
+    if (!deferred.empty())
+      for (int k = h.side == 0 ? 0 : na; k < (h.side == 0 ? na : nk); ++k) deferred[static_cast<size_t>(c.v[k])] = 1;
+  }
+  return count;
 }
 
 namespace {

@@ -58,7 +58,7 @@ void RegionProjectionSolver::respond(Positions& x, const Positions& anchor, cons
     other_inverse_mass_[ci] = frames[static_cast<size_t>(body)].inverse_mass_at(point, c.n);
   }
   response_.apply(x, state.x_prev, free_mask_, ctx.params.contact, ctx.dt, friction_override_, other_inverse_mass_);
-  if (ctx.momentum) response_.separate(x, anchor, free_mask_, kSeparateSweeps, other_inverse_mass_);
+  if (ctx.momentum) response_.separate(x, anchor, free_mask_, kSeparateSweeps, rest_overlap(ctx), other_inverse_mass_);
 }
 
 RegionProjectionSolver::RegionProjectionSolver(std::string solver_name, std::string projector_name, ParamValues params)
@@ -89,12 +89,10 @@ SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& ancho
     projected_mass = free_mask_;
   }
   // Each pair's plane split by the motion the response left (the dividing plane moves with the pair).
-  const Index deferred = ctx.momentum ? split_by_motion(regions_, contacts_, anchor, x, state.inv_mass, projected_mass,
-                                                        kDeferredRoom * ctx.params.contact.radius, ctx.deferred)
-                                      : 0;
+  held_splits_.clear();
+  if (ctx.momentum) split_by_motion(regions_, contacts_, anchor, x, state.inv_mass, projected_mass, held_splits_);
   const BatchStats b = project_all(*projector_, regions_, anchor, x, projected_mass, halted_);
   SolveResult r;
-  r.bounded_vertices = deferred;
   r.violations_detected = b.violated;
   r.violations_remaining = b.remaining;
   r.halted_vertices = b.halted;
@@ -187,6 +185,10 @@ SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& ancho
       }
   }
   r.halted_vertices_distinct = static_cast<Index>(std::count(halted_.begin(), halted_.end(), std::uint8_t{1}));
+  // A side held at its old plane while the other moved away: another pass, where the room vacated
+  // at these positions is used.
+  r.bounded_vertices +=
+      held_followers(contacts_, held_splits_, anchor, x, kDeferredRoom * ctx.params.contact.radius, ctx.deferred);
   return r;
 }
 

@@ -99,9 +99,14 @@ class ContactResponse {
   /// unpinned rigid body, masked in `inv_mass`): it counts with mass 1 / w_o and is not moved
   /// here: the part of each overlap it takes is kept for it across the sweeps (the pose solve
   /// moves it). Mesh neighbours are skipped, and overlaps below 1e-9 of the offset (rounding).
+  /// The first `rest_overlap` (m) of every overlap is resting contact, left to the planes (which
+  /// stop it at a support and cut it by the mass shares between free sides, split_by_motion): a
+  /// body resting on another is pressed into it by about a substep of gravity, |g| dt², and
+  /// closing that here sent every sweep through the bodies stacked on it. Only an impact's
+  /// overlap beyond it is closed here.
   /// Returns the most contacts that overlapped in one sweep.
   Index separate(Positions& x, const Positions& anchor, std::span<const double> inv_mass, int sweeps,
-                 std::span<const double> other_inverse_mass = {});
+                 double rest_overlap = 0.0, std::span<const double> other_inverse_mass = {});
 
  private:
   /// Keeps the contacts and computes their visibility weights (grouped through `row_start`/`slots`
@@ -111,7 +116,8 @@ class ContactResponse {
                       std::span<const double> movable = {});
   // The phases of one sweep of separate().
   /// Sets separate_dl_ to each contact's overlap E (0: none); returns how many overlap.
-  Index mark_overlaps(const Positions& x, const Positions& anchor, std::span<const double> inv_mass, bool barycentric);
+  Index mark_overlaps(const Positions& x, const Positions& anchor, std::span<const double> inv_mass, bool barycentric,
+                      double rest_overlap);
   /// separate_count_: each movable vertex's overlapping contacts.
   void count_overlaps(Index nv, std::span<const double> inv_mass);
   /// corr_: every overlapping contact's pull-back of its vertices.

@@ -20,6 +20,9 @@ class DetectingSolver : public ContactSolver {
   /// Least room (in units of r) a retreating side must vacate for the pass to be run again for
   /// the side that follows it (split_by_motion).
   static constexpr double kDeferredRoom = 0.01;
+  /// How far a substep of gravity presses a resting body into what it rests on, |g| dt²: the
+  /// share of every overlap ContactResponse::separate leaves to the planes (resting contact).
+  static double rest_overlap(const StepContext& ctx) { return ctx.params.time.gravity.norm() * ctx.dt * ctx.dt; }
   void initialize(const Topology& topo, const SimState& state, const SimulationParams& params) override;
   DetectResult detect(const Positions& anchor, const SimState& state, StepContext& ctx) override;
   void respond(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) override;

@@ -13,6 +13,13 @@
 
 namespace ccfr {
 
+/// A contact whose side split_by_motion() held at its old plane while the other side moves away.
+struct HeldSplit {
+  Index contact = 0;  ///< index into the contacts
+  int side = 0;       ///< the side held: 0 (A) or 1 (B)
+  double cut = 0.0;   ///< how far the held side's candidates reach past its plane (m)
+};
+
 /// Rewrites the plane offsets {d_A, d_B} of every contact whose vertices all have inverse mass > 0,
 /// that is not between mesh neighbours, and whose record is the plain one (normal n, d_A + d_B = G >= 0: no scripted
 /// vertex, no turned plane), by the candidates `x` against the anchors:
@@ -28,18 +35,29 @@ namespace ccfr {
 /// separating-plane argument (design clarification 4) and the anchors' feasibility stand.
 ///
 /// A side clamped to 0 whose candidates move away (a < 0) vacates room the other side cannot use
-/// in this pass: where the other side's approach exceeds G and the room vacated exceeds both
-/// `min_room` (m) and a tenth of that side's cut, its vertices are marked in `deferred` (#V, or
-/// empty) and the contact counted, so that the substep runs another outer iteration from the new
-/// anchors instead of ending with them held at the old plane. Returns the count of contacts
-/// deferred. Regions whose records are not one per contact are left as they are.
+/// in this pass: where the other side's approach exceeds G, the contact is listed in `held` (the
+/// side held and its cut, how far its candidates reach past its plane), so that held_followers()
+/// can decide, once the pass has moved the vertices, whether the next pass should be run for it.
+/// Returns the count listed. Regions whose records are not one per contact are left as they are.
 ///
 /// `responds` (#V, or empty: all) marks the vertices that answer in the per-vertex response (> 0);
 /// a contact none of whose vertices does (two unpinned rigid bodies, each resolved in its own pose
 /// solve) keeps the paper's split.
 Index split_by_motion(RegionSet& regions, std::span<const ContactPair> contacts, const Positions& anchor,
                       const Positions& x, std::span<const double> inv_mass, std::span<const double> responds,
-                      double min_room, std::span<std::uint8_t> deferred = {});
+                      std::vector<HeldSplit>& held);
+
+/// Of the contacts split_by_motion() listed, those whose retreating side did vacate room at `x`
+/// (the positions the pass ends with, the next pass's anchors): its least retreating vertex moved
+/// away from its anchor along n by more than `min_room` (m) and a tenth of the held side's cut.
+/// Their held side's vertices are marked in `deferred` (#V, or empty); returns their count, so that
+/// the substep runs another outer iteration from the new anchors, where the held side finds the
+/// room. A side whose candidates move away but whose own planes stop it (a card of a resting stack
+/// pressed toward the one below, a body against the floor) vacates nothing, and the pass is not
+/// run again for it: on the 52 cards at rest every pass asked for another, up to
+/// time.max_iterations (docs/feasibility.md, "Momentum through contact").
+Index held_followers(std::span<const ContactPair> contacts, std::span<const HeldSplit> held, const Positions& anchor,
+                     const Positions& x, double min_room, std::span<std::uint8_t> deferred = {});
 
 /// Turns every plain contact (record normal n = the contact's, d_A + d_B = G > 0, not mesh
 /// neighbours, no scripted vertex moving this substep) whose candidates `x` its plane cuts or its

@@ -8,6 +8,7 @@
 
 #include "ccfr/feasibility/projector.hpp"
 #include "ccfr/solvers/detecting_solver.hpp"
+#include "ccfr/solvers/motion_planes.hpp"
 #include "ccfr/solvers/rigid_bodies.hpp"
 
 namespace ccfr {
@@ -43,7 +44,8 @@ class RegionProjectionSolver final : public DetectingSolver {
   Positions candidates_;                    ///< the candidates before the pose solves (the other sides' motion)
   std::vector<double> other_inverse_mass_;  ///< per contact: a rigid other side's generalized inverse mass
   std::vector<double> free_mask_;  ///< inverse masses with unpinned rigid bodies' vertices at 0 (not projected alone)
-  std::vector<std::uint8_t> halted_;  ///< #V: halted during frame `halted_frame_`
+  std::vector<std::uint8_t> halted_;    ///< #V: halted during frame `halted_frame_`
+  std::vector<HeldSplit> held_splits_;  ///< the pass's sides held at their old plane (split_by_motion)
   int halted_frame_ = -1;
 };
 
