@@ -110,16 +110,22 @@ void CollisionDetector::flag_movable_primitives(std::span<const double> inv_mass
       4096);
 }
 
-void CollisionDetector::run_broad_phase(const Positions& x, bool listing) {
-  const double inflation = box_inflation(params_.radius, params_.offset, params_.repulsion_range);
-  if (rebuild_ && listing) {
-    // A tree built over the grown boxes would split differently and enumerate in another order:
-    // build it over the boxes of a pass without the list, then refit it to the grown ones.
-    compute_primitive_boxes(prims_, topo_, x, inflation, boxes_);
-    broad_->build(boxes_);
-    rebuild_ = false;
+void CollisionDetector::run_broad_phase(const Positions& x, bool listing, std::span<const double> vertex_reach) {
+  if (!vertex_reach.empty()) {
+    // Each box grown by its vertices' largest reach instead of r (an adaptive reach never lists).
+    compute_primitive_boxes(prims_, topo_, x, box_inflation(0.0, params_.offset, params_.repulsion_range), boxes_,
+                            vertex_reach);
+  } else {
+    const double inflation = box_inflation(params_.radius, params_.offset, params_.repulsion_range);
+    if (rebuild_ && listing) {
+      // A tree built over the grown boxes would split differently and enumerate in another order:
+      // build it over the boxes of a pass without the list, then refit it to the grown ones.
+      compute_primitive_boxes(prims_, topo_, x, inflation, boxes_);
+      broad_->build(boxes_);
+      rebuild_ = false;
+    }
+    compute_primitive_boxes(prims_, topo_, x, inflation + (listing ? 0.5 * stages_->list.skin() : 0.0), boxes_);
   }
-  compute_primitive_boxes(prims_, topo_, x, inflation + (listing ? 0.5 * stages_->list.skin() : 0.0), boxes_);
   if (rebuild_) {
     broad_->build(boxes_);
     rebuild_ = false;
@@ -131,7 +137,7 @@ void CollisionDetector::run_broad_phase(const Positions& x, bool listing) {
 }
 
 void CollisionDetector::enumerate_candidates(const Positions& x, std::span<const double> inv_mass, bool listing,
-                                             DetectionStats& stats) {
+                                             std::span<const double> vertex_reach, DetectionStats& stats) {
   const Index n = static_cast<Index>(candidates_.size());
   const Index chunks = default_chunk_count(n);
   contact_buffers_.resize(static_cast<size_t>(chunks));
@@ -143,6 +149,7 @@ void CollisionDetector::enumerate_candidates(const Positions& x, std::span<const
   parallel_chunks(n, chunks, [&](Index chunk, Index begin, Index end) {
     detail::ContactSink sink{topo_, x,
                              detail::contact_policy(inv_mass, stages_->initial, params_, contact_buffers_[chunk])};
+    if (!vertex_reach.empty()) sink.policy.vertex_reach = vertex_reach.data();
     if (listing) {
       detail::ContactPolicy& policy = sink.policy;
       list.chunk(chunk).clear();
@@ -165,7 +172,7 @@ void CollisionDetector::enumerate_candidates(const Positions& x, std::span<const
 
 void CollisionDetector::detect(const Positions& x, std::span<const double> inv_mass, RegionSet& regions,
                                std::vector<ContactPair>& contacts, DetectionStats& stats,
-                               std::span<const Vec3> kinematic_step) {
+                               std::span<const Vec3> kinematic_step, std::span<const double> vertex_reach) {
   const Index nv = topo_.num_vertices();
   if (!kinematic_step.empty() && static_cast<Index>(kinematic_step.size()) != nv)
     throw Error("CollisionDetector::detect: kinematic_step has " + std::to_string(kinematic_step.size()) +
@@ -173,11 +180,15 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
   if (static_cast<Index>(x.size()) != nv || static_cast<Index>(inv_mass.size()) != nv)
     throw Error("CollisionDetector::detect: expected " + std::to_string(nv) + " positions and inverse masses, got " +
                 std::to_string(x.size()) + " and " + std::to_string(inv_mass.size()));
+  if (!vertex_reach.empty() && static_cast<Index>(vertex_reach.size()) != nv)
+    throw Error("CollisionDetector::detect: vertex_reach has " + std::to_string(vertex_reach.size()) +
+                " entries, expected " + std::to_string(nv));
   stats = DetectionStats{};
   Stopwatch watch;
   SerialStopwatch serial;
   detail::SubPairList& list = stages_->list;
-  const bool keeps_list = list.skin() > 0.0;
+  // The kept list is built at 2r + ξ + s: an adaptive reach runs the broad phase in every pass.
+  const bool keeps_list = list.skin() > 0.0 && vertex_reach.empty();
   const double step = keeps_list ? list.step_since_last_pass(topo_, x) : 0.0;
   stats.reused = keeps_list && list.valid() && list.covers(topo_, x, inv_mass, 2.0 * params_.radius + params_.offset);
   // A listing pass needs the last pass's motion to leave the list valid for two more passes.
@@ -187,7 +198,7 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
     // Pairs of two immovable primitives are never enumerated (a static obstacle against itself
     // would dominate the broad phase).
     flag_movable_primitives(inv_mass);
-    run_broad_phase(x, listing);
+    run_broad_phase(x, listing, vertex_reach);
     stats.candidates = static_cast<Index>(candidates_.size());
   }
   stats.broad_s = watch.seconds();
@@ -199,7 +210,7 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
   if (stats.reused)
     list.evaluate(topo_, x, inv_mass, stages_->initial, params_, contact_buffers_, stats);
   else
-    enumerate_candidates(x, inv_mass, listing, stats);
+    enumerate_candidates(x, inv_mass, listing, vertex_reach, stats);
   detail::assemble_regions(nv, x, inv_mass, kinematic_step, contact_buffers_, stages_->assembly, contacts, regions);
   stats.constraints = static_cast<Index>(regions.total());
   stats.narrow_s = watch.seconds();

@@ -4,6 +4,7 @@
 /// check φ < 2r and the contact record, and the list when one is being built (reuse_list.hpp).
 /// Header-only so that everything but the distance kernels inlines into the candidate loop and the
 /// contact is built in place: this bookkeeping cost more instructions than the kernels themselves.
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -45,9 +46,24 @@ struct ContactPolicy {
     stats.degenerate += degenerate;
     stats.reduced_offset += reduced_contacts;
   }
+  /// Per vertex (#V, m), or null: how far each vertex may move in this pass (the adaptive reach of
+  /// contact.adaptive_reach); a sub-pair is then in range within ρ_A + ρ_B + ξ, ρ a side's
+  /// largest vertex reach, instead of 2r + ξ. Never set while a list is built.
+  const double* vertex_reach = nullptr;
+
+  /// ρ_A + ρ_B + ξ of the sub-pair `v` (side A then side B, unused -1).
+  double vertex_pair_reach(ContactKind kind, const std::array<Index, 4>& v) const {
+    const int na = side_a_size(kind), n = sub_pair_size(kind);
+    double ra = vertex_reach[v[0]], rb = vertex_reach[v[na]];
+    for (int k = 1; k < na; ++k) ra = std::max(ra, vertex_reach[v[k]]);
+    for (int k = na + 1; k < n; ++k) rb = std::max(rb, vertex_reach[v[k]]);
+    return ra + rb + xi;
+  }
   /// Reach of the conservative pre-filters: the list's when building it, else the contacts'.
-  double reach() const { return list ? list_reach : reach_m; }
-  double reach_sq() const { return list ? list_reach_sq : reach_sq_m; }
+  double pair_reach(ContactKind kind, const std::array<Index, 4>& v) const {
+    if (list) return list_reach;
+    return vertex_reach ? vertex_pair_reach(kind, v) : reach_m;
+  }
   /// False (counted) for a sub-pair excluded for the run; else its slot, kAbsent for ξ.
   bool admit(ContactKind kind, Index a, Index b, Index& slot) {
     slot = table.find(kind, a, b);
@@ -55,7 +71,8 @@ struct ContactPolicy {
     ++excluded;
     return false;
   }
-  /// Alg. NarrowPhase lines 7/22/38: φ = ‖x_A − x_B‖ − ξ < 2r ⇔ ‖x_A − x_B‖ < 2r + ξ; then the
+  /// Alg. NarrowPhase lines 7/22/38: φ = ‖x_A − x_B‖ − ξ < 2r ⇔ ‖x_A − x_B‖ < 2r + ξ (ρ_A + ρ_B + ξ
+  /// under an adaptive reach); then the
   /// movable check and the degenerate-distance check. Returns the distance, or a negative value
   /// when the sub-pair yields no contact. A reduced offset only shrinks the range, so the reach of
   /// ξ is conservative for it. Lists the sub-pair first when a list is being built.
@@ -64,7 +81,7 @@ struct ContactPolicy {
     const bool movable = w[v[0]] > 0.0 || w[v[1]] > 0.0 || (n > 2 && w[v[2]] > 0.0) || (n > 3 && w[v[3]] > 0.0);
     if (!movable) return -1.0;  // nothing here can move: nothing to constrain
     if (list && dist_sq < list_reach_sq) list->push_back(ListedSubPair::make(kind, a, b, slot, dist_sq));
-    if (dist_sq >= reach_sq_m) return -1.0;
+    if (dist_sq >= (vertex_reach ? square(vertex_pair_reach(kind, v)) : reach_sq_m)) return -1.0;
     ++within;
     const double dist = std::sqrt(dist_sq);
     if (dist < kMinNormalDistance) {

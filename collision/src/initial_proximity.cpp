@@ -102,8 +102,7 @@ struct ClosePolicy {
   double reach_m;
   std::vector<CloseSubPair>& out;
 
-  double reach() const { return reach_m; }
-  double reach_sq() const { return reach_m * reach_m; }
+  double pair_reach(ContactKind, const std::array<Index, 4>&) const { return reach_m; }
   bool admit(ContactKind, Index, Index, Index& slot) const {
     slot = InitialPairTable::kAbsent;
     return true;

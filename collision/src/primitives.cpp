@@ -1,5 +1,6 @@
 #include "ccfr/collision/primitives.hpp"
 
+#include <algorithm>
 #include <limits>
 
 #include "ccfr/core/parallel.hpp"
@@ -66,7 +67,9 @@ double box_inflation(double radius, double offset, double repulsion_range) {
 }
 
 void compute_primitive_boxes(const CollisionPrimitives& prims, const Topology& topo, const Positions& x,
-                             double inflation, std::vector<AABB>& boxes) {
+                             double inflation, std::vector<AABB>& boxes, std::span<const double> vertex_reach) {
+  const bool per_vertex = !vertex_reach.empty();
+  auto reach = [&](Index v) { return per_vertex ? vertex_reach[v] : 0.0; };
   boxes.resize(static_cast<size_t>(prims.size()));
   parallel_for(
       prims.size(),
@@ -74,25 +77,29 @@ void compute_primitive_boxes(const CollisionPrimitives& prims, const Topology& t
         for (Index p = begin; p < end; ++p) {
           AABB b;
           bool finite = true;
+          double grow = inflation;
           switch (prims.kind(p)) {
             case PrimitiveKind::triangle: {
               const Vec3i& f = topo.faces[p];
               b = AABB::of(x[f[0]], x[f[1]], x[f[2]]);
+              grow += std::max({reach(f[0]), reach(f[1]), reach(f[2])});
               finite = x[f[0]].allFinite() && x[f[1]].allFinite() && x[f[2]].allFinite();
               break;
             }
             case PrimitiveKind::edge: {
               const Vec2i& e = topo.edges[prims.element(p)];
               b = AABB::of(x[e[0]], x[e[1]]);
+              grow += std::max(reach(e[0]), reach(e[1]));
               finite = x[e[0]].allFinite() && x[e[1]].allFinite();
               break;
             }
             case PrimitiveKind::point:
               b = AABB::of(x[prims.element(p)]);
+              grow += reach(prims.element(p));
               finite = x[prims.element(p)].allFinite();
               break;
           }
-          b.inflate(inflation);
+          b.inflate(grow);
           // cwiseMin/cwiseMax may drop a NaN operand; mark the box so the broad phase rejects it.
           if (!finite) b.lo.setConstant(std::numeric_limits<double>::quiet_NaN());
           boxes[p] = b;

@@ -14,6 +14,7 @@
 
 namespace ccfr::detail {
 
+inline double square(double a) { return a * a; }
 inline bool has_vertex(const Vec3i& f, Index v) { return f[0] == v || f[1] == v || f[2] == v; }
 inline bool share_vertex(const Vec2i& a, const Vec2i& b) {
   return a[0] == b[0] || a[0] == b[1] || a[1] == b[0] || a[1] == b[1];
@@ -92,12 +93,13 @@ template <class Sink>
 
 /// Closest points of sub-pairs in canonical orientation (ee and vv: lower id on side A, so the
 /// result does not depend on which primitive came first), the one implementation behind every
-/// pass. Per sub-pair: box pre-check against policy.reach(), policy.admit() (the exclusion
+/// pass. Per sub-pair: box pre-check against policy.pair_reach(), policy.admit() (the exclusion
 /// look-up: false skips, else the slot), then the *_eval part, which a pass over the kept list
 /// calls directly: with Policy::kCullFar the separating-axis bounds of distance.hpp, then the
 /// distance kernel, policy.accept() (distance or negative) and policy.emit().
 ///
-/// `Policy` provides: reach(), reach_sq() (m, m²); bool admit(kind, a, b, Index& slot);
+/// `Policy` provides: pair_reach(kind, verts) (m: the pre-filters' range for this sub-pair);
+/// bool admit(kind, a, b, Index& slot);
 /// double accept(kind, a, b, slot, verts, dist_sq); emit(kind, a, b, slot, verts, weights, pa, pb, dist);
 /// and static constexpr bool kCullFar. verts: side A then side B (unused -1); weights positive on A,
 /// negative on B (ContactPair::w). kCullFar is off for the initial configuration: near the reach
@@ -114,17 +116,19 @@ struct ClosestPoints {
     const Vec3i& t = topo.faces[f];
     const Vec3 &a = x[t[0]], &b = x[t[1]], &d = x[t[2]];
     const Vec3 lo = a.cwiseMin(b).cwiseMin(d), hi = a.cwiseMax(b).cwiseMax(d);
-    if (!boxes_within(p, p, lo, hi, policy.reach())) return;
+    if (!boxes_within(p, p, lo, hi, policy.pair_reach(ContactKind::vf, {v, t[0], t[1], t[2]}))) return;
     Index slot;
     if (policy.admit(ContactKind::vf, v, f, slot)) vf_eval(v, f, slot);
   }
   void vf_eval(Index v, Index f, Index slot) {
     const Vec3& p = x[v];
     const Vec3i& t = topo.faces[f];
-    if constexpr (Policy::kCullFar)
-      if (point_triangle_apart_along_centres(p, x[t[0]], x[t[1]], x[t[2]], policy.reach_sq())) return;
-    const PointTriangleResult r = point_triangle(p, x[t[0]], x[t[1]], x[t[2]]);
     const std::array<Index, 4> verts{v, t[0], t[1], t[2]};
+    if constexpr (Policy::kCullFar)
+      if (point_triangle_apart_along_centres(p, x[t[0]], x[t[1]], x[t[2]],
+                                             square(policy.pair_reach(ContactKind::vf, verts))))
+        return;
+    const PointTriangleResult r = point_triangle(p, x[t[0]], x[t[1]], x[t[2]]);
     const double dist = policy.accept(ContactKind::vf, v, f, slot, verts, r.distance_sq);
     if (dist < 0.0) return;
     policy.emit(ContactKind::vf, v, f, slot, verts, {1.0, -r.bary[0], -r.bary[1], -r.bary[2]}, p, r.closest, dist);
@@ -133,19 +137,21 @@ struct ClosestPoints {
     if (e0 > e1) std::swap(e0, e1);
     const Vec2i &ea = topo.edges[e0], &eb = topo.edges[e1];
     const Vec3 &a0 = x[ea[0]], &a1 = x[ea[1]], &b0 = x[eb[0]], &b1 = x[eb[1]];
-    if (!boxes_within(a0.cwiseMin(a1), a0.cwiseMax(a1), b0.cwiseMin(b1), b0.cwiseMax(b1), policy.reach())) return;
+    const double reach = policy.pair_reach(ContactKind::ee, {ea[0], ea[1], eb[0], eb[1]});
+    if (!boxes_within(a0.cwiseMin(a1), a0.cwiseMax(a1), b0.cwiseMin(b1), b0.cwiseMax(b1), reach)) return;
     Index slot;
     if (policy.admit(ContactKind::ee, e0, e1, slot)) ee_eval(e0, e1, slot);
   }
   void ee_eval(Index e0, Index e1, Index slot) {
     const Vec2i &ea = topo.edges[e0], &eb = topo.edges[e1];
     const Vec3 &a0 = x[ea[0]], &a1 = x[ea[1]], &b0 = x[eb[0]], &b1 = x[eb[1]];
+    const std::array<Index, 4> verts{ea[0], ea[1], eb[0], eb[1]};
     if constexpr (Policy::kCullFar) {
-      if (segments_apart_along_centres(a0, a1, b0, b1, policy.reach_sq())) return;
-      if (segments_certainly_apart(a0, a1, b0, b1, policy.reach_sq())) return;
+      const double reach_sq = square(policy.pair_reach(ContactKind::ee, verts));
+      if (segments_apart_along_centres(a0, a1, b0, b1, reach_sq)) return;
+      if (segments_certainly_apart(a0, a1, b0, b1, reach_sq)) return;
     }
     const EdgeEdgeResult r = edge_edge(a0, a1, b0, b1);
-    const std::array<Index, 4> verts{ea[0], ea[1], eb[0], eb[1]};
     const double dist = policy.accept(ContactKind::ee, e0, e1, slot, verts, r.distance_sq);
     if (dist < 0.0) return;
     policy.emit(ContactKind::ee, e0, e1, slot, verts, {1.0 - r.s, r.s, -(1.0 - r.t), -r.t}, r.pa, r.pb, dist);
@@ -154,17 +160,19 @@ struct ClosestPoints {
     const Vec3& p = x[v];
     const Vec2i& s = topo.edges[e];
     const Vec3 &a = x[s[0]], &b = x[s[1]];
-    if (!boxes_within(p, p, a.cwiseMin(b), a.cwiseMax(b), policy.reach())) return;
+    if (!boxes_within(p, p, a.cwiseMin(b), a.cwiseMax(b), policy.pair_reach(ContactKind::ve, {v, s[0], s[1], -1})))
+      return;
     Index slot;
     if (policy.admit(ContactKind::ve, v, e, slot)) ve_eval(v, e, slot);
   }
   void ve_eval(Index v, Index e, Index slot) {
     const Vec3& p = x[v];
     const Vec2i& s = topo.edges[e];
-    if constexpr (Policy::kCullFar)
-      if (point_segment_apart_along_centres(p, x[s[0]], x[s[1]], policy.reach_sq())) return;
-    const PointEdgeResult r = point_edge(p, x[s[0]], x[s[1]]);
     const std::array<Index, 4> verts{v, s[0], s[1], -1};
+    if constexpr (Policy::kCullFar)
+      if (point_segment_apart_along_centres(p, x[s[0]], x[s[1]], square(policy.pair_reach(ContactKind::ve, verts))))
+        return;
+    const PointEdgeResult r = point_edge(p, x[s[0]], x[s[1]]);
     const double dist = policy.accept(ContactKind::ve, v, e, slot, verts, r.distance_sq);
     if (dist < 0.0) return;
     policy.emit(ContactKind::ve, v, e, slot, verts, {1.0, -(1.0 - r.t), -r.t, 0.0}, p, r.closest, dist);
@@ -172,7 +180,7 @@ struct ClosestPoints {
   void vv(Index v0, Index v1) {
     if (v0 > v1) std::swap(v0, v1);
     const Vec3 &p = x[v0], &q = x[v1];
-    if (!boxes_within(p, p, q, q, policy.reach())) return;
+    if (!boxes_within(p, p, q, q, policy.pair_reach(ContactKind::vv, {v0, v1, -1, -1}))) return;
     Index slot;
     if (policy.admit(ContactKind::vv, v0, v1, slot)) vv_eval(v0, v1, slot);
   }

@@ -64,7 +64,7 @@ DetectResult DetectingSolver::detect(const Positions& anchor, const SimState& st
     detector_->restart_reuse(measure_reuse_motion(ctx.topo, reuse_step_, reuse_zero_).spread);
   }
   DetectionStats ds;
-  detector_->detect(anchor, state.inv_mass, regions_, contacts_, ds, ctx.kinematic_step);
+  detector_->detect(anchor, state.inv_mass, regions_, contacts_, ds, ctx.kinematic_step, ctx.vertex_reach);
   ctx.times.broad += ds.broad_s;
   ctx.times.narrow += ds.narrow_s;
   ctx.times.broad_serial += ds.broad_serial_s;

@@ -71,6 +71,7 @@ Simulation::Simulation(Scene scene) : scene_(std::move(scene)) {
       kin_motion_.push_back(motion_of[v] && motion_of[v]->moves() ? motion_of[v] : nullptr);
     }
   contact_->initialize(topo, st, params);
+  init_adaptive_reach();
   check_finite(st.x, "initial state");
   const auto mc = materials_.counts();
   std::string constraints;  // every material constraint's batch, by registered name
@@ -375,8 +376,11 @@ Simulation::OuterIterationEnd Simulation::end_outer_iteration(const SolveResult&
   // Step bound: no vertex moves farther than r from its anchor in one outer iteration, so
   // primitives not seen by this iteration's detection cannot be reached (paper Alg. line 16).
   if (contact_->clamps_to_radius()) {
-    const StepBoundResult sb = apply_step_bound(solve_, anchor_, st.inv_mass, scene_.params.contact.radius,
-                                                tp.advance_tolerance, solve_, held);
+    // Under an adaptive reach each vertex is bound by its own ρ, and those it holds back get r next pass.
+    if (adaptive_reach_ && held.empty()) held = reach_held_;
+    const StepBoundResult sb =
+        apply_step_bound(solve_, anchor_, st.inv_mass, scene_.params.contact.radius, tp.advance_tolerance, solve_, held,
+                         adaptive_reach_ ? std::span<const double>(vertex_reach_) : std::span<const double>());
     end.held_back += sb.held_back;
     end.worst = sb.worst;
     end.worst_length = sb.worst_length;
@@ -526,6 +530,7 @@ Simulation::PassesEnd Simulation::run_passes(FrameStats& fs, int substep_index, 
     ctx.kinematic_step = (it == 0 && kin_moves) ? std::span<const Vec3>(kinematic_step_) : std::span<const Vec3>();
     if (it == 0) solve_materials(fs, substep_index, ctx);
     const Index capped = carry_before_detection(fs);
+    if (adaptive_reach_) set_vertex_reach(it, ctx);
     add_detection(fs, contact_->detect(anchor_, st, ctx));
     start_from_materials(fs, mask.active(), capped, ctx);
     SolveResult res;

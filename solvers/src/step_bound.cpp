@@ -1,5 +1,7 @@
 #include "ccfr/solvers/step_bound.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -9,8 +11,12 @@
 namespace ccfr {
 
 StepBoundResult apply_step_bound(const Positions& x, const Positions& anchor, std::span<const double> inv_mass,
-                                 double r, double tolerance, Positions& out, std::span<std::uint8_t> held) {
+                                 double r_all, double tolerance, Positions& out, std::span<std::uint8_t> held,
+                                 std::span<const double> reach) {
   const Index nv = static_cast<Index>(x.size());
+  if (!reach.empty() && static_cast<Index>(reach.size()) != nv)
+    throw Error("apply_step_bound: " + std::to_string(reach.size()) + " reaches for " + std::to_string(nv) +
+                " vertices");
   if (!held.empty() && static_cast<Index>(held.size()) != nv)
     throw Error("apply_step_bound: " + std::to_string(held.size()) + " held-back marks for " + std::to_string(nv) +
                 " vertices");
@@ -21,6 +27,7 @@ StepBoundResult apply_step_bound(const Positions& x, const Positions& anchor, st
   parallel_chunks(nv, chunks, [&](Index c, Index b, Index e) {
     for (Index i = b; i < e; ++i) {
       if (!held.empty()) held[i] = 0;
+      const double r = reach.empty() ? r_all : reach[i];
       const Vec3 d = x[i] - anchor[i];
       const double len = d.norm();
       if (inv_mass[i] != 0.0) intended[c] += len;
@@ -45,6 +52,34 @@ StepBoundResult apply_step_bound(const Positions& x, const Positions& anchor, st
     if (count[c] > 0 && len_max[c] > res.worst_length) res.worst_length = len_max[c], res.worst = worst[c];
   }
   return res;
+}
+
+void adaptive_vertex_reach(const Positions& intended, const Positions& anchor, std::span<const double> inv_mass,
+                           std::span<const std::uint8_t> full, std::span<const std::uint8_t> held, double r,
+                           double floor_fraction, std::vector<double>& reach) {
+  const Index nv = static_cast<Index>(anchor.size());
+  if (static_cast<Index>(intended.size()) != nv || static_cast<Index>(inv_mass.size()) != nv ||
+      (!full.empty() && static_cast<Index>(full.size()) != nv) ||
+      (!held.empty() && static_cast<Index>(held.size()) != nv))
+    throw Error("adaptive_vertex_reach: " + std::to_string(nv) + " anchors but " + std::to_string(intended.size()) +
+                " intended positions, " + std::to_string(inv_mass.size()) + " inverse masses, " +
+                std::to_string(full.size()) + " and " + std::to_string(held.size()) + " marks");
+  reach.resize(static_cast<size_t>(nv));
+  const double floor = floor_fraction * r;
+  parallel_for(
+      nv,
+      [&](Index b, Index e) {
+        for (Index i = b; i < e; ++i) {
+          const double step = (intended[i] - anchor[i]).norm();
+          if (inv_mass[i] == 0.0)
+            reach[i] = step * (1.0 + 1e-9);
+          else if ((!full.empty() && full[i]) || (!held.empty() && held[i]) || !std::isfinite(step))
+            reach[i] = r;
+          else
+            reach[i] = std::min(r, floor + 2.0 * step);
+        }
+      },
+      4096);
 }
 
 }  // namespace ccfr

@@ -32,8 +32,7 @@ struct RecordPolicy {
   static constexpr bool kCullFar = false;
   double r = 1e3;
   std::vector<Record> out;
-  double reach() const { return r; }
-  double reach_sq() const { return r * r; }
+  double pair_reach(ContactKind, const std::array<Index, 4>&) const { return r; }
   bool admit(ContactKind, Index, Index, Index& slot) const {
     slot = -2;
     return true;

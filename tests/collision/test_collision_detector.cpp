@@ -105,14 +105,21 @@ void for_each_sub_pair(const test::TestScene& s, const Positions& x, Fn fn) {
   }
 }
 
-/// The sub-pairs within range (φ < 2r) that are not excluded and have a movable vertex.
+/// The sub-pairs within range (φ < 2r; under a per-vertex reach ρ, closer than ρ_A + ρ_B + ξ with
+/// ρ_A, ρ_B the sides' largest) that are not excluded and have a movable vertex.
 std::multiset<SubPairName> brute_force_contacts(const test::TestScene& s, const Positions& x,
-                                                const CollisionDetector& det) {
+                                                const CollisionDetector& det,
+                                                const std::vector<double>* vertex_reach = nullptr) {
   std::multiset<SubPairName> out;
-  const double reach = 2 * kR + kXi;
+  auto side_reach = [&](const std::vector<Index>& side) {
+    double r = 0.0;
+    for (Index v : side) r = std::max(r, (*vertex_reach)[static_cast<size_t>(v)]);
+    return r;
+  };
   for_each_sub_pair(s, x,
                     [&](ContactKind kind, Index a, Index b, const std::vector<Index>& va, const std::vector<double>& wa,
                         const std::vector<Index>& vb, const std::vector<double>& wb, double dist_sq) {
+                      const double reach = vertex_reach ? side_reach(va) + side_reach(vb) + kXi : 2 * kR + kXi;
                       if (dist_sq >= reach * reach || det.is_excluded(kind, a, b)) return;
                       bool movable = false;
                       for (Index v : va) movable = movable || s.inv_mass[v] > 0;
@@ -207,6 +214,48 @@ TEST_P(NarrowPhaseScenes, MatchesAllPairsLoopEachSubPairOnce) {
                                << " expected";
     EXPECT_EQ(std::set<SubPairName>(found.begin(), found.end()).size(), found.size()) << "a sub-pair came up twice";
     EXPECT_EQ(d.stats.pairs_within_range, static_cast<Index>(d.contacts.size()) + d.stats.degenerate);
+  }
+}
+
+// contact.adaptive_reach: with a reach per vertex (random in [0, r], some exactly 0 or r, a
+// vertex's own and one shared by all), every broad phase finds exactly the sub-pairs closer than
+// the sides' largest reaches plus ξ, each once; with every reach r the uniform pass's contacts.
+TEST_P(NarrowPhaseScenes, PerVertexReachMatchesAllPairsLoopWithinTheSumOfReaches) {
+  const test::TestScene s = scene();
+  const size_t nv = static_cast<size_t>(s.topo.num_vertices());
+  Positions x = s.x;
+  perturb(x, 7, 0.003);
+  auto g = test::rng(11);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<std::vector<double>> reaches = {std::vector<double>(nv, 0.0), std::vector<double>(nv, kR),
+                                              std::vector<double>(nv, 0.3 * kR)};
+  std::vector<double> mixed(nv);
+  for (double& r : mixed) {
+    const double q = u(g);
+    r = q < 0.2 ? 0.0 : (q > 0.8 ? kR : q * kR);
+  }
+  reaches.push_back(mixed);
+  for (const auto& name : broad_phase_names()) {
+    CollisionDetector det(s.topo, s.x, kParams, make_broad_phase(name));
+    const Detection uniform = run(det, x, s.inv_mass);
+    for (size_t k = 0; k < reaches.size(); ++k) {
+      const std::string where = name + ", reach set " + std::to_string(k);
+      Detection d;
+      det.detect(x, s.inv_mass, d.regions, d.contacts, d.stats, {}, reaches[k]);
+      std::multiset<SubPairName> found;
+      for (const auto& c : d.contacts) found.insert(name_of(c));
+      const std::multiset<SubPairName> expected = brute_force_contacts(s, x, det, &reaches[k]);
+      EXPECT_EQ(found, expected) << where << ": " << found.size() << " found, " << expected.size() << " expected";
+      EXPECT_EQ(std::set<SubPairName>(found.begin(), found.end()).size(), found.size()) << where;
+      if (k == 1) {
+        std::multiset<SubPairName> same;
+        for (const auto& c : uniform.contacts) same.insert(name_of(c));
+        EXPECT_EQ(found, same) << where;
+      }
+      if (k == 3) EXPECT_LT(found.size(), uniform.contacts.size()) << where;
+    }
+    Detection d;
+    EXPECT_THROW(det.detect(x, s.inv_mass, d.regions, d.contacts, d.stats, {}, std::vector<double>(nv + 1, kR)), Error);
   }
 }
 

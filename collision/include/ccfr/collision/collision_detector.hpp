@@ -209,8 +209,16 @@ class CollisionDetector {
   /// Where that split cannot hold, a side that mixes movable and fixed vertices (or two sides that
   /// both hold fixed ones) in a pair whose G < 0, the pair's record comes from
   /// mixed_pair_record() instead.
+  ///
+  /// `vertex_reach` (#V, m, or empty for the uniform r): how far each vertex can move in the
+  /// coming iteration (its step bound, every entry at most r; a fixed vertex 0, a kinematic one
+  /// its known step). A sub-pair is then in range within ρ_A + ρ_B + ξ, ρ a side's largest vertex
+  /// reach, and the boxes grow by ρ + ξ/2 + δ/2: a pair farther apart cannot come within ξ when
+  /// every point of a primitive moves at most its vertices' largest step (docs/feasibility.md,
+  /// "Adaptive reach"). The kept list (set_reuse_skin) is not used with it.
   void detect(const Positions& x, std::span<const double> inv_mass, RegionSet& regions,
-              std::vector<ContactPair>& contacts, DetectionStats& stats, std::span<const Vec3> kinematic_step = {});
+              std::vector<ContactPair>& contacts, DetectionStats& stats, std::span<const Vec3> kinematic_step = {},
+              std::span<const double> vertex_reach = {});
 
   /// Keeps the sub-pair list between passes (a Verlet list at the level of sub-pairs). A pass that
   /// runs the broad phase also lists every sub-pair within \f$2r + \xi + s\f$ (s = `skin`, m) that
@@ -282,10 +290,12 @@ class CollisionDetector {
   struct Stages;
   /// movable_[p]: primitive p has a vertex of inverse mass > 0; fixed_ = !movable_.
   void flag_movable_primitives(std::span<const double> inv_mass);
-  /// Boxes at x (grown by s/2 when listing), the tree updated or rebuilt, the candidates queried.
-  void run_broad_phase(const Positions& x, bool listing);
+  /// Boxes at x (grown by s/2 when listing, by each vertex's reach when given), the tree updated or
+  /// rebuilt, the candidates queried.
+  void run_broad_phase(const Positions& x, bool listing, std::span<const double> vertex_reach);
   /// The candidates' sub-pairs into the per-chunk contact buffers (and the list when listing).
-  void enumerate_candidates(const Positions& x, std::span<const double> inv_mass, bool listing, DetectionStats& stats);
+  void enumerate_candidates(const Positions& x, std::span<const double> inv_mass, bool listing,
+                            std::span<const double> vertex_reach, DetectionStats& stats);
 
   const Topology& topo_;
   ContactModel params_;

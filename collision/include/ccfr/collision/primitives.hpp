@@ -10,6 +10,7 @@
 /// representative-triangles"), so that a pass over primitive pairs tests every vertex-face and
 /// edge-edge sub-pair exactly once.
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "ccfr/core/topology.hpp"
@@ -58,8 +59,11 @@ CollisionPrimitives build_collision_primitives(const Topology& topo);
 /// \f$ 2r + \xi + \delta \f$, the search range plus the repulsion band.
 double box_inflation(double radius, double offset, double repulsion_range);
 
-/// One box per primitive (#P) around the positions `x`, inflated by `inflation`. Parallel.
+/// One box per primitive (#P) around the positions `x`, inflated by `inflation`, plus, where
+/// `vertex_reach` is given (#V, m), the largest reach of the primitive's vertices: two boxes then
+/// overlap whenever the primitives are closer than the sum of their reaches plus 2 `inflation`.
+/// Parallel.
 void compute_primitive_boxes(const CollisionPrimitives& prims, const Topology& topo, const Positions& x,
-                             double inflation, std::vector<AABB>& boxes);
+                             double inflation, std::vector<AABB>& boxes, std::span<const double> vertex_reach = {});
 
 }  // namespace ccfr

@@ -44,6 +44,10 @@ struct StepContext {
   /// whose other side moves away (split_by_motion), so time.continuation: held_back frees it for
   /// the next pass.
   std::span<std::uint8_t> deferred = {};
+  /// One entry per vertex (m), or empty for the uniform r: how far each vertex may move in this
+  /// pass (contact.adaptive_reach; adaptive_vertex_reach in step_bound.hpp). Set only for solvers
+  /// whose takes_vertex_reach() is true; detection pairs primitives within ρ_A + ρ_B + ξ.
+  std::span<const double> vertex_reach = {};
   /// This pass closes what the candidates bring inside their offsets by an inelastic contact and
   /// splits each plane by the motion (contact.momentum's response): set by contact.momentum, and
   /// by the substep for its passes after one that halted a vertex (a squeeze the paper's fixed
@@ -96,6 +100,9 @@ class ContactSolver {
   virtual SolveResult resolve(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) = 0;
   /// Whether the substep clamps every vertex to the step bound r around its anchor (CCFR family).
   virtual bool clamps_to_radius() const { return false; }
+  /// Whether detect() honours StepContext::vertex_reach (its detection and regions then cover only
+  /// what each vertex's own bound lets it reach); the substep then bounds each vertex by it.
+  virtual bool takes_vertex_reach() const { return false; }
   /// Whether the solver promises that every pair stays at least its offset apart; a substep that
   /// ends with a violation is then an error under contact.on_violation = auto.
   virtual bool guarantees_separation() const { return false; }

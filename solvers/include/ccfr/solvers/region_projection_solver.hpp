@@ -25,6 +25,7 @@ class RegionProjectionSolver final : public DetectingSolver {
   /// The contact response of every vertex but those of unpinned rigid bodies (their pose solve has its own).
   void respond(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) override;
   bool clamps_to_radius() const override { return true; }
+  bool takes_vertex_reach() const override { return true; }
   bool guarantees_separation() const override { return projector_name_ != "successive_projection"; }
   void vertex_diagnostics(std::vector<std::int32_t>& half_spaces, std::vector<double>& distance,
                           std::vector<std::uint8_t>& halted) const override;

@@ -201,6 +201,10 @@ class Simulation {
   /// object as far apart as it was, so the new anchors are as feasible as the old ones, and the
   /// pass's regions, built there, no longer hold back a body in free flight by its own pairs.
   Index carry_isolated_objects();
+  /// contact.adaptive_reach: checks the setting against the solver and the kept list, marks rigid vertices.
+  void init_adaptive_reach();
+  /// vertex_reach_ for pass `iteration` of the substep (adaptive_vertex_reach), handed to the solver in `ctx`.
+  void set_vertex_reach(int iteration, StepContext& ctx);
 
   Scene scene_;
   std::unique_ptr<ContactSolver> contact_;
@@ -218,6 +222,11 @@ class Simulation {
   std::vector<std::uint8_t> held_marks_, violated_marks_, deferred_marks_;
   /// Per vertex: its object was carried only part of its rigid motion this pass (at most r).
   std::vector<std::uint8_t> carry_capped_;
+  /// contact.adaptive_reach (on for a solver that takes it): each pass's per-vertex reach (m), the
+  /// vertices always given r (rigid bodies'), and those the last pass's step bound held back.
+  bool adaptive_reach_ = false;
+  std::vector<double> vertex_reach_;
+  std::vector<std::uint8_t> reach_full_, reach_held_;
   std::vector<double> inv_mass_saved_;
   bool warned_violation_ = false;
   std::vector<bool> warned_capped_;  ///< per object: the capped-speed warning was given

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <optional>
 #include <span>
+#include <vector>
 
 #include "ccfr/core/types.hpp"
 
@@ -26,7 +27,26 @@ struct StepBoundResult {
 /// Steps longer than r (1 + `tolerance`) count as held back; if `held` is not empty (one entry per
 /// vertex), it is set to 1 for exactly those vertices and 0 for all others. Deterministic for any
 /// thread count.
+/// `reach` (#V, m, or empty): each vertex's own bound ρ_i ≤ r in place of r (adaptive_vertex_reach).
 StepBoundResult apply_step_bound(const Positions& x, const Positions& anchor, std::span<const double> inv_mass,
-                                 double r, double tolerance, Positions& out, std::span<std::uint8_t> held = {});
+                                 double r, double tolerance, Positions& out, std::span<std::uint8_t> held = {},
+                                 std::span<const double> reach = {});
+
+/// The adaptive reach of one outer iteration (contact.adaptive_reach = f > 0; docs/feasibility.md,
+/// "Adaptive reach"): how far each vertex may move in it, from its intended step s_i = intended_i −
+/// anchor_i (the material solve's result against the pass's anchor).
+///
+/// - movable vertex: ρ_i = min(r, f r + 2 |s_i|), the room for its own step and for what the
+///   contact response adds (repulsion, friction, impulses); r where `full` is set (a rigid
+///   body's vertex, whose pose solve bounds it by r) or where `held` is set (the last pass's step
+///   bound held it back: it gets the whole r now, so a push is never cut twice);
+/// - vertex of inverse mass 0 (fixed, scripted, or fixed for this pass): ρ_i = |s_i| (1 + 1e-9),
+///   its known motion (at most r, or the substep would have been subdivided).
+///
+/// Detection then pairs primitives within ρ_A + ρ_B + ξ (CollisionDetector::detect) and the step
+/// bound keeps each vertex within its ρ_i: a pair left out stays at least ξ apart. Deterministic.
+void adaptive_vertex_reach(const Positions& intended, const Positions& anchor, std::span<const double> inv_mass,
+                           std::span<const std::uint8_t> full, std::span<const std::uint8_t> held, double r,
+                           double floor_fraction, std::vector<double>& reach);
 
 }  // namespace ccfr

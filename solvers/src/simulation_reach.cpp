@@ -1,0 +1,47 @@
+// contact.adaptive_reach in the substep loop: the setting's checks and each pass's per-vertex
+// reach (adaptive_vertex_reach, step_bound.hpp; docs/feasibility.md, "Adaptive reach").
+#include "ccfr/core/error.hpp"
+#include "ccfr/core/log.hpp"
+#include "ccfr/solvers/simulation.hpp"
+#include "ccfr/solvers/step_bound.hpp"
+
+namespace ccfr {
+
+void Simulation::init_adaptive_reach() {
+  const auto& params = scene_.params;
+  if (!(params.contact.adaptive_reach > 0.0)) return;
+  if (params.collision.reuse_skin > 0.0)
+    throw Error(
+        ccfr::format("contact.adaptive_reach: {} cannot be combined with collision.reuse_skin = {} (the kept "
+                     "list is built at the uniform reach 2r + xi); set one of them to 0",
+                     params.contact.adaptive_reach, params.collision.reuse_skin));
+  if (!contact_->takes_vertex_reach()) {
+    log::warn(
+        "contact.adaptive_reach: contact solver '{}' bounds every vertex by the uniform r; the setting applies "
+        "to the region-projection solvers only",
+        contact_->name());
+    return;
+  }
+  // A rigid body's pose solve bounds its vertices by r as a whole.
+  const auto& topo = scene_.topo;
+  reach_full_.assign(static_cast<size_t>(topo.num_vertices()), 0);
+  for (const auto& o : topo.objects)
+    if (o.kind == ObjectKind::rigid)
+      for (Index v = o.vertex_begin; v < o.vertex_end; ++v) reach_full_[v] = 1;
+  adaptive_reach_ = true;
+}
+
+void Simulation::set_vertex_reach(int iteration, StepContext& ctx) {
+  const auto& st = scene_.state;
+  const size_t nv = static_cast<size_t>(st.size());
+  if (reach_held_.size() != nv) reach_held_.assign(nv, 0);
+  // The marks of the pass before: held_marks_ under time.continuation: held_back (which adds the
+  // vertices of violated pairs: r for them too), else the step bound's own.
+  const std::span<const std::uint8_t> held =
+      iteration == 0 ? std::span<const std::uint8_t>() : (held_marks_.empty() ? reach_held_ : held_marks_);
+  adaptive_vertex_reach(material_solved_, anchor_, st.inv_mass, reach_full_, held, scene_.params.contact.radius,
+                        scene_.params.contact.adaptive_reach, vertex_reach_);
+  ctx.vertex_reach = vertex_reach_;
+}
+
+}  // namespace ccfr
