@@ -377,10 +377,10 @@ Simulation::OuterIterationEnd Simulation::end_outer_iteration(const SolveResult&
   // primitives not seen by this iteration's detection cannot be reached (paper Alg. line 16).
   if (contact_->clamps_to_radius()) {
     // Under an adaptive reach each vertex is bound by its own ρ, and those it holds back get r next pass.
-    if (adaptive_reach_ && held.empty()) held = reach_held_;
+    if (reach_pass_ && held.empty()) held = reach_held_;
     const StepBoundResult sb =
         apply_step_bound(solve_, anchor_, st.inv_mass, scene_.params.contact.radius, tp.advance_tolerance, solve_, held,
-                         adaptive_reach_ ? std::span<const double>(vertex_reach_) : std::span<const double>());
+                         reach_pass_ ? std::span<const double>(vertex_reach_) : std::span<const double>());
     end.held_back += sb.held_back;
     end.worst = sb.worst;
     end.worst_length = sb.worst_length;
@@ -514,7 +514,7 @@ Simulation::PassesEnd Simulation::run_passes(FrameStats& fs, int substep_index, 
   const auto& tp = scene_.params.time;
   anchor_ = st.x;
   const bool local = reset_continuation_marks();
-  bool next_local = false;
+  bool next_local = false, uniform_next = false;
   const bool guarantees = contact_->guarantees_separation();
   PassesEnd end;
   // Until no vertex is held back by r (often after one pass, so fewer than time.iterations may
@@ -530,7 +530,7 @@ Simulation::PassesEnd Simulation::run_passes(FrameStats& fs, int substep_index, 
     ctx.kinematic_step = (it == 0 && kin_moves) ? std::span<const Vec3>(kinematic_step_) : std::span<const Vec3>();
     if (it == 0) solve_materials(fs, substep_index, ctx);
     const Index capped = carry_before_detection(fs);
-    if (adaptive_reach_) set_vertex_reach(it, ctx);
+    if (adaptive_reach_) set_vertex_reach(it, uniform_next, mask.active(), ctx);
     add_detection(fs, contact_->detect(anchor_, st, ctx));
     start_from_materials(fs, mask.active(), capped, ctx);
     SolveResult res;
@@ -546,6 +546,7 @@ Simulation::PassesEnd Simulation::run_passes(FrameStats& fs, int substep_index, 
       ScopedTimer check_timer(fs.times.check, fs.times.check_serial);
       next_local = finish_pass(res, t1, local, mask.active(), capped, ctx, end);
     }
+    uniform_next = end.remaining > 0 || res.bounded_vertices > 0;
     anchor_.swap(solve_);
     // A solver that guarantees separation does not end a substep on a pass that left pairs inside
     // their offset while passes remain: the next pass starts from there.

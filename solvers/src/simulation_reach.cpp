@@ -31,16 +31,28 @@ void Simulation::init_adaptive_reach() {
   adaptive_reach_ = true;
 }
 
-void Simulation::set_vertex_reach(int iteration, StepContext& ctx) {
+void Simulation::set_vertex_reach(int iteration, bool uniform, bool masked, StepContext& ctx) {
+  // A pass after one that left pairs inside their offsets or held a follower at a plane its other
+  // side vacates runs at the uniform r: the vertices that must move there are not all marked.
+  reach_pass_ = adaptive_reach_ && !uniform;
+  if (!reach_pass_) {
+    ctx.vertex_reach = {};
+    return;
+  }
   const auto& st = scene_.state;
+  const auto& cp = scene_.params.contact;
   const size_t nv = static_cast<size_t>(st.size());
   if (reach_held_.size() != nv) reach_held_.assign(nv, 0);
   // The marks of the pass before: held_marks_ under time.continuation: held_back (which adds the
   // vertices of violated pairs: r for them too), else the step bound's own.
   const std::span<const std::uint8_t> held =
       iteration == 0 ? std::span<const std::uint8_t>() : (held_marks_.empty() ? reach_held_ : held_marks_);
-  adaptive_vertex_reach(material_solved_, anchor_, st.inv_mass, reach_full_, held, scene_.params.contact.radius,
-                        scene_.params.contact.adaptive_reach, vertex_reach_);
+  adaptive_vertex_reach(material_solved_, anchor_, st.inv_mass, reach_full_, held, cp.radius, cp.adaptive_reach,
+                        cp.repulsion_range, vertex_reach_);
+  // A vertex fixed for this pass only (time.continuation: held_back) stays at its anchor.
+  if (masked)
+    for (size_t i = 0; i < nv; ++i)
+      if (st.inv_mass[i] == 0.0 && inv_mass_saved_[i] != 0.0) vertex_reach_[i] = 0.0;
   ctx.vertex_reach = vertex_reach_;
 }
 

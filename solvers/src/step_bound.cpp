@@ -56,7 +56,7 @@ StepBoundResult apply_step_bound(const Positions& x, const Positions& anchor, st
 
 void adaptive_vertex_reach(const Positions& intended, const Positions& anchor, std::span<const double> inv_mass,
                            std::span<const std::uint8_t> full, std::span<const std::uint8_t> held, double r,
-                           double floor_fraction, std::vector<double>& reach) {
+                           double floor_fraction, double repulsion_range, std::vector<double>& reach) {
   const Index nv = static_cast<Index>(anchor.size());
   if (static_cast<Index>(intended.size()) != nv || static_cast<Index>(inv_mass.size()) != nv ||
       (!full.empty() && static_cast<Index>(full.size()) != nv) ||
@@ -65,7 +65,8 @@ void adaptive_vertex_reach(const Positions& intended, const Positions& anchor, s
                 " intended positions, " + std::to_string(inv_mass.size()) + " inverse masses, " +
                 std::to_string(full.size()) + " and " + std::to_string(held.size()) + " marks");
   reach.resize(static_cast<size_t>(nv));
-  const double floor = floor_fraction * r;
+  // The floor covers the repulsion band too: a pair within ξ + δ of an immovable side is detected.
+  const double floor = std::max(floor_fraction * r, repulsion_range);
   parallel_for(
       nv,
       [&](Index b, Index e) {

@@ -1,8 +1,9 @@
 // contact.adaptive_reach: each outer iteration gives each vertex its own reach ρ instead of r,
 // detection pairs primitives within ρ_A + ρ_B + ξ and the step bound keeps each vertex within its
 // ρ (docs/feasibility.md, "Adaptive reach"). The reach's rule and the per-vertex step bound against
-// their definitions; whole runs of coils piling on a floor and of a comb driven through strands
-// audited exactly (CGAL predicates) at every frame, with the pairs they test counted.
+// their definitions; coils piling on a floor (their candidate pairs counted), a rigid box falling on
+// them and a scripted paddle through hanging strands, audited exactly (CGAL predicates) at every
+// frame or substep.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -45,8 +46,8 @@ TEST(AdaptiveReach, StepBoundHoldsEachVertexToItsOwnReach) {
   EXPECT_THROW(apply_step_bound(x, anchor, w, 0.01, 1e-6, out, held, std::vector<double>(4, kR)), Error);
 }
 
-// ρ = min(r, f r + 2 |s|) for a movable vertex, r where marked (rigid) or held back by the pass
-// before or where the step is not finite, the known step for a vertex of inverse mass 0.
+// ρ = min(r, max(f r, δ) + 2 |s|) for a movable vertex, r where marked (rigid) or held back by the
+// pass before or where the step is not finite, the known step for a vertex of inverse mass 0.
 TEST(AdaptiveReach, ReachFollowsTheIntendedStep) {
   const Positions anchor(7, Vec3(1, 2, 3));
   Positions intended = anchor;
@@ -59,7 +60,7 @@ TEST(AdaptiveReach, ReachFollowsTheIntendedStep) {
   const std::vector<double> w = {1, 1, 1, 1, 0, 1, 0};  // vertex 6: fixed, no step
   const std::vector<std::uint8_t> full = {0, 0, 1, 0, 0, 0, 0}, held = {0, 0, 0, 1, 0, 0, 0};
   std::vector<double> reach;
-  adaptive_vertex_reach(intended, anchor, w, full, held, kR, 0.25, reach);
+  adaptive_vertex_reach(intended, anchor, w, full, held, kR, 0.25, 0.0008, reach);
   ASSERT_EQ(reach.size(), 7u);
   EXPECT_NEAR(reach[0], 0.25 * kR + 2 * 0.0004, 1e-15);
   EXPECT_EQ(reach[1], kR);
@@ -69,37 +70,47 @@ TEST(AdaptiveReach, ReachFollowsTheIntendedStep) {
   EXPECT_GE(reach[4], (intended[4] - anchor[4]).norm());
   EXPECT_EQ(reach[5], kR);
   EXPECT_EQ(reach[6], 0.0);
-  // The first pass of a substep has no marks; f = 0 leaves twice the step.
-  adaptive_vertex_reach(intended, anchor, w, {}, {}, kR, 0.0, reach);
+  // The first pass of a substep has no marks; f = 0 and δ = 0 leave twice the step; a floor
+  // below δ is raised to δ.
+  adaptive_vertex_reach(intended, anchor, w, {}, {}, kR, 0.0, 0.0, reach);
   EXPECT_NEAR(reach[0], 0.0008, 1e-15);
   EXPECT_NEAR(reach[2], 0.0002, 1e-15);
-  EXPECT_THROW(adaptive_vertex_reach(intended, anchor, std::vector<double>(6, 1.0), {}, {}, kR, 0.25, reach), Error);
+  adaptive_vertex_reach(intended, anchor, w, {}, {}, kR, 0.1, 0.0008, reach);
+  EXPECT_NEAR(reach[0], 0.0008 + 0.0008, 1e-15);
+  EXPECT_THROW(adaptive_vertex_reach(intended, anchor, std::vector<double>(6, 1.0), {}, {}, kR, 0.25, 0.0, reach),
+               Error);
 }
 
 /// 25 coils (80 vertices, 4 turns of 1.5 cm, 0.2 m tall, about 0.4 m of wire at 0.01 kg/m each)
 /// dropped from 5 cm onto a floor, the soft wires' contact (r = 5 mm, ξ = 4 mm, δ = 0.8 mm, friction 0.3 / 0.2,
 /// 60 fps x 4 substeps x 2 iterations, 6 sweeps).
-Scene coils_on_a_floor(const std::string& solver, double adaptive) {
+/// With `rigid_box`, a rigid 6 cm box of 20 g falls 10 cm above the coils' tops onto them.
+Scene coils_on_a_floor(const std::string& solver, double adaptive, bool rigid_box = false) {
   gen::TriMesh floor = gen::box(Vec3(0.4, 0.02, 0.4));
   for (auto& p : floor.v) p.y() -= 0.01;
+  const gen::TriMesh box = gen::box(Vec3(0.06, 0.06, 0.06));
   const Index nv = 80;
   const gen::PolylineSet coils = gen::curly_strands(25, nv, 0.2, 0.12, 0.015, 4.0);
   TopologyBuilder tb;
   tb.add_object("floor", ObjectKind::obstacle, static_cast<Index>(floor.v.size()), floor.f);
   tb.add_object("coils", ObjectKind::strand, static_cast<Index>(coils.v.size()), {}, {}, coils.lines);
+  if (rigid_box) tb.add_object("box", ObjectKind::rigid, static_cast<Index>(box.v.size()), box.f);
   Scene s;
   s.topo = tb.finish();
   s.state.resize(s.topo.num_vertices());
   Index k = 0;
   for (const auto& p : floor.v) s.state.x[k++] = p;
+  const Index coils_end = k + static_cast<Index>(coils.v.size());
   for (const auto& p : coils.v) s.state.x[k++] = p + Vec3(0, 0.25, 0);
+  if (rigid_box)
+    for (const auto& p : box.v) s.state.x[k++] = p + Vec3(0.01, 0.38, 0.01);
   const double density = 0.01, seg = 0.4 / static_cast<double>(nv - 1);
   for (Index v = static_cast<Index>(floor.v.size()); v < s.topo.num_vertices(); ++v) {
-    s.state.mass[v] = density * seg;
+    s.state.mass[v] = v < coils_end ? density * seg : 0.02 / static_cast<double>(box.v.size());
     s.state.inv_mass[v] = 1.0 / s.state.mass[v];
   }
   s.state.rest = s.state.x_prev = s.state.x;
-  s.params.objects.resize(2);
+  s.params.objects.resize(rigid_box ? 3 : 2);
   s.params.objects[1].material.density = density;
   set_material_key(s.params.objects[1].material, "stretch_compliance", 1e-7);
   set_material_key(s.params.objects[1].material, "bend_compliance", 1e-3);
@@ -140,7 +151,98 @@ PileRun run_pile(const std::string& solver, double adaptive, int frames) {
   return out;
 }
 
+/// A paddle (30 x 4 x 2 cm) driven at 1.2 m/s along z through a row of 12 strands hanging from
+/// pinned roots (30 vertices, 0.2 m, 2 g/m): r = 3 mm, ξ = 2 mm, δ = 0.5 mm, 60 fps x 4, so the
+/// paddle's 5 mm a substep is split into pieces and its vertices' known steps set their reach.
+Scene paddle_through_strands(const std::string& solver, double adaptive, TimeParams::Continuation continuation) {
+  gen::TriMesh paddle = gen::box(Vec3(0.3, 0.04, 0.02));
+  for (auto& p : paddle.v) p += Vec3(0, 0.07, -0.05);
+  const Index nv = 30;
+  const gen::PolylineSet strands = gen::curly_strands(12, nv, 0.2, 0.22, 0.0, 0.0, true);
+  TopologyBuilder tb;
+  tb.add_object("paddle", ObjectKind::obstacle, static_cast<Index>(paddle.v.size()), paddle.f);
+  tb.add_object("hair", ObjectKind::strand, static_cast<Index>(strands.v.size()), {}, {}, strands.lines);
+  Scene s;
+  s.topo = tb.finish();
+  s.state.resize(s.topo.num_vertices());
+  Index k = 0;
+  for (const auto& p : paddle.v) s.state.x[k++] = p;
+  for (const auto& p : strands.v) s.state.x[k++] = p + Vec3(0, 0.2, 0);
+  const double density = 0.002, seg = 0.2 / static_cast<double>(nv - 1);
+  s.params.objects.resize(2);
+  PinGroup roots;
+  const Index base = static_cast<Index>(paddle.v.size());
+  for (const auto& line : strands.lines)
+    for (size_t i = 0; i < line.size(); ++i) {
+      const Index v = base + line[i];
+      s.state.mass[v] = density * seg;
+      s.state.inv_mass[v] = i == 0 ? 0.0 : 1.0 / s.state.mass[v];
+      if (i == 0) roots.vertices.push_back(line[i]);
+    }
+  s.state.rest = s.state.x_prev = s.state.x;
+  s.params.objects[1].pins.push_back(roots);
+  s.params.objects[1].material.density = density;
+  set_material_key(s.params.objects[1].material, "stretch_compliance", 1e-7);
+  set_material_key(s.params.objects[1].material, "bend_compliance", 0.1);
+  s.params.objects[0].motion.velocity = Vec3(0, 0, 1.2);
+  s.params.contact.solver = solver;
+  s.params.contact.radius = 0.003;
+  s.params.contact.offset = 0.002;
+  s.params.contact.repulsion_range = 0.0005;
+  s.params.contact.adaptive_reach = adaptive;
+  s.params.time.fps = 60;
+  s.params.time.substeps = 4;
+  s.params.time.iterations = 2;
+  s.params.time.xpbd_sweeps = 4;
+  s.params.time.continuation = continuation;
+  return s;
+}
+
+/// Runs `frames` frames with the exact audit after every substep; the penetrations it counts.
+Index audited_substeps(Scene scene, int frames, Index* remaining = nullptr) {
+  exact::PenetrationAudit audit(scene.topo, scene.state.x, exact::AuditOptions{scene.params.contact.offset, 1e-6});
+  scene.params.debug.audit = AuditMode::every_substep;
+  Simulation sim(std::move(scene));
+  Index penetrations = 0;
+  sim.set_audit([&](const Positions& x) {
+    const Index n = audit.audit_next(x).penetrations();
+    penetrations += n;
+    return n;
+  });
+  for (int f = 1; f <= frames; ++f) {
+    const FrameStats fs = sim.step_frame();
+    if (remaining) *remaining += fs.violations_remaining;
+  }
+  return penetrations;
+}
+
 class AdaptiveReachSolvers : public ::testing::TestWithParam<std::string> {};
+
+// Scripted vertices (the paddle, subdivided pieces), strands swept aside, and passes that fix
+// every vertex the pass before did not hold back (time.continuation: held_back): every substep
+// clean under the exact audit with the adaptive reach.
+TEST_P(AdaptiveReachSolvers, PaddleThroughStrandsIsCleanAtEverySubstep) {
+  test::ExpectWarnings may_warn;
+  for (auto mode : {TimeParams::Continuation::full, TimeParams::Continuation::held_back}) {
+    Index remaining = 0;
+    EXPECT_EQ(audited_substeps(paddle_through_strands(GetParam(), 0.25, mode), 10, &remaining), 0)
+        << GetParam() << (mode == TimeParams::Continuation::full ? ", full passes" : ", held_back");
+    EXPECT_EQ(remaining, 0);
+  }
+}
+
+// A rigid body (its vertices keep r) falls onto the coils as they pile, with and without
+// contact.momentum: every substep clean.
+TEST_P(AdaptiveReachSolvers, RigidBoxOnPilingCoilsIsCleanAtEverySubstep) {
+  test::ExpectWarnings may_warn;
+  for (bool momentum : {false, true}) {
+    Scene s = coils_on_a_floor(GetParam(), 0.25, true);
+    s.params.contact.momentum = momentum;
+    Index remaining = 0;
+    EXPECT_EQ(audited_substeps(std::move(s), 20, &remaining), 0) << GetParam() << ", momentum " << momentum;
+    EXPECT_EQ(remaining, 0);
+  }
+}
 
 // The coils land, tangle and pile (frames 12-40): every frame clean under the exact audit with
 // and without the adaptive reach, and the adaptive run tests far fewer candidate pairs while the

@@ -153,13 +153,14 @@ const scene::Section<ContactParams>& contact_section() {
                  "tessellated surface instead of being lifted or held back at its vertices (docs/feasibility.md, "
                  "\"Sliding planes\"); false: the paper's closest-point planes only (region-projection solvers)")
           .field("adaptive_reach", &S::adaptive_reach,
-                 "f: each outer iteration gives each vertex its own reach ρ = min(r, f r + 2 ‖s‖), s its "
-                 "intended step (the material solve's result against the pass's start), r where the pass "
-                 "before held it back or for a rigid body's vertex, and its known step for a fixed or scripted "
-                 "one; detection pairs primitives within ρ_A + ρ_B + ξ instead of 2r + ξ and the step bound "
-                 "keeps each vertex within its ρ, so slow vertices in a dense pile test far fewer pairs "
-                 "(docs/feasibility.md, \"Adaptive reach\"); 0 (default): the paper's uniform r. Region-projection "
-                 "solvers (ccfr, exact_projection, successive_projection); not with collision.reuse_skin",
+                 "f > 0: each outer iteration gives each vertex its own reach ρ = min(r, max(f r, δ) + 2 ‖s‖), "
+                 "s its intended step (the material solve's result against the pass's start); r where the "
+                 "pass before held it back or left pairs inside their offsets, and for a rigid body's vertex; "
+                 "its known step for a fixed or scripted one. Detection pairs primitives within ρ_A + ρ_B + ξ "
+                 "instead of 2r + ξ and the step bound keeps each vertex within its ρ, so slow vertices in a "
+                 "dense pile test far fewer pairs (docs/feasibility.md, \"Adaptive reach\"); 0 (default): the "
+                 "paper's uniform r. Region-projection solvers (ccfr, exact_projection, successive_projection); "
+                 "not with collision.reuse_skin",
                  Range{0, 1, false, false})
           .choice("on_violation", &S::on_violation, violation_choices(),
                   "a substep that ends with pairs closer than their offset (or a deformed rigid body): "

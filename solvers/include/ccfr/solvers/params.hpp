@@ -85,7 +85,7 @@ struct ContactParams : ContactModel {
   /// anchors apart by the offset and cuts the candidates less (turn_by_motion): bodies and cloth
   /// slide over tessellated surfaces instead of being lifted or held at their vertices.
   bool sliding = true;
-  /// f in [0, 1]: each outer iteration gives each vertex its own reach min(r, f r + 2 |step|)
+  /// f in [0, 1]: each outer iteration gives each vertex its own reach min(r, max(f r, δ) + 2 |step|)
   /// instead of r (adaptive_vertex_reach; region-projection solvers): detection pairs primitives
   /// within the sum of their reaches plus ξ, so slow vertices test fewer pairs. 0 (default): the
   /// paper's uniform r.

@@ -203,8 +203,9 @@ class Simulation {
   Index carry_isolated_objects();
   /// contact.adaptive_reach: checks the setting against the solver and the kept list, marks rigid vertices.
   void init_adaptive_reach();
-  /// vertex_reach_ for pass `iteration` of the substep (adaptive_vertex_reach), handed to the solver in `ctx`.
-  void set_vertex_reach(int iteration, StepContext& ctx);
+  /// vertex_reach_ for pass `iteration` of the substep (adaptive_vertex_reach), handed to the solver
+  /// in `ctx`; none (the uniform r) where `uniform`; 0 for the vertices a `masked` pass fixes.
+  void set_vertex_reach(int iteration, bool uniform, bool masked, StepContext& ctx);
 
   Scene scene_;
   std::unique_ptr<ContactSolver> contact_;
@@ -225,6 +226,7 @@ class Simulation {
   /// contact.adaptive_reach (on for a solver that takes it): each pass's per-vertex reach (m), the
   /// vertices always given r (rigid bodies'), and those the last pass's step bound held back.
   bool adaptive_reach_ = false;
+  bool reach_pass_ = false;  ///< this pass bounds each vertex by vertex_reach_
   std::vector<double> vertex_reach_;
   std::vector<std::uint8_t> reach_full_, reach_held_;
   std::vector<double> inv_mass_saved_;

@@ -36,17 +36,19 @@ StepBoundResult apply_step_bound(const Positions& x, const Positions& anchor, st
 /// "Adaptive reach"): how far each vertex may move in it, from its intended step s_i = intended_i −
 /// anchor_i (the material solve's result against the pass's anchor).
 ///
-/// - movable vertex: ρ_i = min(r, f r + 2 |s_i|), the room for its own step and for what the
-///   contact response adds (repulsion, friction, impulses); r where `full` is set (a rigid
-///   body's vertex, whose pose solve bounds it by r) or where `held` is set (the last pass's step
-///   bound held it back: it gets the whole r now, so a push is never cut twice);
-/// - vertex of inverse mass 0 (fixed, scripted, or fixed for this pass): ρ_i = |s_i| (1 + 1e-9),
-///   its known motion (at most r, or the substep would have been subdivided).
+/// - movable vertex: ρ_i = min(r, max(f r, δ) + 2 |s_i|), the room for its own step and for what
+///   the contact response adds (repulsion, friction, impulses), and at least the repulsion band δ
+///   (`repulsion_range`), so that every pair within ξ + δ of an immovable side is detected; r
+///   where `full` is set (a rigid body's vertex, whose pose solve bounds it by r) or where `held`
+///   is set (the last pass's step bound held it back: it gets the whole r now);
+/// - vertex of inverse mass 0: ρ_i = |s_i| (1 + 1e-9), a bound on its motion: a fixed vertex's
+///   s is 0, a scripted one's its known step (at most r, or the substep is subdivided), and a
+///   vertex fixed for this pass (time.continuation: held_back) stays at its anchor.
 ///
 /// Detection then pairs primitives within ρ_A + ρ_B + ξ (CollisionDetector::detect) and the step
 /// bound keeps each vertex within its ρ_i: a pair left out stays at least ξ apart. Deterministic.
 void adaptive_vertex_reach(const Positions& intended, const Positions& anchor, std::span<const double> inv_mass,
                            std::span<const std::uint8_t> full, std::span<const std::uint8_t> held, double r,
-                           double floor_fraction, std::vector<double>& reach);
+                           double floor_fraction, double repulsion_range, std::vector<double>& reach);
 
 }  // namespace ccfr
