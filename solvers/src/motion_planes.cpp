@@ -14,6 +14,11 @@ namespace ccfr {
 namespace {
 /// Least room a retreating side must vacate, as a share of the other side's cut, to defer it.
 constexpr double kVacated = 0.1;
+/// Cyclic-projection sweeps for a vertex's least push (push_through).
+constexpr int kPushSweeps = 8;
+/// Room a side pushed past the gap gets beyond its push, as a share of the push, in the first
+/// round (push_through): the push is a bound along n alone, the vertex's other planes may ask more.
+constexpr double kPushMargin = 0.1;
 }  // namespace
 
 Index split_by_motion(RegionSet& regions, std::span<const ContactPair> contacts, const Positions& anchor,
@@ -73,6 +78,114 @@ Index split_by_motion(RegionSet& regions, std::span<const ContactPair> contacts,
       },
       2048);
   return static_cast<Index>(held.size());
+}
+
+Index push_through(RegionSet& regions, std::span<const ContactPair> contacts, std::span<const double> inv_mass,
+                   std::span<const double> responds, int rounds) {
+  if (regions.records.size() != contacts.size() || rounds <= 0) return 0;
+  const Index nv = regions.num_vertices();
+  // forcing[ci]: the contact's plane may push a movable side out of its anchor (d < 0) and the
+  // push is to be passed on: a side that cannot move (fixed or scripted), a pair inside its
+  // offset, or a pair pushed here.
+  std::vector<std::uint8_t> forcing(contacts.size(), 0);
+  std::vector<Index> frontier;
+  std::vector<std::uint8_t> queued(static_cast<size_t>(nv), 0);
+  auto queue_negative_sides = [&](size_t ci) {
+    const ContactPair& c = contacts[ci];
+    const RegionRecord& rec = regions.records[ci];
+    for (int k = 0; k < c.size(); ++k) {
+      const Index v = c.v[k];
+      if (inv_mass[v] > 0.0 && rec.d[k < c.side_a() ? 0 : 1] < 0.0 && !queued[static_cast<size_t>(v)]) {
+        queued[static_cast<size_t>(v)] = 1;
+        frontier.push_back(v);
+      }
+    }
+  };
+  for (size_t ci = 0; ci < contacts.size(); ++ci) {
+    const ContactPair& c = contacts[ci];
+    bool pinned = false;
+    for (int k = 0; k < c.size(); ++k) pinned = pinned || !(inv_mass[c.v[k]] > 0.0);
+    const RegionRecord& rec = regions.records[ci];
+    if (!pinned && !(rec.d[0] < 0.0 || rec.d[1] < 0.0)) continue;
+    forcing[ci] = 1;
+    queue_negative_sides(ci);
+  }
+  std::vector<Vec3> push(static_cast<size_t>(nv), Vec3::Zero());
+  Index moved = 0;
+  for (int round = 0; round < rounds && !frontier.empty(); ++round) {
+    // Each queued vertex's least push: a point of its forcing planes' intersection, found by
+    // cyclic projection from its anchor (step 0), the planes (n, d) asking n·f >= -d.
+    for (const Index v : frontier) {
+      Vec3 f = Vec3::Zero();
+      for (int sweep = 0; sweep < kPushSweeps; ++sweep) {
+        bool short_of = false;
+        for (Index q = regions.row_start[v]; q < regions.row_start[v + 1]; ++q) {
+          const std::uint32_t ref = regions.refs[static_cast<size_t>(q)];
+          if (!forcing[ref >> 1]) continue;
+          const HalfSpace h = regions.plane_of_ref(ref);
+          const double value = f.dot(h.n) + h.d;
+          if (value < 0.0) {
+            f -= value * h.n;
+            short_of = true;
+          }
+        }
+        if (!short_of) break;
+      }
+      push[static_cast<size_t>(v)] = f;
+    }
+    // Halved each round, so that a chain's pushes grow by at most e^(2 kPushMargin) in all.
+    const double margin = std::ldexp(kPushMargin, -round);
+    std::vector<Index> next;
+    std::swap(next, frontier);
+    for (const Index v : next) {
+      for (Index q = regions.row_start[v]; q < regions.row_start[v + 1]; ++q) {
+        const size_t ci = regions.refs[static_cast<size_t>(q)] >> 1;
+        const ContactPair& c = contacts[ci];
+        if (forcing[ci] || c.neighbours) continue;
+        bool free = true;
+        for (int k = 0; k < c.size(); ++k)
+          free = free && inv_mass[c.v[k]] > 0.0 && (responds.empty() || responds[c.v[k]] > 0.0);
+        if (!free) continue;
+        RegionRecord& rec = regions.records[ci];
+        const double gap = rec.d[0] + rec.d[1];
+        if (!(gap >= 0.0)) continue;
+        // How far each side's pushes carry it toward the other along n.
+        double in_a = 0.0, in_b = 0.0;
+        for (int k = 0; k < c.size(); ++k) {
+          const double along = rec.n.dot(push[static_cast<size_t>(c.v[k])]);
+          if (k < c.side_a())
+            in_a = std::max(in_a, -along);
+          else
+            in_b = std::max(in_b, along);
+        }
+        if (in_a <= rec.d[0] && in_b <= rec.d[1]) continue;
+        // The pushes are lower bounds along n alone (the vertex's other planes may ask more):
+        // a side pushed gets the room its push takes and a share of what is left.
+        const double s_a = gap > 0.0 ? rec.d[0] / gap : 0.5;
+        if (in_a + in_b <= gap) {
+          // Both pushes fit in the gap: the dividing plane moves to give each its push.
+          rec.d[0] = in_a + s_a * (gap - in_a - in_b);
+          rec.d[1] = gap - rec.d[0];
+        } else if (in_a >= in_b) {
+          // Past the gap the stronger push carries the plane, and the other side is pushed on by
+          // what it takes past the gap (a side pushed a little toward the other can often meet
+          // its own planes by moving sideways: its push is one point of them, not the least).
+          rec.d[0] = in_a * (1.0 + margin);
+          rec.d[1] = gap - rec.d[0];
+        } else {
+          rec.d[1] = in_b * (1.0 + margin);
+          rec.d[0] = gap - rec.d[1];
+        }
+        ++moved;
+        if (rec.d[0] < 0.0 || rec.d[1] < 0.0) {
+          forcing[ci] = 1;
+          queue_negative_sides(ci);
+        }
+      }
+    }
+    for (const Index v : next) queued[static_cast<size_t>(v)] = 0;
+  }
+  return moved;
 }
 
 Index held_followers(std::span<const ContactPair> contacts, std::span<const HeldSplit> held, const Positions& anchor,

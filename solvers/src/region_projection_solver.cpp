@@ -90,7 +90,10 @@ SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& ancho
   }
   // Each pair's plane split by the motion the response left (the dividing plane moves with the pair).
   held_splits_.clear();
-  if (ctx.momentum) split_by_motion(regions_, contacts_, anchor, x, state.inv_mass, projected_mass, held_splits_);
+  if (ctx.momentum) {
+    split_by_motion(regions_, contacts_, anchor, x, state.inv_mass, projected_mass, held_splits_);
+    if (ctx.push_through) push_through(regions_, contacts_, state.inv_mass, projected_mass, kPushRounds);
+  }
   const BatchStats b = project_all(*projector_, regions_, anchor, x, projected_mass, halted_);
   SolveResult r;
   r.violations_detected = b.violated;

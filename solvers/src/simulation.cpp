@@ -557,7 +557,7 @@ Simulation::PassesEnd Simulation::run_passes(FrameStats& fs, int substep_index, 
   return end;
 }
 
-void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
+void Simulation::substep(FrameStats& fs, int substep_index, double dt, int halvings) {
   auto& st = scene_.state;
   const auto& params = scene_.params;
   const auto& tp = params.time;
@@ -585,6 +585,7 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
   if (kin_step > params.contact.radius * (1.0 + 1e-9) && contact_->clamps_to_radius())
     throw GuaranteeError(frame_ + 1, kinematic_overrun(kin_step));
 
+  halvings_ = halvings;
   StepContext ctx{scene_.topo, params, dt, frame_ + 1, substep_index, 0, fs.times};
   ctx.momentum = params.contact.momentum;
   // A substep whose passes end with pairs inside their offsets (the run would stop, or warn) is
@@ -597,6 +598,21 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt) {
     ctx.momentum = true;
     ++fs.substeps_redone;
     end = run_passes(fs, substep_index, t1, kin_moves, ctx);
+  }
+  // Still inside offsets where the run would stop: solved once more with the pushes of fixed and
+  // scripted sides passed on through resting pairs, then, if that is not enough, again as two
+  // halves from the substep's start (nothing of the state has moved yet), each with the shorter
+  // steps' smaller pushes. Runs that completed before are untouched: these replace stops only.
+  if (end.remaining > 0 && stops_on_violation()) {
+    ctx.momentum = ctx.push_through = true;
+    ++fs.substeps_redone;
+    end = run_passes(fs, substep_index, t1, kin_moves, ctx);
+  }
+  if (end.remaining > 0 && halvings < kSqueezeHalvings && stops_on_violation()) {
+    ++fs.substeps_halved;
+    substep(fs, substep_index, 0.5 * dt, halvings + 1);
+    substep(fs, substep_index, 0.5 * dt, halvings + 1);
+    return;
   }
   const double r = params.contact.radius;
   const int bound = tp.iteration_bound();
@@ -667,9 +683,7 @@ void Simulation::record_lag(FrameStats& fs) const {
 
 void Simulation::check_audit(Index penetrations) {
   if (penetrations <= 0) return;
-  const auto& p = scene_.params;
-  const bool fatal = p.contact.on_violation == ViolationPolicy::error ||
-                     (p.contact.on_violation == ViolationPolicy::automatic && contact_->guarantees_separation());
+  const bool fatal = stops_on_violation();
   const std::string what = "the in-simulation audit (debug.audit) found " + std::to_string(penetrations) +
                            " penetration(s) under contact solver '" + std::string(contact_->name()) + "'";
   if (fatal) throw GuaranteeError(frame_ + 1, what + "; stopping before the frame is written");

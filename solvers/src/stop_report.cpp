@@ -172,8 +172,12 @@ std::string stop_message(const StopReport& rep, Index remaining, const std::stri
        "the regions were not empty and no vertex was left held back by r, yet the pair ended inside its "
        "offset or crossed"}};
   what += ". Cause: " + kCause.at(rep.cause) +
-          ccfr::format(" ({} of {} outer iterations ran, {} vertices held back at the end)", rep.iterations,
-                       rep.iteration_bound, rep.held_back);
+          ccfr::format(" ({} of {} outer iterations ran, {} vertices held back at the end{})", rep.iterations,
+                       rep.iteration_bound, rep.held_back,
+                       rep.halvings > 0 ? ccfr::format("; the substep was solved again in {} pieces, and the "
+                                                       "steps below are those of a piece",
+                                                       1 << rep.halvings)
+                                        : std::string());
   if (!rep.held_by.empty()) {
     what += ". Held by: ";
     for (size_t i = 0; i < rep.held_by.size(); ++i) what += (i ? ", " : "") + rep.held_by[i];
@@ -211,6 +215,7 @@ StopReport Simulation::diagnose_stop(Index remaining, int substep_index, int ite
   rep.remaining = remaining;
   rep.solver = std::string(contact_->name());
   rep.iterations = iterations;
+  rep.halvings = halvings_;
   rep.iteration_bound = p.time.iteration_bound();
   rep.held_back = held_back;
   rep.stats = fs;
@@ -240,13 +245,16 @@ StopReport Simulation::diagnose_stop(Index remaining, int substep_index, int ite
   return rep;
 }
 
+bool Simulation::stops_on_violation() const {
+  const auto policy = scene_.params.contact.on_violation;
+  return policy == ViolationPolicy::error ||
+         (policy == ViolationPolicy::automatic && contact_->guarantees_separation());
+}
+
 void Simulation::check_violations(Index remaining, int substep_index, int iterations, Index held_back,
                                   const FrameStats& fs) {
   if (remaining <= 0) return;
-  const auto& p = scene_.params;
-  const bool fatal = p.contact.on_violation == ViolationPolicy::error ||
-                     (p.contact.on_violation == ViolationPolicy::automatic && contact_->guarantees_separation());
-  if (!fatal) {
+  if (!stops_on_violation()) {
     if (!warned_violation_) {
       const std::string example = contact_->last_violation();
       log::error(

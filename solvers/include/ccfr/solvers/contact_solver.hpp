@@ -53,6 +53,9 @@ struct StepContext {
   /// by the substep for its passes after one that halted a vertex (a squeeze the paper's fixed
   /// dividing planes cannot pass on).
   bool momentum = false;
+  /// Pass the pushes of fixed and scripted sides on through resting pairs (push_through), with
+  /// `momentum`: the last solve of a substep that would otherwise stop the run.
+  bool push_through = false;
 };
 
 /// Counts of one detection pass, as a contact solver reports them (collision's own counters are DetectionStats).

@@ -17,6 +17,9 @@ class DetectingSolver : public ContactSolver {
  public:
   /// Jacobi sweeps of the inelastic contact (ContactResponse::separate) under contact.momentum.
   static constexpr int kSeparateSweeps = 32;
+  /// Rounds of push_through under contact.momentum: how many resting pairs in a row a push from
+  /// a fixed or scripted side is passed on through in one pass.
+  static constexpr int kPushRounds = 64;
   /// Least room (in units of r) a retreating side must vacate for the pass to be run again for
   /// the side that follows it (split_by_motion).
   static constexpr double kDeferredRoom = 0.01;

@@ -43,8 +43,12 @@ struct FrameStats {
   int outer_iterations = 0;  ///< outer iterations run in the frame (summed over substeps)
   int substeps_run = 0;      ///< substeps actually run, after automatic subdivision
   /// Substeps solved a second time from their start with contact.momentum's response because
-  /// their passes ended with pairs inside their offsets (a push the fixed planes cannot pass on).
+  /// their passes ended with pairs inside their offsets (a push the fixed planes cannot pass on),
+  /// and once more with push_through where the run would still stop (each solve counts).
   int substeps_redone = 0;
+  /// Substeps (or halves of them) that still ended with pairs inside their offsets, where the run
+  /// would stop, and were solved again as two halves (Simulation::kSqueezeHalvings).
+  int substeps_halved = 0;
   /// Plesník projections replaced by the exact projection because they landed farther from the
   /// candidate than the anchor (summed over the resolution passes; 0 for other projectors).
   Index projector_fallbacks = 0;
@@ -251,10 +255,11 @@ inline constexpr auto kStatsColumns = std::to_array<StatsColumn>({
     {"lag_max", StatsFormat::real, StatsUnknown::never, StatsPython::value, "m",
      "the largest of those distances of one vertex in the frame", CCFR_STATS_REF(lag_max)},
     {"substeps_redone", StatsFormat::integer, StatsUnknown::never, StatsPython::value, "count",
-     "substeps of the frame solved a second time from their start with the `contact.momentum` "
-     "response because their passes ended with pairs inside their offsets (solvers that "
-     "guarantee separation, with `contact.momentum: false`): a vertex pushed by a scripted "
-     "obstacle toward a movable one, whose region the fixed dividing planes leave empty "
+     "solves of the frame's substeps repeated from their start because their passes ended with "
+     "pairs inside their offsets (solvers that guarantee separation): with the `contact.momentum` "
+     "response (under `contact.momentum: false`), for a vertex pushed by a scripted obstacle "
+     "toward a movable one whose region the fixed dividing planes leave empty; and, where the run "
+     "would still stop, once more with the pushes passed on through resting pairs "
      "(docs/feasibility.md, \"Momentum through contact\"). 0 where every substep ended clean",
      CCFR_STATS_REF(substeps_redone)},
     {"serial_s", StatsFormat::seconds, StatsUnknown::never, StatsPython::value, "s",
@@ -272,6 +277,13 @@ inline constexpr auto kStatsColumns = std::to_array<StatsColumn>({
      "the part of `resolution_s` outside parallel loops", CCFR_STATS_REF(times.resolution_serial)},
     {"check_serial_s", StatsFormat::seconds, StatsUnknown::never, StatsPython::value, "s",
      "the part of `check_s` outside parallel loops", CCFR_STATS_REF(times.check_serial)},
+    {"substeps_halved", StatsFormat::integer, StatsUnknown::never, StatsPython::value, "count",
+     "substeps (or halves of substeps) of the frame that still ended with pairs inside their "
+     "offsets after `substeps_redone`'s second solve, where the run would stop, and were solved "
+     "again from their start as two halves of half the step, up to three times (8 pieces): a "
+     "pile squeezed by a turning obstacle, whose pushes the shorter steps make smaller "
+     "(docs/feasibility.md, \"Momentum through contact\"). 0 where every substep ended clean",
+     CCFR_STATS_REF(substeps_halved)},
 });
 
 #undef CCFR_STATS_REF

@@ -47,6 +47,25 @@ Index split_by_motion(RegionSet& regions, std::span<const ContactPair> contacts,
                       const Positions& x, std::span<const double> inv_mass, std::span<const double> responds,
                       std::vector<HeldSplit>& held);
 
+/// Passes the push of what cannot move on through resting pairs. A vertex pressed by a fixed or
+/// scripted side (a plane of such a contact with d < 0: its anchor lies past the plane) must move
+/// by at least f_v, a point of the intersection of those planes (cyclic projection from 0). For
+/// every contact of such a vertex whose vertices all have inverse mass > 0 (and `responds` > 0,
+/// where given) and that is not between mesh neighbours, with a_A, a_B the largest push of a side's
+/// vertices toward the other along the record's n and G = d_A + d_B >= 0:
+///
+///  - a_A + a_B <= G: the dividing plane moves so that d_A >= a_A and d_B >= a_B;
+///  - one side pushed past the gap (a_A > G, a_B = 0): d_A = a_A, d_B = G - a_A < 0, and the other
+///    side is pushed in turn (B, by its planes of d < 0), in the next of `rounds` rounds;
+///  - both pushed past the gap: left as it is (a squeeze no dividing plane resolves).
+///
+/// d_A + d_B = G throughout, so the separating-plane argument (design clarification 4) holds; a
+/// side with d < 0 starts outside its plane, as a pair inside its offset does (clarification 7).
+/// Without it a coil resting on a turning obstacle, pressed by a face toward the coil beside it
+/// at the offset (G = 0, split 0 and 0), has an empty region. Returns the count of planes moved.
+Index push_through(RegionSet& regions, std::span<const ContactPair> contacts, std::span<const double> inv_mass,
+                   std::span<const double> responds, int rounds);
+
 /// Of the contacts split_by_motion() listed, those whose retreating side did vacate room at `x`
 /// (the positions the pass ends with, the next pass's anchors): its least retreating vertex moved
 /// away from its anchor along n by more than `min_room` (m) and a tenth of the held side's cut.

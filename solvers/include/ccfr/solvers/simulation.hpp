@@ -32,6 +32,7 @@ struct StopReport {
   /// "unresolved": none of these (e.g. a deformed rigid body, or a recount after the step bound).
   std::string cause;
   int iterations = 0, iteration_bound = 0;  ///< outer iterations of the substep run / allowed
+  int halvings = 0;                         ///< times the stopping substep was halved first
   Index held_back = 0;                      ///< vertices the step bound held back in the last one
   struct Vertex {
     std::string object, kind;          ///< object name and kind
@@ -129,8 +130,16 @@ class Simulation {
   void set_cancel(CancelHook hook) { cancel_ = std::move(hook); }
 
  private:
-  /// One substep of length dt (a piece of a subdivided substep, or a whole one).
-  void substep(FrameStats& fs, int substep_index, double dt);
+  /// One substep of length dt (a piece of a subdivided substep, or a whole one); `halvings`: how
+  /// many times this piece's substep has been halved after a squeeze (at most kSqueezeHalvings).
+  void substep(FrameStats& fs, int substep_index, double dt, int halvings = 0);
+  /// Times a substep that would stop the run with pairs inside their offsets is solved again as
+  /// two halves, each half again: up to 2^3 = 8 pieces.
+  static constexpr int kSqueezeHalvings = 3;
+  int halvings_ = 0;  ///< the running substep piece's halvings (the stop report names them)
+  /// Whether pairs left inside their offsets stop the run (contact.on_violation error, or auto
+  /// under a solver that guarantees separation).
+  bool stops_on_violation() const;
   /// How an outer iteration ended, after every solver family's common tail.
   struct OuterIterationEnd {
     Index remaining = 0;         ///< violations left at the iteration's final positions
