@@ -16,6 +16,9 @@ namespace {
 constexpr double kVacated = 0.1;
 /// Cyclic-projection sweeps for a vertex's least push (push_through).
 constexpr int kPushSweeps = 8;
+/// Past the gap, the weaker of two opposed pushes must be at most this share of the stronger for
+/// the stronger to carry the plane (push_through); comparable pushes are a squeeze, left alone.
+constexpr double kPushDominance = 0.25;
 /// Room a side pushed past the gap gets beyond its push, as a share of the push, in the first
 /// round (push_through): the push is a bound along n alone, the vertex's other planes may ask more.
 constexpr double kPushMargin = 0.1;
@@ -166,10 +169,12 @@ Index push_through(RegionSet& regions, std::span<const ContactPair> contacts, st
           // Both pushes fit in the gap: the dividing plane moves to give each its push.
           rec.d[0] = in_a + s_a * (gap - in_a - in_b);
           rec.d[1] = gap - rec.d[0];
+        } else if (std::min(in_a, in_b) > kPushDominance * std::max(in_a, in_b)) {
+          continue;  // pushed from both sides alike: a squeeze no dividing plane resolves
         } else if (in_a >= in_b) {
-          // Past the gap the stronger push carries the plane, and the other side is pushed on by
-          // what it takes past the gap (a side pushed a little toward the other can often meet
-          // its own planes by moving sideways: its push is one point of them, not the least).
+          // Past the gap a push four times the other's carries the plane, and the other side is
+          // pushed on by what it takes past the gap (a side pushed a little toward the other can
+          // often meet its own planes by moving sideways: its push is one point of them).
           rec.d[0] = in_a * (1.0 + margin);
           rec.d[1] = gap - rec.d[0];
         } else {

@@ -36,9 +36,9 @@ TEST(StopReport, ASqueezeNamesPairsCauseHoldersAndRemedies) {
     EXPECT_TRUE(has(r.out, "'sheet' vertex")) << r.out;
     EXPECT_TRUE(has(r.out, "Cause: ")) << r.out;
     EXPECT_TRUE(has(r.out, "Held by: ")) << r.out;
-    // Stopped after the substep was halved three times: the press's step is that of one of 8 pieces.
-    EXPECT_TRUE(has(r.out, "the substep was solved again in 8 pieces")) << r.out;
-    EXPECT_TRUE(has(r.out, "'press' (obstacle, scripted, 0.000312 m per substep piece)")) << r.out;
+    // Stopped after the substep was halved: the press's step is that of one of 2 pieces.
+    EXPECT_TRUE(has(r.out, "the substep was solved again in 2 pieces")) << r.out;
+    EXPECT_TRUE(has(r.out, "'press' (obstacle, scripted, 0.00125 m per substep piece)")) << r.out;
     EXPECT_TRUE(has(r.out, "What to change: slow the scripted motion of 'press'")) << r.out;
     EXPECT_TRUE(has(r.out, "raise time.substeps (now 4)")) << r.out;
     EXPECT_TRUE(has(r.out, "give the squeezed objects room")) << r.out;

@@ -46,8 +46,8 @@ struct FrameStats {
   /// their passes ended with pairs inside their offsets (a push the fixed planes cannot pass on),
   /// and once more with push_through where the run would still stop (each solve counts).
   int substeps_redone = 0;
-  /// Substeps (or halves of them) that still ended with pairs inside their offsets, where the run
-  /// would stop, and were solved again as two halves (Simulation::kSqueezeHalvings).
+  /// Substeps that still ended with pairs inside their offsets, where the run would stop, and were
+  /// solved again as two halves (Simulation::kSqueezeHalvings).
   int substeps_halved = 0;
   /// Plesník projections replaced by the exact projection because they landed farther from the
   /// candidate than the anchor (summed over the resolution passes; 0 for other projectors).
@@ -280,7 +280,7 @@ inline constexpr auto kStatsColumns = std::to_array<StatsColumn>({
     {"substeps_halved", StatsFormat::integer, StatsUnknown::never, StatsPython::value, "count",
      "substeps (or halves of substeps) of the frame that still ended with pairs inside their "
      "offsets after `substeps_redone`'s second solve, where the run would stop, and were solved "
-     "again from their start as two halves of half the step, up to three times (8 pieces): a "
+     "again from their start as two halves of half the step (each through the same solves): a "
      "pile squeezed by a turning obstacle, whose pushes the shorter steps make smaller "
      "(docs/feasibility.md, \"Momentum through contact\"). 0 where every substep ended clean",
      CCFR_STATS_REF(substeps_halved)},

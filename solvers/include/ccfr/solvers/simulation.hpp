@@ -134,8 +134,8 @@ class Simulation {
   /// many times this piece's substep has been halved after a squeeze (at most kSqueezeHalvings).
   void substep(FrameStats& fs, int substep_index, double dt, int halvings = 0);
   /// Times a substep that would stop the run with pairs inside their offsets is solved again as
-  /// two halves, each half again: up to 2^3 = 8 pieces.
-  static constexpr int kSqueezeHalvings = 3;
+  /// two halves (each half could be halved again; more buys little and slows every genuine stop).
+  static constexpr int kSqueezeHalvings = 1;
   int halvings_ = 0;  ///< the running substep piece's halvings (the stop report names them)
   /// Whether pairs left inside their offsets stop the run (contact.on_violation error, or auto
   /// under a solver that guarantees separation).
