@@ -19,6 +19,10 @@ constexpr int kPushSweeps = 8;
 /// Past the gap, the weaker of two opposed pushes must be at most this share of the stronger for
 /// the stronger to carry the plane (push_through); comparable pushes are a squeeze, left alone.
 constexpr double kPushDominance = 0.25;
+/// Most a side may advance past the gap toward the other, as a share of the pair's offset: with
+/// the other side left at its anchor (its region empty, the vertex halted) the pair still keeps
+/// (1 - kPushReach) ξ, so no push can carry one primitive through the other (push_through).
+constexpr double kPushReach = 0.5;
 /// Room a side pushed past the gap gets beyond its push, as a share of the push, in the first
 /// round (push_through): the push is a bound along n alone, the vertex's other planes may ask more.
 constexpr double kPushMargin = 0.1;
@@ -140,6 +144,7 @@ Index push_through(RegionSet& regions, std::span<const ContactPair> contacts, st
     const double margin = std::ldexp(kPushMargin, -round);
     std::vector<Index> next;
     std::swap(next, frontier);
+    for (const Index v : next) queued[static_cast<size_t>(v)] = 0;  // a later push queues it again
     for (const Index v : next) {
       for (Index q = regions.row_start[v]; q < regions.row_start[v + 1]; ++q) {
         const size_t ci = regions.refs[static_cast<size_t>(q)] >> 1;
@@ -175,10 +180,10 @@ Index push_through(RegionSet& regions, std::span<const ContactPair> contacts, st
           // Past the gap a push four times the other's carries the plane, and the other side is
           // pushed on by what it takes past the gap (a side pushed a little toward the other can
           // often meet its own planes by moving sideways: its push is one point of them).
-          rec.d[0] = in_a * (1.0 + margin);
+          rec.d[0] = std::min(in_a * (1.0 + margin), gap + kPushReach * c.offset);
           rec.d[1] = gap - rec.d[0];
         } else {
-          rec.d[1] = in_b * (1.0 + margin);
+          rec.d[1] = std::min(in_b * (1.0 + margin), gap + kPushReach * c.offset);
           rec.d[0] = gap - rec.d[1];
         }
         ++moved;
@@ -188,7 +193,6 @@ Index push_through(RegionSet& regions, std::span<const ContactPair> contacts, st
         }
       }
     }
-    for (const Index v : next) queued[static_cast<size_t>(v)] = 0;
   }
   return moved;
 }

@@ -610,6 +610,7 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt, int halvi
   }
   if (end.remaining > 0 && halvings < kSqueezeHalvings && stops_on_violation()) {
     ++fs.substeps_halved;
+    --fs.substeps_run;  // the halves count, not the solve they replace
     substep(fs, substep_index, 0.5 * dt, halvings + 1);
     substep(fs, substep_index, 0.5 * dt, halvings + 1);
     return;

@@ -278,8 +278,8 @@ inline constexpr auto kStatsColumns = std::to_array<StatsColumn>({
     {"check_serial_s", StatsFormat::seconds, StatsUnknown::never, StatsPython::value, "s",
      "the part of `check_s` outside parallel loops", CCFR_STATS_REF(times.check_serial)},
     {"substeps_halved", StatsFormat::integer, StatsUnknown::never, StatsPython::value, "count",
-     "substeps (or halves of substeps) of the frame that still ended with pairs inside their "
-     "offsets after `substeps_redone`'s second solve, where the run would stop, and were solved "
+     "substeps of the frame that still ended with pairs inside their "
+     "offsets after `substeps_redone`'s further solves, where the run would stop, and were solved "
      "again from their start as two halves of half the step (each through the same solves): a "
      "pile squeezed by a turning obstacle, whose pushes the shorter steps make smaller "
      "(docs/feasibility.md, \"Momentum through contact\"). 0 where every substep ended clean",

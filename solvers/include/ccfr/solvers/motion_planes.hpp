@@ -54,13 +54,17 @@ Index split_by_motion(RegionSet& regions, std::span<const ContactPair> contacts,
 /// where given) and that is not between mesh neighbours, with a_A, a_B the largest push of a side's
 /// vertices toward the other along the record's n and G = d_A + d_B >= 0:
 ///
-///  - a_A + a_B <= G: the dividing plane moves so that d_A >= a_A and d_B >= a_B;
-///  - one side pushed past the gap (a_A > G, a_B = 0): d_A = a_A, d_B = G - a_A < 0, and the other
-///    side is pushed in turn (B, by its planes of d < 0), in the next of `rounds` rounds;
-///  - both pushed past the gap: left as it is (a squeeze no dividing plane resolves).
+///  - a_A + a_B <= G: d_A = a_A + s_A (G - a_A - a_B), d_B = G - d_A (each its push and a share);
+///  - A pushed past the gap (a_A > G) and a_B <= a_A / 4: d_A = min(a_A (1 + η), G + ξ / 2),
+///    d_B = G - d_A < 0, and B is pushed in turn by its planes of d < 0 in the next of `rounds`
+///    rounds (η: 0.1 halved each round); symmetric for B;
+///  - pushes from both sides alike: left as it is (a squeeze no dividing plane resolves).
 ///
-/// d_A + d_B = G throughout, so the separating-plane argument (design clarification 4) holds; a
-/// side with d < 0 starts outside its plane, as a pair inside its offset does (clarification 7).
+/// d_A + d_B = G throughout, so the separating-plane argument (design clarification 4) holds while
+/// both sides reach their regions. A side given d < 0 may not (its region can be empty, and the
+/// projection then leaves the vertex at its anchor): the cap d_A <= G + ξ/2 keeps the pair at least
+/// ξ/2 apart along n even then, so it ends inside its offset (counted, solved again or stopped)
+/// but never crossed.
 /// Without it a coil resting on a turning obstacle, pressed by a face toward the coil beside it
 /// at the offset (G = 0, split 0 and 0), has an empty region. Returns the count of planes moved.
 Index push_through(RegionSet& regions, std::span<const ContactPair> contacts, std::span<const double> inv_mass,
