@@ -148,3 +148,52 @@ TEST(ExactManyPlanes, EmptyRegionIsReported) {
   }
   EXPECT_FALSE(exact_region_projection(Vec3(0.5, 0, 0), planes, 0.0, 1e-13).found);
 }
+
+// A sheet vertex squeezed between two closing plates (configs/stress/squeeze_one.yaml, frame 23,
+// margin ε ξ): 28 planes on which the dual active-set method proves nothing, so Hildreth's sweeps
+// run. The region is empty; Hildreth's worst violation then repeats every sweep, and it stops at
+// its first stalled block (the stress run took 25 s of its 26 in 20000-sweep calls like this one).
+TEST(ExactManyPlanes, SqueezedSheetVertexFallsThroughToHildrethAndIsEmpty) {
+  const double raw[][4] = {
+      {-0x1.6a0720b342dcp-1, -0x1.02f5be4c3b003p-11, 0x1.6a0ca64d6aab8p-1, 0x1.8f6acbe2a113bp-9},
+      {0x1.6a0d5898b397ep-1, -0x1.97adb19d9ab12p-10, 0x1.6a063acbf1659p-1, 0x1.8f6db526b1821p-9},
+      {-0x1.6a06e8b16a2cap-1, 0x1.54dcdfbeecf53p-9, 0x1.6a0c43a2e2f59p-1, 0x1.8f6c8102d3c6ep-8},
+      {0x1.6a0d8045a8482p-1, 0x1.19119eed553efp-9, 0x1.6a05df6551ef5p-1, 0x1.8f6d8542f8695p-8},
+      {-0x1.6a06e8b16a2cap-1, 0x1.54dcdfbeecf53p-9, 0x1.6a0c43a2e2f59p-1, 0x1.8f6c8102d3c6dp-8},
+      {-0x1.6a06e8b16a2cap-1, 0x1.54dcdfbeecf53p-9, 0x1.6a0c43a2e2f59p-1, 0x1.8f6c8102d3c6ep-8},
+      {0x1.6a068ebe05ddfp-1, 0x1.663bce8af65b4p-10, -0x1.6a0d11bb62e9bp-1, 0x1.8f6d0f478676ep-8},
+      {0x1.24c9bb61d7219p-1, -0x1.2d27b07841bd7p-1, -0x1.24c9bb61d720bp-1, 0x1.d2c8308f4ec1ep-9},
+      {0x1.244c2a9d3d08p-1, 0x1.2e1b40fecc75bp-1, -0x1.244c2a9d3d071p-1, 0x1.eccc3ed8bc9f6p-9},
+      {0x1.6a0d8045a8482p-1, 0x1.19119eed553efp-9, 0x1.6a05df6551ef5p-1, 0x1.8f6d8542f8695p-8},
+      {-0x1.6a0d5725f4612p-1, 0x1.ddd17428f225p-10, -0x1.6a0626ccd5acbp-1, 0x1.8f6d23d31373ep-8},
+      {-0x1.6a0d5725f4612p-1, 0x1.ddd17428f225p-10, -0x1.6a0626ccd5acbp-1, 0x1.8f6d23d31373ep-8},
+      {-0x1.6a0d5725f4612p-1, 0x1.ddd17428f225p-10, -0x1.6a0626ccd5acbp-1, 0x1.8f6d23d31373ep-8},
+      {0x1.6a068ebe05ddfp-1, 0x1.663bce8af65b4p-10, -0x1.6a0d11bb62e9bp-1, 0x1.8f6d0f478676dp-8},
+      {0x1.6a068ebe05ddfp-1, 0x1.663bce8af65b4p-10, -0x1.6a0d11bb62e9bp-1, 0x1.8f6d0f478676dp-8},
+      {0x1.6a0d8045a8482p-1, 0x1.19119eed553efp-9, 0x1.6a05df6551ef5p-1, 0x1.8f6d8542f8695p-8},
+      {0x1.24c9bb61d7219p-1, -0x1.2d27b07841bd7p-1, -0x1.24c9bb61d720bp-1, 0x1.d2c8308f4ec1ep-9},
+      {0x1.03151c931e1dbp-10, -0x1.ffffdf3987c19p-1, -0x1.03151c932125dp-10, -0x1.4d14386265f54p-13},
+      {0x1.24c9bb61d7219p-1, -0x1.2d27b07841bd7p-1, -0x1.24c9bb61d720bp-1, 0x1.d2c8308f4ec1ep-9},
+      {0x1.244c2a9d3d08p-1, 0x1.2e1b40fecc75bp-1, -0x1.244c2a9d3d071p-1, 0x1.eccc3ed8bc9f6p-9},
+      {-0x1.03151c931e1f9p-10, 0x1.ffffdf3987c18p-1, 0x1.03151c931fa34p-10, 0x1.4d0ef9e8c33ep-13},
+      {0x1.244c2a9d3d08p-1, 0x1.2e1b40fecc75bp-1, -0x1.244c2a9d3d071p-1, 0x1.eccc3ed8bc9f6p-9},
+      {-0x1.82f1b353fdb9fp-50, 0x1p+0, 0x1.82f1b353fdb9fp-49, 0x1.61cca26f35e4p-13},
+      {0x1.84d165c7c0763p-49, -0x1p+0, 0x0p+0, -0x1.61cca26f3504p-13},
+      {0x1.6a06a3830be9ap-1, -0x1.f906f76aa48bdp-12, -0x1.6a0d23c46840ep-1, 0x1.8f6d7da656d71p-9},
+      {-0x1.6a0d83dc06ccfp-1, -0x1.c7f958b6f201ap-10, -0x1.6a060120de055p-1, 0x1.8f6cf1ed6e331p-9},
+      {0x1.ef12656b5b4a8p-11, -0x1.ffffe214bdf4p-1, -0x1.ef12656b615afp-11, -0x1.4e0083aea553p-13},
+      {-0x1.ef12656b5f875p-11, 0x1.ffffe214bdf4p-1, 0x1.ef12656b5f875p-11, 0x1.4dfbba337116p-13},
+  };
+  std::vector<HalfSpace> planes;
+  for (const auto& r : raw) planes.push_back(HalfSpace{Vec3(r[0], r[1], r[2]), r[3]});
+  ASSERT_EQ(planes.size(), 28u);
+  const Vec3 q(-0x1.d3b4aa2dbp-21, -0x1.4c8ffc454146p-13, -0x1.0425adc0cp-20);
+  const double margin = 0x1.0c6f7a0b5ed8ep-21, tol = 0x1.19799812dea11p-40;
+  // Independent reference (every active set of at most three planes, margin folded into d).
+  std::vector<HalfSpace> shifted = planes;
+  for (auto& h : shifted) h.d -= margin;
+  Vec3 ref;
+  ASSERT_FALSE(ccfr::test::reference_projection(q, shifted, 1e-12, ref));
+  EXPECT_FALSE(exact_region_projection(q, planes, margin, tol).found);
+  EXPECT_FALSE(exact_region_projection(q, planes, 0.0, tol).found);
+}
