@@ -444,7 +444,8 @@ void vertex_pull_back(const ContactPair& c, const PullBack& p, const Positions& 
 }  // namespace
 
 Index ContactResponse::mark_overlaps(const Positions& x, const Positions& anchor, std::span<const double> inv_mass,
-                                     bool barycentric, double rest_overlap) {
+                                     bool barycentric, double rest_overlap, bool every) {
+  const Index nv = static_cast<Index>(separate_moved_.size());
   auto given = [&](Index ci) { return separate_given_.empty() ? 0.0 : separate_given_[static_cast<size_t>(ci)]; };
   std::atomic<Index> closed{0};
   parallel_for(
@@ -454,6 +455,11 @@ Index ContactResponse::mark_overlaps(const Positions& x, const Positions& anchor
         for (Index ci = b; ci < e; ++ci) {
           const ContactPair& c = contacts_[ci];
           double& excess = separate_dl_[static_cast<size_t>(ci)];
+          if (!every && excess == 0.0) {
+            bool moved = false;
+            for (int k = 0; k < c.size() && !moved; ++k) moved = c.v[k] < nv && separate_moved_[c.v[k]] != 0;
+            if (!moved) continue;  // E unchanged: still 0
+          }
           excess = 0.0;
           if (c.neighbours) continue;
           double a[2] = {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
@@ -519,16 +525,19 @@ void ContactResponse::pull_back(const Positions& x, const Positions& anchor, std
       2048);
 }
 
-void ContactResponse::move_by_mean(Positions& x, std::span<const double> inv_mass, Index nv) const {
+void ContactResponse::move_by_mean(Positions& x, std::span<const double> inv_mass, Index nv) {
   parallel_for(
       nv,
       [&](Index b, Index e) {
         for (Index v = b; v < e; ++v) {
+          separate_moved_[v] = 0;
           if (!(inv_mass[v] > 0.0) || separate_count_[v] == 0) continue;
           Vec3 sum = Vec3::Zero();
           for (Index q = row_start_[v]; q < row_start_[v + 1]; ++q)
             if (separate_dl_[slots_[q] / 4] != 0.0) sum += corr_[slots_[q]];
+          const Vec3 before = x[v];
           x[v] += sum / static_cast<double>(separate_count_[v]);
+          separate_moved_[v] = x[v] != before;
         }
       },
       4096);
@@ -542,6 +551,7 @@ Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span
   const Index nv = std::min(static_cast<Index>(x.size()), static_cast<Index>(row_start_.size()) - 1);
   separate_dl_.resize(static_cast<size_t>(n));
   separate_count_.resize(static_cast<size_t>(nv));
+  separate_moved_.assign(static_cast<size_t>(nv), 0);
   corr_.resize(static_cast<size_t>(n) * 4);
   // Per contact: how far a side that answers in its own solve (w_o > 0, not moved here) has given
   // way so far, so that later sweeps leave it its share instead of handing it to the other side.
@@ -550,8 +560,10 @@ Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span
   const int first_vertex_sweep = sweeps * 3 / 4;
   for (int sweep = 0; sweep < sweeps; ++sweep) {
     const bool barycentric = sweep < first_vertex_sweep;
-    // Overlapping contacts of this sweep: separate_dl_ holds E (0: none).
-    const Index closed = mark_overlaps(x, anchor, inv_mass, barycentric, rest_overlap);
+    // Overlapping contacts of this sweep: separate_dl_ holds E (0: none). The first sweep of each
+    // kind measures every contact; later ones only those that overlapped or whose vertices moved.
+    const bool every = sweep == 0 || sweep == first_vertex_sweep;
+    const Index closed = mark_overlaps(x, anchor, inv_mass, barycentric, rest_overlap, every);
     most = std::max(most, closed);
     if (closed == 0) {
       if (!barycentric) break;

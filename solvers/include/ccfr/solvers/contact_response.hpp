@@ -115,28 +115,32 @@ class ContactResponse {
                       std::span<const Index> row_start, std::span<const Index> slots,
                       std::span<const double> movable = {});
   // The phases of one sweep of separate().
-  /// Sets separate_dl_ to each contact's overlap E (0: none); returns how many overlap.
+  /// Sets separate_dl_ to each contact's overlap E (0: none); returns how many overlap. Unless
+  /// `every` is set, a contact that did not overlap in the last sweep and none of whose vertices
+  /// moved since (separate_moved_) keeps its 0: its E is a function of those positions alone.
   Index mark_overlaps(const Positions& x, const Positions& anchor, std::span<const double> inv_mass, bool barycentric,
-                      double rest_overlap);
+                      double rest_overlap, bool every);
   /// separate_count_: each movable vertex's overlapping contacts.
   void count_overlaps(Index nv, std::span<const double> inv_mass);
   /// corr_: every overlapping contact's pull-back of its vertices.
   void pull_back(const Positions& x, const Positions& anchor, std::span<const double> inv_mass, Index nv,
                  bool barycentric, std::span<const double> other_inverse_mass);
-  /// Moves each vertex by the mean of its overlapping contacts' pull-backs.
-  void move_by_mean(Positions& x, std::span<const double> inv_mass, Index nv) const;
+  /// Moves each vertex by the mean of its overlapping contacts' pull-backs; separate_moved_ marks
+  /// the vertices that moved.
+  void move_by_mean(Positions& x, std::span<const double> inv_mass, Index nv);
 
   std::span<const ContactPair> contacts_;
   std::vector<double> visibility_;
   VisibilityWorkspace visibility_ws_;
   std::vector<Index> vertex_row_start_, vertex_contacts_;  ///< CSR vertex -> contact slots (first prepare())
   std::span<const Index> row_start_, slots_;               ///< the CSR in use: the vectors above or the caller's
-  std::vector<Vec3> corr_;               ///< per contact slot: correction of each vertex (4 per contact)
-  std::vector<std::uint8_t> is_active_;  ///< per contact, in apply()
-  std::vector<double> separate_dl_;      ///< per contact, in separate(): Δλ of the sweep (0: inactive)
-  std::vector<Index> separate_count_;    ///< per vertex, in separate(): active contacts of the sweep
-  std::vector<double> separate_given_;   ///< per contact, in separate(): a self-answering side's give so far
-  bool prepared_repulsion_ = false;      ///< the last prepare() computed weights and buffers
+  std::vector<Vec3> corr_;                    ///< per contact slot: correction of each vertex (4 per contact)
+  std::vector<std::uint8_t> is_active_;       ///< per contact, in apply()
+  std::vector<double> separate_dl_;           ///< per contact, in separate(): Δλ of the sweep (0: inactive)
+  std::vector<Index> separate_count_;         ///< per vertex, in separate(): active contacts of the sweep
+  std::vector<std::uint8_t> separate_moved_;  ///< per vertex, in separate(): moved in the last sweep
+  std::vector<double> separate_given_;        ///< per contact, in separate(): a self-answering side's give so far
+  bool prepared_repulsion_ = false;           ///< the last prepare() computed weights and buffers
   Index active_ = 0;
 };
 
