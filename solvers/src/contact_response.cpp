@@ -443,47 +443,82 @@ void vertex_pull_back(const ContactPair& c, const PullBack& p, const Positions& 
 }
 }  // namespace
 
+/// Overlap E of contact `ci` at positions x (0: none, or a contact that cannot move).
+double ContactResponse::overlap(Index ci, const Positions& x, const Positions& anchor, std::span<const double> inv_mass,
+                                bool barycentric, double rest_overlap) const {
+  const ContactPair& c = contacts_[ci];
+  if (c.neighbours) return 0.0;
+  double a[2] = {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+  bool moves = false;
+  Vec3 at = Vec3::Zero();
+  for (int k = 0; k < c.size(); ++k) {
+    a[k < c.side_a() ? 0 : 1] = std::max(a[k < c.side_a() ? 0 : 1], approach(c, k, x, anchor));
+    moves = moves || inv_mass[c.v[k]] > 0.0;
+    at += c.w[k] * (x[c.v[k]] - anchor[c.v[k]]);
+  }
+  // Barycentric sweeps: the closest points' approach; then every vertex's. The first
+  // `rest_overlap` of it is resting contact, left to the planes; overlaps below 1e-9 of
+  // the offset are rounding, left to them too.
+  const double given = separate_given_.empty() ? 0.0 : separate_given_[static_cast<size_t>(ci)];
+  const double e_c = (barycentric ? -(c.distance - c.offset + c.n.dot(at)) : a[0] + a[1] - (c.distance - c.offset)) -
+                     given - rest_overlap;
+  return moves && e_c > 1e-9 * c.offset ? e_c : 0.0;
+}
+
+void ContactResponse::build_touch(Index nv) {
+  // Every contact, not the caller's CSR: that lists only the contacts that gave a vertex a plane.
+  const Index n = static_cast<Index>(contacts_.size());
+  touch_start_.assign(static_cast<size_t>(nv) + 1, 0);
+  for (const ContactPair& c : contacts_)
+    for (int k = 0; k < c.size(); ++k)
+      if (c.v[k] < nv) ++touch_start_[c.v[k] + 1];
+  std::partial_sum(touch_start_.begin(), touch_start_.end(), touch_start_.begin());
+  touch_.resize(static_cast<size_t>(touch_start_.back()));
+  std::vector<Index> cursor(touch_start_.begin(), touch_start_.end() - 1);
+  for (Index ci = 0; ci < n; ++ci) {
+    const ContactPair& c = contacts_[ci];
+    for (int k = 0; k < c.size(); ++k)
+      if (c.v[k] < nv) touch_[cursor[c.v[k]]++] = ci;
+  }
+  listed_.assign(static_cast<size_t>(n), 0);
+  touch_built_ = true;
+}
+
 Index ContactResponse::mark_overlaps(const Positions& x, const Positions& anchor, std::span<const double> inv_mass,
                                      bool barycentric, double rest_overlap, bool every) {
-  const Index nv = static_cast<Index>(separate_moved_.size());
-  auto given = [&](Index ci) { return separate_given_.empty() ? 0.0 : separate_given_[static_cast<size_t>(ci)]; };
-  std::atomic<Index> closed{0};
+  if (!every) {
+    // The contacts that overlapped in the last sweep, then those around the vertices it moved
+    // (each once, in this order: the result does not depend on it).
+    const Index nv = static_cast<Index>(separate_moved_.size());
+    if (!touch_built_) build_touch(nv);
+    for (const Index ci : overlapping_) listed_[static_cast<size_t>(ci)] = 1;
+    for (Index v = 0; v < nv; ++v) {
+      if (!separate_moved_[v]) continue;
+      for (Index q = touch_start_[v]; q < touch_start_[v + 1]; ++q)
+        if (!listed_[static_cast<size_t>(touch_[q])])
+          listed_[static_cast<size_t>(touch_[q])] = 1, overlapping_.push_back(touch_[q]);
+    }
+  }
+  const Index n = every ? static_cast<Index>(contacts_.size()) : static_cast<Index>(overlapping_.size());
   parallel_for(
-      static_cast<Index>(contacts_.size()),
+      n,
       [&](Index b, Index e) {
-        Index local = 0;
-        for (Index ci = b; ci < e; ++ci) {
-          const ContactPair& c = contacts_[ci];
-          double& excess = separate_dl_[static_cast<size_t>(ci)];
-          if (!every && excess == 0.0) {
-            bool moved = false;
-            for (int k = 0; k < c.size() && !moved; ++k) moved = c.v[k] < nv && separate_moved_[c.v[k]] != 0;
-            if (!moved) continue;  // E unchanged: still 0
-          }
-          excess = 0.0;
-          if (c.neighbours) continue;
-          double a[2] = {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
-          bool moves = false;
-          Vec3 at = Vec3::Zero();
-          for (int k = 0; k < c.size(); ++k) {
-            a[k < c.side_a() ? 0 : 1] = std::max(a[k < c.side_a() ? 0 : 1], approach(c, k, x, anchor));
-            moves = moves || inv_mass[c.v[k]] > 0.0;
-            at += c.w[k] * (x[c.v[k]] - anchor[c.v[k]]);
-          }
-          // Barycentric sweeps: the closest points' approach; then every vertex's. The first
-          // `rest_overlap` of it is resting contact, left to the planes; overlaps below 1e-9 of
-          // the offset are rounding, left to them too.
-          const double e_c =
-              (barycentric ? -(c.distance - c.offset + c.n.dot(at)) : a[0] + a[1] - (c.distance - c.offset)) -
-              given(ci) - rest_overlap;
-          if (!moves || !(e_c > 1e-9 * c.offset)) continue;
-          excess = e_c;
-          ++local;
+        for (Index i = b; i < e; ++i) {
+          const Index ci = every ? i : overlapping_[i];
+          separate_dl_[static_cast<size_t>(ci)] = overlap(ci, x, anchor, inv_mass, barycentric, rest_overlap);
         }
-        closed += local;
       },
       2048);
-  return closed.load();
+  // The new overlapping list, in contact order for a full sweep, in list order otherwise.
+  std::vector<Index> next;
+  next.reserve(overlapping_.size());
+  for (Index i = 0; i < n; ++i) {
+    const Index ci = every ? i : overlapping_[i];
+    if (!every) listed_[static_cast<size_t>(ci)] = 0;
+    if (separate_dl_[static_cast<size_t>(ci)] != 0.0) next.push_back(ci);
+  }
+  overlapping_.swap(next);
+  return static_cast<Index>(overlapping_.size());
 }
 
 void ContactResponse::count_overlaps(Index nv, std::span<const double> inv_mass) {
@@ -552,6 +587,8 @@ Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span
   separate_dl_.resize(static_cast<size_t>(n));
   separate_count_.resize(static_cast<size_t>(nv));
   separate_moved_.assign(static_cast<size_t>(nv), 0);
+  touch_built_ = false;
+  overlapping_.clear();
   corr_.resize(static_cast<size_t>(n) * 4);
   // Per contact: how far a side that answers in its own solve (w_o > 0, not moved here) has given
   // way so far, so that later sweeps leave it its share instead of handing it to the other side.

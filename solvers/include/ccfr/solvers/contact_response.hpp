@@ -115,9 +115,13 @@ class ContactResponse {
                       std::span<const Index> row_start, std::span<const Index> slots,
                       std::span<const double> movable = {});
   // The phases of one sweep of separate().
-  /// Sets separate_dl_ to each contact's overlap E (0: none); returns how many overlap. Unless
-  /// `every` is set, a contact that did not overlap in the last sweep and none of whose vertices
-  /// moved since (separate_moved_) keeps its 0: its E is a function of those positions alone.
+  /// Overlap E of contact `ci` at x (0: none).
+  double overlap(Index ci, const Positions& x, const Positions& anchor, std::span<const double> inv_mass,
+                 bool barycentric, double rest_overlap) const;
+  /// Sets separate_dl_ to each contact's overlap E (0: none) and overlapping_ to those with E > 0;
+  /// returns how many. Unless `every` is set, only the contacts that overlapped in the last sweep
+  /// and those around the vertices it moved (separate_moved_) are measured: every other contact's
+  /// E is a function of unchanged positions, still 0.
   Index mark_overlaps(const Positions& x, const Positions& anchor, std::span<const double> inv_mass, bool barycentric,
                       double rest_overlap, bool every);
   /// separate_count_: each movable vertex's overlapping contacts.
@@ -139,8 +143,14 @@ class ContactResponse {
   std::vector<double> separate_dl_;           ///< per contact, in separate(): Δλ of the sweep (0: inactive)
   std::vector<Index> separate_count_;         ///< per vertex, in separate(): active contacts of the sweep
   std::vector<std::uint8_t> separate_moved_;  ///< per vertex, in separate(): moved in the last sweep
-  std::vector<double> separate_given_;        ///< per contact, in separate(): a self-answering side's give so far
-  bool prepared_repulsion_ = false;           ///< the last prepare() computed weights and buffers
+  /// touch_start_/touch_ and listed_ for separate()'s contacts, built at its first partial sweep.
+  void build_touch(Index nv);
+  std::vector<Index> touch_start_, touch_;  ///< in separate(): CSR vertex -> every contact touching it
+  bool touch_built_ = false;                ///< touch_ holds this separate() call's contacts
+  std::vector<Index> overlapping_;          ///< in separate(): the contacts with E > 0 this sweep
+  std::vector<std::uint8_t> listed_;        ///< per contact, in mark_overlaps(): already listed
+  std::vector<double> separate_given_;      ///< per contact, in separate(): a self-answering side's give so far
+  bool prepared_repulsion_ = false;         ///< the last prepare() computed weights and buffers
   Index active_ = 0;
 };
 
