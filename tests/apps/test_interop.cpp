@@ -168,8 +168,8 @@ TEST_F(Interop, UsdaHoldsTopologyOnceAndPointsPerTimeCode) {
 // tests/interop/node_modules from scripts/install-deps) through node (docs/interop.md, USD).
 TEST_F(Interop, TinyUsdzReadsEveryTimeSampleAsWritten) {
   const fs::path modules = fs::path(CCFR_SOURCE_DIR) / "tests" / "interop" / "node_modules";
-  if (!has_program("node") || !fs::exists(modules / "tinyusdz" / "tinyusdz.wasm"))
-    GTEST_SKIP() << "node or tests/interop/node_modules/tinyusdz missing (scripts/install-deps installs them)";
+  if (!has_program("node") || !has_program("timeout") || !fs::exists(modules / "tinyusdz" / "tinyusdz.wasm"))
+    GTEST_SKIP() << "node, timeout or tests/interop/node_modules/tinyusdz missing (scripts/install-deps installs them)";
   // node is bounded: one CI run saw it hang for the test's whole 600 s (30 runs here took 0.6 s
   // each, under ASan too); a check that runs out (exit 124) is run once more.
   const std::string check = "timeout -k 10 120 node " + std::string(CCFR_SOURCE_DIR) + "/tests/interop/check_usda.mjs ";

@@ -152,7 +152,7 @@ TEST(ExactManyPlanes, EmptyRegionIsReported) {
 // A sheet vertex squeezed between two closing plates (configs/stress/squeeze_one.yaml, frame 23,
 // margin ε ξ): 28 planes on which the dual active-set method proves nothing, so Hildreth's sweeps
 // run. The region is empty; Hildreth's worst violation then repeats every sweep, and it stops at
-// its first stalled block (the stress run took 25 s of its 26 in 20000-sweep calls like this one).
+// its second block (the stress run took 25 s of its 26 in 20000-sweep calls like this one).
 TEST(ExactManyPlanes, SqueezedSheetVertexFallsThroughToHildrethAndIsEmpty) {
   const double raw[][4] = {
       {-0x1.6a0720b342dcp-1, -0x1.02f5be4c3b003p-11, 0x1.6a0ca64d6aab8p-1, 0x1.8f6acbe2a113bp-9},

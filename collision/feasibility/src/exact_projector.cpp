@@ -40,7 +40,8 @@ bool certified(const Vec3& p, std::span<const HalfSpace> planes, double margin, 
 /// projection for a non-empty region; only used when no active set certifies.
 ///
 /// It stops when the worst violation has shrunk to tol/1000, after kHildrethSweeps sweeps, or at a
-/// stall: a block of kHildrethBlock sweeps that shrank it by less than 0.1%. On an empty region the
+/// stall: the least worst violation of a block of kHildrethBlock sweeps is within 0.1 % of the
+/// previous block's (a block's best, since single sweeps are not monotone). On an empty region the
 /// sweeps settle into a cycle whose worst violation repeats exactly, so a squeezed vertex pays two
 /// blocks, not 20000 sweeps (no call on configs/ and configs/stress/ ever converged here: each one
 /// was such a region). Safe either way: a point is returned only if every plane holds to -tol.
@@ -50,7 +51,8 @@ ExactProjection hildreth(const Vec3& q, std::span<const HalfSpace> planes, doubl
   SmallBuffer<double> lambda(planes.size());
   std::fill(lambda.begin(), lambda.end(), 0.0);
   Vec3 p = q;
-  double block_start_worst = 0.0;  // worst violation (<= 0) of the sweep that began the block
+  // Per block: the largest (least violated) sweep's worst violation, <= 0; the previous block's.
+  double block_best = -std::numeric_limits<double>::infinity(), last_best = block_best;
   for (int sweep = 0; sweep < kHildrethSweeps; ++sweep) {
     double worst = 0.0;
     for (std::size_t k = 0; k < planes.size(); ++k) {
@@ -64,9 +66,11 @@ ExactProjection hildreth(const Vec3& q, std::span<const HalfSpace> planes, doubl
       p += delta * h.n;
     }
     if (worst >= -tol * 1e-3) break;
-    if (sweep % kHildrethBlock == 0) {
-      if (sweep > 0 && worst <= kHildrethStall * block_start_worst) break;
-      block_start_worst = worst;
+    block_best = std::max(block_best, worst);
+    if ((sweep + 1) % kHildrethBlock == 0) {
+      if (block_best <= kHildrethStall * last_best) break;
+      last_best = block_best;
+      block_best = -std::numeric_limits<double>::infinity();
     }
   }
   ExactProjection out;

@@ -121,7 +121,8 @@ class ContactResponse {
   /// Sets separate_dl_ to each contact's overlap E (0: none) and overlapping_ to those with E > 0;
   /// returns how many. Unless `every` is set, only the contacts that overlapped in the last sweep
   /// and those around the vertices it moved (separate_moved_) are measured: every other contact's
-  /// E is a function of unchanged positions, still 0.
+  /// E is a function of unchanged positions, still 0 (this relies on pull_back writing
+  /// separate_given_ only for overlapping contacts).
   Index mark_overlaps(const Positions& x, const Positions& anchor, std::span<const double> inv_mass, bool barycentric,
                       double rest_overlap, bool every);
   /// separate_count_: each movable vertex's overlapping contacts.
