@@ -19,6 +19,8 @@ namespace ccfr {
 
 struct CollisionDetector::Stages {
   detail::InitialPairs initial;
+  detail::InitialPairs::Mark initial_mark;
+  bool marked = false;
   detail::SubPairList list;
   detail::AssemblyBuffers assembly;
 };
@@ -70,6 +72,15 @@ double CollisionDetector::pair_offset(ContactKind kind, Index a, Index b) const 
 }
 void CollisionDetector::restore_reduced_offsets(std::span<const double> offsets) {
   stages_->initial.restore(offsets, params_.offset);
+  stages_->marked = false;
+}
+
+void CollisionDetector::mark_reduced_offsets() {
+  stages_->initial.mark(stages_->initial_mark);
+  stages_->marked = true;
+}
+void CollisionDetector::roll_back_reduced_offsets() {
+  if (stages_->marked) stages_->initial.roll_back(stages_->initial_mark);
 }
 
 void CollisionDetector::set_reuse_skin(double skin) { stages_->list.set_skin(skin); }

@@ -60,6 +60,19 @@ void InitialPairs::raise(const Topology& topo, const Positions& x, double xi) {
                active.end());
 }
 
+void InitialPairs::mark(Mark& m) const {
+  m.active = active;
+  m.offset.resize(active.size());
+  for (size_t i = 0; i < active.size(); ++i) m.offset[i] = reduced_offset[static_cast<size_t>(active[i])];
+}
+
+void InitialPairs::roll_back(const Mark& m) {
+  // raise() changes only active slots and removes slots from the list, never adds: the slots
+  // outside the mark's list held their values since.
+  for (size_t i = 0; i < m.active.size(); ++i) reduced_offset[static_cast<size_t>(m.active[i])] = m.offset[i];
+  active = m.active;
+}
+
 void InitialPairs::restore(std::span<const double> offsets, double xi) {
   if (offsets.size() != reduced_offset.size())
     throw Error("collision state: " + std::to_string(offsets.size()) + " reduced offsets given, this scene has " +

@@ -81,6 +81,18 @@ struct InitialPairs {
   /// Restores offsets saved from a run on the same initial configuration (checkpoints); throws
   /// ccfr::Error on another count, a non-finite value, or one outside [initial value, ξ].
   void restore(std::span<const double> offsets, double xi);
+
+  /// What raise() can change from here on: the active slots and their offsets (few, once the
+  /// run's first contacts have parted).
+  struct Mark {
+    std::vector<Index> active;
+    std::vector<double> offset;  ///< per entry of `active`
+  };
+  /// Records the mark (an attempt at a substep that may be solved again from its start).
+  void mark(Mark& m) const;
+  /// Puts the offsets and the active list back where mark() found them: the raises of an
+  /// abandoned attempt, made at positions the run never reached, are undone.
+  void roll_back(const Mark& m);
 };
 
 /// Runs the broad phase at `initial` (pairs between obstacle primitives left out, the candidates

@@ -48,6 +48,14 @@ void DetectingSolver::restore_state(std::span<const double> state) {
   detector_->restore_reduced_offsets(state);
 }
 
+void DetectingSolver::mark_substep() {
+  if (detector_) detector_->mark_reduced_offsets();
+}
+
+void DetectingSolver::rewind_substep() {
+  if (detector_) detector_->roll_back_reduced_offsets();
+}
+
 DetectResult DetectingSolver::detect(const Positions& anchor, const SimState& state, StepContext& ctx) {
   if (ctx.frame != rebuild_frame_) {
     rebuild_frame_ = ctx.frame;

@@ -512,6 +512,7 @@ Simulation::PassesEnd Simulation::run_passes(FrameStats& fs, int substep_index, 
                                              StepContext& ctx) {
   auto& st = scene_.state;
   const auto& tp = scene_.params.time;
+  contact_->rewind_substep();  // each solve of a substep starts from the contact state at its start
   anchor_ = st.x;
   const bool local = reset_continuation_marks();
   bool next_local = false, uniform_next = false;
@@ -593,6 +594,7 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt, int halvi
   // scripted pusher and a movable one ahead, whose region the paper's fixed dividing plane (half
   // the gap each) leaves empty, and a face of the pusher passes over it. Splitting by the motion
   // passes the push on to the one ahead. Substeps that end clean are untouched.
+  contact_->mark_substep();
   PassesEnd end = run_passes(fs, substep_index, t1, kin_moves, ctx);
   if (end.remaining > 0 && contact_->guarantees_separation() && !ctx.momentum) {
     ctx.momentum = true;
@@ -611,6 +613,7 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt, int halvi
   if (end.remaining > 0 && halvings < kSqueezeHalvings && stops_on_violation()) {
     ++fs.substeps_halved;
     --fs.substeps_run;  // the halves count, not the solve they replace
+    contact_->rewind_substep();
     substep(fs, substep_index, 0.5 * dt, halvings + 1);
     substep(fs, substep_index, 0.5 * dt, halvings + 1);
     return;

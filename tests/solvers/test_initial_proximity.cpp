@@ -125,3 +125,55 @@ TEST(InitialProximity, ReducedOffsetsRiseWithTheDistanceAndNeverFall) {
   }
   EXPECT_EQ(det.num_reduced_active(), 0) << "every pair reached ξ and left the active list";
 }
+
+TEST(InitialProximity, ASubstepSolvedAgainStartsFromTheOffsetsItsFirstSolveFound) {
+  // Simulation::substep solves a substep again from its start when its passes end inside
+  // offsets. The first solve's detections raised reduced offsets at positions the run never
+  // reached; rolled back, the second solve raises them from the substep's start again. Before,
+  // the raises were kept: 0.9 * 6 mm below instead of 0.9 * 4.5 mm.
+  test::ExpectWarnings expect;
+  const Scene s = cloth_over_floor(0.003, "ccfr");
+  CollisionDetector det(s.topo, s.state.x, {0.005, kXi, 0.0}, make_broad_phase("bvh"));
+  const std::vector<double> initial = det.reduced_offsets();
+  const Index active = det.num_reduced_active();
+  ASSERT_GT(active, 0);
+  RegionSet regions;
+  std::vector<ContactPair> contacts;
+  DetectionStats stats;
+  std::vector<double> w(s.state.inv_mass.begin(), s.state.inv_mass.end());
+  Positions x = s.state.x;
+  const Index b = s.topo.objects[1].vertex_begin, e = s.topo.objects[1].vertex_end;
+  auto detect_at = [&](double height) {
+    for (Index u = b; u < e; ++u) x[u].y() = height;
+    det.detect(x, w, regions, contacts, stats);
+  };
+  det.roll_back_reduced_offsets();  // before any mark: nothing to undo
+  EXPECT_EQ(det.reduced_offsets(), initial);
+  detect_at(0.004);  // a substep ends with the cloth 4 mm up
+  const std::vector<double> at_start = det.reduced_offsets();
+  det.mark_reduced_offsets();
+  detect_at(0.006);  // the next substep's first solve lifts it to 6 mm ...
+  detect_at(0.02);   // ... and beyond ξ: every offset rises to ξ and leaves the active list
+  EXPECT_EQ(det.num_reduced_active(), 0);
+  det.roll_back_reduced_offsets();  // ... and is abandoned
+  EXPECT_EQ(det.reduced_offsets(), at_start);
+  EXPECT_EQ(det.num_reduced_active(), active);
+  detect_at(0.0045);  // the second solve ends 4.5 mm up
+  const std::vector<double>& now = det.reduced_offsets();
+  ASSERT_EQ(now.size(), initial.size());
+  Index raised = 0;
+  for (size_t i = 0; i < now.size(); ++i) {
+    // Every sub-pair of this scene joins a cloth primitive to a floor primitive in parallel
+    // horizontal planes: its distance at height h is sqrt(h² + L²), L its distance across, and
+    // d0 = initial / 0.9 at 3 mm. The offset is 0.9 of its distance at the highest the run
+    // reached (4.5 mm), capped at ξ, never that of the abandoned 6 and 20 mm.
+    const double d0 = initial[i] / 0.9, across_sq = d0 * d0 - 0.003 * 0.003;
+    EXPECT_NEAR(now[i], std::min(kXi, 0.9 * std::sqrt(0.0045 * 0.0045 + across_sq)), 1e-12) << i;
+    raised += now[i] > at_start[i];
+  }
+  EXPECT_GT(raised, 0) << "no offset rose from 4 to 4.5 mm: the test no longer tests the roll back";
+  // A checkpoint's restore forgets the mark: a later roll back cannot go behind it.
+  det.restore_reduced_offsets(now);
+  det.roll_back_reduced_offsets();
+  EXPECT_EQ(det.reduced_offsets(), now);
+}

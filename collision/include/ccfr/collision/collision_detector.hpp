@@ -271,6 +271,11 @@ class CollisionDetector {
   /// Throws ccfr::Error when they cannot be: another count, a non-finite value, or an offset below
   /// its initial value or above ξ (offsets are only ever raised, up to ξ).
   void restore_reduced_offsets(std::span<const double> offsets);
+  /// Remembers the reduced offsets as they are now (O(offsets still below ξ)) ...
+  void mark_reduced_offsets();
+  /// ... and puts them back: a substep solved again from its start must not keep the raises its
+  /// abandoned solve made at positions the run never reached. No-op before any mark.
+  void roll_back_reduced_offsets();
 
   /// Whether detect() also records, for every half-space it writes, the contact slot it came
   /// from (off by default; the contact response turns it on to skip indexing the contacts again).

@@ -151,6 +151,11 @@ class ContactSolver {
   virtual std::vector<double> save_state() const { return {}; }
   /// Restores save_state(); throws ccfr::Error when `state` cannot be this solver's on this scene.
   virtual void restore_state(std::span<const double> state);
+  /// A substep's solve starts: remember the state save_state() would return (cheaply) ...
+  virtual void mark_substep() {}
+  /// ... and go back to it: the substep is solved again from its start, and what the abandoned
+  /// solve changed (raised offsets, at positions the run never reached) must not carry over.
+  virtual void rewind_substep() {}
 };
 
 /// The registry of contact solvers: ccfr, exact_projection, successive_projection, post_process,

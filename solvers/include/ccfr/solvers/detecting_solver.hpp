@@ -40,6 +40,8 @@ class DetectingSolver : public ContactSolver {
   /// The detector's reduced offsets (initial proximity), the only state kept between substeps.
   std::vector<double> save_state() const override;
   void restore_state(std::span<const double> state) override;
+  void mark_substep() override;
+  void rewind_substep() override;
   void vertex_diagnostics(std::vector<std::int32_t>& half_spaces, std::vector<double>& distance,
                           std::vector<std::uint8_t>& halted) const override;
 
