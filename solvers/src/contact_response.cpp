@@ -492,7 +492,7 @@ Index ContactResponse::mark_overlaps(const Positions& x, const Positions& anchor
     const Index nv = static_cast<Index>(separate_moved_.size());
     if (!touch_built_) build_touch(nv);
     for (const Index ci : overlapping_) listed_[static_cast<size_t>(ci)] = 1;
-    for (Index v = 0; v < nv; ++v) {
+    for (const Index v : touched_) {  // the last sweep's: every vertex it moved is among them
       if (!separate_moved_[v]) continue;
       for (Index q = touch_start_[v]; q < touch_start_[v + 1]; ++q)
         if (!listed_[static_cast<size_t>(touch_[q])])
@@ -522,10 +522,21 @@ Index ContactResponse::mark_overlaps(const Positions& x, const Positions& anchor
 }
 
 void ContactResponse::count_overlaps(Index nv, std::span<const double> inv_mass) {
+  touched_.clear();
+  for (const Index ci : overlapping_) {
+    const ContactPair& c = contacts_[ci];
+    for (int k = 0; k < c.size(); ++k) {
+      const Index v = c.v[k];
+      if (v < nv && !touched_mark_[v]) touched_mark_[v] = 1, touched_.push_back(v);
+    }
+  }
+  std::sort(touched_.begin(), touched_.end());
+  for (const Index v : touched_) touched_mark_[v] = 0;
   parallel_for(
-      nv,
+      static_cast<Index>(touched_.size()),
       [&](Index b, Index e) {
-        for (Index v = b; v < e; ++v) {
+        for (Index i = b; i < e; ++i) {
+          const Index v = touched_[i];
           Index cnt = 0;
           if (inv_mass[v] > 0.0)
             for (Index q = row_start_[v]; q < row_start_[v + 1]; ++q) cnt += separate_dl_[slots_[q] / 4] != 0.0;
@@ -538,16 +549,15 @@ void ContactResponse::count_overlaps(Index nv, std::span<const double> inv_mass)
 void ContactResponse::pull_back(const Positions& x, const Positions& anchor, std::span<const double> inv_mass, Index nv,
                                 bool barycentric, std::span<const double> other_inverse_mass) {
   parallel_for(
-      static_cast<Index>(contacts_.size()),
+      static_cast<Index>(overlapping_.size()),
       [&](Index b, Index e) {
-        for (Index ci = b; ci < e; ++ci) {
-          const double excess = separate_dl_[static_cast<size_t>(ci)];
-          if (excess == 0.0) continue;
+        for (Index i = b; i < e; ++i) {
+          const Index ci = overlapping_[i];
           PullBack p;
           p.inv_mass = inv_mass;
           p.count = separate_count_;
           p.nv = nv;
-          p.excess = excess;
+          p.excess = separate_dl_[static_cast<size_t>(ci)];
           p.w_o = other_inverse_mass.empty() ? 0.0 : other_inverse_mass[static_cast<size_t>(ci)];
           p.corr = &corr_[static_cast<size_t>(ci) * 4];
           p.given = separate_given_.empty() ? nullptr : &separate_given_[static_cast<size_t>(ci)];
@@ -560,11 +570,12 @@ void ContactResponse::pull_back(const Positions& x, const Positions& anchor, std
       2048);
 }
 
-void ContactResponse::move_by_mean(Positions& x, std::span<const double> inv_mass, Index nv) {
+void ContactResponse::move_by_mean(Positions& x, std::span<const double> inv_mass) {
   parallel_for(
-      nv,
+      static_cast<Index>(touched_.size()),
       [&](Index b, Index e) {
-        for (Index v = b; v < e; ++v) {
+        for (Index i = b; i < e; ++i) {
+          const Index v = touched_[i];
           separate_moved_[v] = 0;
           if (!(inv_mass[v] > 0.0) || separate_count_[v] == 0) continue;
           Vec3 sum = Vec3::Zero();
@@ -587,8 +598,10 @@ Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span
   separate_dl_.resize(static_cast<size_t>(n));
   separate_count_.resize(static_cast<size_t>(nv));
   separate_moved_.assign(static_cast<size_t>(nv), 0);
+  touched_mark_.assign(static_cast<size_t>(nv), 0);
   touch_built_ = false;
   overlapping_.clear();
+  touched_.clear();
   corr_.resize(static_cast<size_t>(n) * 4);
   // Per contact: how far a side that answers in its own solve (w_o > 0, not moved here) has given
   // way so far, so that later sweeps leave it its share instead of handing it to the other side.
@@ -613,7 +626,7 @@ Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span
     pull_back(x, anchor, inv_mass, nv, barycentric, other_inverse_mass);
     // Each vertex moves by the mean of its contacts' pull-backs: with split masses every contact
     // is balanced, so Σ_k (m_k / n_k) Σ_c Δx_k^c = 0 stays after the mean.
-    move_by_mean(x, inv_mass, nv);
+    move_by_mean(x, inv_mass);
   }
   return most;
 }

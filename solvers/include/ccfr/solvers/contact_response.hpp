@@ -125,14 +125,16 @@ class ContactResponse {
   /// separate_given_ only for overlapping contacts).
   Index mark_overlaps(const Positions& x, const Positions& anchor, std::span<const double> inv_mass, bool barycentric,
                       double rest_overlap, bool every);
-  /// separate_count_: each movable vertex's overlapping contacts.
+  /// touched_: the vertices (below nv) of the overlapping contacts, ascending; separate_count_:
+  /// each one's overlapping contacts (0 for an immovable one). Other vertices' counts are stale
+  /// and never read: a vertex with an overlapping contact is in it.
   void count_overlaps(Index nv, std::span<const double> inv_mass);
   /// corr_: every overlapping contact's pull-back of its vertices.
   void pull_back(const Positions& x, const Positions& anchor, std::span<const double> inv_mass, Index nv,
                  bool barycentric, std::span<const double> other_inverse_mass);
-  /// Moves each vertex by the mean of its overlapping contacts' pull-backs; separate_moved_ marks
-  /// the vertices that moved.
-  void move_by_mean(Positions& x, std::span<const double> inv_mass, Index nv);
+  /// Moves each touched vertex by the mean of its overlapping contacts' pull-backs;
+  /// separate_moved_ marks the vertices that moved (all of them touched).
+  void move_by_mean(Positions& x, std::span<const double> inv_mass);
 
   std::span<const ContactPair> contacts_;
   std::vector<double> visibility_;
@@ -149,6 +151,8 @@ class ContactResponse {
   std::vector<Index> touch_start_, touch_;  ///< in separate(): CSR vertex -> every contact touching it
   bool touch_built_ = false;                ///< touch_ holds this separate() call's contacts
   std::vector<Index> overlapping_;          ///< in separate(): the contacts with E > 0 this sweep
+  std::vector<Index> touched_;              ///< in separate(): the overlapping contacts' vertices
+  std::vector<std::uint8_t> touched_mark_;  ///< per vertex, in count_overlaps(): already in touched_
   std::vector<std::uint8_t> listed_;        ///< per contact, in mark_overlaps(): already listed
   std::vector<double> separate_given_;      ///< per contact, in separate(): a self-answering side's give so far
   bool prepared_repulsion_ = false;         ///< the last prepare() computed weights and buffers
