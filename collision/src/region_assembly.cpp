@@ -8,6 +8,7 @@
 #include <string>
 
 #include "ccfr/core/block_cursors.hpp"
+#include "ccfr/core/buffers.hpp"
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/geometry/distance.hpp"
@@ -240,12 +241,12 @@ void assemble_regions(Index nv, const Positions& x, std::span<const double> inv_
   const Index chunks = static_cast<Index>(buffers.size());
   std::vector<size_t> start(static_cast<size_t>(chunks) + 1, 0);
   for (Index c = 0; c < chunks; ++c) start[c + 1] = start[c] + buffers[c].size();
-  contacts.resize(start.back());
+  resize_for_overwrite(contacts, start.back());  // every contact and record is written below
   regions.row_start.assign(static_cast<size_t>(nv) + 1, 0);
   if (start.back() > std::numeric_limits<std::uint32_t>::max() / 2)
     throw Error("CollisionDetector::detect: " + std::to_string(start.back()) +
                 " contacts exceed the region's 32-bit plane references");
-  regions.records.resize(start.back());  // every record is written below
+  resize_for_overwrite(regions.records, start.back());
   if (contacts.empty()) {
     regions.refs.clear();
     work.plane_sources.clear();
@@ -257,9 +258,9 @@ void assemble_regions(Index nv, const Positions& x, std::span<const double> inv_
   work.block_cursor.resize(static_cast<size_t>(blocks) * nv);
   count_planes(nv, inv_mass, buffers, blocks, work.block_cursor);
   counts_to_block_cursors(nv, blocks, work.block_cursor, regions.row_start);
-  regions.refs.resize(static_cast<size_t>(regions.row_start.back()));
   // Every entry is written below: resizing without clearing first skips zero-filling them.
-  work.plane_sources.resize(work.record_sources ? regions.refs.size() : 0);
+  resize_for_overwrite(regions.refs, static_cast<size_t>(regions.row_start.back()));
+  resize_for_overwrite(work.plane_sources, work.record_sources ? regions.refs.size() : 0);
   write_planes(nv, x, inv_mass, kinematic_step, buffers, start, blocks, work, contacts, regions);
 }
 

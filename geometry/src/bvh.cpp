@@ -6,6 +6,7 @@
 #include <limits>
 #include <string>
 
+#include "ccfr/core/buffers.hpp"
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/parallel.hpp"
 
@@ -167,7 +168,6 @@ void Bvh::self_pairs(std::vector<std::pair<Index, Index>>& out) const { self_pai
 
 void Bvh::self_pairs(std::vector<std::pair<Index, Index>>& out, std::span<const std::uint8_t> fixed,
                      std::span<const std::uint32_t> groups) const {
-  out.clear();
   if (!fixed.empty() && static_cast<Index>(fixed.size()) != num_boxes_)
     throw Error("Bvh::self_pairs: " + std::to_string(fixed.size()) + " fixed flags, the tree holds " +
                 std::to_string(num_boxes_) + " boxes");
@@ -175,7 +175,10 @@ void Bvh::self_pairs(std::vector<std::pair<Index, Index>>& out, std::span<const 
     throw Error("Bvh::self_pairs: " + std::to_string(groups.size()) + " group ids, the tree holds " +
                 std::to_string(num_boxes_) + " boxes");
   const Index num_leaves = static_cast<Index>(leaves_.size());
-  if (num_leaves == 0) return;
+  if (num_leaves == 0) {
+    out.clear();
+    return;
+  }
   const Index num_nodes = static_cast<Index>(nodes_.size());
   PairFilter filter;
   // Kept between calls: fresh blocks of this size every pass were faulted in again each time.
@@ -231,7 +234,7 @@ void Bvh::self_pairs(std::vector<std::pair<Index, Index>>& out, std::span<const 
   });
   std::vector<size_t> offset(parts.size() + 1, 0);
   for (size_t c = 0; c < parts.size(); ++c) offset[c + 1] = offset[c] + parts[c].size();
-  out.resize(offset.back());
+  resize_for_overwrite(out, offset.back());  // every pair is copied in below
   parallel_chunks(chunks, chunks, [&](Index c, Index, Index) {
     std::copy(parts[c].begin(), parts[c].end(), out.begin() + static_cast<std::ptrdiff_t>(offset[c]));
   });

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "ccfr/core/block_cursors.hpp"
+#include "ccfr/core/buffers.hpp"
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/parallel.hpp"
 
@@ -120,7 +121,7 @@ void visibility_weights(std::span<const ContactPair> contacts, std::span<const I
                         std::span<const Index> slots, double width, std::vector<double>& vis, VisibilityWorkspace& ws,
                         std::span<const double> movable) {
   const Index n = static_cast<Index>(contacts.size());
-  vis.assign(static_cast<size_t>(n), 1.0);
+  fill_parallel(vis, n, 1.0);
   if (width <= 0.0 || n == 0) return;
   if (row_start.empty() || static_cast<size_t>(row_start.back()) != slots.size())
     throw Error("visibility_weights: the incidence has " + std::to_string(slots.size()) +
@@ -133,7 +134,7 @@ void visibility_weights(std::span<const ContactPair> contacts, std::span<const I
   // its group, read without the three passes over the 96-byte records the grouping needs.
   std::atomic<Index> grouped{0};  // contacts in the listed groups: each is in one at most
   std::vector<std::uint8_t>& in_group = ws.grouped;
-  in_group.assign(static_cast<size_t>(n), 0);
+  fill_parallel(in_group, n, std::uint8_t{0});
   parallel_for(
       nv,
       [&](Index vb, Index ve) {
@@ -197,7 +198,7 @@ void ContactResponse::prepare_common(std::span<const ContactPair> contacts, cons
     visibility_weights(contacts, row_start, slots, width, visibility_, visibility_ws_, movable);
   // No zeroing: apply() writes every used slot of an active contact, and its gather reads only
   // the slots of active contacts.
-  corr_.resize(contacts.size() * 4);
+  resize_for_overwrite(corr_, contacts.size() * 4);
 }
 
 void ContactResponse::prepare(std::span<const ContactPair> contacts, Index num_vertices, const ContactParams& params) {

@@ -83,6 +83,22 @@ TEST(Bvh, RandomSoupMatchesBruteForce) {
   }
 }
 
+TEST(Bvh, OneOutputVectorServesQueriesOfEveryCount) {
+  // The output keeps its elements between queries (only a growth is initialised): a query with
+  // fewer pairs than the last, or none, must leave exactly its own pairs, and one past the
+  // vector's capacity exactly its own too.
+  auto g = test::rng(5);
+  Pairs p;
+  for (const auto& [n, size] : std::vector<std::pair<int, double>>{
+           {2000, 0.12}, {300, 0.05}, {0, 0.1}, {1, 0.1}, {2000, 0.03}, {3000, 0.15}, {50, 0.2}}) {
+    const auto boxes = random_soup(g, n, size);
+    Bvh bvh;
+    bvh.build(boxes, 4);
+    bvh.self_pairs(p);
+    EXPECT_EQ(sorted(p), brute_pairs(boxes)) << "n=" << n << " size=" << size;
+  }
+}
+
 TEST(Bvh, ClothGridMatchesBruteForceAfterRefit) {
   auto boxes = cloth_boxes(24, 0.0, 0.01);
   Bvh bvh;

@@ -20,7 +20,6 @@ void BvhBroadPhase::update(std::span<const AABB> boxes) {
 }
 
 void BvhBroadPhase::query_pairs(std::vector<IndexPair>& out) {
-  out.clear();
   check_fixed_count(static_cast<size_t>(bvh_.size()));
   bvh_.self_pairs(out, fixed_, groups_);
 }
