@@ -236,6 +236,7 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
   if (n == 0 || p.repulsion_range <= 0.0 ||
       std::none_of(inv_mass.begin(), inv_mass.end(), [](double w) { return w > 0.0; })) {
     active_ = 0;
+    impulse_.clear();
     return;
   }
   if (!prepared_repulsion_) throw Error("ContactResponse::apply: prepare() had no repulsion range, apply() has one");
@@ -287,8 +288,11 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
       1024);
   active_ = static_cast<Index>(std::count(is_active.begin(), is_active.end(), 1));
   // Gather: each vertex takes the average of its contacts' corrections.
+  const Index gathered = std::min(static_cast<Index>(x.size()), static_cast<Index>(row_start_.size()) - 1);
+  const bool reacts = !other_inverse_mass.empty();
+  if (reacts) gathered_.assign(static_cast<size_t>(gathered), 0);
   parallel_for(
-      std::min(static_cast<Index>(x.size()), static_cast<Index>(row_start_.size()) - 1),
+      gathered,
       [&](Index b, Index e) {
         for (Index v = b; v < e; ++v) {
           const Index s = row_start_[v], t = row_start_[v + 1];
@@ -301,9 +305,32 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
             if (d.squaredNorm() > 0.0) sum += d, ++cnt;
           }
           if (cnt) x[v] += sum / cnt;
+          if (reacts) gathered_[static_cast<size_t>(v)] = cnt;
         }
       },
       4096);
+  if (!reacts) {
+    impulse_.clear();
+    return;
+  }
+  impulse_.assign(static_cast<size_t>(n), Vec3::Zero());
+  parallel_for(
+      n,
+      [&](Index b, Index e) {
+        for (Index ci = b; ci < e; ++ci) {
+          if (!is_active[static_cast<size_t>(ci)] || !(other_inverse_mass[static_cast<size_t>(ci)] > 0.0)) continue;
+          const ContactPair& c = contacts_[ci];
+          Vec3 j = Vec3::Zero();
+          for (int k = 0; k < c.size(); ++k) {
+            const Index v = c.v[k];
+            if (!(inv_mass[v] > 0.0) || v >= gathered || gathered_[static_cast<size_t>(v)] == 0) continue;
+            const Vec3& d = corr_[static_cast<size_t>(ci) * 4 + k];
+            if (d.squaredNorm() > 0.0) j += d / (inv_mass[v] * gathered_[static_cast<size_t>(v)]);
+          }
+          impulse_[static_cast<size_t>(ci)] = j;
+        }
+      },
+      1024);
 }
 
 namespace {
@@ -593,6 +620,7 @@ void ContactResponse::move_by_mean(Positions& x, std::span<const double> inv_mas
 Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span<const double> inv_mass, int sweeps,
                                 double rest_overlap, std::span<const double> other_inverse_mass) {
   const Index n = static_cast<Index>(contacts_.size());
+  separate_given_.clear();  // given() is this call's
   if (n == 0 || sweeps <= 0) return 0;
   if (row_start_.empty()) throw Error("ContactResponse::separate: called before prepare()");
   const Index nv = std::min(static_cast<Index>(x.size()), static_cast<Index>(row_start_.size()) - 1);

@@ -220,6 +220,45 @@ Index held_followers(std::span<const ContactPair> contacts, std::span<const Held
   return count;
 }
 
+Index follow_resolved_sides(RegionSet& regions, std::span<const ContactPair> contacts, const Positions& anchor,
+                            const Positions& x, std::span<const double> later) {
+  if (regions.records.size() != contacts.size() || later.empty()) return 0;
+  std::atomic<Index> count{0};
+  parallel_for(
+      static_cast<Index>(contacts.size()),
+      [&](Index b, Index e) {
+        Index local = 0;
+        for (Index ci = b; ci < e; ++ci) {
+          const ContactPair& c = contacts[ci];
+          if (c.neighbours) continue;
+          RegionRecord& rec = regions.records[static_cast<size_t>(ci)];
+          const double gap = rec.d[0] + rec.d[1];
+          if (!(gap >= 0.0)) continue;
+          const int na = c.side_a(), nk = c.size();
+          int later_on[2] = {0, 0};
+          for (int k = 0; k < nk; ++k) later_on[k < na ? 0 : 1] += later[c.v[k]] > 0.0;
+          const int side_later = later_on[0] == na && later_on[1] == 0        ? 0
+                                 : later_on[1] == nk - na && later_on[0] == 0 ? 1
+                                                                              : -1;
+          if (side_later < 0) continue;
+          // The resolved side's largest approach toward the later one along n.
+          double approach = -std::numeric_limits<double>::infinity();
+          for (int k = side_later == 0 ? na : 0; k < (side_later == 0 ? nk : na); ++k) {
+            const double along = rec.n.dot(x[c.v[k]] - anchor[c.v[k]]);
+            approach = std::max(approach, side_later == 0 ? along : -along);
+          }
+          const double room = gap - approach;
+          if (!(room > rec.d[side_later])) continue;
+          rec.d[side_later] = room;
+          rec.d[1 - side_later] = gap - room;
+          ++local;
+        }
+        count += local;
+      },
+      2048);
+  return count.load();
+}
+
 namespace {
 /// Direction from side B's closest point to side A's at x (not normalised; zero where they meet).
 Vec3 closest_direction(const ContactPair& c, const Positions& x) {

@@ -58,7 +58,50 @@ void RegionProjectionSolver::respond(Positions& x, const Positions& anchor, cons
     other_inverse_mass_[ci] = frames[static_cast<size_t>(body)].inverse_mass_at(point, c.n);
   }
   response_.apply(x, state.x_prev, free_mask_, ctx.params.contact, ctx.dt, friction_override_, other_inverse_mass_);
-  if (ctx.momentum) response_.separate(x, anchor, free_mask_, kSeparateSweeps, rest_overlap(ctx), other_inverse_mass_);
+  reaction_shift_.assign(static_cast<size_t>(rigid_.size()), Vec3::Zero());
+  if (!ctx.momentum) return;
+  response_.separate(x, anchor, free_mask_, kSeparateSweeps, rest_overlap(ctx), other_inverse_mass_);
+  react_bodies(x, anchor);
+}
+
+void RegionProjectionSolver::react_bodies(Positions& x, const Positions& anchor) {
+  // Each contact's impulse J = given / w_o on the side it pushed away is, by the third law, an
+  // impulse -J on the body along the contact's line at its closest point: the body's centre
+  // moves by Σ J n / M and it turns by I⁻¹ Σ r × J n (the frame at the anchor, where w_o was
+  // taken). Summed, not the largest: a body's planes would stop it by the deepest contact alone.
+  const std::span<const double> given = response_.given();
+  const std::span<const Vec3> repelled = response_.impulse_on_movable();
+  if (given.size() != contacts_.size()) return;
+  const Index nb = rigid_.size();
+  std::vector<Vec3> push(static_cast<size_t>(nb), Vec3::Zero()), twist(static_cast<size_t>(nb), Vec3::Zero());
+  std::vector<RigidFrame> frames;
+  for (size_t ci = 0; ci < contacts_.size(); ++ci) {
+    const double w_o = other_inverse_mass_[ci];
+    if (!(w_o > 0.0) || (!(given[ci] > 0.0) && (repelled.empty() || repelled[ci] == Vec3::Zero()))) continue;
+    const ContactPair& c = contacts_[ci];
+    const int na = c.side_a();
+    bool moves_a = false;  // respond() gave w_o to contacts with exactly one side movable here
+    for (int k = 0; k < na; ++k) moves_a = moves_a || free_mask_[c.v[k]] > 0.0;
+    const bool body_on_a = !moves_a;
+    const int lo = body_on_a ? 0 : na, hi = body_on_a ? na : c.size();
+    const Index body = rigid_.body_of(c.v[lo]);
+    if (body < 0) continue;
+    if (frames.empty()) frames = rigid_.frames(anchor);
+    Vec3 point = Vec3::Zero();
+    for (int j = lo; j < hi; ++j) point += std::abs(c.w[j]) * anchor[c.v[j]];
+    // Side A gives way along +n, side B along -n.
+    Vec3 impulse = (given[ci] / w_o) * (body_on_a ? c.n : Vec3(-c.n));
+    if (!repelled.empty()) impulse -= repelled[ci];
+    push[static_cast<size_t>(body)] += impulse;
+    twist[static_cast<size_t>(body)] += (point - frames[static_cast<size_t>(body)].centre).cross(impulse);
+  }
+  if (frames.empty()) return;
+  std::vector<Vec3> turn(static_cast<size_t>(nb), Vec3::Zero());
+  for (size_t b = 0; b < static_cast<size_t>(nb); ++b) {
+    reaction_shift_[b] = frames[b].inv_mass * push[b];
+    turn[b] = frames[b].inv_inertia * twist[b];
+  }
+  rigid_.displace(x, reaction_shift_, turn);
 }
 
 RegionProjectionSolver::RegionProjectionSolver(std::string solver_name, std::string projector_name, ParamValues params)
@@ -102,97 +145,118 @@ SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& ancho
   r.projector_fallbacks = b.fallbacks;
   r.projector_rescues = b.rescued;
   std::tie(r.contact_vertices, r.contact_vertices_distinct) = mark_contact_vertices(ctx.frame, state.inv_mass);
-  if (!rigid_.empty()) {
-    // A halted body is put back at its anchor pose as a whole: its vertices that wanted to move
-    // and sit exactly at their anchors afterwards are the halted ones.
-    std::vector<std::uint8_t> wanted(x.size(), 0);
-    for (const auto& o : ctx.topo.objects)
-      if (o.kind == ObjectKind::rigid)
-        for (Index v = o.vertex_begin; v < o.vertex_end; ++v) wanted[v] = x[v] != anchor[v];
-    // The repulsion of a rigid vertex's plane acts on its pair's gap, which exceeds the plane's
-    // value by the other side's share (gap - d), and the pair's other side takes its part of the
-    // correction (its inverse masses): against a light cloth a heavy ball then barely moves, as
-    // the pair's XPBD repulsion has it, instead of bouncing off a stiff spring.
-    const auto sources = detector_->plane_sources();
-    const double delta = ctx.params.contact.repulsion_range;
-    // An unpinned rigid body on the other side answers with its generalized inverse mass at the
-    // closest point (its vertices' own masses would make it a light cloth). Its frame is taken at
-    // the anchor, where the regions were built.
-    const std::vector<RigidFrame> frames = rigid_.frames(anchor);
-    // The candidates as they are before enforce() overwrites the bodies' vertices (concurrently,
-    // while other bodies' solves ask for their planes' pairs).
-    candidates_.assign(x.begin(), x.end());
-    // Asked by the pose solve only for the planes that come within reach of acting (a pass over
-    // every plane of a pile's bodies cost a tenth of a landing frame).
-    auto plane_contact = [&](Index q) {
-      RigidPlaneContact pc;
-      pc.repel = delta;
-      if (sources.size() != regions_.total()) return pc;
-      const ContactPair& c = contacts_[static_cast<size_t>(sources[q] / 4)];
-      const int k = static_cast<int>(sources[q] % 4), na = c.side_a();
-      const int lo = k < na ? na : 0, hi = k < na ? c.size() : na;
-      Vec3 point = Vec3::Zero();
-      // The other side's closest point and its motion over the substep (x is every other
-      // body's candidate: a cloth's projected, an obstacle's scripted target, a rigid body's
-      // predicted position), for the friction on the relative slip.
-      for (int j = lo; j < hi; ++j) {
-        const Index u = c.v[j];
-        pc.other_w += c.w[j] * c.w[j] * state.inv_mass[u];
-        pc.other_motion += std::abs(c.w[j]) * (candidates_[u] - state.x_prev[u]);
-        point += std::abs(c.w[j]) * anchor[u];
-      }
-      const HalfSpace h = regions_.plane(q);
-      const Vec3 n = h.n;
-      pc.other_wt = pc.other_w;
-      pc.responds_w = pc.other_w;
-      const Index ob = rigid_.body_of(c.v[lo]);
-      if (ob >= 0 && frames[static_cast<size_t>(ob)].inv_mass > 0.0) {
-        const RigidFrame& f = frames[static_cast<size_t>(ob)];
-        pc.responds_w = 0.0;  // answered by its own pose solve
-        pc.other_w = f.inverse_mass_at(point, n);
-        // Against the tangential correction: the mean over the tangent plane's two axes.
-        const Vec3 t1 = n.unitOrthogonal(), t2 = n.cross(t1);
-        pc.other_wt = 0.5 * (f.inverse_mass_at(point, t1) + f.inverse_mass_at(point, t2));
-      }
-      const double gap = c.distance - c.offset;
-      pc.repel = delta - std::max(0.0, gap - h.d);
-      return pc;
-    };
-    auto plane_repel = [&](Index q) {
-      if (sources.size() != regions_.total()) return delta;
-      const ContactPair& c = contacts_[static_cast<size_t>(sources[q] / 4)];
-      return delta - std::max(0.0, c.distance - c.offset - regions_.plane(q).d);
-    };
-    RigidContactOptions options;
-    options.x_start = &state.x_prev;
-    options.repulsion_range = ctx.params.contact.repulsion_range;
-    options.repulsion_compliance = 1.0 / (ctx.params.contact.stiffness * ctx.dt * ctx.dt);
-    options.plane_contact = plane_contact;
-    options.plane_repel = plane_repel;
-    const RigidEnforceStats rs =
-        rigid_.enforce(x, anchor, regions_, ctx.params.contact.radius, ctx.params.time.advance_tolerance,
-                       rigid_.predicted_cores(state, ctx.dt, ctx.params.time.gravity), options);
-    r.violations_detected += rs.vertices_violated;
-    r.halted_vertices += rs.vertices_halted;
-    r.bounded_vertices += rs.bodies_bounded;
-    if (rs.bodies_halted > 0)
-      for (const auto& o : ctx.topo.objects) {
-        if (o.kind != ObjectKind::rigid) continue;
-        bool at_anchor = true, moved = false;
-        for (Index v = o.vertex_begin; v < o.vertex_end; ++v) {
-          at_anchor = at_anchor && x[v] == anchor[v];
-          moved = moved || wanted[v];
-        }
-        if (at_anchor && moved)
-          for (Index v = o.vertex_begin; v < o.vertex_end; ++v) halted_[v] = 1;
-      }
-  }
+  if (!rigid_.empty()) place_bodies(x, anchor, state, ctx, projected_mass, r);
   r.halted_vertices_distinct = static_cast<Index>(std::count(halted_.begin(), halted_.end(), std::uint8_t{1}));
   // A side held at its old plane while the other moved away: another pass, where the room vacated
   // at these positions is used.
   r.bounded_vertices +=
       held_followers(contacts_, held_splits_, anchor, x, kDeferredRoom * ctx.params.contact.radius, ctx.deferred);
   return r;
+}
+
+void RegionProjectionSolver::place_bodies(Positions& x, const Positions& anchor, const SimState& state,
+                                          StepContext& ctx, std::span<const double> projected_mass, SolveResult& r) {
+  // A halted body is put back at its anchor pose as a whole: its vertices that wanted to move
+  // and sit exactly at their anchors afterwards are the halted ones.
+  std::vector<std::uint8_t> wanted(x.size(), 0);
+  for (const auto& o : ctx.topo.objects)
+    if (o.kind == ObjectKind::rigid)
+      for (Index v = o.vertex_begin; v < o.vertex_end; ++v) wanted[v] = x[v] != anchor[v];
+  // The repulsion of a rigid vertex's plane acts on its pair's gap, which exceeds the plane's
+  // value by the other side's share (gap - d), and the pair's other side takes its part of the
+  // correction (its inverse masses): against a light cloth a heavy ball then barely moves, as
+  // the pair's XPBD repulsion has it, instead of bouncing off a stiff spring.
+  const auto sources = detector_->plane_sources();
+  const double delta = ctx.params.contact.repulsion_range;
+  // An unpinned rigid body on the other side answers with its generalized inverse mass at the
+  // closest point (its vertices' own masses would make it a light cloth). Its frame is taken at
+  // the anchor, where the regions were built.
+  const std::vector<RigidFrame> frames = rigid_.frames(anchor);
+  // The candidates as they are before enforce() overwrites the bodies' vertices (concurrently,
+  // while other bodies' solves ask for their planes' pairs).
+  candidates_.assign(x.begin(), x.end());
+  // Asked by the pose solve only for the planes that come within reach of acting (a pass over
+  // every plane of a pile's bodies cost a tenth of a landing frame).
+  auto plane_contact = [&](Index q) {
+    RigidPlaneContact pc;
+    pc.repel = delta;
+    if (sources.size() != regions_.total()) return pc;
+    const ContactPair& c = contacts_[static_cast<size_t>(sources[q] / 4)];
+    const int k = static_cast<int>(sources[q] % 4), na = c.side_a();
+    const int lo = k < na ? na : 0, hi = k < na ? c.size() : na;
+    Vec3 point = Vec3::Zero();
+    // The other side's closest point and its motion over the substep (x is every other
+    // body's candidate: a cloth's projected, an obstacle's scripted target, a rigid body's
+    // predicted position), for the friction on the relative slip.
+    for (int j = lo; j < hi; ++j) {
+      const Index u = c.v[j];
+      pc.other_w += c.w[j] * c.w[j] * state.inv_mass[u];
+      pc.other_motion += std::abs(c.w[j]) * (candidates_[u] - state.x_prev[u]);
+      point += std::abs(c.w[j]) * anchor[u];
+    }
+    const HalfSpace h = regions_.plane(q);
+    const Vec3 n = h.n;
+    pc.other_wt = pc.other_w;
+    pc.responds_w = pc.other_w;
+    const Index ob = rigid_.body_of(c.v[lo]);
+    if (ob >= 0 && frames[static_cast<size_t>(ob)].inv_mass > 0.0) {
+      const RigidFrame& f = frames[static_cast<size_t>(ob)];
+      pc.responds_w = 0.0;  // answered by its own pose solve
+      pc.other_w = f.inverse_mass_at(point, n);
+      // Against the tangential correction: the mean over the tangent plane's two axes.
+      const Vec3 t1 = n.unitOrthogonal(), t2 = n.cross(t1);
+      pc.other_wt = 0.5 * (f.inverse_mass_at(point, t1) + f.inverse_mass_at(point, t2));
+    }
+    const double gap = c.distance - c.offset;
+    pc.repel = delta - std::max(0.0, gap - h.d);
+    // Under contact.momentum the response's repulsion of a movable side acts on the body too
+    // (react_bodies), with the impulse that side took: the pose solve repels only what does
+    // not answer (fixed, scripted, another body).
+    if (ctx.momentum && pc.responds_w > 0.0) pc.repel = 0.0;
+    return pc;
+  };
+  auto plane_repel = [&](Index q) {
+    if (sources.size() != regions_.total()) return delta;
+    const ContactPair& c = contacts_[static_cast<size_t>(sources[q] / 4)];
+    if (ctx.momentum) {
+      const int k = static_cast<int>(sources[q] % 4), na = c.side_a();
+      const int lo = k < na ? na : 0, hi = k < na ? c.size() : na;
+      bool responds = false;
+      for (int j = lo; j < hi; ++j) responds = responds || projected_mass[c.v[j]] > 0.0;
+      if (responds) return 0.0;
+    }
+    return delta - std::max(0.0, c.distance - c.offset - regions_.plane(q).d);
+  };
+  if (ctx.momentum) {
+    // The cloth and solids are placed: the bodies get the room they left (follow_resolved_sides).
+    later_.assign(x.size(), 0.0);
+    for (size_t v = 0; v < x.size(); ++v) later_[v] = state.inv_mass[v] > 0.0 && !(projected_mass[v] > 0.0) ? 1.0 : 0.0;
+    follow_resolved_sides(regions_, contacts_, anchor, x, later_);
+  }
+  RigidContactOptions options;
+  options.x_start = &state.x_prev;
+  options.repulsion_range = ctx.params.contact.repulsion_range;
+  options.repulsion_compliance = 1.0 / (ctx.params.contact.stiffness * ctx.dt * ctx.dt);
+  options.plane_contact = plane_contact;
+  options.plane_repel = plane_repel;
+  std::vector<Vec3> cores = rigid_.predicted_cores(state, ctx.dt, ctx.params.time.gravity);
+  for (size_t b = 0; b < cores.size() && b < reaction_shift_.size(); ++b) cores[b] += reaction_shift_[b];
+  const RigidEnforceStats rs =
+      rigid_.enforce(x, anchor, regions_, ctx.params.contact.radius, ctx.params.time.advance_tolerance, cores, options);
+  r.violations_detected += rs.vertices_violated;
+  r.halted_vertices += rs.vertices_halted;
+  r.bounded_vertices += rs.bodies_bounded;
+  if (rs.bodies_halted > 0)
+    for (const auto& o : ctx.topo.objects) {
+      if (o.kind != ObjectKind::rigid) continue;
+      bool at_anchor = true, moved = false;
+      for (Index v = o.vertex_begin; v < o.vertex_end; ++v) {
+        at_anchor = at_anchor && x[v] == anchor[v];
+        moved = moved || wanted[v];
+      }
+      if (at_anchor && moved)
+        for (Index v = o.vertex_begin; v < o.vertex_end; ++v) halted_[v] = 1;
+    }
 }
 
 std::optional<Index> RegionProjectionSolver::count_outside(const Positions& x, const Positions& anchor,

@@ -593,6 +593,19 @@ std::vector<RigidFrame> RigidBodies::frames(const Positions& at) const {
   return out;
 }
 
+void RigidBodies::displace(Positions& x, std::span<const Vec3> shift, std::span<const Vec3> turn) const {
+  for (size_t bi = 0; bi < bodies_.size(); ++bi) {
+    const Body& b = bodies_[bi];
+    if (b.pinned || (shift[bi] == Vec3::Zero() && turn[bi] == Vec3::Zero())) continue;
+    const std::span<Vec3> xb(x.data() + b.begin, b.rest.size());
+    const Vec3 centre = fit(xb, b.rest, b.weight).c;
+    const double angle = turn[bi].norm();
+    const Eigen::Matrix3d r =
+        angle > 0.0 ? Eigen::AngleAxisd(angle, turn[bi] / angle).toRotationMatrix() : Eigen::Matrix3d::Identity();
+    for (Vec3& p : xb) p = centre + shift[bi] + r * (p - centre);
+  }
+}
+
 Index RigidBodies::count_deformed(const Positions& x, double tolerance) const {
   std::atomic<Index> deformed{0};
   parallel_for(

@@ -71,6 +71,11 @@ class ContactResponse {
   void apply(Positions& x, const Positions& x_start, std::span<const double> inv_mass, const ContactParams& params,
              double dt, std::span<const double> friction_override, std::span<const double> other_inverse_mass = {});
   Index active() const { return active_; }
+  /// After apply() with `other_inverse_mass`: per contact, the impulse (kg m, a positional
+  /// impulse) its repulsion and friction gave the movable side where the other side answers in
+  /// its own solve: Σₖ mₖ Δxₖ / nₖ over the contact's movable vertices, each of which moved by the
+  /// mean of its nₖ active contacts' corrections. Zero elsewhere; empty without one.
+  std::span<const Vec3> impulse_on_movable() const { return impulse_; }
 
   /// Inelastic contact on candidate positions `x` against the anchors the contacts were found at
   /// (docs/feasibility.md, "Momentum through contact"), in two stages of Jacobi sweeps with mass
@@ -107,6 +112,9 @@ class ContactResponse {
   /// Returns the most contacts that overlapped in one sweep.
   Index separate(Positions& x, const Positions& anchor, std::span<const double> inv_mass, int sweeps,
                  double rest_overlap = 0.0, std::span<const double> other_inverse_mass = {});
+  /// After separate() with `other_inverse_mass`: per contact, how far its self-answering side
+  /// gave way along n (m), w_o J for the contact's impulse J (kg m); empty without one.
+  std::span<const double> given() const { return separate_given_; }
 
  private:
   /// Keeps the contacts and computes their visibility weights (grouped through `row_start`/`slots`
@@ -143,6 +151,8 @@ class ContactResponse {
   std::span<const Index> row_start_, slots_;               ///< the CSR in use: the vectors above or the caller's
   std::vector<Vec3> corr_;                    ///< per contact slot: correction of each vertex (4 per contact)
   std::vector<std::uint8_t> is_active_;       ///< per contact, in apply()
+  std::vector<Vec3> impulse_;                 ///< per contact, in apply(): see impulse_on_movable()
+  std::vector<int> gathered_;                 ///< per vertex, in apply(): its active contacts
   std::vector<double> separate_dl_;           ///< per contact, in separate(): Δλ of the sweep (0: inactive)
   std::vector<Index> separate_count_;         ///< per vertex, in separate(): active contacts of the sweep
   std::vector<std::uint8_t> separate_moved_;  ///< per vertex, in separate(): moved in the last sweep

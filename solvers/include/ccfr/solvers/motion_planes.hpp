@@ -82,6 +82,26 @@ Index push_through(RegionSet& regions, std::span<const ContactPair> contacts, st
 Index held_followers(std::span<const ContactPair> contacts, std::span<const HeldSplit> held, const Positions& anchor,
                      const Positions& x, double min_room, std::span<std::uint8_t> deferred = {});
 
+/// Gives a side resolved after the others the room the others' resolved positions leave
+/// (Gauss-Seidel across the two stages of a pass: the per-vertex projection, then the rigid
+/// bodies' pose solves). For every contact with `later` (#V, > 0: the vertex is placed after `x`,
+/// an unpinned rigid body's) on every vertex of one side L and on none of the other side S, not
+/// between mesh neighbours, with G = d_L + d_S >= 0 along the record's n:
+///
+/// [ a_S = \max_{k \in S} \sigma_S\,\mathbf{n}\cdot(\mathbf{x}_k - \mathbf{a}_k), \qquad
+///     d_L \leftarrow \max(d_L,\ G - a_S), \quad d_S \leftarrow G - d_L, ]
+///
+/// a_S the largest approach of S's resolved vertices toward L (σ_S = +1 on side B, -1 on A). S is
+/// final at `x`, so any L within its plane ends at least ξ from S along n: G + ξ - a_S - a_L >= ξ.
+/// Every vertex moves linearly from its anchor, so min_A n·p - max_B n·p (a minimum of linear
+/// functions less a maximum of them) is concave in time and the pair is at least ξ apart along n
+/// on the whole step, as at its ends. d_L only grows (S kept within its own plane, a_S <= d_S), so
+/// L's region still holds its anchor: a body that halts stays sound. A rigid body thus follows a
+/// cloth it pushes within the pass instead of a pass later; with many contacts it could not
+/// follow at all, some pair being at G = 0 in every pass. Returns the count of planes raised.
+Index follow_resolved_sides(RegionSet& regions, std::span<const ContactPair> contacts, const Positions& anchor,
+                            const Positions& x, std::span<const double> later);
+
 /// Turns every plain contact (record normal n = the contact's, d_A + d_B = G > 0, not mesh
 /// neighbours, no scripted vertex moving this substep) whose candidates `x` its plane cuts or its
 /// repulsion reaches (within δ = `repulsion_range` of the pair's gap) toward the pair's

@@ -38,11 +38,20 @@ class RegionProjectionSolver final : public DetectingSolver {
   std::span<const double> response_mass(const SimState& state) override;
 
  private:
+  /// The bodies' answer to the impulses of separate() (contact.momentum): see the definition.
+  void react_bodies(Positions& x, const Positions& anchor);
+  /// resolve()'s second stage: the unpinned rigid bodies' pose solves against the placed vertices.
+  void place_bodies(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx,
+                    std::span<const double> projected_mass, SolveResult& r);
   std::string name_, projector_name_;
   ParamValues projector_params_;
   std::unique_ptr<Projector> projector_;
-  RigidBodies rigid_;                       ///< rigid bodies, whose correction is taken as a rigid motion
-  Positions candidates_;                    ///< the candidates before the pose solves (the other sides' motion)
+  RigidBodies rigid_;     ///< rigid bodies, whose correction is taken as a rigid motion
+  Positions candidates_;  ///< the candidates before the pose solves (the other sides' motion)
+  /// Per body, in the last respond(): the move of its centre by the impulses of the contacts it
+  /// gave way in (react_bodies); its core's prediction moves with it in resolve().
+  std::vector<Vec3> reaction_shift_;
+  std::vector<double> later_;               ///< per vertex: placed after the projection (an unpinned rigid body's)
   std::vector<double> other_inverse_mass_;  ///< per contact: a rigid other side's generalized inverse mass
   std::vector<double> free_mask_;  ///< inverse masses with unpinned rigid bodies' vertices at 0 (not projected alone)
   std::vector<std::uint8_t> halted_;    ///< #V: halted during frame `halted_frame_`

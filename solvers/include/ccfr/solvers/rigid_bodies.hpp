@@ -125,6 +125,10 @@ class RigidBodies {
   /// Every body's frame at positions `at` (its rigid fit there); pinned bodies get inv_mass 0.
   std::vector<RigidFrame> frames(const Positions& at) const;
 
+  /// Moves every unpinned body's vertices in `x` rigidly: turned by `turn[b]` (rotation vector,
+  /// radians) about the centre of their fit and carried by `shift[b]` (both #bodies).
+  void displace(Positions& x, std::span<const Vec3> shift, std::span<const Vec3> turn) const;
+
   /// Vertices of rigid bodies farther than `tolerance` from the best rigid fit of their body:
   /// a deformed rigid body, which detection cannot see (its pairs with itself are not tested).
   Index count_deformed(const Positions& x, double tolerance) const;
