@@ -230,7 +230,7 @@ void ContactResponse::prepare(std::span<const ContactPair> contacts, std::span<c
 
 void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<const double> inv_mass,
                             const ContactParams& p, double dt, std::span<const double> friction_override,
-                            std::span<const double> other_inverse_mass) {
+                            std::span<const double> other_inverse_mass, bool record_impulses) {
   const Index n = static_cast<Index>(contacts_.size());
   // With every inverse mass 0 no contact moves anything (each is skipped at Σ wₖ² mₖ⁻¹ = 0).
   if (n == 0 || p.repulsion_range <= 0.0 ||
@@ -289,12 +289,13 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
   active_ = static_cast<Index>(std::count(is_active.begin(), is_active.end(), 1));
   // Gather: each vertex takes the average of its contacts' corrections.
   const Index gathered = std::min(static_cast<Index>(x.size()), static_cast<Index>(row_start_.size()) - 1);
-  const bool reacts = !other_inverse_mass.empty();
-  if (reacts) gathered_.assign(static_cast<size_t>(gathered), 0);
+  const bool reacts = record_impulses && !other_inverse_mass.empty();
+  if (reacts) resize_for_overwrite(gathered_, static_cast<size_t>(gathered));  // every entry written below
   parallel_for(
       gathered,
       [&](Index b, Index e) {
         for (Index v = b; v < e; ++v) {
+          if (reacts) gathered_[static_cast<size_t>(v)] = 0;
           const Index s = row_start_[v], t = row_start_[v + 1];
           if (s == t || inv_mass[v] == 0.0) continue;
           Vec3 sum = Vec3::Zero();
@@ -313,11 +314,12 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
     impulse_.clear();
     return;
   }
-  impulse_.assign(static_cast<size_t>(n), Vec3::Zero());
+  resize_for_overwrite(impulse_, static_cast<size_t>(n));  // every entry written below
   parallel_for(
       n,
       [&](Index b, Index e) {
         for (Index ci = b; ci < e; ++ci) {
+          impulse_[static_cast<size_t>(ci)] = Vec3::Zero();
           if (!is_active[static_cast<size_t>(ci)] || !(other_inverse_mass[static_cast<size_t>(ci)] > 0.0)) continue;
           const ContactPair& c = contacts_[ci];
           Vec3 j = Vec3::Zero();

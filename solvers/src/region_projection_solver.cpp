@@ -57,7 +57,8 @@ void RegionProjectionSolver::respond(Positions& x, const Positions& anchor, cons
     for (int j = lo; j < hi; ++j) point += std::abs(c.w[j]) * anchor[c.v[j]];
     other_inverse_mass_[ci] = frames[static_cast<size_t>(body)].inverse_mass_at(point, c.n);
   }
-  response_.apply(x, state.x_prev, free_mask_, ctx.params.contact, ctx.dt, friction_override_, other_inverse_mass_);
+  response_.apply(x, state.x_prev, free_mask_, ctx.params.contact, ctx.dt, friction_override_, other_inverse_mass_,
+                  ctx.momentum);
   reaction_shift_.assign(static_cast<size_t>(rigid_.size()), Vec3::Zero());
   if (!ctx.momentum) return;
   response_.separate(x, anchor, free_mask_, kSeparateSweeps, rest_overlap(ctx), other_inverse_mass_);

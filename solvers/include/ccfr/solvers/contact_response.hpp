@@ -67,11 +67,12 @@ class ContactResponse {
   /// `other_inverse_mass` (per contact, or empty): the generalized inverse mass of a side that
   /// answers outside this response (an unpinned rigid body, whose vertices `inv_mass` masks and
   /// whose pose solve takes its share of the same Δλ): it joins Σ wₖ² mₖ⁻¹, so that the movable
-  /// side moves by its share only.
+  /// side moves by its share only. `record_impulses`: keep what impulse_on_movable() returns.
   void apply(Positions& x, const Positions& x_start, std::span<const double> inv_mass, const ContactParams& params,
-             double dt, std::span<const double> friction_override, std::span<const double> other_inverse_mass = {});
+             double dt, std::span<const double> friction_override, std::span<const double> other_inverse_mass = {},
+             bool record_impulses = false);
   Index active() const { return active_; }
-  /// After apply() with `other_inverse_mass`: per contact, the impulse (kg m, a positional
+  /// After apply() with `other_inverse_mass` and `record_impulses`: per contact, the impulse (kg m, a positional
   /// impulse) its repulsion and friction gave the movable side where the other side answers in
   /// its own solve: Σₖ mₖ Δxₖ / nₖ over the contact's movable vertices, each of which moved by the
   /// mean of its nₖ active contacts' corrections. Zero elsewhere; empty without one.
