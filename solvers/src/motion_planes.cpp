@@ -30,7 +30,7 @@ constexpr double kPushMargin = 0.1;
 
 Index split_by_motion(RegionSet& regions, std::span<const ContactPair> contacts, const Positions& anchor,
                       const Positions& x, std::span<const double> inv_mass, std::span<const double> responds,
-                      std::vector<HeldSplit>& held) {
+                      std::vector<HeldSplit>& held, std::span<const double> other_inverse_mass) {
   held.clear();
   if (regions.records.size() != contacts.size()) return 0;
   std::mutex gather;
@@ -65,6 +65,10 @@ Index split_by_motion(RegionSet& regions, std::span<const ContactPair> contacts,
           }
           // Two rigid bodies: each pose solve takes the pair as if the other were fixed, so the
           // paper's split stays (a split by their predictions would leave each a share it cannot use).
+          // A rigid body answering for itself: its generalized inverse mass at the contact, as the
+          // response took it (its vertices' own masses would make it a light cloth).
+          const double w_o = other_inverse_mass.empty() ? 0.0 : other_inverse_mass[static_cast<size_t>(ci)];
+          if (w_o > 0.0 && answers[0] != answers[1]) (answers[0] ? w_b : w_a) = w_o;
           if (!all_free || !(answers[0] || answers[1]) || !(w_a + w_b > 0.0) || !std::isfinite(a_a + a_b)) continue;
           const double s_a = w_a / (w_a + w_b);
           const double raw = a_a + s_a * (gap - a_a - a_b);
@@ -257,6 +261,73 @@ Index follow_resolved_sides(RegionSet& regions, std::span<const ContactPair> con
       },
       2048);
   return count.load();
+}
+
+Index mark_carried(std::span<const ContactPair> contacts, const RegionSet& regions, const Positions& anchor,
+                   const Positions& x, std::span<const Index> body, std::span<const double> movable,
+                   std::vector<Index>& carrier) {
+  const size_t nv = x.size();
+  carrier.assign(nv, -1);
+  if (regions.records.size() != contacts.size()) return 0;
+  // Per vertex: the body of its contacts (-1: none yet) and bits 1 (cut), 2 (left), 4 (two bodies).
+  std::vector<Index> toward(nv, -1);
+  std::vector<std::uint8_t> seen(nv, 0);
+  auto one_body = [&](const ContactPair& c, int lo, int hi) {
+    const Index b = body[c.v[lo]];
+    for (int k = lo; k < hi && b >= 0; ++k)
+      if (body[c.v[k]] != b) return Index{-1};
+    return b;
+  };
+  parallel_for(
+      static_cast<Index>(contacts.size()),
+      [&](Index b, Index e) {
+        for (Index ci = b; ci < e; ++ci) {
+          const ContactPair& c = contacts[ci];
+          if (c.neighbours) continue;
+          const RegionRecord& rec = regions.records[static_cast<size_t>(ci)];
+          const double gap = rec.d[0] + rec.d[1];
+          if (!(gap >= 0.0)) continue;
+          const int na = c.side_a(), nk = c.size();
+          const Index body_a = one_body(c, 0, na), body_b = one_body(c, na, nk);
+          const int on_body = body_a >= 0 ? 0 : body_b >= 0 ? 1 : -1;
+          if (on_body < 0) continue;
+          const int lo = on_body == 0 ? na : 0, hi = on_body == 0 ? nk : na;
+          bool all_movable = true;
+          for (int k = lo; k < hi; ++k) all_movable = all_movable && movable[c.v[k]] > 0.0 && body[c.v[k]] < 0;
+          if (!all_movable) continue;
+          // The body's largest advance toward the movable side (side A gives way along +n).
+          double approach = -std::numeric_limits<double>::infinity();
+          for (int k = on_body == 0 ? 0 : na; k < (on_body == 0 ? na : nk); ++k) {
+            const double along = rec.n.dot(x[c.v[k]] - anchor[c.v[k]]);
+            approach = std::max(approach, on_body == 0 ? -along : along);
+          }
+          const std::uint8_t bit = approach > gap ? 1 : approach < 0.0 ? 2 : 0;
+          const Index carrier_body = on_body == 0 ? body_a : body_b;
+          for (int k = lo; k < hi; ++k) {
+            const size_t v = static_cast<size_t>(c.v[k]);
+            std::atomic_ref<Index> t(toward[v]);
+            Index expected = -1;
+            const bool other = !t.compare_exchange_strong(expected, carrier_body) && expected != carrier_body;
+            std::atomic_ref<std::uint8_t>(seen[v]).fetch_or(static_cast<std::uint8_t>(bit | (other ? 4 : 0)));
+          }
+        }
+      },
+      2048);
+  Index count = 0;
+  for (size_t v = 0; v < nv; ++v)
+    if (seen[v] == 3) carrier[v] = toward[v], ++count;
+  return count;
+}
+
+bool moves_with_one_body(const ContactPair& c, std::span<const Index> body, std::span<const Index> carrier) {
+  Index on = -1;
+  for (int k = 0; k < c.size(); ++k) {
+    const Index v = c.v[k];
+    const Index b = body[v] >= 0 ? body[v] : carrier[v];
+    if (b < 0 || (on >= 0 && b != on)) return false;
+    on = b;
+  }
+  return true;
 }
 
 namespace {

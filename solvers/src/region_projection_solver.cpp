@@ -12,12 +12,19 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <mutex>
 #include <tuple>
 
 #include "builtin_solvers.hpp"
 #include "ccfr/solvers/motion_planes.hpp"
 
 namespace ccfr {
+namespace {
+/// A set-aside plane's offset: no candidate reaches it.
+constexpr double kAside = 1e300;
+/// Pose solves a pass may run for its carried vertices before it solves without them.
+constexpr int kCarryRounds = 2;
+}  // namespace
 
 std::span<const double> RegionProjectionSolver::response_mass(const SimState& state) {
   if (rigid_.empty()) return {};
@@ -135,7 +142,7 @@ SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& ancho
   // Each pair's plane split by the motion the response left (the dividing plane moves with the pair).
   held_splits_.clear();
   if (ctx.momentum) {
-    split_by_motion(regions_, contacts_, anchor, x, state.inv_mass, projected_mass, held_splits_);
+    split_by_motion(regions_, contacts_, anchor, x, state.inv_mass, projected_mass, held_splits_, other_inverse_mass_);
     if (ctx.push_through) push_through(regions_, contacts_, state.inv_mass, projected_mass, kPushRounds);
   }
   const BatchStats b = project_all(*projector_, regions_, anchor, x, projected_mass, halted_);
@@ -231,7 +238,10 @@ void RegionProjectionSolver::place_bodies(Positions& x, const Positions& anchor,
   if (ctx.momentum) {
     // The cloth and solids are placed: the bodies get the room they left (follow_resolved_sides).
     later_.assign(x.size(), 0.0);
-    for (size_t v = 0; v < x.size(); ++v) later_[v] = state.inv_mass[v] > 0.0 && !(projected_mass[v] > 0.0) ? 1.0 : 0.0;
+    vertex_body_.assign(x.size(), -1);
+    for (size_t v = 0; v < x.size(); ++v)
+      if (state.inv_mass[v] > 0.0 && !(projected_mass[v] > 0.0))
+        later_[v] = 1.0, vertex_body_[v] = rigid_.body_of(static_cast<Index>(v));
     follow_resolved_sides(regions_, contacts_, anchor, x, later_);
   }
   RigidContactOptions options;
@@ -242,8 +252,9 @@ void RegionProjectionSolver::place_bodies(Positions& x, const Positions& anchor,
   options.plane_repel = plane_repel;
   std::vector<Vec3> cores = rigid_.predicted_cores(state, ctx.dt, ctx.params.time.gravity);
   for (size_t b = 0; b < cores.size() && b < reaction_shift_.size(); ++b) cores[b] += reaction_shift_[b];
-  const RigidEnforceStats rs =
-      rigid_.enforce(x, anchor, regions_, ctx.params.contact.radius, ctx.params.time.advance_tolerance, cores, options);
+  const RigidEnforceStats rs = ctx.momentum ? enforce_carrying(x, anchor, ctx, projected_mass, cores, options)
+                                            : rigid_.enforce(x, anchor, regions_, ctx.params.contact.radius,
+                                                             ctx.params.time.advance_tolerance, cores, options);
   r.violations_detected += rs.vertices_violated;
   r.halted_vertices += rs.vertices_halted;
   r.bounded_vertices += rs.bodies_bounded;
@@ -258,6 +269,99 @@ void RegionProjectionSolver::place_bodies(Positions& x, const Positions& anchor,
       if (at_anchor && moved)
         for (Index v = o.vertex_begin; v < o.vertex_end; ++v) halted_[v] = 1;
     }
+}
+
+bool RegionProjectionSolver::carried_plane_holds(std::uint32_t ref, const Positions& anchor, const Positions& x,
+                                                 const Vec3& from, const Vec3& to) const {
+  const size_t ci = ref >> 1;
+  const ContactPair& c = contacts_[ci];
+  if (moves_with_one_body(c, vertex_body_, carrier_)) return true;  // one rigid motion keeps the pair
+  const RegionRecord& rec = regions_.records[ci];
+  const int side = static_cast<int>(ref & 1), na = c.side_a();
+  // The other side final (no carried vertex on it): the room its placed vertices leave, as
+  // follow_resolved_sides gives it (sound by the concavity of the separation along n).
+  double d = rec.d[side];
+  double approach = -std::numeric_limits<double>::infinity();
+  bool final = true;
+  for (int k = side == 0 ? na : 0; k < (side == 0 ? c.size() : na) && final; ++k) {
+    const Index u = c.v[k];
+    final = carrier_[u] < 0;
+    const double along = rec.n.dot(x[u] - anchor[u]);
+    approach = std::max(approach, side == 0 ? along : -along);
+  }
+  if (final) d = std::max(d, rec.d[0] + rec.d[1] - approach);
+  const Vec3 n = side == 0 ? rec.n : Vec3(-rec.n);
+  return (to - from).dot(n) + d >= 0.0;
+}
+
+RigidEnforceStats RegionProjectionSolver::enforce_carrying(Positions& x, const Positions& anchor,
+                                                           const StepContext& ctx,
+                                                           std::span<const double> projected_mass,
+                                                           std::span<const Vec3> cores,
+                                                           const RigidContactOptions& options) {
+  auto enforce = [&] {
+    return rigid_.enforce(x, anchor, regions_, ctx.params.contact.radius, ctx.params.time.advance_tolerance, cores,
+                          options);
+  };
+  if (mark_carried(contacts_, regions_, anchor, x, vertex_body_, projected_mass, carrier_) == 0) return enforce();
+  std::vector<Index> carried;
+  for (size_t v = 0; v < carrier_.size(); ++v)
+    if (carrier_[v] >= 0) carried.push_back(static_cast<Index>(v));
+  std::vector<Vec3> projected(carried.size());
+  for (size_t i = 0; i < carried.size(); ++i) projected[i] = x[carried[i]];
+  struct Aside {
+    size_t contact;
+    double d[2];
+  };
+  std::vector<Aside> aside;
+  std::mutex gather;
+  for (int round = 0;; ++round) {
+    // A pair one motion moves whole keeps its distance: its planes leave the pose solve.
+    aside.clear();
+    parallel_for(
+        static_cast<Index>(contacts_.size()),
+        [&](Index b, Index e) {
+          std::vector<Aside> local;
+          for (Index ci = b; ci < e; ++ci) {
+            if (!moves_with_one_body(contacts_[ci], vertex_body_, carrier_)) continue;
+            RegionRecord& rec = regions_.records[static_cast<size_t>(ci)];
+            local.push_back({static_cast<size_t>(ci), {rec.d[0], rec.d[1]}});
+            rec.d[0] = rec.d[1] = kAside;
+          }
+          if (local.empty()) return;
+          const std::lock_guard<std::mutex> lock(gather);
+          aside.insert(aside.end(), local.begin(), local.end());
+        },
+        4096);
+    const RigidEnforceStats rs = enforce();
+    for (const Aside& a : aside) std::copy(a.d, a.d + 2, regions_.records[a.contact].d);
+    // Each carried vertex goes where its body's motion takes its anchor, if its other planes
+    // (those of pairs the motion does not move whole) hold there.
+    const std::vector<RigidMotion> motion = rigid_.motions(anchor, x);
+    Index failed = 0;
+    for (size_t i = 0; i < carried.size(); ++i) {
+      const Index v = carried[i];
+      if (carrier_[v] < 0) continue;
+      const Vec3 p = motion[static_cast<size_t>(carrier_[v])](anchor[v]);
+      bool holds = true;
+      for (Index q = regions_.row_start[v]; q < regions_.row_start[v + 1] && holds; ++q)
+        holds = carried_plane_holds(regions_.refs[static_cast<size_t>(q)], anchor, x, anchor[v], p);
+      if (holds)
+        x[v] = p;
+      else
+        carrier_[v] = -1, ++failed;
+    }
+    if (failed == 0) return rs;
+    // Another solve: the bodies from their candidates, the vertices from their projections, the
+    // vertices that could not come along now planes of the bodies (after kCarryRounds, all).
+    for (size_t i = 0; i < carried.size(); ++i) {
+      x[carried[i]] = projected[i];
+      if (round + 1 >= kCarryRounds) carrier_[carried[i]] = -1;
+    }
+    for (size_t v = 0; v < x.size(); ++v)
+      if (vertex_body_[v] >= 0) x[v] = candidates_[v];
+    if (round + 1 >= kCarryRounds) return enforce();
+  }
 }
 
 std::optional<Index> RegionProjectionSolver::count_outside(const Positions& x, const Positions& anchor,

@@ -593,6 +593,18 @@ std::vector<RigidFrame> RigidBodies::frames(const Positions& at) const {
   return out;
 }
 
+std::vector<RigidMotion> RigidBodies::motions(const Positions& from, const Positions& to) const {
+  std::vector<RigidMotion> out(bodies_.size());
+  for (size_t bi = 0; bi < bodies_.size(); ++bi) {
+    const Body& b = bodies_[bi];
+    if (b.pinned) continue;
+    const Pose p0 = fit(std::span<const Vec3>(from.data() + b.begin, b.rest.size()), b.rest, b.weight);
+    const Pose p1 = fit(std::span<const Vec3>(to.data() + b.begin, b.rest.size()), b.rest, b.weight);
+    out[bi] = {p0.c, p1.c, (p1.q * p0.q.conjugate()).toRotationMatrix()};
+  }
+  return out;
+}
+
 void RigidBodies::displace(Positions& x, std::span<const Vec3> shift, std::span<const Vec3> turn) const {
   for (size_t bi = 0; bi < bodies_.size(); ++bi) {
     const Body& b = bodies_[bi];

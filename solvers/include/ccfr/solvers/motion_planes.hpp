@@ -42,10 +42,12 @@ struct HeldSplit {
 ///
 /// `responds` (#V, or empty: all) marks the vertices that answer in the per-vertex response (> 0);
 /// a contact none of whose vertices does (two unpinned rigid bodies, each resolved in its own pose
-/// solve) keeps the paper's split.
+/// solve) keeps the paper's split. `other_inverse_mass` (per contact, or empty): where > 0 on a
+/// contact with one side answering and the other not, the other side's generalized inverse mass
+/// (a rigid body's at the contact), which takes its vertices' place in s_A.
 Index split_by_motion(RegionSet& regions, std::span<const ContactPair> contacts, const Positions& anchor,
                       const Positions& x, std::span<const double> inv_mass, std::span<const double> responds,
-                      std::vector<HeldSplit>& held);
+                      std::vector<HeldSplit>& held, std::span<const double> other_inverse_mass = {});
 
 /// Passes the push of what cannot move on through resting pairs. A vertex pressed by a fixed or
 /// scripted side (a plane of such a contact with d < 0: its anchor lies past the plane) must move
@@ -101,6 +103,26 @@ Index held_followers(std::span<const ContactPair> contacts, std::span<const Held
 /// follow at all, some pair being at G = 0 in every pass. Returns the count of planes raised.
 Index follow_resolved_sides(RegionSet& regions, std::span<const ContactPair> contacts, const Positions& anchor,
                             const Positions& x, std::span<const double> later);
+
+/// Marks the movable vertices a rigid body both pushes and leaves in this pass, to be carried by
+/// its motion (docs/feasibility.md, "A vertex carried by a body"). `body` (#V): the unpinned rigid
+/// body of each vertex, or -1; `movable` (#V): > 0 for vertices projected one by one. Over the
+/// contacts (not between mesh neighbours, G = d_A + d_B >= 0) with one side wholly on one body B
+/// and the other wholly movable, B's approach toward the movable side along n is
+/// a_B = max over B's vertices of their candidates' (`x`) advance against the anchors. A movable
+/// vertex with a contact where a_B > G (B's candidates cut the pair) and one where a_B < 0 (they
+/// leave it), and with no such contact with another body, gets carrier[v] = B (else -1).
+///
+/// Such a vertex sits in a wedge of B's faces that moves with B: the split gives it at most G
+/// toward the faces that leave, so it cannot vacate what the faces that come ask, and B, which
+/// follows it (follow_resolved_sides), advances by about G a pass. Returns the count marked.
+Index mark_carried(std::span<const ContactPair> contacts, const RegionSet& regions, const Positions& anchor,
+                   const Positions& x, std::span<const Index> body, std::span<const double> movable,
+                   std::vector<Index>& carrier);
+
+/// Whether every vertex of `c` is on one body B (`body`) or carried by that B (`carrier`): one
+/// rigid motion then moves the whole pair and keeps its distance.
+bool moves_with_one_body(const ContactPair& c, std::span<const Index> body, std::span<const Index> carrier);
 
 /// Turns every plain contact (record normal n = the contact's, d_A + d_B = G > 0, not mesh
 /// neighbours, no scripted vertex moving this substep) whose candidates `x` its plane cuts or its

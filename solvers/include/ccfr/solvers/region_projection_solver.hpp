@@ -43,6 +43,15 @@ class RegionProjectionSolver final : public DetectingSolver {
   /// resolve()'s second stage: the unpinned rigid bodies' pose solves against the placed vertices.
   void place_bodies(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx,
                     std::span<const double> projected_mass, SolveResult& r);
+  /// place_bodies()' pose solves under contact.momentum, with the vertices a body both pushes and
+  /// leaves carried by its motion where their other planes allow (mark_carried).
+  RigidEnforceStats enforce_carrying(Positions& x, const Positions& anchor, const StepContext& ctx,
+                                     std::span<const double> projected_mass, std::span<const Vec3> cores,
+                                     const RigidContactOptions& options);
+  /// Whether the plane `ref` (RegionSet::refs) of a carried vertex holds for its move from `from`
+  /// to `to`, the other side at `x` (enforce_carrying).
+  bool carried_plane_holds(std::uint32_t ref, const Positions& anchor, const Positions& x, const Vec3& from,
+                           const Vec3& to) const;
   std::string name_, projector_name_;
   ParamValues projector_params_;
   std::unique_ptr<Projector> projector_;
@@ -52,6 +61,8 @@ class RegionProjectionSolver final : public DetectingSolver {
   /// gave way in (react_bodies); its core's prediction moves with it in resolve().
   std::vector<Vec3> reaction_shift_;
   std::vector<double> later_;               ///< per vertex: placed after the projection (an unpinned rigid body's)
+  std::vector<Index> vertex_body_;          ///< per vertex: its unpinned rigid body, or -1 (with later_)
+  std::vector<Index> carrier_;              ///< per vertex: the body carrying it this pass, or -1
   std::vector<double> other_inverse_mass_;  ///< per contact: a rigid other side's generalized inverse mass
   std::vector<double> free_mask_;  ///< inverse masses with unpinned rigid bodies' vertices at 0 (not projected alone)
   std::vector<std::uint8_t> halted_;    ///< #V: halted during frame `halted_frame_`

@@ -87,6 +87,14 @@ struct RigidFrame {
   }
 };
 
+/// A body's rigid motion between two placements: p ↦ to + turn (p - from), `from` and `to` its
+/// centres of mass at the two and `turn` the rotation between their fits.
+struct RigidMotion {
+  Vec3 from = Vec3::Zero(), to = Vec3::Zero();
+  Eigen::Matrix3d turn = Eigen::Matrix3d::Identity();
+  Vec3 operator()(const Vec3& p) const { return to + turn * (p - from); }
+};
+
 /// The rigid objects of a scene with their rest shapes about their centres of mass.
 class RigidBodies {
  public:
@@ -124,6 +132,9 @@ class RigidBodies {
   Index body_of(Index v) const;
   /// Every body's frame at positions `at` (its rigid fit there); pinned bodies get inv_mass 0.
   std::vector<RigidFrame> frames(const Positions& at) const;
+
+  /// Every body's rigid motion from its fit at `from` to its fit at `to` (pinned bodies: identity).
+  std::vector<RigidMotion> motions(const Positions& from, const Positions& to) const;
 
   /// Moves every unpinned body's vertices in `x` rigidly: turned by `turn[b]` (rotation vector,
   /// radians) about the centre of their fit and carried by `shift[b]` (both #bodies).
