@@ -272,11 +272,13 @@ void RegionProjectionSolver::place_bodies(Positions& x, const Positions& anchor,
 }
 
 bool RegionProjectionSolver::carried_plane_holds(std::uint32_t ref, const Positions& anchor, const Positions& x,
-                                                 const Vec3& from, const Vec3& to) const {
+                                                 const Vec3& from, const Vec3& to, double shrink) const {
   const size_t ci = ref >> 1;
   const ContactPair& c = contacts_[ci];
-  if (moves_with_one_body(c, vertex_body_, carrier_)) return true;  // one rigid motion keeps the pair
   const RegionRecord& rec = regions_.records[ci];
+  // One rigid motion keeps the pair's distance at the end; on the way the vertices follow one
+  // affine map, which shortens it by at most cos(θ/2): the gap must cover that much.
+  if (moves_with_one_body(c, vertex_body_, carrier_)) return rec.d[0] + rec.d[1] >= shrink * c.offset;
   const int side = static_cast<int>(ref & 1), na = c.side_a();
   // The other side final (no carried vertex on it): the room its placed vertices leave, as
   // follow_resolved_sides gives it (sound by the concavity of the separation along n).
@@ -333,8 +335,18 @@ RigidEnforceStats RegionProjectionSolver::enforce_carrying(Positions& x, const P
           aside.insert(aside.end(), local.begin(), local.end());
         },
         4096);
-    const RigidEnforceStats rs = enforce();
-    for (const Aside& a : aside) std::copy(a.d, a.d + 2, regions_.records[a.contact].d);
+    RigidEnforceStats rs;
+    {
+      // The set-aside offsets come back however the pose solves end.
+      struct Restore {
+        std::vector<Aside>& aside;
+        RegionSet& regions;
+        ~Restore() {
+          for (const Aside& a : aside) std::copy(a.d, a.d + 2, regions.records[a.contact].d);
+        }
+      } restore{aside, regions_};
+      rs = enforce();
+    }
     // Each carried vertex goes where its body's motion takes its anchor, if its other planes
     // (those of pairs the motion does not move whole) hold there.
     const std::vector<RigidMotion> motion = rigid_.motions(anchor, x);
@@ -342,10 +354,16 @@ RigidEnforceStats RegionProjectionSolver::enforce_carrying(Positions& x, const P
     for (size_t i = 0; i < carried.size(); ++i) {
       const Index v = carried[i];
       if (carrier_[v] < 0) continue;
-      const Vec3 p = motion[static_cast<size_t>(carrier_[v])](anchor[v]);
-      bool holds = true;
+      const RigidMotion& m = motion[static_cast<size_t>(carrier_[v])];
+      const Vec3 p = m(anchor[v]);
+      // Within the vertex's step bound (applied after the pass: a cut would leave it behind its
+      // body), and a turn of less than 120° (the affine map's shrink below 2).
+      const double reach = ctx.vertex_reach.empty() ? ctx.params.contact.radius : ctx.vertex_reach[v];
+      const double cos_half = std::cos(0.5 * Eigen::AngleAxisd(m.turn).angle());
+      bool holds = (p - anchor[v]).norm() <= reach && cos_half > 0.5;
+      const double shrink = holds ? 1.0 / cos_half - 1.0 : 0.0;
       for (Index q = regions_.row_start[v]; q < regions_.row_start[v + 1] && holds; ++q)
-        holds = carried_plane_holds(regions_.refs[static_cast<size_t>(q)], anchor, x, anchor[v], p);
+        holds = carried_plane_holds(regions_.refs[static_cast<size_t>(q)], anchor, x, anchor[v], p, shrink);
       if (holds)
         x[v] = p;
       else

@@ -71,19 +71,29 @@ TEST(MarkCarried, AVertexABodyComesOntoAndLeavesIsCarriedByIt) {
   // Body 0: vertices 1 (above the cloth) and 2 (below); body 1: vertex 3 (below). Every body
   // vertex moves down by 2 G. Cloth vertices: 0 between 1 and 2 (1 comes on past the gap, 2
   // leaves): carried by body 0. 4 under 1 alone: only come onto. 5 under 1 and above 3 (another
-  // body leaves it): not carried. 6 above 2 (leaves) and under 1 with the room of its gap.
+  // body leaves it): not carried. 6 above 2 (leaves) and under 1 with the room of its gap. 7 as
+  // 0, with the body on side A of both its contacts (the normal then points to the body).
   const Vec3 up(0, 1, 0), down(0, -1, 0);
-  Pairs p = pairs(7, {{0, 1, down}, {0, 2, up}, {4, 1, down}, {5, 1, down}, {5, 3, up}, {6, 2, up}, {6, 1, down}});
-  Positions anchor(7, Vec3::Zero()), x(7, Vec3::Zero());
+  Pairs p = pairs(8, {{0, 1, down},
+                      {0, 2, up},
+                      {4, 1, down},
+                      {5, 1, down},
+                      {5, 3, up},
+                      {6, 2, up},
+                      {6, 1, down},
+                      {1, 7, up},
+                      {2, 7, down}});
+  Positions anchor(8, Vec3::Zero()), x(8, Vec3::Zero());
   for (Index v : {1, 2, 3}) x[v] = anchor[v] + Vec3(0, -2.0 * kGap, 0);
   // Vertex 6's contact with 1: the body comes on by 2 G along a normal tilted by 70 degrees,
   // 0.68 G along it, within the gap.
   p.contacts[6].n = p.regions.records[6].n = Vec3(std::sin(1.2217), -std::cos(1.2217), 0);
-  const std::vector<Index> body = {-1, 0, 0, 1, -1, -1, -1};
-  const std::vector<double> movable = {1, 0, 0, 0, 1, 1, 1};
+  const std::vector<Index> body = {-1, 0, 0, 1, -1, -1, -1, -1};
+  const std::vector<double> movable = {1, 0, 0, 0, 1, 1, 1, 1};
   std::vector<Index> carrier;
-  EXPECT_EQ(mark_carried(p.contacts, p.regions, anchor, x, body, movable, carrier), 1);
-  EXPECT_EQ(carrier, (std::vector<Index>{0, -1, -1, -1, -1, -1, -1}));
+  EXPECT_EQ(mark_carried(p.contacts, p.regions, anchor, x, body, movable, carrier), 2);
+  EXPECT_EQ(carrier, (std::vector<Index>{0, -1, -1, -1, -1, -1, -1, 0}));
+  EXPECT_TRUE(moves_with_one_body(p.contacts[7], body, carrier));
   // One motion moves a pair whole only where every vertex is on, or carried by, one body.
   EXPECT_TRUE(moves_with_one_body(p.contacts[0], body, carrier));
   EXPECT_TRUE(moves_with_one_body(p.contacts[1], body, carrier));

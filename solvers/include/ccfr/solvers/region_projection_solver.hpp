@@ -49,9 +49,10 @@ class RegionProjectionSolver final : public DetectingSolver {
                                      std::span<const double> projected_mass, std::span<const Vec3> cores,
                                      const RigidContactOptions& options);
   /// Whether the plane `ref` (RegionSet::refs) of a carried vertex holds for its move from `from`
-  /// to `to`, the other side at `x` (enforce_carrying).
+  /// to `to`, the other side at `x` (enforce_carrying); a pair one rigid motion moves whole needs
+  /// a gap of `shrink` times its offset (1/cos(θ/2) - 1 for the body's turn θ).
   bool carried_plane_holds(std::uint32_t ref, const Positions& anchor, const Positions& x, const Vec3& from,
-                           const Vec3& to) const;
+                           const Vec3& to, double shrink) const;
   std::string name_, projector_name_;
   ParamValues projector_params_;
   std::unique_ptr<Projector> projector_;
