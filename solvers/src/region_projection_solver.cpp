@@ -23,7 +23,9 @@ namespace {
 /// A set-aside plane's offset: no candidate reaches it.
 constexpr double kAside = 1e300;
 /// Pose solves a pass may run for its carried vertices before it solves without them.
-constexpr int kCarryRounds = 2;
+constexpr int kCarryRounds = 4;
+/// How far below the ratio a carried vertex's step asks for a body's bound is cut.
+constexpr double kCarryBoundMargin = 1e-3;
 }  // namespace
 
 std::span<const double> RegionProjectionSolver::response_mass(const SimState& state) {
@@ -252,9 +254,10 @@ void RegionProjectionSolver::place_bodies(Positions& x, const Positions& anchor,
   options.plane_repel = plane_repel;
   std::vector<Vec3> cores = rigid_.predicted_cores(state, ctx.dt, ctx.params.time.gravity);
   for (size_t b = 0; b < cores.size() && b < reaction_shift_.size(); ++b) cores[b] += reaction_shift_[b];
-  const RigidEnforceStats rs = ctx.momentum ? enforce_carrying(x, anchor, ctx, projected_mass, cores, options)
-                                            : rigid_.enforce(x, anchor, regions_, ctx.params.contact.radius,
-                                                             ctx.params.time.advance_tolerance, cores, options);
+  const RigidEnforceStats rs = ctx.momentum
+                                   ? enforce_carrying(x, anchor, state.inv_mass, ctx, projected_mass, cores, options)
+                                   : rigid_.enforce(x, anchor, regions_, ctx.params.contact.radius,
+                                                    ctx.params.time.advance_tolerance, cores, options);
   r.violations_detected += rs.vertices_violated;
   r.halted_vertices += rs.vertices_halted;
   r.bounded_vertices += rs.bodies_bounded;
@@ -271,33 +274,90 @@ void RegionProjectionSolver::place_bodies(Positions& x, const Positions& anchor,
     }
 }
 
-bool RegionProjectionSolver::carried_plane_holds(std::uint32_t ref, const Positions& anchor, const Positions& x,
-                                                 const Vec3& from, const Vec3& to, double shrink) const {
+bool RegionProjectionSolver::carried_plane_holds(std::uint32_t ref, const Positions& anchor, std::span<const Vec3> ends,
+                                                 std::span<const double> inv_mass, const Vec3& from, const Vec3& to,
+                                                 double shrink) const {
   const size_t ci = ref >> 1;
   const ContactPair& c = contacts_[ci];
   const RegionRecord& rec = regions_.records[ci];
   // One rigid motion keeps the pair's distance at the end; on the way the vertices follow one
-  // affine map, which shortens it by at most cos(θ/2): the gap must cover that much.
-  if (moves_with_one_body(c, vertex_body_, carrier_)) return rec.d[0] + rec.d[1] >= shrink * c.offset;
+  // affine map, which shortens it by at most cos(θ/2): the gap at the anchor must cover that.
+  if (moves_with_one_body(c, vertex_body_, carrier_)) return c.distance - c.offset >= shrink * c.offset;
+  // The room the other side leaves where all its vertices end, a_O their largest approach along
+  // n: G - a_O. Then a_S + a_O <= G for the sides' largest approaches (the vertex that is not
+  // carried ends where its region or the body's follow room put it), and on the straight paths
+  // each is convex in time and zero at the anchor, so the sum stays below G throughout. A fixed
+  // or scripted vertex gives no room by moving away: a record with such a side may already have
+  // counted its retreat (mixed_pair_record measures from where it ends).
   const int side = static_cast<int>(ref & 1), na = c.side_a();
-  // The other side final (no carried vertex on it): the room its placed vertices leave, as
-  // follow_resolved_sides gives it (sound by the concavity of the separation along n).
-  double d = rec.d[side];
   double approach = -std::numeric_limits<double>::infinity();
-  bool final = true;
-  for (int k = side == 0 ? na : 0; k < (side == 0 ? c.size() : na) && final; ++k) {
+  for (int k = side == 0 ? na : 0; k < (side == 0 ? c.size() : na); ++k) {
     const Index u = c.v[k];
-    final = carrier_[u] < 0;
-    const double along = rec.n.dot(x[u] - anchor[u]);
-    approach = std::max(approach, side == 0 ? along : -along);
+    const double along = rec.n.dot(ends[static_cast<size_t>(u)] - anchor[u]);
+    const double toward = side == 0 ? along : -along;
+    approach = std::max(approach, inv_mass[u] != 0.0 ? toward : std::max(toward, 0.0));
   }
-  if (final) d = std::max(d, rec.d[0] + rec.d[1] - approach);
+  const double d = rec.d[0] + rec.d[1] - approach;
   const Vec3 n = side == 0 ? rec.n : Vec3(-rec.n);
   return (to - from).dot(n) + d >= 0.0;
 }
 
+bool RegionProjectionSolver::carry_along(std::uint32_t ref, Index body, std::span<const double> projected_mass,
+                                         const Positions& x, std::vector<Index>& carried,
+                                         std::vector<Vec3>& projected) {
+  const ContactPair& c = contacts_[ref >> 1];
+  for (int k = 0; k < c.size(); ++k) {
+    const Index u = c.v[k];
+    if (vertex_body_[u] != body && (vertex_body_[u] >= 0 || rigid_.body_of(u) >= 0 || !(projected_mass[u] > 0.0) ||
+                                    (carrier_[u] >= 0 && carrier_[u] != body)))
+      return false;
+  }
+  bool added = false;
+  for (int k = 0; k < c.size(); ++k) {
+    const Index u = c.v[k];
+    if (carrier_[u] >= 0 || vertex_body_[u] >= 0) continue;
+    carrier_[u] = body;
+    added = true;
+    // One let go in an earlier round is listed already (its x is its projection again).
+    if (std::find(carried.begin(), carried.end(), u) != carried.end()) continue;
+    carried.push_back(u);
+    projected.push_back(x[u]);
+  }
+  return added;
+}
+
+std::vector<double> RegionProjectionSolver::place_ends(const Positions& x, const Positions& anchor,
+                                                       std::span<const double> inv_mass, const StepContext& ctx,
+                                                       std::span<const RigidMotion> motion) {
+  // A carried vertex ends where its body's motion takes it, any other where the step bound
+  // applied after the pass leaves it (apply_step_bound's rule).
+  const double r = ctx.params.contact.radius;
+  ends_.resize(x.size());
+  parallel_for(
+      static_cast<Index>(x.size()),
+      [&](Index b, Index e) {
+        for (Index u = b; u < e; ++u) {
+          if (carrier_[u] >= 0) {
+            ends_[u] = motion[static_cast<size_t>(carrier_[u])](anchor[u]);
+            continue;
+          }
+          const Vec3 d = x[u] - anchor[u];
+          const double len = d.norm(), reach = ctx.vertex_reach.empty() ? r : ctx.vertex_reach[u];
+          ends_[u] = inv_mass[u] != 0.0 && len > reach ? Vec3(anchor[u] + (reach / len) * d) : x[u];
+        }
+      },
+      4096);
+  std::vector<double> longest(static_cast<size_t>(rigid_.size()), 0.0);
+  for (size_t v = 0; v < x.size(); ++v)
+    if (vertex_body_[v] >= 0) {
+      double& l = longest[static_cast<size_t>(vertex_body_[v])];
+      l = std::max(l, (x[v] - anchor[v]).norm());
+    }
+  return longest;
+}
+
 RigidEnforceStats RegionProjectionSolver::enforce_carrying(Positions& x, const Positions& anchor,
-                                                           const StepContext& ctx,
+                                                           std::span<const double> inv_mass, const StepContext& ctx,
                                                            std::span<const double> projected_mass,
                                                            std::span<const Vec3> cores,
                                                            const RigidContactOptions& options) {
@@ -308,7 +368,14 @@ RigidEnforceStats RegionProjectionSolver::enforce_carrying(Positions& x, const P
   if (mark_carried(contacts_, regions_, anchor, x, vertex_body_, projected_mass, carrier_) == 0) return enforce();
   std::vector<Index> carried;
   for (size_t v = 0; v < carrier_.size(); ++v)
-    if (carrier_[v] >= 0) carried.push_back(static_cast<Index>(v));
+    if (carrier_[v] >= 0) {
+      // A pinned body's free vertices follow their pins (RigidBodies::enforce), not another body.
+      if (rigid_.body_of(static_cast<Index>(v)) >= 0)
+        carrier_[v] = -1;
+      else
+        carried.push_back(static_cast<Index>(v));
+    }
+  if (carried.empty()) return enforce();
   std::vector<Vec3> projected(carried.size());
   for (size_t i = 0; i < carried.size(); ++i) projected[i] = x[carried[i]];
   struct Aside {
@@ -317,6 +384,12 @@ RigidEnforceStats RegionProjectionSolver::enforce_carrying(Positions& x, const P
   };
   std::vector<Aside> aside;
   std::mutex gather;
+  // A body whose motion takes a carried vertex past its step bound moves less: its own bound is
+  // cut by the ratio (the vertex's step is about proportional to the body's).
+  const double r = ctx.params.contact.radius;
+  std::vector<double> bound(static_cast<size_t>(rigid_.size()), r);
+  RigidContactOptions bounded = options;
+  bounded.body_step_bound = bound;
   for (int round = 0;; ++round) {
     // A pair one motion moves whole keeps its distance: its planes leave the pose solve.
     aside.clear();
@@ -345,29 +418,44 @@ RigidEnforceStats RegionProjectionSolver::enforce_carrying(Positions& x, const P
           for (const Aside& a : aside) std::copy(a.d, a.d + 2, regions.records[a.contact].d);
         }
       } restore{aside, regions_};
-      rs = enforce();
+      rs = rigid_.enforce(x, anchor, regions_, r, ctx.params.time.advance_tolerance, cores, bounded);
     }
     // Each carried vertex goes where its body's motion takes its anchor, if its other planes
     // (those of pairs the motion does not move whole) hold there.
     const std::vector<RigidMotion> motion = rigid_.motions(anchor, x);
+    const std::vector<double> longest = place_ends(x, anchor, inv_mass, ctx, motion);
     Index failed = 0;
+    std::vector<double> cut = bound;
     for (size_t i = 0; i < carried.size(); ++i) {
       const Index v = carried[i];
       if (carrier_[v] < 0) continue;
-      const RigidMotion& m = motion[static_cast<size_t>(carrier_[v])];
+      const size_t body = static_cast<size_t>(carrier_[v]);
+      const RigidMotion& m = motion[body];
       const Vec3 p = m(anchor[v]);
-      // Within the vertex's step bound (applied after the pass: a cut would leave it behind its
-      // body), and a turn of less than 120° (the affine map's shrink below 2).
-      const double reach = ctx.vertex_reach.empty() ? ctx.params.contact.radius : ctx.vertex_reach[v];
+      // A turn of less than 120° (the affine map's shrink below 2), its other planes holding,
+      // and within the vertex's step bound (applied after the pass: a cut would leave it behind
+      // its body). Past that bound alone, the body's own bound is cut by the ratio; at a plane,
+      // the pair's other movable vertices come along where they can; otherwise it is let go.
+      const double reach = ctx.vertex_reach.empty() ? r : ctx.vertex_reach[v];
       const double cos_half = std::cos(0.5 * Eigen::AngleAxisd(m.turn).angle());
-      bool holds = (p - anchor[v]).norm() <= reach && cos_half > 0.5;
+      bool holds = cos_half > 0.5;
       const double shrink = holds ? 1.0 / cos_half - 1.0 : 0.0;
-      for (Index q = regions_.row_start[v]; q < regions_.row_start[v + 1] && holds; ++q)
-        holds = carried_plane_holds(regions_.refs[static_cast<size_t>(q)], anchor, x, anchor[v], p, shrink);
-      if (holds)
+      std::uint32_t failing = 0;
+      for (Index q = regions_.row_start[v]; q < regions_.row_start[v + 1] && holds; ++q) {
+        failing = regions_.refs[static_cast<size_t>(q)];
+        holds = carried_plane_holds(failing, anchor, ends_, inv_mass, anchor[v], p, shrink);
+      }
+      const double step = (p - anchor[v]).norm();
+      if (!holds) {
+        if (!(cos_half > 0.5 && carry_along(failing, carrier_[v], projected_mass, x, carried, projected)))
+          carrier_[v] = -1;
+        ++failed;
+      } else if (step > reach) {
+        cut[body] = std::min(cut[body], longest[body] * (reach / step) * (1.0 - kCarryBoundMargin));
+        ++failed;
+      } else {
         x[v] = p;
-      else
-        carrier_[v] = -1, ++failed;
+      }
     }
     if (failed == 0) return rs;
     // Another solve: the bodies from their candidates, the vertices from their projections, the
@@ -379,6 +467,7 @@ RigidEnforceStats RegionProjectionSolver::enforce_carrying(Positions& x, const P
     for (size_t v = 0; v < x.size(); ++v)
       if (vertex_body_[v] >= 0) x[v] = candidates_[v];
     if (round + 1 >= kCarryRounds) return enforce();
+    std::copy(cut.begin(), cut.end(), bound.begin());
   }
 }
 

@@ -182,15 +182,16 @@ RigidPlaneContact pair_of(const RigidContactOptions& options, Index q) {
 /// check rejects falls back to a line search from the anchor pose, or halts the body there.
 class RigidBodies::PoseSolver {
  public:
-  /// `mass`: the vertices' mass plus the core (kg). Lengths are in the units of the positions.
+  /// `mass`: the vertices' mass plus the core (kg). Lengths are in the units of the positions;
+  /// `own_bound` (at most `step_bound`) bounds this body's steps, `step_bound` sets the margins.
   PoseSolver(const Body& b, Workspace& ws, const Positions& anchor, const RegionSet& regions,
-             const RigidContactOptions& options, double step_bound, double mass)
+             const RigidContactOptions& options, double step_bound, double own_bound, double mass)
       : b_(b),
         ws_(ws),
         anchor_(anchor),
         regions_(regions),
         options_(options),
-        step_bound_(step_bound),
+        step_bound_(own_bound),
         mass_(mass),
         n_(b.rest.size()),
         q_begin_(regions.row_start[b.begin]),
@@ -553,7 +554,10 @@ RigidEnforceStats RigidBodies::enforce(Positions& x, const Positions& anchor, co
           const double core = cores.empty() ? 0.0 : b.core;
           const Pose target =
               fit(xb, std::span<const Vec3>(b.rest), b.weight, core, cores.empty() ? Vec3::Zero() : cores[bi]);
-          PoseSolver solver(b, work_[static_cast<size_t>(bi)], anchor, regions, options, step_bound, b.mass + core);
+          const double bound =
+              options.body_step_bound.empty() ? step_bound : std::min(step_bound, options.body_step_bound[bi]);
+          PoseSolver solver(b, work_[static_cast<size_t>(bi)], anchor, regions, options, step_bound, bound,
+                            b.mass + core);
           ++per[bi].bodies_refitted;
           if (b.pinned)
             solver.follow_pins(target, xb);

@@ -45,14 +45,23 @@ class RegionProjectionSolver final : public DetectingSolver {
                     std::span<const double> projected_mass, SolveResult& r);
   /// place_bodies()' pose solves under contact.momentum, with the vertices a body both pushes and
   /// leaves carried by its motion where their other planes allow (mark_carried).
-  RigidEnforceStats enforce_carrying(Positions& x, const Positions& anchor, const StepContext& ctx,
-                                     std::span<const double> projected_mass, std::span<const Vec3> cores,
-                                     const RigidContactOptions& options);
+  RigidEnforceStats enforce_carrying(Positions& x, const Positions& anchor, std::span<const double> inv_mass,
+                                     const StepContext& ctx, std::span<const double> projected_mass,
+                                     std::span<const Vec3> cores, const RigidContactOptions& options);
+  /// Fills ends_ (where each vertex ends a carrying round) and returns each body's longest step.
+  std::vector<double> place_ends(const Positions& x, const Positions& anchor, std::span<const double> inv_mass,
+                                 const StepContext& ctx, std::span<const RigidMotion> motion);
   /// Whether the plane `ref` (RegionSet::refs) of a carried vertex holds for its move from `from`
-  /// to `to`, the other side at `x` (enforce_carrying); a pair one rigid motion moves whole needs
-  /// a gap of `shrink` times its offset (1/cos(θ/2) - 1 for the body's turn θ).
-  bool carried_plane_holds(std::uint32_t ref, const Positions& anchor, const Positions& x, const Vec3& from,
-                           const Vec3& to, double shrink) const;
+  /// to `to` (enforce_carrying), the other side at `ends` (where each vertex ends the pass; one of
+  /// inverse mass 0 gives no room by retreating). A pair one rigid motion moves whole needs a gap
+  /// of `shrink` times its offset (1/cos(θ/2) - 1 for the body's turn θ).
+  bool carried_plane_holds(std::uint32_t ref, const Positions& anchor, std::span<const Vec3> ends,
+                           std::span<const double> inv_mass, const Vec3& from, const Vec3& to, double shrink) const;
+  /// The pair of plane `ref` of a vertex carried by `body`: if its every vertex is `body`'s or
+  /// movable, of no rigid body and not carried by another body, those not yet carried join
+  /// `carried` (their positions `x` into `projected`), so that the pair moves whole; whether any did.
+  bool carry_along(std::uint32_t ref, Index body, std::span<const double> projected_mass, const Positions& x,
+                   std::vector<Index>& carried, std::vector<Vec3>& projected);
   std::string name_, projector_name_;
   ParamValues projector_params_;
   std::unique_ptr<Projector> projector_;
@@ -64,6 +73,7 @@ class RegionProjectionSolver final : public DetectingSolver {
   std::vector<double> later_;               ///< per vertex: placed after the projection (an unpinned rigid body's)
   std::vector<Index> vertex_body_;          ///< per vertex: its unpinned rigid body, or -1 (with later_)
   std::vector<Index> carrier_;              ///< per vertex: the body carrying it this pass, or -1
+  Positions ends_;                          ///< per vertex: where it ends a carrying round
   std::vector<double> other_inverse_mass_;  ///< per contact: a rigid other side's generalized inverse mass
   std::vector<double> free_mask_;  ///< inverse masses with unpinned rigid bodies' vertices at 0 (not projected alone)
   std::vector<std::uint8_t> halted_;    ///< #V: halted during frame `halted_frame_`

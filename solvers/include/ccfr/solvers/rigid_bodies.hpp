@@ -72,6 +72,8 @@ struct RigidContactOptions {
   /// With plane_contact: its `repel` alone, cheaper (no inverse masses, no motion); asked first,
   /// so that only planes within reach of their own target get the whole pair data.
   std::function<double(Index plane)> plane_repel;
+  /// Per body: a step bound of its own, at most `step_bound`; empty: `step_bound` for every body.
+  std::span<const double> body_step_bound;
 };
 
 /// Where an unpinned rigid body is, for the generalized inverse mass of one of its points.
