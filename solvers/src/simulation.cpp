@@ -531,7 +531,7 @@ Simulation::PassesEnd Simulation::run_passes(FrameStats& fs, int substep_index, 
     ctx.kinematic_step = (it == 0 && kin_moves) ? std::span<const Vec3>(kinematic_step_) : std::span<const Vec3>();
     if (it == 0) solve_materials(fs, substep_index, ctx);
     const Index capped = carry_before_detection(fs);
-    if (adaptive_reach_) set_vertex_reach(it, uniform_next, mask.active(), ctx);
+    if (adaptive_reach_ || follow_steps_) set_vertex_reach(it, uniform_next, mask.active(), ctx);
     add_detection(fs, contact_->detect(anchor_, st, ctx));
     start_from_materials(fs, mask.active(), capped, ctx);
     SolveResult res;

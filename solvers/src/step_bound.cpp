@@ -1,6 +1,7 @@
 #include "ccfr/solvers/step_bound.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -81,6 +82,35 @@ void adaptive_vertex_reach(const Positions& intended, const Positions& anchor, s
         }
       },
       4096);
+}
+
+bool reach_long_steps(const Positions& intended, const Positions& anchor, std::span<const double> inv_mass,
+                      std::span<const std::uint8_t> full, double r, std::vector<double>& reach) {
+  const Index nv = static_cast<Index>(anchor.size());
+  if (static_cast<Index>(intended.size()) != nv || static_cast<Index>(inv_mass.size()) != nv ||
+      (!full.empty() && static_cast<Index>(full.size()) != nv) ||
+      (!reach.empty() && static_cast<Index>(reach.size()) != nv))
+    throw Error("reach_long_steps: " + std::to_string(nv) + " anchors but " + std::to_string(intended.size()) +
+                " intended positions, " + std::to_string(inv_mass.size()) + " inverse masses, " +
+                std::to_string(full.size()) + " marks and " + std::to_string(reach.size()) + " reaches");
+  if (reach.empty()) reach.assign(static_cast<size_t>(nv), r);
+  std::atomic<bool> longer{false};
+  parallel_for(
+      nv,
+      [&](Index b, Index e) {
+        bool any = false;
+        for (Index i = b; i < e; ++i) {
+          if (!(inv_mass[i] > 0.0) || (!full.empty() && full[i])) continue;
+          const double step = (intended[i] - anchor[i]).norm();
+          // A non-finite step is left to check_finite: its reach stays as it was.
+          if (!(step > r) || !std::isfinite(step)) continue;
+          reach[i] = std::max(reach[i], step + r);
+          any = true;
+        }
+        if (any) longer.store(true, std::memory_order_relaxed);
+      },
+      4096);
+  return longer.load();
 }
 
 }  // namespace ccfr

@@ -210,10 +210,12 @@ class Simulation {
   /// object as far apart as it was, so the new anchors are as feasible as the old ones, and the
   /// pass's regions, built there, no longer hold back a body in free flight by its own pairs.
   Index carry_isolated_objects();
-  /// contact.adaptive_reach: checks the setting against the solver and the kept list, marks rigid vertices.
+  /// contact.adaptive_reach and contact.momentum's long steps: checks the setting against the solver and the kept
+  /// list, marks rigid vertices.
   void init_adaptive_reach();
-  /// vertex_reach_ for pass `iteration` of the substep (adaptive_vertex_reach), handed to the solver
-  /// in `ctx`; none (the uniform r) where `uniform`; 0 for the vertices a `masked` pass fixes.
+  /// vertex_reach_ for pass `iteration` of the substep (adaptive_vertex_reach; in the last pass under
+  /// contact.momentum, reach_long_steps), handed to the solver in `ctx`; none (the uniform r) where
+  /// `uniform` and no step is longer than r; 0 for the vertices a `masked` pass fixes.
   void set_vertex_reach(int iteration, bool uniform, bool masked, StepContext& ctx);
 
   Scene scene_;
@@ -235,7 +237,8 @@ class Simulation {
   /// contact.adaptive_reach (on for a solver that takes it): each pass's per-vertex reach (m), the
   /// vertices always given r (rigid bodies'), and those the last pass's step bound held back.
   bool adaptive_reach_ = false;
-  bool reach_pass_ = false;  ///< this pass bounds each vertex by vertex_reach_
+  bool follow_steps_ = false;  ///< contact.momentum: the last pass takes the rest of a step (reach_long_steps)
+  bool reach_pass_ = false;    ///< this pass bounds each vertex by vertex_reach_
   std::vector<double> vertex_reach_;
   std::vector<std::uint8_t> reach_full_, reach_held_;
   std::vector<double> inv_mass_saved_;

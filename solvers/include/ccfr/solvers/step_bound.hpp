@@ -27,7 +27,8 @@ struct StepBoundResult {
 /// Steps longer than r (1 + `tolerance`) count as held back; if `held` is not empty (one entry per
 /// vertex), it is set to 1 for exactly those vertices and 0 for all others. Deterministic for any
 /// thread count.
-/// `reach` (#V, m, or empty): each vertex's own bound ρ_i ≤ r in place of r (adaptive_vertex_reach).
+/// `reach` (#V, m, or empty): each vertex's own bound ρ_i in place of r (adaptive_vertex_reach,
+/// reach_long_steps).
 StepBoundResult apply_step_bound(const Positions& x, const Positions& anchor, std::span<const double> inv_mass,
                                  double r, double tolerance, Positions& out, std::span<std::uint8_t> held = {},
                                  std::span<const double> reach = {});
@@ -50,5 +51,16 @@ StepBoundResult apply_step_bound(const Positions& x, const Positions& anchor, st
 void adaptive_vertex_reach(const Positions& intended, const Positions& anchor, std::span<const double> inv_mass,
                            std::span<const std::uint8_t> full, std::span<const std::uint8_t> held, double r,
                            double floor_fraction, double repulsion_range, std::vector<double>& reach);
+
+/// contact.momentum's reach in the last pass of a substep (docs/feasibility.md, "The last pass takes
+/// the rest of a step"): every movable vertex that is not in `full` (a rigid body's vertex, bounded
+/// by its pose solve) and whose intended step s_i = intended_i − anchor_i is longer than r gets
+/// ρ_i = max(ρ_i, |s_i| + r): the rest of its step, with r of room beyond it for what the contact
+/// response adds, as the paper's r leaves a vertex at rest. `reach` is `r` for every vertex where it
+/// is empty on entry; returns whether any ρ_i grew past r (if none did, the pass may run at the
+/// uniform r). Detection then pairs primitives within ρ_A + ρ_B + ξ, the argument of
+/// adaptive_vertex_reach, which never uses ρ ≤ r. Deterministic.
+bool reach_long_steps(const Positions& intended, const Positions& anchor, std::span<const double> inv_mass,
+                      std::span<const std::uint8_t> full, double r, std::vector<double>& reach);
 
 }  // namespace ccfr
