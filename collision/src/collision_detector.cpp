@@ -202,8 +202,9 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
   const bool keeps_list = list.skin() > 0.0 && vertex_reach.empty();
   const double step = keeps_list ? list.step_since_last_pass(topo_, x) : 0.0;
   stats.reused = keeps_list && list.valid() && list.covers(topo_, x, inv_mass, 2.0 * params_.radius + params_.offset);
-  // A listing pass needs the last pass's motion to leave the list valid for two more passes.
-  const bool listing = !stats.reused && list.lists_after(step);
+  // A listing pass needs the last pass's motion to leave the list valid for two more passes; a
+  // pass with per-vertex reaches neither reads nor writes the list (its reach is not the list's).
+  const bool listing = vertex_reach.empty() && !stats.reused && list.lists_after(step);
   if (!stats.reused) {
     list.invalidate();
     // Pairs of two immovable primitives are never enumerated (a static obstacle against itself

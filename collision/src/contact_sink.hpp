@@ -46,9 +46,10 @@ struct ContactPolicy {
     stats.degenerate += degenerate;
     stats.reduced_offset += reduced_contacts;
   }
-  /// Per vertex (#V, m), or null: how far each vertex may move in this pass (the adaptive reach of
-  /// contact.adaptive_reach); a sub-pair is then in range within ρ_A + ρ_B + ξ, ρ a side's
-  /// largest vertex reach, instead of 2r + ξ. Never set while a list is built.
+  /// Per vertex (#V, m), or null: how far each vertex may move in this pass (contact.adaptive_reach,
+  /// contact.momentum's last pass); a sub-pair is then in range within ρ_A + ρ_B + ξ, ρ a side's
+  /// largest vertex reach, instead of 2r + ξ. Never set while a list is built (detect() does not
+  /// list in such a pass).
   const double* vertex_reach = nullptr;
 
   /// ρ_A + ρ_B + ξ of the sub-pair `v` (side A then side B, unused -1).

@@ -83,16 +83,16 @@ TEST(AdaptiveReach, ReachFollowsTheIntendedStep) {
 
 // contact.momentum's last pass: a step longer than r gets ρ = |s| + r; shorter steps, rigid
 // vertices and immovable ones keep what they had, a larger reach given before is kept, and a
-// non-finite step is left alone.
+// non-finite step (infinite or NaN) is left alone.
 TEST(AdaptiveReach, TheLastPassTakesTheRestOfAStepLongerThanR) {
   const Positions anchor(7, Vec3(1, 2, 3));
   Positions intended = anchor;
-  intended[0] += Vec3(0.012, 0, 0);   // 12 mm
-  intended[1] += Vec3(0, 0.0049, 0);  // within r
-  intended[2] += Vec3(0, 0, 0.03);    // a rigid body's vertex: its pose solve bounds it
-  intended[3] += Vec3(0.03, 0, 0);    // scripted
-  intended[4] = Vec3(std::numeric_limits<double>::quiet_NaN(), 0, 0);
-  intended[5] += Vec3(0, 0.006, 0);    // already given more (an adaptive reach, say)
+  intended[0] += Vec3(0.012, 0, 0);                                   // 12 mm
+  intended[1] += Vec3(0, 0.0049, 0);                                  // within r
+  intended[2] += Vec3(0, 0, 0.03);                                    // a rigid body's vertex: its pose solve bounds it
+  intended[3] += Vec3(0.03, 0, 0);                                    // scripted
+  intended[4] = Vec3(std::numeric_limits<double>::infinity(), 0, 0);  // left to check_finite
+  intended[5] += Vec3(0, 0.006, 0);
   intended[6] += Vec3(0, 0, -0.0051);  // just past r
   const std::vector<double> w = {1, 1, 1, 0, 1, 1, 2};
   const std::vector<std::uint8_t> full = {0, 0, 1, 0, 0, 0, 0};
@@ -106,10 +106,13 @@ TEST(AdaptiveReach, TheLastPassTakesTheRestOfAStepLongerThanR) {
   EXPECT_EQ(reach[4], kR);
   EXPECT_NEAR(reach[5], 0.006 + kR, 1e-15);
   EXPECT_NEAR(reach[6], 0.0051 + kR, 1e-15);
+  // A larger reach given before (an adaptive reach, say) is kept; a NaN step is left alone too.
   reach.assign(7, kR);
   reach[5] = 0.1;
+  intended[4] = Vec3(std::numeric_limits<double>::quiet_NaN(), 0, 0);
   EXPECT_TRUE(reach_long_steps(intended, anchor, w, full, kR, reach));
   EXPECT_EQ(reach[5], 0.1);
+  EXPECT_EQ(reach[4], kR);
   // Every step within r: nothing grows, the pass may run at the uniform r.
   Positions slow = anchor;
   slow[0] += Vec3(0.005, 0, 0);
@@ -381,6 +384,75 @@ TEST_P(AdaptiveReachSolvers, AStrandSnappingFartherThanThePassesAllowKeepsItsMom
       "[ measure  ] snapping strand, %s: momentum after 2 frames %.3g kg m/s (paper's bound: %.3g, %lld "
       "vertices held back), length %.4f m (rest 0.02)\n",
       GetParam().c_str(), shared.momentum, paper.momentum, static_cast<long long>(paper.clamped), shared.length);
+}
+
+/// An L-shaped strand (10 mm edges, stretched 10 times: corners at the origin, (0.1, 0, 0) and
+/// (0.1, 0.1, 0)) whose free end snaps back toward the origin into a fixed box (x and y in [0.015,
+/// 0.06], z in [-0.01, 0.01]; 41 mm or more from the free end and 12 mm from the strand's other
+/// edge when the last pass starts), with the kept sub-pair list (collision.reuse_skin 1: pairs
+/// listed within 2r + ξ + r = 17 mm). With `box` false, the strand alone.
+Scene l_strand_at_a_box(const std::string& solver, bool box) {
+  gen::TriMesh obstacle = gen::box(Vec3(0.045, 0.045, 0.02));
+  for (auto& p : obstacle.v) p += Vec3(0.0375, 0.0375, 0.0);
+  TopologyBuilder tb;
+  if (box) tb.add_object("box", ObjectKind::obstacle, static_cast<Index>(obstacle.v.size()), obstacle.f);
+  tb.add_object("strand", ObjectKind::strand, 3, {}, {}, {{0, 1, 2}});
+  Scene s;
+  s.topo = tb.finish();
+  s.state.resize(s.topo.num_vertices());
+  Index k = 0;
+  if (box)
+    for (const Vec3& p : obstacle.v) s.state.x[k++] = p;
+  const std::vector<Vec3> rest = {Vec3::Zero(), Vec3(0.01, 0, 0), Vec3(0.01, 0.01, 0)};
+  for (Index i = 0; i < 3; ++i, ++k) {
+    s.state.rest[k] = rest[static_cast<size_t>(i)];
+    s.state.x[k] = 10.0 * rest[static_cast<size_t>(i)];
+    s.state.mass[k] = i == 0 ? 0.01 : 0.001;
+    s.state.inv_mass[k] = 1.0 / s.state.mass[k];
+  }
+  for (Index i = 0; i < (box ? static_cast<Index>(obstacle.v.size()) : 0); ++i) s.state.rest[i] = s.state.x[i];
+  s.state.x_prev = s.state.x;
+  s.params.objects.resize(box ? 2 : 1);
+  MaterialParams& m = s.params.objects.back().material;
+  set_material_key(m, "stretch_compliance", 1e-9);
+  set_material_key(m, "bend_compliance", 1.0);
+  s.params.contact.solver = solver;
+  s.params.contact.radius = kR;
+  s.params.contact.offset = 0.002;
+  s.params.contact.repulsion_range = 0.0005;
+  s.params.contact.momentum = true;
+  s.params.collision.reuse_skin = 1.0;
+  s.params.time.fps = 60;
+  s.params.time.substeps = 10;
+  s.params.time.iterations = 1;
+  s.params.time.xpbd_sweeps = 20;
+  s.params.time.damping = 0.0;
+  s.params.time.gravity = Vec3::Zero();
+  return s;
+}
+
+// The last pass's reach runs past the kept list's 2r + ξ + s: such a pass must neither read nor
+// build the list, or the box, out of the list's reach when the pass starts, is missed and the
+// free end snaps into it. Independent answers: the strand alone, whose free end ends inside the
+// box's space, and the exact audit after every substep with the box.
+TEST_P(AdaptiveReachSolvers, ALastPassStepPastTheKeptListsReachStillMeetsWhatIsInIt) {
+  {
+    Scene scene = l_strand_at_a_box(GetParam(), false);
+    scene.params.debug.audit = AuditMode::every_substep;
+    Simulation alone(std::move(scene));
+    Vec3 end = Vec3::Zero();
+    int substeps = 0;
+    alone.set_audit([&](const Positions& x) {
+      if (substeps++ == 0) end = x[2];  // where the first substep leaves the free end
+      return Index{0};
+    });
+    alone.step_frame();
+    EXPECT_TRUE(end.x() > 0.015 && end.x() < 0.06 && end.y() > 0.015 && end.y() < 0.06)
+        << "the free end does not reach the box's space: " << end.transpose();
+  }
+  Index remaining = 0;
+  EXPECT_EQ(audited_substeps(l_strand_at_a_box(GetParam(), true), 3, &remaining), 0);
+  EXPECT_EQ(remaining, 0);
 }
 
 INSTANTIATE_TEST_SUITE_P(Solvers, AdaptiveReachSolvers, ::testing::Values("ccfr", "exact_projection"),

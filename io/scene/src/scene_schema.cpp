@@ -144,9 +144,10 @@ const scene::Section<ContactParams>& contact_section() {
                  "at a fixed plane (docs/feasibility.md, \"Momentum through contact\"); false (default): the "
                  "paper's response (repulsion within δ only) and planes split by mass shares, except in a substep "
                  "whose passes end with pairs closer than their offset, which is solved again with this response "
-                 "(stats.csv `substeps_redone`). The last outer iteration of a substep takes the rest of any step "
-                 "longer than r instead of cutting it (docs/feasibility.md, \"The last pass takes the rest of a "
-                 "step\"). Not yet for a heavy body on a light pinned cloth, which it stretches")
+                 "(stats.csv `substeps_redone`). Under the region-projection solvers, the last outer iteration of a "
+                 "substep takes the rest of any step longer than r instead of cutting it (docs/feasibility.md, "
+                 "\"The last pass takes the rest of a step\"). Not yet for a heavy body on a light pinned cloth, "
+                 "which it stretches")
           .field("sliding", &S::sliding,
                  "each pair's separating plane may turn toward the pair's closest-point direction at the "
                  "candidate positions, where the turned plane still keeps the pair's current positions at least "

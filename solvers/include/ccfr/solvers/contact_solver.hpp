@@ -45,7 +45,8 @@ struct StepContext {
   /// the next pass.
   std::span<std::uint8_t> deferred = {};
   /// One entry per vertex (m), or empty for the uniform r: how far each vertex may move in this
-  /// pass (contact.adaptive_reach; adaptive_vertex_reach in step_bound.hpp). Set only for solvers
+  /// pass (contact.adaptive_reach, adaptive_vertex_reach; contact.momentum's last pass,
+  /// reach_long_steps; both in step_bound.hpp). Set only for solvers
   /// whose takes_vertex_reach() is true; detection pairs primitives within ρ_A + ρ_B + ξ.
   std::span<const double> vertex_reach = {};
   /// This pass closes what the candidates bring inside their offsets by an inelastic contact and
