@@ -104,7 +104,7 @@ bool reach_long_steps(const Positions& intended, const Positions& anchor, std::s
           const double step = (intended[i] - anchor[i]).norm();
           // A non-finite step is left to check_finite: its reach stays as it was.
           if (!(step > r) || !std::isfinite(step)) continue;
-          reach[i] = std::max(reach[i], step + r);
+          reach[i] = std::max(reach[i], std::min(step, kLongStepMost * r) + r);
           any = true;
         }
         if (any) longer.store(true, std::memory_order_relaxed);

@@ -82,8 +82,8 @@ TEST(AdaptiveReach, ReachFollowsTheIntendedStep) {
 }
 
 // contact.momentum's last pass: a step longer than r gets ρ = |s| + r; shorter steps, rigid
-// vertices and immovable ones keep what they had, a larger reach given before is kept, and a
-// non-finite step (infinite or NaN) is left alone.
+// vertices and immovable ones keep what they had, a larger reach given before is kept, a
+// non-finite step (infinite or NaN) is left alone, and no reach passes 65 r.
 TEST(AdaptiveReach, TheLastPassTakesTheRestOfAStepLongerThanR) {
   const Positions anchor(7, Vec3(1, 2, 3));
   Positions intended = anchor;
@@ -113,6 +113,11 @@ TEST(AdaptiveReach, TheLastPassTakesTheRestOfAStepLongerThanR) {
   EXPECT_TRUE(reach_long_steps(intended, anchor, w, full, kR, reach));
   EXPECT_EQ(reach[5], 0.1);
   EXPECT_EQ(reach[4], kR);
+  // A finite step of a kilometre (a blow-up) widens detection by at most 64 r: the rest is cut.
+  intended[0] = anchor[0] + Vec3(0, 1000.0, 0);
+  reach.clear();
+  EXPECT_TRUE(reach_long_steps(intended, anchor, w, full, kR, reach));
+  EXPECT_NEAR(reach[0], 65.0 * kR, 1e-15);
   // Every step within r: nothing grows, the pass may run at the uniform r.
   Positions slow = anchor;
   slow[0] += Vec3(0.005, 0, 0);
@@ -308,6 +313,33 @@ TEST_P(AdaptiveReachSolvers, CoilsPilingOnAFloorStayCleanAndTestFewerPairs) {
       static_cast<long long>(uniform.candidates), adaptive.lowest_centre, uniform.lowest_centre);
 }
 
+/// The snapping scenes' settings, for the scene's last object (a strand): stiff edges, 60 fps x 10
+/// substeps of 1 iteration and 20 sweeps, r = kR, ξ = 2 mm, free space, no damping.
+void snapping_settings(Scene& s, const std::string& solver, bool momentum) {
+  MaterialParams& m = s.params.objects.back().material;
+  set_material_key(m, "stretch_compliance", 1e-9);
+  set_material_key(m, "bend_compliance", 1.0);
+  s.params.contact.solver = solver;
+  s.params.contact.radius = kR;
+  s.params.contact.offset = 0.002;
+  s.params.contact.repulsion_range = 0.0005;
+  s.params.contact.momentum = momentum;
+  s.params.time.fps = 60;
+  s.params.time.substeps = 10;
+  s.params.time.iterations = 1;
+  s.params.time.xpbd_sweeps = 20;
+  s.params.time.damping = 0.0;
+  s.params.time.gravity = Vec3::Zero();
+}
+
+/// Strand vertex v at rest at `rest`, placed at 10 times it; 10 g if `heavy`, else 1 g.
+void stretched_vertex(Scene& s, Index v, const Vec3& rest, bool heavy) {
+  s.state.rest[v] = rest;
+  s.state.x[v] = 10.0 * rest;
+  s.state.mass[v] = heavy ? 0.01 : 0.001;
+  s.state.inv_mass[v] = 1.0 / s.state.mass[v];
+}
+
 /// A strand of 3 vertices and 10 mm rest edges, stretched along x to 10 times its length and let go
 /// in free space (no gravity, no damping; two adjacent edges, so no pair of its own to detect): its
 /// first vertex weighs ten times each other's. Its stiff edges snap it back within a substep, the
@@ -322,26 +354,10 @@ Scene snapping_strand(const std::string& solver, bool momentum) {
   Scene s;
   s.topo = tb.finish();
   s.state.resize(nv);
-  for (Index i = 0; i < nv; ++i) {
-    s.state.rest[i] = Vec3(0.01 * static_cast<double>(i), 0, 0);
-    s.state.x[i] = s.state.x_prev[i] = 10.0 * s.state.rest[i];
-    s.state.mass[i] = i == 0 ? 0.01 : 0.001;
-    s.state.inv_mass[i] = 1.0 / s.state.mass[i];
-  }
+  for (Index i = 0; i < nv; ++i) stretched_vertex(s, i, Vec3(0.01 * static_cast<double>(i), 0, 0), i == 0);
+  s.state.x_prev = s.state.x;
   s.params.objects.resize(1);
-  set_material_key(s.params.objects[0].material, "stretch_compliance", 1e-9);
-  set_material_key(s.params.objects[0].material, "bend_compliance", 1.0);
-  s.params.contact.solver = solver;
-  s.params.contact.radius = kR;
-  s.params.contact.offset = 0.002;
-  s.params.contact.repulsion_range = 0.0005;
-  s.params.contact.momentum = momentum;
-  s.params.time.fps = 60;
-  s.params.time.substeps = 10;
-  s.params.time.iterations = 1;
-  s.params.time.xpbd_sweeps = 20;
-  s.params.time.damping = 0.0;
-  s.params.time.gravity = Vec3::Zero();
+  snapping_settings(s, solver, momentum);
   return s;
 }
 
@@ -404,30 +420,12 @@ Scene l_strand_at_a_box(const std::string& solver, bool box) {
   if (box)
     for (const Vec3& p : obstacle.v) s.state.x[k++] = p;
   const std::vector<Vec3> rest = {Vec3::Zero(), Vec3(0.01, 0, 0), Vec3(0.01, 0.01, 0)};
-  for (Index i = 0; i < 3; ++i, ++k) {
-    s.state.rest[k] = rest[static_cast<size_t>(i)];
-    s.state.x[k] = 10.0 * rest[static_cast<size_t>(i)];
-    s.state.mass[k] = i == 0 ? 0.01 : 0.001;
-    s.state.inv_mass[k] = 1.0 / s.state.mass[k];
-  }
+  for (Index i = 0; i < 3; ++i, ++k) stretched_vertex(s, k, rest[static_cast<size_t>(i)], i == 0);
   for (Index i = 0; i < (box ? static_cast<Index>(obstacle.v.size()) : 0); ++i) s.state.rest[i] = s.state.x[i];
   s.state.x_prev = s.state.x;
   s.params.objects.resize(box ? 2 : 1);
-  MaterialParams& m = s.params.objects.back().material;
-  set_material_key(m, "stretch_compliance", 1e-9);
-  set_material_key(m, "bend_compliance", 1.0);
-  s.params.contact.solver = solver;
-  s.params.contact.radius = kR;
-  s.params.contact.offset = 0.002;
-  s.params.contact.repulsion_range = 0.0005;
-  s.params.contact.momentum = true;
+  snapping_settings(s, solver, true);
   s.params.collision.reuse_skin = 1.0;
-  s.params.time.fps = 60;
-  s.params.time.substeps = 10;
-  s.params.time.iterations = 1;
-  s.params.time.xpbd_sweeps = 20;
-  s.params.time.damping = 0.0;
-  s.params.time.gravity = Vec3::Zero();
   return s;
 }
 

@@ -52,13 +52,18 @@ void adaptive_vertex_reach(const Positions& intended, const Positions& anchor, s
                            std::span<const std::uint8_t> full, std::span<const std::uint8_t> held, double r,
                            double floor_fraction, double repulsion_range, std::vector<double>& reach);
 
+/// The longest step, in units of r, that reach_long_steps() lets a vertex take in a last pass.
+constexpr double kLongStepMost = 64.0;
+
 /// contact.momentum's reach in the last pass of a substep (docs/feasibility.md, "The last pass takes
 /// the rest of a step"): every movable vertex that is not in `full` (a rigid body's vertex, bounded
 /// by its pose solve) and whose intended step s_i = intended_i − anchor_i is longer than r gets
-/// ρ_i = max(ρ_i, |s_i| + r): the rest of its step, with r of room beyond it for what the contact
-/// response adds, as the paper's r leaves a vertex at rest. `reach` is `r` for every vertex where it
-/// is empty on entry; returns whether any ρ_i grew past r (if none did, the pass may run at the
-/// uniform r). Detection then pairs primitives within ρ_A + ρ_B + ξ, the argument of
+/// ρ_i = max(ρ_i, min(|s_i|, kLongStepMost r) + r): the rest of its step, with r of room beyond it
+/// for what the contact response adds, as the paper's r leaves a vertex at rest. A step longer than
+/// kLongStepMost r (a blow-up, not a motion) is cut there and held back like any other: its reach
+/// would otherwise widen the pass's detection over the whole scene. `reach` is `r` for every
+/// vertex where it is empty on entry; returns whether any ρ_i grew past r (if none did, the pass
+/// may run at the uniform r). Detection then pairs primitives within ρ_A + ρ_B + ξ, the argument of
 /// adaptive_vertex_reach, which never uses ρ ≤ r. Deterministic.
 bool reach_long_steps(const Positions& intended, const Positions& anchor, std::span<const double> inv_mass,
                       std::span<const std::uint8_t> full, double r, std::vector<double>& reach);
