@@ -19,8 +19,11 @@ namespace {
 using Result = ccfr::test::CliResult;
 Result run(const std::string& args) { return ccfr::test::run_ccfr(args); }
 
+/// The running test's own folder: ctest runs each test as its own process, in parallel, and a
+/// folder shared by them was emptied by one while another wrote in it.
 fs::path scene_dir() {
-  const fs::path d = ccfr::test::scratch_dir("cli_limits");
+  const fs::path d = ccfr::test::scratch_dir(std::string("cli_limits/") +
+                                             ::testing::UnitTest::GetInstance()->current_test_info()->name());
   std::ofstream(d / "s.yaml")
       << "time: {frames: 1, substeps: 1}\n"
          "objects:\n"
