@@ -1,4 +1,5 @@
 #include "ccfr/solvers/contact_response.hpp"
+#include "ccfr/solvers/tethers.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -347,10 +348,11 @@ struct PullBack {
   std::span<const double> inv_mass;  ///< #V
   std::span<const Index> count;      ///< per vertex < nv: its overlapping contacts this sweep
   Index nv = 0;
-  double excess = 0.0;      ///< E: the contact's overlap
-  double w_o = 0.0;         ///< inverse mass of an other side that answers in its own solve; 0: none
-  Vec3* corr = nullptr;     ///< the contact's 4 correction slots
-  double* given = nullptr;  ///< the contact's give so far of a self-answering side (read only when w_o > 0)
+  double excess = 0.0;           ///< E: the contact's overlap
+  double w_o = 0.0;              ///< inverse mass of an other side that answers in its own solve; 0: none
+  Vec3* corr = nullptr;          ///< the contact's 4 correction slots
+  double* given = nullptr;       ///< the contact's give so far of a self-answering side (read only when w_o > 0)
+  std::uint8_t* held = nullptr;  ///< set where that side takes the whole overlap (see held())
 };
 
 /// Barycentric sweeps: the closest points' overlap split in proportion to each vertex's
@@ -363,7 +365,10 @@ void barycentric_pull_back(const ContactPair& c, const PullBack& p) {
     if (v < p.nv && p.inv_mass[v] > 0.0)
       wsum += static_cast<double>(std::max<Index>(1, p.count[v])) * c.w[k] * c.w[k] * p.inv_mass[v];
   }
-  if (p.w_o > 0.0 && wsum > 0.0) *p.given += p.w_o * p.excess / wsum;
+  if (p.w_o > 0.0 && wsum > 0.0) {
+    *p.given += p.w_o * p.excess / wsum;
+    if (wsum == p.w_o && p.held) *p.held = 1;
+  }
   for (int k = 0; k < nk; ++k) {
     const Index v = c.v[k];
     p.corr[k] = wsum > 0.0 && v < p.nv && p.inv_mass[v] > 0.0
@@ -591,6 +596,7 @@ void ContactResponse::pull_back(const Positions& x, const Positions& anchor, std
           p.w_o = other_inverse_mass.empty() ? 0.0 : other_inverse_mass[static_cast<size_t>(ci)];
           p.corr = &corr_[static_cast<size_t>(ci) * 4];
           p.given = separate_given_.empty() ? nullptr : &separate_given_[static_cast<size_t>(ci)];
+          p.held = separate_held_.empty() ? nullptr : &separate_held_[static_cast<size_t>(ci)];
           if (barycentric)
             barycentric_pull_back(contacts_[ci], p);
           else
@@ -600,7 +606,7 @@ void ContactResponse::pull_back(const Positions& x, const Positions& anchor, std
       2048);
 }
 
-void ContactResponse::move_by_mean(Positions& x, std::span<const double> inv_mass) {
+void ContactResponse::move_by_mean(Positions& x, std::span<const double> inv_mass, const Tethers* tethers) {
   parallel_for(
       static_cast<Index>(touched_.size()),
       [&](Index b, Index e) {
@@ -613,6 +619,7 @@ void ContactResponse::move_by_mean(Positions& x, std::span<const double> inv_mas
             if (separate_dl_[slots_[q] / 4] != 0.0) sum += corr_[slots_[q]];
           const Vec3 before = x[v];
           x[v] += sum / static_cast<double>(separate_count_[v]);
+          if (tethers && tethers->cap(x, v)) capped_mass_[v] = 0.0;
           separate_moved_[v] = x[v] != before;
         }
       },
@@ -620,9 +627,11 @@ void ContactResponse::move_by_mean(Positions& x, std::span<const double> inv_mas
 }
 
 Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span<const double> inv_mass, int sweeps,
-                                double rest_overlap, std::span<const double> other_inverse_mass) {
+                                double rest_overlap, std::span<const double> other_inverse_mass,
+                                const Tethers* tethers) {
   const Index n = static_cast<Index>(contacts_.size());
   separate_given_.clear();  // given() is this call's
+  separate_held_.clear();
   if (n == 0 || sweeps <= 0) return 0;
   if (row_start_.empty()) throw Error("ContactResponse::separate: called before prepare()");
   const Index nv = std::min(static_cast<Index>(x.size()), static_cast<Index>(row_start_.size()) - 1);
@@ -637,6 +646,11 @@ Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span
   // Per contact: how far a side that answers in its own solve (w_o > 0, not moved here) has given
   // way so far, so that later sweeps leave it its share instead of handing it to the other side.
   separate_given_.assign(other_inverse_mass.empty() ? 0 : static_cast<size_t>(n), 0.0);
+  separate_held_.assign(separate_given_.size(), 0);
+  if (tethers) {
+    capped_mass_.assign(inv_mass.begin(), inv_mass.end());
+    inv_mass = capped_mass_;
+  }
   Index most = 0;
   const int first_vertex_sweep = sweeps * 3 / 4;
   for (int sweep = 0; sweep < sweeps; ++sweep) {
@@ -657,7 +671,7 @@ Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span
     pull_back(x, anchor, inv_mass, nv, barycentric, other_inverse_mass);
     // Each vertex moves by the mean of its contacts' pull-backs: with split masses every contact
     // is balanced, so Σ_k (m_k / n_k) Σ_c Δx_k^c = 0 stays after the mean.
-    move_by_mean(x, inv_mass);
+    move_by_mean(x, inv_mass, tethers);
   }
   return most;
 }

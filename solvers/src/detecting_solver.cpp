@@ -304,7 +304,7 @@ std::optional<bool> DetectingSolver::region_empty(Index v, const Positions& anch
 
 void DetectingSolver::respond(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx) {
   response_.apply(x, state.x_prev, state.inv_mass, ctx.params.contact, ctx.dt, friction_override_);
-  if (ctx.momentum) response_.separate(x, anchor, state.inv_mass, kSeparateSweeps, rest_overlap(ctx));
+  if (ctx.momentum) response_.separate(x, anchor, state.inv_mass, kSeparateSweeps, rest_overlap(ctx), {}, ctx.tethers);
 }
 
 void DetectingSolver::vertex_diagnostics(std::vector<std::int32_t>& half_spaces, std::vector<double>& distance,

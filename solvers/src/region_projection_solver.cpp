@@ -70,7 +70,7 @@ void RegionProjectionSolver::respond(Positions& x, const Positions& anchor, cons
                   ctx.momentum);
   reaction_shift_.assign(static_cast<size_t>(rigid_.size()), Vec3::Zero());
   if (!ctx.momentum) return;
-  response_.separate(x, anchor, free_mask_, kSeparateSweeps, rest_overlap(ctx), other_inverse_mass_);
+  response_.separate(x, anchor, free_mask_, kSeparateSweeps, rest_overlap(ctx), other_inverse_mass_, ctx.tethers);
   react_bodies(x, anchor);
 }
 
@@ -80,11 +80,21 @@ void RegionProjectionSolver::react_bodies(Positions& x, const Positions& anchor)
   // moves by Σ J n / M and it turns by I⁻¹ Σ r × J n (the frame at the anchor, where w_o was
   // taken). Summed, not the largest: a body's planes would stop it by the deepest contact alone.
   const std::span<const double> given = response_.given();
+  const std::span<const std::uint8_t> held = response_.held();
   const std::span<const Vec3> repelled = response_.impulse_on_movable();
   if (given.size() != contacts_.size()) return;
   const Index nb = rigid_.size();
-  std::vector<Vec3> push(static_cast<size_t>(nb), Vec3::Zero()), twist(static_cast<size_t>(nb), Vec3::Zero());
+  // [0]: impulses the pair exchanged (kept whole: momentum); [1]: those of contacts whose other
+  // side was held (a tether, a pin), which come from outside the pair.
+  std::vector<Vec3> push[2], twist[2];
+  for (int h = 0; h < 2; ++h) push[h].assign(static_cast<size_t>(nb), Vec3::Zero()), twist[h] = push[h];
   std::vector<RigidFrame> frames;
+  struct Held {
+    Index body;
+    Vec3 arm, dir;
+    double given;
+  };
+  std::vector<Held> held_contacts;
   for (size_t ci = 0; ci < contacts_.size(); ++ci) {
     const double w_o = other_inverse_mass_[ci];
     if (!(w_o > 0.0) || (!(given[ci] > 0.0) && (repelled.empty() || repelled[ci] == Vec3::Zero()))) continue;
@@ -100,16 +110,31 @@ void RegionProjectionSolver::react_bodies(Positions& x, const Positions& anchor)
     Vec3 point = Vec3::Zero();
     for (int j = lo; j < hi; ++j) point += std::abs(c.w[j]) * anchor[c.v[j]];
     // Side A gives way along +n, side B along -n.
-    Vec3 impulse = (given[ci] / w_o) * (body_on_a ? c.n : Vec3(-c.n));
+    const Vec3 dir = body_on_a ? c.n : Vec3(-c.n);
+    Vec3 impulse = (given[ci] / w_o) * dir;
     if (!repelled.empty()) impulse -= repelled[ci];
-    push[static_cast<size_t>(body)] += impulse;
-    twist[static_cast<size_t>(body)] += (point - frames[static_cast<size_t>(body)].centre).cross(impulse);
+    const int h = !held.empty() && held[ci] ? 1 : 0;
+    const Vec3 arm = point - frames[static_cast<size_t>(body)].centre;
+    push[h][static_cast<size_t>(body)] += impulse;
+    twist[h][static_cast<size_t>(body)] += arm.cross(impulse);
+    if (h) held_contacts.push_back({body, arm, dir, given[ci]});
   }
   if (frames.empty()) return;
+  // Each held contact asked the body for its whole overlap as if alone; summed, n parallel ones
+  // would move it n times too far. Their sum is scaled to the least that still gives every held
+  // contact its overlap along the summed motion.
+  std::vector<double> scale(static_cast<size_t>(nb), 0.0);
+  for (const Held& hc : held_contacts) {
+    const auto b = static_cast<size_t>(hc.body);
+    const Vec3 motion = frames[b].inv_mass * push[1][b] + (frames[b].inv_inertia * twist[1][b]).cross(hc.arm);
+    const double along = hc.dir.dot(motion);
+    if (along > 0.0) scale[b] = std::max(scale[b], std::min(1.0, hc.given / along));
+  }
   std::vector<Vec3> turn(static_cast<size_t>(nb), Vec3::Zero());
   for (size_t b = 0; b < static_cast<size_t>(nb); ++b) {
-    reaction_shift_[b] = frames[b].inv_mass * push[b];
-    turn[b] = frames[b].inv_inertia * twist[b];
+    const Vec3 p = push[0][b] + scale[b] * push[1][b], t = twist[0][b] + scale[b] * twist[1][b];
+    reaction_shift_[b] = frames[b].inv_mass * p;
+    turn[b] = frames[b].inv_inertia * t;
   }
   rigid_.displace(x, reaction_shift_, turn);
 }

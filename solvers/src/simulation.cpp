@@ -13,34 +13,9 @@
 #include "ccfr/solvers/obstacles.hpp"
 #include "ccfr/solvers/polar_decomposition.hpp"
 #include "ccfr/solvers/step_bound.hpp"
+#include "inverse_mass_mask.hpp"
 
 namespace ccfr {
-
-namespace {
-/// For one outer iteration under time.continuation: held_back: sets the inverse mass of every
-/// vertex not marked to 0 (kept in `saved`), and restores all of them when the pass ends, also by
-/// an exception. Does nothing for empty marks.
-class InverseMassMask {
- public:
-  InverseMassMask(std::vector<double>& inv_mass, std::vector<double>& saved, std::span<const std::uint8_t> marks)
-      : inv_mass_(marks.empty() ? nullptr : &inv_mass), saved_(saved) {
-    if (!inv_mass_) return;
-    saved_ = inv_mass;
-    for (size_t i = 0; i < inv_mass.size(); ++i)
-      if (!marks[i]) inv_mass[i] = 0.0;
-  }
-  ~InverseMassMask() {
-    if (inv_mass_) std::copy(saved_.begin(), saved_.end(), inv_mass_->begin());
-  }
-  InverseMassMask(const InverseMassMask&) = delete;
-  InverseMassMask& operator=(const InverseMassMask&) = delete;
-  bool active() const { return inv_mass_ != nullptr; }
-
- private:
-  std::vector<double>* inv_mass_;
-  std::vector<double>& saved_;
-};
-}  // namespace
 
 Simulation::Simulation(Scene scene) : scene_(std::move(scene)) {
   const auto& topo = scene_.topo;
@@ -50,6 +25,7 @@ Simulation::Simulation(Scene scene) : scene_(std::move(scene)) {
 
   // Material constraints of every object kind (docs/materials.md); coloured with the final pins.
   materials_ = MaterialSystem(topo, st, params);
+  tethers_ = Tethers(topo, st, params);  // none unless contact.momentum and contact.tethers
 
   // Kinematic vertices: obstacles follow their object's motion, pins their group's motion.
   std::vector<const Motion*> motion_of(static_cast<size_t>(topo.num_vertices()), nullptr);
@@ -446,6 +422,7 @@ void Simulation::solve_materials(FrameStats& fs, int substep_index, const StepCo
   for (int s = 0; s < scene_.params.time.xpbd_sweeps; ++s) {
     if (s > 0 && s % 64 == 0) check_cancel(substep_index);
     materials_.solve(material_solved_, scene_.state.inv_mass, ctx.dt);
+    tethers_.enforce(material_solved_, scene_.state.inv_mass);
   }
   check_finite(material_solved_, "xpbd");
 }
@@ -589,6 +566,7 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt, int halvi
   halvings_ = halvings;
   StepContext ctx{scene_.topo, params, dt, frame_ + 1, substep_index, 0, fs.times};
   ctx.momentum = params.contact.momentum;
+  ctx.tethers = tethers_.empty() ? nullptr : &tethers_;  // the momentum response caps its pushes at them
   // A substep whose passes end with pairs inside their offsets (the run would stop, or warn) is
   // solved once more from its start with contact.momentum's response: typically a vertex between a
   // scripted pusher and a movable one ahead, whose region the paper's fixed dividing plane (half

@@ -13,6 +13,8 @@
 
 namespace ccfr {
 
+class Tethers;
+
 /// Cubic smoothstep \f$S(t) = 3t^2 - 2t^3\f$ on [0, 1], clamped outside.
 inline double smoothstep(double t) {
   if (t <= 0.0) return 0.0;
@@ -111,11 +113,18 @@ class ContactResponse {
   /// closing that here sent every sweep through the bodies stacked on it. Only an impact's
   /// overlap beyond it is closed here.
   /// Returns the most contacts that overlapped in one sweep.
+  /// `tethers` (or null): a tethered vertex moved past its tether is put back on it and does not
+  /// give way in later sweeps: the other side takes the rest of the overlap.
   Index separate(Positions& x, const Positions& anchor, std::span<const double> inv_mass, int sweeps,
-                 double rest_overlap = 0.0, std::span<const double> other_inverse_mass = {});
+                 double rest_overlap = 0.0, std::span<const double> other_inverse_mass = {},
+                 const Tethers* tethers = nullptr);
   /// After separate() with `other_inverse_mass`: per contact, how far its self-answering side
   /// gave way along n (m), w_o J for the contact's impulse J (kg m); empty without one.
   std::span<const double> given() const { return separate_given_; }
+  /// After separate() with `other_inverse_mass`: per contact, 1 where the self-answering side took
+  /// a whole overlap at least once because nothing on the other side could give way (held by its
+  /// tether or immovable): that part of its impulse comes from outside the pair.
+  std::span<const std::uint8_t> held() const { return separate_held_; }
 
  private:
   /// Keeps the contacts and computes their visibility weights (grouped through `row_start`/`slots`
@@ -143,7 +152,8 @@ class ContactResponse {
                  bool barycentric, std::span<const double> other_inverse_mass);
   /// Moves each touched vertex by the mean of its overlapping contacts' pull-backs;
   /// separate_moved_ marks the vertices that moved (all of them touched).
-  void move_by_mean(Positions& x, std::span<const double> inv_mass);
+  void move_by_mean(Positions& x, std::span<const double> inv_mass, const Tethers* tethers);
+  std::vector<double> capped_mass_;  ///< in separate() with tethers: inv_mass, 0 once a vertex is capped
 
   std::span<const ContactPair> contacts_;
   std::vector<double> visibility_;
@@ -159,14 +169,15 @@ class ContactResponse {
   std::vector<std::uint8_t> separate_moved_;  ///< per vertex, in separate(): moved in the last sweep
   /// touch_start_/touch_ and listed_ for separate()'s contacts, built at its first partial sweep.
   void build_touch(Index nv);
-  std::vector<Index> touch_start_, touch_;  ///< in separate(): CSR vertex -> every contact touching it
-  bool touch_built_ = false;                ///< touch_ holds this separate() call's contacts
-  std::vector<Index> overlapping_;          ///< in separate(): the contacts with E > 0 this sweep
-  std::vector<Index> touched_;              ///< in separate(): the overlapping contacts' vertices
-  std::vector<std::uint8_t> touched_mark_;  ///< per vertex, in count_overlaps(): already in touched_
-  std::vector<std::uint8_t> listed_;        ///< per contact, in mark_overlaps(): already listed
-  std::vector<double> separate_given_;      ///< per contact, in separate(): a self-answering side's give so far
-  bool prepared_repulsion_ = false;         ///< the last prepare() computed weights and buffers
+  std::vector<Index> touch_start_, touch_;   ///< in separate(): CSR vertex -> every contact touching it
+  bool touch_built_ = false;                 ///< touch_ holds this separate() call's contacts
+  std::vector<Index> overlapping_;           ///< in separate(): the contacts with E > 0 this sweep
+  std::vector<Index> touched_;               ///< in separate(): the overlapping contacts' vertices
+  std::vector<std::uint8_t> touched_mark_;   ///< per vertex, in count_overlaps(): already in touched_
+  std::vector<std::uint8_t> listed_;         ///< per contact, in mark_overlaps(): already listed
+  std::vector<double> separate_given_;       ///< per contact, in separate(): a self-answering side's give so far
+  std::vector<std::uint8_t> separate_held_;  ///< per contact, in separate(): see held()
+  bool prepared_repulsion_ = false;          ///< the last prepare() computed weights and buffers
   Index active_ = 0;
 };
 

@@ -22,6 +22,8 @@
 
 namespace ccfr {
 
+class Tethers;
+
 class CollisionDetector;
 
 /// What a solver sees of the current substep.
@@ -57,6 +59,9 @@ struct StepContext {
   /// Pass the pushes of fixed and scripted sides on through resting pairs (push_through), with
   /// `momentum`: the last solve of a substep that would otherwise stop the run.
   bool push_through = false;
+  /// The tethers of the pinned cloths and strands (contact.tethers), or null: the momentum
+  /// response pushes no vertex past them, the other side takes the rest of the overlap.
+  const Tethers* tethers = nullptr;
 };
 
 /// Counts of one detection pass, as a contact solver reports them (collision's own counters are DetectionStats).

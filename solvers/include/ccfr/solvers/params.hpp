@@ -78,9 +78,14 @@ struct ContactParams : ContactModel {
   bool analytic_obstacles = false;  ///< obstacles with an analytic shape also collide through their SDF
   /// Contact carries momentum between its two sides: inelastic contact on the candidate positions
   /// (ContactResponse::separate) and region planes split by the motion it leaves (split_by_motion). false (default):
-  /// the paper's response (repulsion within δ) and mass-share planes. Off by default: with it, a heavy body on a light,
-  /// pinned cloth stretches the cloth (docs/feasibility.md, "Momentum through contact").
+  /// the paper's response (repulsion within δ) and mass-share planes. Off by default (docs/feasibility.md, "Why it is
+  /// not the default yet"); a cloth or strand with static pins is held by its tethers.
   bool momentum = false;
+  /// With `momentum`: every pinned cloth and strand gets long-range attachments (Tethers), each
+  /// movable vertex at most (1 + tether_slack) times its rest geodesic distance from its pins,
+  /// enforced in the material sweeps and as a cap of the momentum response's pushes.
+  bool tethers = true;
+  double tether_slack = 0.02;  ///< s: a tether's length over its rest geodesic distance, minus 1
   /// Each pair's plane may turn toward the candidates' closest-point direction where that keeps the
   /// anchors apart by the offset and cuts the candidates less (turn_by_motion): bodies and cloth
   /// slide over tessellated surfaces instead of being lifted or held at their vertices.

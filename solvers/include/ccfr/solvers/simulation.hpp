@@ -16,6 +16,7 @@
 #include "ccfr/solvers/frame_stats.hpp"
 #include "ccfr/solvers/material_system.hpp"
 #include "ccfr/solvers/scene.hpp"
+#include "ccfr/solvers/tethers.hpp"
 
 namespace ccfr {
 
@@ -221,6 +222,7 @@ class Simulation {
   Scene scene_;
   std::unique_ptr<ContactSolver> contact_;
   MaterialSystem materials_;
+  Tethers tethers_;                        ///< contact.momentum: the pinned cloths' and strands' long-range attachments
   std::vector<Index> kinematic_;           ///< kinematic vertex ids
   std::vector<const Motion*> kin_motion_;  ///< motion of each kinematic vertex (nullptr: static)
   std::vector<Index> analytic_obstacles_;  ///< objects with an analytic shape
