@@ -3,6 +3,7 @@
 #include <string>
 
 #include "ccfr/geometry/generators.hpp"
+#include "ccfr/solvers/material_constraint.hpp"
 #include "ccfr/solvers/scene.hpp"
 
 namespace ccfr::test {
@@ -43,6 +44,55 @@ inline Scene floor_puck_scene(double height, double speed, const std::string& so
   s.state.mass[p] = 0.01;
   s.state.inv_mass[p] = 100.0;
   s.state.rest = s.state.x_prev = s.state.x;
+  return s;
+}
+
+/// A square cloth in the x-z plane pinned at its four corners (stretch compliance 1e-7, bending
+/// 1e-2) and a rigid icosphere above it moving down: what test_guarantee and test_tethers drop.
+struct BallOverCloth {
+  double size = 1.0;                   ///< cloth side (m)
+  Index res = 16;                      ///< cells per side
+  double cloth_mass = 0.2;             ///< kg
+  double radius = 0.1;                 ///< ball (m)
+  int subdivisions = 2;                ///< of the icosphere
+  double ball_mass = 4.0;              ///< kg
+  Vec3 start = Vec3(0.05, 0.2, 0.03);  ///< ball centre
+  double speed = 3.0;                  ///< downward (m/s)
+};
+
+/// The scene of `b` with r = 0.01, ξ = 0.005, δ = 0.002, k = 1e5, 8 substeps x 2 iterations,
+/// 10 sweeps. Cloth first (object 0, its corners pinned), ball second.
+inline Scene ball_over_pinned_cloth(const BallOverCloth& b) {
+  const auto cloth = gen::grid(b.size, b.size, b.res, b.res);
+  const auto ball = gen::sphere(b.radius, b.subdivisions);
+  TopologyBuilder tb;
+  tb.add_object("cloth", ObjectKind::cloth, static_cast<Index>(cloth.v.size()), cloth.f);
+  tb.add_object("ball", ObjectKind::rigid, static_cast<Index>(ball.v.size()), ball.f);
+  Scene s;
+  s.topo = tb.finish();
+  s.state.resize(s.topo.num_vertices());
+  const Index nc = static_cast<Index>(cloth.v.size());
+  for (Index i = 0; i < nc; ++i) s.state.x[i] = cloth.v[i];
+  for (size_t i = 0; i < ball.v.size(); ++i) s.state.x[nc + i] = ball.v[i] + b.start;
+  for (Index v = 0; v < s.topo.num_vertices(); ++v) {
+    s.state.mass[v] = v < nc ? b.cloth_mass / double(nc) : b.ball_mass / double(ball.v.size());
+    s.state.inv_mass[v] = 1.0 / s.state.mass[v];
+    if (v >= nc) s.state.v[v] = Vec3(0, -b.speed, 0);
+  }
+  const std::vector<Index> corners = {0, b.res, b.res * (b.res + 1), (b.res + 1) * (b.res + 1) - 1};
+  for (Index v : corners) s.state.mass[v] = s.state.inv_mass[v] = 0.0;
+  s.state.rest = s.state.x_prev = s.state.x;
+  s.params.objects.resize(2);
+  set_material_key(s.params.objects[0].material, "stretch_compliance", 1e-7);
+  set_material_key(s.params.objects[0].material, "bend_compliance", 1e-2);
+  s.params.objects[0].pins.push_back({corners, {}});
+  s.params.contact.radius = 0.01;
+  s.params.contact.offset = 0.005;
+  s.params.contact.repulsion_range = 0.002;
+  s.params.contact.stiffness = 1e5;
+  s.params.time.substeps = 8;
+  s.params.time.iterations = 2;
+  s.params.time.xpbd_sweeps = 10;
   return s;
 }
 

@@ -73,34 +73,9 @@ void set_mass(Scene& s, Index begin, Index end, double m) {
 
 /// A cloth pinned at its corners with a rigid icosphere above it.
 Scene ball_over_cloth(double speed) {
-  const auto cloth = gen::grid(1.0, 1.0, 16, 16);
-  const auto ball = gen::sphere(0.1, 2);
-  TopologyBuilder tb;
-  tb.add_object("cloth", ObjectKind::cloth, static_cast<Index>(cloth.v.size()), cloth.f);
-  tb.add_object("ball", ObjectKind::rigid, static_cast<Index>(ball.v.size()), ball.f);
-  Scene s;
-  s.topo = tb.finish();
-  s.state.resize(s.topo.num_vertices());
-  const Index nc = static_cast<Index>(cloth.v.size());
-  for (Index i = 0; i < nc; ++i) s.state.x[i] = cloth.v[i];
-  for (size_t i = 0; i < ball.v.size(); ++i) s.state.x[nc + i] = ball.v[i] + Vec3(0.05, 0.2, 0.03);
-  set_mass(s, 0, nc, 0.2 / nc);
-  set_mass(s, nc, s.topo.num_vertices(), 4.0 / double(ball.v.size()));
-  for (Index v : {Index(0), Index(16), Index(272), Index(288)}) set_mass(s, v, v + 1, 0.0);
-  for (Index v = nc; v < s.topo.num_vertices(); ++v) s.state.v[v] = Vec3(0, -speed, 0);
-  s.state.rest = s.state.x_prev = s.state.x;
-  s.params.objects.resize(2);
-  set_material_key(s.params.objects[0].material, "stretch_compliance", 1e-7);
-  set_material_key(s.params.objects[0].material, "bend_compliance", 1e-2);
-  s.params.objects[0].pins.push_back({{0, 16, 272, 288}, {}});
-  s.params.contact.radius = 0.01;
-  s.params.contact.offset = 0.005;
-  s.params.contact.repulsion_range = 0.002;
-  s.params.contact.stiffness = 1e5;
-  s.params.time.substeps = 8;
-  s.params.time.iterations = 2;
-  s.params.time.xpbd_sweeps = 10;
-  return s;
+  test::BallOverCloth b;
+  b.speed = speed;
+  return test::ball_over_pinned_cloth(b);
 }
 
 }  // namespace
