@@ -348,11 +348,11 @@ struct PullBack {
   std::span<const double> inv_mass;  ///< #V
   std::span<const Index> count;      ///< per vertex < nv: its overlapping contacts this sweep
   Index nv = 0;
-  double excess = 0.0;           ///< E: the contact's overlap
-  double w_o = 0.0;              ///< inverse mass of an other side that answers in its own solve; 0: none
-  Vec3* corr = nullptr;          ///< the contact's 4 correction slots
-  double* given = nullptr;       ///< the contact's give so far of a self-answering side (read only when w_o > 0)
-  std::uint8_t* held = nullptr;  ///< set where that side takes the whole overlap (see held())
+  double excess = 0.0;      ///< E: the contact's overlap
+  double w_o = 0.0;         ///< inverse mass of an other side that answers in its own solve; 0: none
+  Vec3* corr = nullptr;     ///< the contact's 4 correction slots
+  double* given = nullptr;  ///< the contact's give so far of a self-answering side (read only when w_o > 0)
+  double* held = nullptr;   ///< the part of *given taken where the other side could not move (see held())
 };
 
 /// Barycentric sweeps: the closest points' overlap split in proportion to each vertex's
@@ -367,7 +367,7 @@ void barycentric_pull_back(const ContactPair& c, const PullBack& p) {
   }
   if (p.w_o > 0.0 && wsum > 0.0) {
     *p.given += p.w_o * p.excess / wsum;
-    if (wsum == p.w_o && p.held) *p.held = 1;
+    if (wsum == p.w_o && p.held) *p.held += p.excess;
   }
   for (int k = 0; k < nk; ++k) {
     const Index v = c.v[k];
@@ -646,7 +646,8 @@ Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span
   // Per contact: how far a side that answers in its own solve (w_o > 0, not moved here) has given
   // way so far, so that later sweeps leave it its share instead of handing it to the other side.
   separate_given_.assign(other_inverse_mass.empty() ? 0 : static_cast<size_t>(n), 0.0);
-  separate_held_.assign(separate_given_.size(), 0);
+  // Recorded only where tethers may hold a side: elsewhere every impulse is the pair's own.
+  separate_held_.assign(tethers ? separate_given_.size() : 0, 0.0);
   if (tethers) {
     capped_mass_.assign(inv_mass.begin(), inv_mass.end());
     inv_mass = capped_mass_;

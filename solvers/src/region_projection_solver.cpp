@@ -80,7 +80,7 @@ void RegionProjectionSolver::react_bodies(Positions& x, const Positions& anchor)
   // moves by Σ J n / M and it turns by I⁻¹ Σ r × J n (the frame at the anchor, where w_o was
   // taken). Summed, not the largest: a body's planes would stop it by the deepest contact alone.
   const std::span<const double> given = response_.given();
-  const std::span<const std::uint8_t> held = response_.held();
+  const std::span<const double> held = response_.held();
   const std::span<const Vec3> repelled = response_.impulse_on_movable();
   if (given.size() != contacts_.size()) return;
   const Index nb = rigid_.size();
@@ -111,13 +111,16 @@ void RegionProjectionSolver::react_bodies(Positions& x, const Positions& anchor)
     for (int j = lo; j < hi; ++j) point += std::abs(c.w[j]) * anchor[c.v[j]];
     // Side A gives way along +n, side B along -n.
     const Vec3 dir = body_on_a ? c.n : Vec3(-c.n);
-    Vec3 impulse = (given[ci] / w_o) * dir;
+    const double from_pins = held.empty() ? 0.0 : held[ci];
+    Vec3 impulse = ((given[ci] - from_pins) / w_o) * dir;
     if (!repelled.empty()) impulse -= repelled[ci];
-    const int h = !held.empty() && held[ci] ? 1 : 0;
     const Vec3 arm = point - frames[static_cast<size_t>(body)].centre;
-    push[h][static_cast<size_t>(body)] += impulse;
-    twist[h][static_cast<size_t>(body)] += arm.cross(impulse);
-    if (h) held_contacts.push_back({body, arm, dir, given[ci]});
+    push[0][static_cast<size_t>(body)] += impulse;
+    twist[0][static_cast<size_t>(body)] += arm.cross(impulse);
+    if (!(from_pins > 0.0)) continue;
+    push[1][static_cast<size_t>(body)] += (from_pins / w_o) * dir;
+    twist[1][static_cast<size_t>(body)] += arm.cross((from_pins / w_o) * dir);
+    held_contacts.push_back({body, arm, dir, from_pins});
   }
   if (frames.empty()) return;
   // Each held contact asked the body for its whole overlap as if alone; summed, n parallel ones

@@ -22,9 +22,10 @@ constexpr int kRounds = 16;
 /// Most tethers of a vertex projected onto exactly (their triples are searched).
 constexpr Index kMostExact = 8;
 
-/// A flat sheet that covers its convex hull: its rest vertices lie in one plane (within 1e-9 of
-/// its extent) and its triangles' area is the area of their 2D convex hull (within 1e-9), so no
-/// hole or notch lies between two of its points and the straight rest distance is the geodesic.
+/// A flat sheet that is its convex hull: its rest vertices lie in one plane (within 1e-9 of its
+/// extent), its triangles' area is the area of their 2D convex hull and its boundary edges' length
+/// the hull's perimeter (within 1e-9), so no hole, notch, slit or seam lies between two of its
+/// points and the straight rest distance is the geodesic.
 bool is_flat_and_convex(const Topology& topo, const ObjectInfo& o, const Positions& rest) {
   const Index begin = o.vertex_begin, end = o.vertex_end;
   if (end - begin < 3 || o.face_end <= o.face_begin) return false;
@@ -65,9 +66,22 @@ bool is_flat_and_convex(const Topology& topo, const ObjectInfo& o, const Positio
     while (k >= lower && cross(hull[k - 2], hull[k - 1], p[i]) <= 0.0) --k;
     hull[k++] = p[i];
   }
-  double hull_area = 0.0;
-  for (size_t i = 0; i + 1 < k; ++i) hull_area += 0.5 * (hull[i].x() * hull[i + 1].y() - hull[i + 1].x() * hull[i].y());
-  return std::abs(hull_area - area) <= 1e-9 * std::max(hull_area, area);
+  double hull_area = 0.0, hull_perimeter = 0.0;
+  for (size_t i = 0; i + 1 < k; ++i) {
+    hull_area += 0.5 * (hull[i].x() * hull[i + 1].y() - hull[i + 1].x() * hull[i].y());
+    hull_perimeter += (hull[i + 1] - hull[i]).norm();
+  }
+  // A slit, an unwelded seam or two panels side by side cover the hull too, but add boundary: the
+  // sheet's boundary edges (one face each) must add up to the hull's perimeter.
+  std::vector<int> faces_of_edge(topo.edges.size(), 0);
+  for (Index f = o.face_begin; f < o.face_end; ++f)
+    for (int j = 0; j < 3; ++j) ++faces_of_edge[static_cast<size_t>(topo.face_edges[f][j])];
+  double boundary = 0.0;
+  for (size_t e = 0; e < topo.edges.size(); ++e)
+    if (faces_of_edge[e] == 1) boundary += (rest[topo.edges[e][0]] - rest[topo.edges[e][1]]).norm();
+  const double tol = 1e-9;
+  return std::abs(hull_area - area) <= tol * std::max(hull_area, area) &&
+         std::abs(hull_perimeter - boundary) <= tol * std::max(hull_perimeter, boundary);
 }
 }  // namespace
 
@@ -157,9 +171,13 @@ struct Ball {
   double r;
 };
 
+/// Relative tolerance of the ball tests: with slack 0 a vertex between two pins has balls that
+/// only touch, and rounding must not part them.
+constexpr double kBallTolerance = 1e-10;
+
 bool inside_all(const Vec3& p, std::span<const Ball> balls) {
   for (const Ball& b : balls)
-    if ((p - b.c).norm() > b.r * (1.0 + 1e-12)) return false;
+    if ((p - b.c).norm() > b.r * (1.0 + kBallTolerance)) return false;
   return true;
 }
 
@@ -182,7 +200,8 @@ bool project_onto_balls(const Vec3& q, std::span<const Ball> balls, Vec3& out) {
   auto circle = [&](size_t i, size_t j, Vec3& m, Vec3& u, double& h) {
     const Vec3 axis = balls[j].c - balls[i].c;
     const double d = axis.norm();
-    if (!(d > 0.0) || d > balls[i].r + balls[j].r || d < std::abs(balls[i].r - balls[j].r)) return false;
+    const double slop = kBallTolerance * std::max(balls[i].r, balls[j].r);
+    if (!(d > 0.0) || d > balls[i].r + balls[j].r + slop || d < std::abs(balls[i].r - balls[j].r) - slop) return false;
     u = axis / d;
     const double a = (d * d + balls[i].r * balls[i].r - balls[j].r * balls[j].r) / (2.0 * d);
     h = std::sqrt(std::max(0.0, balls[i].r * balls[i].r - a * a));
@@ -205,7 +224,7 @@ bool project_onto_balls(const Vec3& q, std::span<const Ball> balls, Vec3& out) {
         const double a = 2.0 * h * g.dot(e1), b = 2.0 * h * g.dot(e2);
         const double c = balls[k].r * balls[k].r - g.squaredNorm() - h * h;
         const double rho = std::hypot(a, b);
-        if (!(rho > 0.0) || std::abs(c) > rho) continue;
+        if (!(rho > 0.0) || std::abs(c) > rho * (1.0 + kBallTolerance)) continue;
         const double phi = std::atan2(b, a), delta = std::acos(std::clamp(c / rho, -1.0, 1.0));
         for (const double t : {phi + delta, phi - delta}) consider(m + h * (std::cos(t) * e1 + std::sin(t) * e2));
       }

@@ -146,22 +146,22 @@ const scene::Section<ContactParams>& contact_section() {
                  "whose passes end with pairs closer than their offset, which is solved again with this response "
                  "(stats.csv `substeps_redone`). Under the region-projection solvers, the last outer iteration of a "
                  "substep takes the rest of any step longer than r instead of cutting it (docs/feasibility.md, "
-                 "\"The last pass takes the rest of a step\"). A pinned cloth or strand is held by its tethers "
-                 "(contact.tethers)")
-          .field(
-              "tethers", &S::tethers,
-              "with contact.momentum: every cloth and strand with static pins (not scripted ones) gets "
-              "long-range attachments (Kim et al. 2012): each movable vertex stays within (1 + tether_slack) times its "
-              "rest geodesic distance of "
-              "its nearest pinned vertices (the 4 nearest of each pin group on a flat convex sheet, the nearest along "
-              "the edges otherwise), enforced after each material sweep (the contact's later steps may carry a "
-              "vertex a few percent past it within a substep); the momentum response pushes a vertex at "
-              "most to its tether and gives the rest of the overlap to the other side, so a heavy body is "
-              "caught by the cloth's pins instead of stretching it (docs/feasibility.md, \"Tethers\"); false: "
-              "the cloth's tension acts only through its material sweeps")
+                 "\"The last pass takes the rest of a step\"). With it, a cloth or strand with static pins is held "
+                 "by its tethers (contact.tethers)")
+          .field("tethers", &S::tethers,
+                 "with contact.momentum: every cloth and strand with static pins (not scripted ones) gets "
+                 "long-range attachments (Kim et al. 2012): each movable vertex is kept within (1 + "
+                 "tether_slack) L of its nearest pinned vertices, L their rest distance: straight on a flat sheet "
+                 "that is its convex hull (the 4 nearest pins of each group), along the rest edges otherwise (a "
+                 "strand's arc length; on a curved or cut sheet a path up to about 1.4 times the geodesic, a "
+                 "looser bound). Enforced after each material sweep (the contact's later steps may carry a vertex "
+                 "a few percent past it within a substep); the momentum response pushes a vertex at most to its "
+                 "tether and gives the rest of the overlap to the other side, so a heavy body is caught by the "
+                 "cloth's pins instead of stretching it (docs/feasibility.md, \"Tethers\"); false: the cloth's "
+                 "tension acts only through its material sweeps")
           .field("tether_slack", &S::tether_slack,
-                 "s: how far a tether may exceed its rest geodesic distance, relative (0.02: 2 %): the stretch a "
-                 "pinned cloth or strand may take as a whole under contact.momentum",
+                 "s: how far a tether may exceed its rest distance L, relative (0.02: 2 %): on a flat sheet the "
+                 "stretch a pinned cloth may take as a whole under contact.momentum",
                  Range{0, 1, false, false})
           .field("sliding", &S::sliding,
                  "each pair's separating plane may turn toward the pair's closest-point direction at the "

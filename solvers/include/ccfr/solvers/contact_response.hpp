@@ -121,10 +121,10 @@ class ContactResponse {
   /// After separate() with `other_inverse_mass`: per contact, how far its self-answering side
   /// gave way along n (m), w_o J for the contact's impulse J (kg m); empty without one.
   std::span<const double> given() const { return separate_given_; }
-  /// After separate() with `other_inverse_mass`: per contact, 1 where the self-answering side took
-  /// a whole overlap at least once because nothing on the other side could give way (held by its
-  /// tether or immovable): that part of its impulse comes from outside the pair.
-  std::span<const std::uint8_t> held() const { return separate_held_; }
+  /// After separate() with `other_inverse_mass` and `tethers`: per contact, the part of given()
+  /// the self-answering side took in sweeps where nothing on the other side could give way (held
+  /// by its tether or immovable): an impulse from outside the pair. Empty without tethers.
+  std::span<const double> held() const { return separate_held_; }
 
  private:
   /// Keeps the contacts and computes their visibility weights (grouped through `row_start`/`slots`
@@ -169,15 +169,15 @@ class ContactResponse {
   std::vector<std::uint8_t> separate_moved_;  ///< per vertex, in separate(): moved in the last sweep
   /// touch_start_/touch_ and listed_ for separate()'s contacts, built at its first partial sweep.
   void build_touch(Index nv);
-  std::vector<Index> touch_start_, touch_;   ///< in separate(): CSR vertex -> every contact touching it
-  bool touch_built_ = false;                 ///< touch_ holds this separate() call's contacts
-  std::vector<Index> overlapping_;           ///< in separate(): the contacts with E > 0 this sweep
-  std::vector<Index> touched_;               ///< in separate(): the overlapping contacts' vertices
-  std::vector<std::uint8_t> touched_mark_;   ///< per vertex, in count_overlaps(): already in touched_
-  std::vector<std::uint8_t> listed_;         ///< per contact, in mark_overlaps(): already listed
-  std::vector<double> separate_given_;       ///< per contact, in separate(): a self-answering side's give so far
-  std::vector<std::uint8_t> separate_held_;  ///< per contact, in separate(): see held()
-  bool prepared_repulsion_ = false;          ///< the last prepare() computed weights and buffers
+  std::vector<Index> touch_start_, touch_;  ///< in separate(): CSR vertex -> every contact touching it
+  bool touch_built_ = false;                ///< touch_ holds this separate() call's contacts
+  std::vector<Index> overlapping_;          ///< in separate(): the contacts with E > 0 this sweep
+  std::vector<Index> touched_;              ///< in separate(): the overlapping contacts' vertices
+  std::vector<std::uint8_t> touched_mark_;  ///< per vertex, in count_overlaps(): already in touched_
+  std::vector<std::uint8_t> listed_;        ///< per contact, in mark_overlaps(): already listed
+  std::vector<double> separate_given_;      ///< per contact, in separate(): a self-answering side's give so far
+  std::vector<double> separate_held_;       ///< per contact, in separate(): see held()
+  bool prepared_repulsion_ = false;         ///< the last prepare() computed weights and buffers
   Index active_ = 0;
 };
 
