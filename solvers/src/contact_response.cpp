@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <limits>
 #include <numeric>
 #include <string>
@@ -348,11 +349,10 @@ struct PullBack {
   std::span<const double> inv_mass;  ///< #V
   std::span<const Index> count;      ///< per vertex < nv: its overlapping contacts this sweep
   Index nv = 0;
-  double excess = 0.0;      ///< E: the contact's overlap
-  double w_o = 0.0;         ///< inverse mass of an other side that answers in its own solve; 0: none
-  Vec3* corr = nullptr;     ///< the contact's 4 correction slots
-  double* given = nullptr;  ///< the contact's give so far of a self-answering side (read only when w_o > 0)
-  double* held = nullptr;   ///< the part of *given taken where the other side could not move (see held())
+  double excess = 0.0;        ///< E: the contact's overlap
+  double w_o = 0.0;           ///< split inverse mass of an other side that answers in its own solve; 0: none
+  Vec3* corr = nullptr;       ///< the contact's 4 correction slots
+  double* impulse = nullptr;  ///< the sweep's impulse J on a self-answering side (written only when w_o > 0)
 };
 
 /// Barycentric sweeps: the closest points' overlap split in proportion to each vertex's
@@ -365,10 +365,7 @@ void barycentric_pull_back(const ContactPair& c, const PullBack& p) {
     if (v < p.nv && p.inv_mass[v] > 0.0)
       wsum += static_cast<double>(std::max<Index>(1, p.count[v])) * c.w[k] * c.w[k] * p.inv_mass[v];
   }
-  if (p.w_o > 0.0 && wsum > 0.0) {
-    *p.given += p.w_o * p.excess / wsum;
-    if (wsum == p.w_o && p.held) *p.held += p.excess;
-  }
+  if (p.w_o > 0.0 && wsum > 0.0) *p.impulse = p.excess / wsum;
   for (int k = 0; k < nk; ++k) {
     const Index v = c.v[k];
     p.corr[k] = wsum > 0.0 && v < p.nv && p.inv_mass[v] > 0.0
@@ -466,7 +463,7 @@ void vertex_pull_back(const ContactPair& c, const PullBack& p, const Positions& 
     }
     share = 0.5 * (lo + hi);
     for (int side = 0; side < 2; ++side)
-      if (!free[side] && w_o > 0.0) *p.given += (side == 0 ? share : 1.0 - share) * excess;
+      if (!free[side] && w_o > 0.0) *p.impulse = (side == 0 ? share : 1.0 - share) * excess / w_o;
   }
   for (int k = 0; k < nk; ++k) {
     const int side = k < na ? 0 : 1;
@@ -533,6 +530,10 @@ Index ContactResponse::mark_overlaps(const Positions& x, const Positions& anchor
         if (!listed_[static_cast<size_t>(touch_[q])])
           listed_[static_cast<size_t>(touch_[q])] = 1, overlapping_.push_back(touch_[q]);
     }
+    // A body that moved changed the overlap of every one of its contacts.
+    if (bodies_moved_)
+      for (const Index ci : body_contacts_)
+        if (!listed_[static_cast<size_t>(ci)]) listed_[static_cast<size_t>(ci)] = 1, overlapping_.push_back(ci);
   }
   const Index n = every ? static_cast<Index>(contacts_.size()) : static_cast<Index>(overlapping_.size());
   parallel_for(
@@ -582,7 +583,7 @@ void ContactResponse::count_overlaps(Index nv, std::span<const double> inv_mass)
 }
 
 void ContactResponse::pull_back(const Positions& x, const Positions& anchor, std::span<const double> inv_mass, Index nv,
-                                bool barycentric, std::span<const double> other_inverse_mass) {
+                                bool barycentric, const AnsweringBodies* bodies) {
   parallel_for(
       static_cast<Index>(overlapping_.size()),
       [&](Index b, Index e) {
@@ -593,10 +594,19 @@ void ContactResponse::pull_back(const Positions& x, const Positions& anchor, std
           p.count = separate_count_;
           p.nv = nv;
           p.excess = separate_dl_[static_cast<size_t>(ci)];
-          p.w_o = other_inverse_mass.empty() ? 0.0 : other_inverse_mass[static_cast<size_t>(ci)];
           p.corr = &corr_[static_cast<size_t>(ci) * 4];
-          p.given = separate_given_.empty() ? nullptr : &separate_given_[static_cast<size_t>(ci)];
-          p.held = separate_held_.empty() ? nullptr : &separate_held_[static_cast<size_t>(ci)];
+          if (bodies) {
+            const Index body = bodies->body[static_cast<size_t>(ci)];
+            // Split like a vertex, its turn by the row sums of its coupling (see body_split_).
+            if (body >= 0 && bodies->inverse_mass_at[static_cast<size_t>(ci)] > 0.0) {
+              const auto bi = static_cast<size_t>(body);
+              const double turn =
+                  std::max(0.0, bodies->inverse_mass_at[static_cast<size_t>(ci)] - bodies->inv_mass[bi]);
+              p.w_o = static_cast<double>(body_count_[bi]) * bodies->inv_mass[bi] + std::sqrt(turn) * body_split_[bi];
+            }
+            separate_impulse_[static_cast<size_t>(ci)] = 0.0;
+            p.impulse = &separate_impulse_[static_cast<size_t>(ci)];
+          }
           if (barycentric)
             barycentric_pull_back(contacts_[ci], p);
           else
@@ -619,19 +629,60 @@ void ContactResponse::move_by_mean(Positions& x, std::span<const double> inv_mas
             if (separate_dl_[slots_[q] / 4] != 0.0) sum += corr_[slots_[q]];
           const Vec3 before = x[v];
           x[v] += sum / static_cast<double>(separate_count_[v]);
-          if (tethers && tethers->cap(x, v)) capped_mass_[v] = 0.0;
+          if (tethers && tethers->cap(x, v)) {
+            // What the cap let through of the push along it: the tangent space's share ρ.
+            const Vec3 step = sum / static_cast<double>(separate_count_[v]);
+            const double s2 = step.squaredNorm();
+            const double rho = s2 > 0.0 ? std::clamp((x[v] - before).dot(step) / s2, 0.0, 1.0) : 0.0;
+            capped_mass_[v] = rho * uncapped_mass_[v];
+          }
           separate_moved_[v] = x[v] != before;
         }
       },
       4096);
 }
 
+bool ContactResponse::move_bodies(const AnsweringBodies& bodies) {
+  bool moved = false;
+  for (const Index ci : overlapping_) {  // in list order: the sums do not depend on the threads
+    const double j = separate_impulse_[static_cast<size_t>(ci)];
+    const Index b = bodies.body[static_cast<size_t>(ci)];
+    if (j == 0.0 || b < 0) continue;
+    const Vec3 impulse = j * bodies.away[static_cast<size_t>(ci)];
+    body_push_[static_cast<size_t>(b)] += impulse;
+    body_twist_[static_cast<size_t>(b)] += bodies.arm[static_cast<size_t>(ci)].cross(impulse);
+    moved = true;
+  }
+  if (!moved) return false;
+  parallel_for(
+      static_cast<Index>(body_contacts_.size()),
+      [&](Index lo, Index hi) {
+        for (Index i = lo; i < hi; ++i) {
+          const auto ci = static_cast<size_t>(body_contacts_[static_cast<size_t>(i)]);
+          const auto b = static_cast<size_t>(bodies.body[ci]);
+          const Vec3 shift =
+              bodies.inv_mass[b] * body_push_[b] + (bodies.inv_inertia[b] * body_twist_[b]).cross(bodies.arm[ci]);
+          separate_given_[ci] = bodies.away[ci].dot(shift);
+        }
+      },
+      1024);
+  return true;
+}
+
 Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span<const double> inv_mass, int sweeps,
-                                double rest_overlap, std::span<const double> other_inverse_mass,
-                                const Tethers* tethers) {
+                                double rest_overlap, const AnsweringBodies* bodies, const Tethers* tethers) {
   const Index n = static_cast<Index>(contacts_.size());
-  separate_given_.clear();  // given() is this call's
-  separate_held_.clear();
+  // body_impulse() and given are this call's.
+  separate_given_.clear();
+  body_push_.clear();
+  body_twist_.clear();
+  body_contacts_.clear();
+  bodies_moved_ = false;
+  if (bodies && (bodies->inv_mass.empty() || bodies->body.size() != static_cast<size_t>(n))) bodies = nullptr;
+  if (bodies) {
+    body_push_.assign(bodies->inv_mass.size(), Vec3::Zero());
+    body_twist_ = body_push_;
+  }
   if (n == 0 || sweeps <= 0) return 0;
   if (row_start_.empty()) throw Error("ContactResponse::separate: called before prepare()");
   const Index nv = std::min(static_cast<Index>(x.size()), static_cast<Index>(row_start_.size()) - 1);
@@ -643,12 +694,19 @@ Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span
   overlapping_.clear();
   touched_.clear();
   corr_.resize(static_cast<size_t>(n) * 4);
-  // Per contact: how far a side that answers in its own solve (w_o > 0, not moved here) has given
-  // way so far, so that later sweeps leave it its share instead of handing it to the other side.
-  separate_given_.assign(other_inverse_mass.empty() ? 0 : static_cast<size_t>(n), 0.0);
-  // Recorded only where tethers may hold a side: elsewhere every impulse is the pair's own.
-  separate_held_.assign(tethers ? separate_given_.size() : 0, 0.0);
+  if (bodies) {
+    // Per contact: how far its answering body (not moved here) has given way at it so far, so that
+    // later sweeps leave the body its part instead of handing it to the other side.
+    separate_given_.assign(static_cast<size_t>(n), 0.0);
+    separate_impulse_.assign(static_cast<size_t>(n), 0.0);
+    body_count_.assign(bodies->inv_mass.size(), 0);
+    body_split_.assign(bodies->inv_mass.size(), 0.0);
+    for (Index ci = 0; ci < n; ++ci)
+      if (bodies->body[static_cast<size_t>(ci)] >= 0 && bodies->inverse_mass_at[static_cast<size_t>(ci)] > 0.0)
+        body_contacts_.push_back(ci);
+  }
   if (tethers) {
+    uncapped_mass_ = inv_mass;
     capped_mass_.assign(inv_mass.begin(), inv_mass.end());
     inv_mass = capped_mass_;
   }
@@ -668,11 +726,23 @@ Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span
     }
     // Active contacts per vertex, read through the vertex -> contact-slot incidence.
     count_overlaps(nv, inv_mass);
+    if (bodies) {
+      std::fill(body_count_.begin(), body_count_.end(), 0);
+      std::fill(body_split_.begin(), body_split_.end(), 0.0);
+      for (const Index ci : overlapping_) {
+        const Index b = bodies->body[static_cast<size_t>(ci)];
+        if (b < 0 || !(bodies->inverse_mass_at[static_cast<size_t>(ci)] > 0.0)) continue;
+        ++body_count_[static_cast<size_t>(b)];
+        body_split_[static_cast<size_t>(b)] += std::sqrt(
+            std::max(0.0, bodies->inverse_mass_at[static_cast<size_t>(ci)] - bodies->inv_mass[static_cast<size_t>(b)]));
+      }
+    }
     // Per contact: each vertex's pull-back (barycentric_pull_back, vertex_pull_back).
-    pull_back(x, anchor, inv_mass, nv, barycentric, other_inverse_mass);
+    pull_back(x, anchor, inv_mass, nv, barycentric, bodies);
     // Each vertex moves by the mean of its contacts' pull-backs: with split masses every contact
     // is balanced, so Σ_k (m_k / n_k) Σ_c Δx_k^c = 0 stays after the mean.
     move_by_mean(x, inv_mass, tethers);
+    if (bodies) bodies_moved_ = move_bodies(*bodies);
   }
   return most;
 }

@@ -50,6 +50,9 @@ void RegionProjectionSolver::respond(Positions& x, const Positions& anchor, cons
   // mass at its closest point (frame at the anchor, where the contacts were found) joins the
   // response's, as the pose solve counts the movable side's in its share.
   other_inverse_mass_.assign(contacts_.size(), 0.0);
+  answering_body_.assign(contacts_.size(), -1);
+  answering_arm_.resize(contacts_.size());
+  answering_away_.resize(contacts_.size());
   std::vector<RigidFrame> frames;
   const bool any_movable = std::any_of(free_mask_.begin(), free_mask_.end(), [](double w) { return w > 0.0; });
   for (size_t ci = 0; any_movable && ci < contacts_.size(); ++ci) {
@@ -65,79 +68,52 @@ void RegionProjectionSolver::respond(Positions& x, const Positions& anchor, cons
     Vec3 point = Vec3::Zero();
     for (int j = lo; j < hi; ++j) point += std::abs(c.w[j]) * anchor[c.v[j]];
     other_inverse_mass_[ci] = frames[static_cast<size_t>(body)].inverse_mass_at(point, c.n);
+    answering_body_[ci] = body;
+    answering_arm_[ci] = point - frames[static_cast<size_t>(body)].centre;
+    answering_away_[ci] = moves_a ? Vec3(-c.n) : c.n;  // side A gives way along +n, side B along -n
   }
+  body_inv_mass_.resize(frames.size());
+  body_inv_inertia_.resize(frames.size());
+  for (size_t b = 0; b < frames.size(); ++b)
+    body_inv_mass_[b] = frames[b].inv_mass, body_inv_inertia_[b] = frames[b].inv_inertia;
   response_.apply(x, state.x_prev, free_mask_, ctx.params.contact, ctx.dt, friction_override_, other_inverse_mass_,
                   ctx.momentum);
   reaction_shift_.assign(static_cast<size_t>(rigid_.size()), Vec3::Zero());
   if (!ctx.momentum) return;
-  response_.separate(x, anchor, free_mask_, kSeparateSweeps, rest_overlap(ctx), other_inverse_mass_, ctx.tethers);
-  react_bodies(x, anchor);
+  AnsweringBodies bodies;
+  bodies.body = answering_body_;
+  bodies.inverse_mass_at = other_inverse_mass_;
+  bodies.arm = answering_arm_;
+  bodies.away = answering_away_;
+  bodies.inv_mass = body_inv_mass_;
+  bodies.inv_inertia = body_inv_inertia_;
+  response_.separate(x, anchor, free_mask_, kSeparateSweeps, rest_overlap(ctx), &bodies, ctx.tethers);
+  react_bodies(x);
 }
 
-void RegionProjectionSolver::react_bodies(Positions& x, const Positions& anchor) {
-  // Each contact's impulse J = given / w_o on the side it pushed away is, by the third law, an
-  // impulse -J on the body along the contact's line at its closest point: the body's centre
-  // moves by Σ J n / M and it turns by I⁻¹ Σ r × J n (the frame at the anchor, where w_o was
-  // taken). Summed, not the largest: a body's planes would stop it by the deepest contact alone.
-  const std::span<const double> given = response_.given();
-  const std::span<const double> held = response_.held();
+void RegionProjectionSolver::react_bodies(Positions& x) {
+  // Each contact's impulse J on the side the body pushed away is, by the third law, an impulse -J
+  // on the body along the contact's line at its closest point: separate() summed those of its
+  // sweeps (P, L about the centre), and apply()'s repulsion and friction add theirs. The body's
+  // centre moves by M⁻¹ P and it turns by I⁻¹ L (the frame at the anchor, where w_o was taken).
+  const std::span<const Vec3> push = response_.body_impulse(), twist = response_.body_moment();
   const std::span<const Vec3> repelled = response_.impulse_on_movable();
-  if (given.size() != contacts_.size()) return;
-  const Index nb = rigid_.size();
-  // [0]: impulses the pair exchanged (kept whole: momentum); [1]: those of contacts whose other
-  // side was held (a tether, a pin), which come from outside the pair.
-  std::vector<Vec3> push[2], twist[2];
-  for (int h = 0; h < 2; ++h) push[h].assign(static_cast<size_t>(nb), Vec3::Zero()), twist[h] = push[h];
-  std::vector<RigidFrame> frames;
-  struct Held {
-    Index body;
-    Vec3 arm, dir;
-    double given;
-  };
-  std::vector<Held> held_contacts;
-  for (size_t ci = 0; ci < contacts_.size(); ++ci) {
-    const double w_o = other_inverse_mass_[ci];
-    if (!(w_o > 0.0) || (!(given[ci] > 0.0) && (repelled.empty() || repelled[ci] == Vec3::Zero()))) continue;
-    const ContactPair& c = contacts_[ci];
-    const int na = c.side_a();
-    bool moves_a = false;  // respond() gave w_o to contacts with exactly one side movable here
-    for (int k = 0; k < na; ++k) moves_a = moves_a || free_mask_[c.v[k]] > 0.0;
-    const bool body_on_a = !moves_a;
-    const int lo = body_on_a ? 0 : na, hi = body_on_a ? na : c.size();
-    const Index body = rigid_.body_of(c.v[lo]);
-    if (body < 0) continue;
-    if (frames.empty()) frames = rigid_.frames(anchor);
-    Vec3 point = Vec3::Zero();
-    for (int j = lo; j < hi; ++j) point += std::abs(c.w[j]) * anchor[c.v[j]];
-    // Side A gives way along +n, side B along -n.
-    const Vec3 dir = body_on_a ? c.n : Vec3(-c.n);
-    const double from_pins = held.empty() ? 0.0 : held[ci];
-    Vec3 impulse = ((given[ci] - from_pins) / w_o) * dir;
-    if (!repelled.empty()) impulse -= repelled[ci];
-    const Vec3 arm = point - frames[static_cast<size_t>(body)].centre;
-    push[0][static_cast<size_t>(body)] += impulse;
-    twist[0][static_cast<size_t>(body)] += arm.cross(impulse);
-    if (!(from_pins > 0.0)) continue;
-    push[1][static_cast<size_t>(body)] += (from_pins / w_o) * dir;
-    twist[1][static_cast<size_t>(body)] += arm.cross((from_pins / w_o) * dir);
-    held_contacts.push_back({body, arm, dir, from_pins});
-  }
-  if (frames.empty()) return;
-  // Each held contact asked the body for its whole overlap as if alone; summed, n parallel ones
-  // would move it n times too far. Their sum is scaled to the least that still gives every held
-  // contact its overlap along the summed motion.
-  std::vector<double> scale(static_cast<size_t>(nb), 0.0);
-  for (const Held& hc : held_contacts) {
-    const auto b = static_cast<size_t>(hc.body);
-    const Vec3 motion = frames[b].inv_mass * push[1][b] + (frames[b].inv_inertia * twist[1][b]).cross(hc.arm);
-    const double along = hc.dir.dot(motion);
-    if (along > 0.0) scale[b] = std::max(scale[b], std::min(1.0, hc.given / along));
-  }
-  std::vector<Vec3> turn(static_cast<size_t>(nb), Vec3::Zero());
-  for (size_t b = 0; b < static_cast<size_t>(nb); ++b) {
-    const Vec3 p = push[0][b] + scale[b] * push[1][b], t = twist[0][b] + scale[b] * twist[1][b];
-    reaction_shift_[b] = frames[b].inv_mass * p;
-    turn[b] = frames[b].inv_inertia * t;
+  const size_t nb = body_inv_mass_.size();
+  if (nb == 0 || (push.size() != nb && repelled.size() != contacts_.size())) return;
+  std::vector<Vec3> p(nb, Vec3::Zero()), t(nb, Vec3::Zero());
+  if (push.size() == nb)
+    for (size_t b = 0; b < nb; ++b) p[b] = push[b], t[b] = twist[b];
+  if (repelled.size() == contacts_.size())
+    for (size_t ci = 0; ci < contacts_.size(); ++ci) {
+      const Index b = answering_body_[ci];
+      if (b < 0 || repelled[ci] == Vec3::Zero()) continue;
+      p[static_cast<size_t>(b)] -= repelled[ci];
+      t[static_cast<size_t>(b)] -= answering_arm_[ci].cross(repelled[ci]);
+    }
+  std::vector<Vec3> turn(nb, Vec3::Zero());
+  for (size_t b = 0; b < nb; ++b) {
+    reaction_shift_[b] = body_inv_mass_[b] * p[b];
+    turn[b] = body_inv_inertia_[b] * t[b];
   }
   rigid_.displace(x, reaction_shift_, turn);
 }

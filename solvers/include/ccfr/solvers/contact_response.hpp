@@ -52,6 +52,19 @@ void visibility_weights(std::span<const ContactPair> contacts, std::span<const I
                         std::span<const Index> slots, double width, std::vector<double>& out, VisibilityWorkspace& ws,
                         std::span<const double> movable = {});
 
+/// The unpinned rigid bodies that answer contacts in their own pose solve (ContactResponse::separate):
+/// per contact the body (-1: none), its generalized inverse mass w_o at the contact's closest point
+/// along n, the arm r from the body's centre to that point and the unit direction d the body gives
+/// way (+n on side A, -n on side B); per body its inverse mass and world inverse inertia, all in the
+/// frame at the anchor.
+struct AnsweringBodies {
+  std::span<const Index> body;
+  std::span<const double> inverse_mass_at;
+  std::span<const Vec3> arm, away;
+  std::span<const double> inv_mass;
+  std::span<const Eigen::Matrix3d> inv_inertia;
+};
+
 class ContactResponse {
  public:
   /// Indexes the contacts of a new detection pass (#V vertices).
@@ -102,29 +115,29 @@ class ContactResponse {
   ///    linear momentum is kept, angular momentum not exactly (the pull-backs act at the vertices
   ///    that overshoot, off the closest points' line).
   ///
-  /// A side with an immovable vertex does not give way; `other_inverse_mass` (per contact, or
-  /// empty) is the generalized inverse mass w_o of a side that answers in its own solve (an
-  /// unpinned rigid body, masked in `inv_mass`): it counts with mass 1 / w_o and is not moved
-  /// here: the part of each overlap it takes is kept for it across the sweeps (the pose solve
-  /// moves it). Mesh neighbours are skipped, and overlaps below 1e-9 of the offset (rounding).
-  /// The first `rest_overlap` (m) of every overlap is resting contact, left to the planes (which
-  /// stop it at a support and cut it by the mass shares between free sides, split_by_motion): a
-  /// body resting on another is pressed into it by about a substep of gravity, |g| dt², and
-  /// closing that here sent every sweep through the bodies stacked on it. Only an impact's
-  /// overlap beyond it is closed here.
-  /// Returns the most contacts that overlapped in one sweep.
-  /// `tethers` (or null): a tethered vertex moved past its tether is put back on it and does not
-  /// give way in later sweeps: the other side takes the rest of the overlap.
+  /// A side with an immovable vertex does not give way; `bodies` (or null) are the unpinned rigid
+  /// bodies that answer in their own solve (masked in `inv_mass`, not moved here). A body in n_b
+  /// overlapping contacts enters each with its generalized inverse mass w_o times n_b (split like
+  /// a vertex), the impulses J of a sweep are summed on it, and the next sweep measures each of
+  /// its contacts with the body displaced by them, \f$\mathbf{d}\cdot(M^{-1}\mathbf{P} +
+  /// I^{-1}\mathbf{L}\times\mathbf{r})\f$: n parallel contacts move it once, not n times, and
+  /// what it takes stays equal and opposite to what the other sides got. Mesh neighbours are skipped, and overlaps
+  /// below 1e-9 of the offset (rounding). The first `rest_overlap` (m) of every overlap is resting contact, left to the
+  /// planes (which stop it at a support and cut it by the mass shares between free sides, split_by_motion): a body
+  /// resting on another is pressed into it by about a substep of gravity, |g| dt², and closing that here sent every
+  /// sweep through the bodies stacked on it. Only an impact's overlap beyond it is closed here. Returns the most
+  /// contacts that overlapped in one sweep. `tethers` (or null): a tethered vertex moved past its tether is put back on
+  /// it, and in later sweeps gives way with the share of a push the tether let through: \f$\rho = |P_T
+  /// \hat{\mathbf{s}}|^2\f$ of its inverse mass, P_T the projection onto the tangent space of the
+  /// tethers it reached (a swing along one sphere keeps most, a vertex pressed along its tether
+  /// none).
   Index separate(Positions& x, const Positions& anchor, std::span<const double> inv_mass, int sweeps,
-                 double rest_overlap = 0.0, std::span<const double> other_inverse_mass = {},
-                 const Tethers* tethers = nullptr);
-  /// After separate() with `other_inverse_mass`: per contact, how far its self-answering side
-  /// gave way along n (m), w_o J for the contact's impulse J (kg m); empty without one.
-  std::span<const double> given() const { return separate_given_; }
-  /// After separate() with `other_inverse_mass` and `tethers`: per contact, the part of given()
-  /// the self-answering side took in sweeps where nothing on the other side could give way (held
-  /// by its tether or immovable): an impulse from outside the pair. Empty without tethers.
-  std::span<const double> held() const { return separate_held_; }
+                 double rest_overlap = 0.0, const AnsweringBodies* bodies = nullptr, const Tethers* tethers = nullptr);
+  /// After separate() with `bodies`: per body, the impulse (kg m, positional) the contacts gave it
+  /// and its moment about the body's centre (kg m²); the body's centre moves by M⁻¹ P and it turns
+  /// by I⁻¹ L. Empty without bodies.
+  std::span<const Vec3> body_impulse() const { return body_push_; }
+  std::span<const Vec3> body_moment() const { return body_twist_; }
 
  private:
   /// Keeps the contacts and computes their visibility weights (grouped through `row_start`/`slots`
@@ -149,11 +162,25 @@ class ContactResponse {
   void count_overlaps(Index nv, std::span<const double> inv_mass);
   /// corr_: every overlapping contact's pull-back of its vertices.
   void pull_back(const Positions& x, const Positions& anchor, std::span<const double> inv_mass, Index nv,
-                 bool barycentric, std::span<const double> other_inverse_mass);
+                 bool barycentric, const AnsweringBodies* bodies);
   /// Moves each touched vertex by the mean of its overlapping contacts' pull-backs;
   /// separate_moved_ marks the vertices that moved (all of them touched).
   void move_by_mean(Positions& x, std::span<const double> inv_mass, const Tethers* tethers);
-  std::vector<double> capped_mass_;  ///< in separate() with tethers: inv_mass, 0 once a vertex is capped
+  /// Sums each overlapping contact's impulse of the sweep on its body (body_push_, body_twist_)
+  /// and sets every body contact's separate_given_ to the body's displacement there; true if a
+  /// body moved.
+  bool move_bodies(const AnsweringBodies& bodies);
+  std::span<const double> uncapped_mass_;  ///< in separate() with tethers: the caller's inv_mass
+  std::vector<double> capped_mass_;        ///< in separate() with tethers: ρ inv_mass once a vertex is capped
+  std::vector<Index> body_count_;          ///< per body, in separate(): its overlapping contacts this sweep
+  /// Per body, in separate(): Σ_j √t_j over its overlapping contacts, t_j = w_o,j - M⁻¹ the turn's
+  /// part of w_o. Contact i enters with n_b M⁻¹ + √t_i Σ_j √t_j, at least the sum of |A_ij| over its
+  /// row (|(r_i × d)ᵀ I⁻¹ (r_j × d)| <= √(t_i t_j)): a sweep's impulses then do not overshoot it.
+  std::vector<double> body_split_;
+  std::vector<Vec3> body_push_, body_twist_;  ///< per body, in separate(): see body_impulse()
+  std::vector<double> separate_impulse_;      ///< per contact, in separate(): J of the sweep on its body
+  std::vector<Index> body_contacts_;          ///< in separate(): the contacts with an answering body
+  bool bodies_moved_ = false;                 ///< in separate(): a body moved in the last sweep
 
   std::span<const ContactPair> contacts_;
   std::vector<double> visibility_;
@@ -175,8 +202,7 @@ class ContactResponse {
   std::vector<Index> touched_;              ///< in separate(): the overlapping contacts' vertices
   std::vector<std::uint8_t> touched_mark_;  ///< per vertex, in count_overlaps(): already in touched_
   std::vector<std::uint8_t> listed_;        ///< per contact, in mark_overlaps(): already listed
-  std::vector<double> separate_given_;      ///< per contact, in separate(): a self-answering side's give so far
-  std::vector<double> separate_held_;       ///< per contact, in separate(): see held()
+  std::vector<double> separate_given_;      ///< per contact, in separate(): its body's give along its direction (m)
   bool prepared_repulsion_ = false;         ///< the last prepare() computed weights and buffers
   Index active_ = 0;
 };

@@ -39,7 +39,7 @@ class RegionProjectionSolver final : public DetectingSolver {
 
  private:
   /// The bodies' answer to the impulses of separate() (contact.momentum): see the definition.
-  void react_bodies(Positions& x, const Positions& anchor);
+  void react_bodies(Positions& x);
   /// resolve()'s second stage: the unpinned rigid bodies' pose solves against the placed vertices.
   void place_bodies(Positions& x, const Positions& anchor, const SimState& state, StepContext& ctx,
                     std::span<const double> projected_mass, SolveResult& r);
@@ -75,6 +75,13 @@ class RegionProjectionSolver final : public DetectingSolver {
   std::vector<Index> carrier_;              ///< per vertex: the body carrying it this pass, or -1
   Positions ends_;                          ///< per vertex: where it ends a carrying round
   std::vector<double> other_inverse_mass_;  ///< per contact: a rigid other side's generalized inverse mass
+  /// Per contact, from respond(): its answering body (-1: none), the arm from the body's centre to
+  /// its closest point and the direction the body gives way; per body its inverse mass and world
+  /// inverse inertia (frames at the anchor). separate() couples the body's contacts through them.
+  std::vector<Index> answering_body_;
+  std::vector<Vec3> answering_arm_, answering_away_;
+  std::vector<double> body_inv_mass_;
+  std::vector<Eigen::Matrix3d> body_inv_inertia_;
   std::vector<double> free_mask_;  ///< inverse masses with unpinned rigid bodies' vertices at 0 (not projected alone)
   std::vector<std::uint8_t> halted_;    ///< #V: halted during frame `halted_frame_`
   std::vector<HeldSplit> held_splits_;  ///< the pass's sides held at their old plane (split_by_motion)

@@ -92,6 +92,8 @@ class Simulation {
 
   const Scene& scene() const { return scene_; }
   const Topology& topology() const { return scene_.topo; }
+  /// The long-range attachments contact.momentum builds for pinned cloths and strands (empty otherwise).
+  const Tethers& tethers() const { return tethers_; }
   /// Current positions. The buffer stays the same for the simulation's lifetime (steps and setters
   /// write into it), so a view of it (e.g. the Python binding's NumPy array) never dangles.
   const Positions& positions() const { return scene_.state.x; }
