@@ -616,7 +616,8 @@ void ContactResponse::pull_back(const Positions& x, const Positions& anchor, std
       2048);
 }
 
-void ContactResponse::move_by_mean(Positions& x, std::span<const double> inv_mass, const Tethers* tethers) {
+void ContactResponse::move_by_mean(Positions& x, std::span<const double> inv_mass, const Tethers* tethers,
+                                   std::span<const double> uncapped) {
   parallel_for(
       static_cast<Index>(touched_.size()),
       [&](Index b, Index e) {
@@ -629,12 +630,11 @@ void ContactResponse::move_by_mean(Positions& x, std::span<const double> inv_mas
             if (separate_dl_[slots_[q] / 4] != 0.0) sum += corr_[slots_[q]];
           const Vec3 before = x[v];
           x[v] += sum / static_cast<double>(separate_count_[v]);
-          if (tethers && tethers->cap(x, v)) {
-            // What the cap let through of the push along it: the tangent space's share ρ.
+          if (tethers) {
+            // A vertex put back on its tethers gives way in later sweeps by the share of this push
+            // they let through (a swing along one sphere keeps most); one back inside, freely.
             const Vec3 step = sum / static_cast<double>(separate_count_[v]);
-            const double s2 = step.squaredNorm();
-            const double rho = s2 > 0.0 ? std::clamp((x[v] - before).dot(step) / s2, 0.0, 1.0) : 0.0;
-            capped_mass_[v] = rho * uncapped_mass_[v];
+            capped_mass_[v] = tethers->cap(x, v) ? tethers->share(x, v, step) * uncapped[v] : uncapped[v];
           }
           separate_moved_[v] = x[v] != before;
         }
@@ -678,7 +678,14 @@ Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span
   body_twist_.clear();
   body_contacts_.clear();
   bodies_moved_ = false;
-  if (bodies && (bodies->inv_mass.empty() || bodies->body.size() != static_cast<size_t>(n))) bodies = nullptr;
+  if (bodies) {
+    const auto nc = static_cast<size_t>(n);
+    if (bodies->body.size() != nc || bodies->inverse_mass_at.size() != nc || bodies->arm.size() != nc ||
+        bodies->away.size() != nc || bodies->inv_inertia.size() != bodies->inv_mass.size())
+      throw Error("ContactResponse::separate: the answering bodies do not match the " + std::to_string(n) +
+                  " contacts or their own count");
+    if (bodies->inv_mass.empty()) bodies = nullptr;
+  }
   if (bodies) {
     body_push_.assign(bodies->inv_mass.size(), Vec3::Zero());
     body_twist_ = body_push_;
@@ -705,8 +712,8 @@ Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span
       if (bodies->body[static_cast<size_t>(ci)] >= 0 && bodies->inverse_mass_at[static_cast<size_t>(ci)] > 0.0)
         body_contacts_.push_back(ci);
   }
+  const std::span<const double> uncapped = inv_mass;
   if (tethers) {
-    uncapped_mass_ = inv_mass;
     capped_mass_.assign(inv_mass.begin(), inv_mass.end());
     inv_mass = capped_mass_;
   }
@@ -741,7 +748,7 @@ Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span
     pull_back(x, anchor, inv_mass, nv, barycentric, bodies);
     // Each vertex moves by the mean of its contacts' pull-backs: with split masses every contact
     // is balanced, so Σ_k (m_k / n_k) Σ_c Δx_k^c = 0 stays after the mean.
-    move_by_mean(x, inv_mass, tethers);
+    move_by_mean(x, inv_mass, tethers, uncapped);
     if (bodies) bodies_moved_ = move_bodies(*bodies);
   }
   return most;

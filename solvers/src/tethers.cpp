@@ -242,7 +242,7 @@ bool Tethers::cap(Positions& x, Index v) const {
   if (inside_all(x[v], std::span<const Ball>(balls, static_cast<size_t>(std::min<Index>(n, kMostExact)))) &&
       n <= kMostExact)
     return false;
-  Vec3 p;
+  Vec3 p = Vec3::Zero();
   if (n <= kMostExact && project_onto_balls(x[v], std::span<const Ball>(balls, static_cast<size_t>(n)), p)) {
     x[v] = p;
     return true;
@@ -261,6 +261,27 @@ bool Tethers::cap(Positions& x, Index v) const {
     if (!exceeded) break;
   }
   return any;
+}
+
+double Tethers::share(const Positions& x, Index v, const Vec3& d) const {
+  const double dn = d.norm();
+  if (!(dn > 0.0)) return 0.0;
+  Vec3 left = d / dn;
+  // Gram-Schmidt over the reached tethers' normals: at most three are independent.
+  Vec3 basis[3];
+  int k = 0;
+  for (Index t = v >= 0 && v + 1 < static_cast<Index>(start_.size()) ? start_[v] : 0;
+       v >= 0 && v + 1 < static_cast<Index>(start_.size()) && t < start_[v + 1] && k < 3; ++t) {
+    const Vec3 r = x[v] - x[pin_[t]];
+    const double len = r.norm();
+    if (!(len >= length_[t] * (1.0 - 1e-9)) || !(len > 0.0)) continue;
+    Vec3 m = r / len;
+    for (int i = 0; i < k; ++i) m -= m.dot(basis[i]) * basis[i];
+    if (m.norm() <= 1e-9) continue;  // dependent on the ones before
+    basis[k++] = m.normalized();
+  }
+  for (int i = 0; i < k; ++i) left -= left.dot(basis[i]) * basis[i];
+  return left.squaredNorm();
 }
 
 }  // namespace ccfr

@@ -534,6 +534,20 @@ TEST(ContactResponse, ABodyInManyContactsAnswersTheirSummedImpulsesOnceAndCloses
     }
     EXPECT_LT((response.body_impulse()[0] + p).norm(), 1e-12) << trial;
     EXPECT_LT((response.body_moment()[0] + l).norm(), 1e-12) << trial;
+    {
+      // One sweep of every vertex's approach alone (the response's second stage, its bisected
+      // share): the body's impulse still minus the vertices' momenta.
+      BodyAndVertices once = body_under_vertices(mass, overlap, arms, body_mass, inv_inertia);
+      ContactResponse one;
+      one.prepare(once.contacts, static_cast<Index>(once.x.size()), ContactParams{});
+      const Positions start = once.x;
+      const AnsweringBodies view = once.view();
+      one.separate(once.x, start, once.inv_mass, 1, 0.0, &view);
+      Vec3 given = Vec3::Zero();
+      for (int i = 0; i < n; ++i) given += mass[static_cast<size_t>(i)] * (once.x[i] - start[i]);
+      EXPECT_GT(given.norm(), 0.0) << trial;
+      EXPECT_LT((one.body_impulse()[0] + given).norm(), 1e-9 * given.norm()) << trial;
+    }
     // Every overlap closed, with about the inelastic impulses: the sweeps only push apart, so a
     // contact that the body's answer to the others opens keeps what it pushed before (not the least
     // impulse, but no more than a quarter above it, and no contact opened by more than half the

@@ -159,6 +159,36 @@ TEST(Tethers, AStrandIsTetheredByItsArcLengthAndABentOrNotchedSheetAlongItsEdges
   }
 }
 
+TEST(Tethers, AVertexOnItsTethersTakesTheShareOfAMotionTheirSpheresLetThrough) {
+  // The share |P_T d|² the momentum response gives a capped vertex, against the tangent spaces
+  // written out: one sphere reached (a plane), two (a line), none (everything), and d = 0.
+  const Positions rest = {Vec3(-1, 0, 0), Vec3(0, -1, 0), Vec3(1, 0, 0)};
+  Scene s = one_object(ObjectKind::strand, rest, {}, {{0, 1, 2}}, {0});
+  s.params.objects[0].pins.push_back({{2}, {}});  // a second group: a tether to each end
+  const Tethers both(s.topo, s.state, s.params);
+  ASSERT_EQ(both.pins(1).size(), 2u);
+  const double l = both.lengths(1)[0];  // √2 (1 + s)
+  Positions x = rest;
+  x[1] = Vec3(0, -std::sqrt(l * l - 1.0), 0);  // on both spheres: free only along z
+  const double r = std::sqrt(0.5);
+  EXPECT_NEAR(both.share(x, 1, Vec3(0, 0, 2)), 1.0, 1e-12);
+  EXPECT_NEAR(both.share(x, 1, Vec3(1, 0, 0)), 0.0, 1e-12);
+  EXPECT_NEAR(both.share(x, 1, Vec3(0, r, r)), 0.5, 1e-12);
+  EXPECT_EQ(both.share(x, 1, Vec3::Zero()), 0.0);
+  // One tether: the plane normal to it.
+  s.params.objects[0].pins.pop_back();
+  const Tethers one(s.topo, s.state, s.params);
+  ASSERT_EQ(one.pins(1).size(), 1u);
+  const Vec3 u = Vec3(1, -2, 0.5).normalized(), t = u.cross(Vec3::UnitZ()).normalized();
+  x[1] = x[0] + one.lengths(1)[0] * u;
+  EXPECT_NEAR(one.share(x, 1, u), 0.0, 1e-12);
+  EXPECT_NEAR(one.share(x, 1, -3.0 * t), 1.0, 1e-12);
+  EXPECT_NEAR(one.share(x, 1, u + t), 0.5, 1e-12);
+  // Inside: nothing reached.
+  x[1] = x[0] + 0.5 * one.lengths(1)[0] * u;
+  EXPECT_NEAR(one.share(x, 1, u), 1.0, 1e-12);
+}
+
 TEST(Tethers, EnforcementPutsEveryVertexInsideItsTethersAndMovesNoneThatIs) {
   const auto grid = gen::grid(1.0, 1.0, 8, 8);
   const std::vector<Index> pins = {0, 8, 72, 80};
@@ -288,7 +318,7 @@ TEST(Tethers, AHeavyBallOnALightPinnedClothIsCaughtUnderContactMomentum) {
     // Every vertex within its tethers after the sweeps; the contact's later steps (repulsion, the
     // regions, the ball carrying what it wraps) may carry one a little past them (1.022 measured).
     EXPECT_LT(held.reach, 1.0 + kSlack + 0.03) << solver;
-    EXPECT_GT(loose.reach, 1.3) << solver;
+    EXPECT_GT(loose.reach, 1.4) << solver;
     // The undamped sheet may throw the ball back, but with no more energy than it brought: from
     // 0.2 m at 3 m/s it cannot rise above 0.2 + 3² / 2g = 0.659 m (before the tethers, the cloth's
     // recoil threw a cube dropped from 0.15 m up to 6.8 m: docs/feasibility.md).
@@ -311,11 +341,12 @@ TEST(Tethers, AShotBallIsCaughtByThePinnedClothItHits) {
     EXPECT_EQ(held.violations, 0) << solver;
     EXPECT_GT(held.lowest, -0.15) << solver;
     EXPECT_LT(held.rebound, 0.15 + 100.0 / (2.0 * 9.81)) << solver;
-    // The stretched, undamped sheet may throw the ball back as an elastic sheet would, not more: the
-    // rise after its lowest point gives a restitution e = √(2 g Δh) / (10 m/s) below 0.35. When each
-    // contact moved the ball as if it were its only one, n of them moved it n times too far and it
-    // rose to 1.04 m (e = 0.46); the ball now answers their summed impulses once (separate()).
-    EXPECT_LT(std::sqrt(2.0 * 9.81 * std::max(0.0, held.rebound - held.lowest)) / 10.0, 0.35) << solver;
+    // The stretched, undamped sheet may throw the ball back as an elastic sheet would: the rise
+    // after its lowest point gives a restitution e = √(2 g Δh) / (10 m/s), measured 0 (ccfr) and
+    // 0.10, asserted below 0.3. When each contact moved the ball as if it were its only one, n of
+    // them moved it n times too far and it rose to 1.04 m (e = 0.46); the ball now answers the
+    // summed impulses once (separate()).
+    EXPECT_LT(std::sqrt(2.0 * 9.81 * std::max(0.0, held.rebound - held.lowest)) / 10.0, 0.3) << solver;
     EXPECT_LT(held.stretch, 2.5) << solver;
     EXPECT_LT(held.reach, 1.0 + kSlack + 0.03) << solver;  // 1.028-1.032 measured
   }
@@ -323,94 +354,101 @@ TEST(Tethers, AShotBallIsCaughtByThePinnedClothItHits) {
 
 TEST(Tethers, ABallShotIntoAHangingCurtainCarriesItOnAsTheCurtainSwingsUp) {
   // A 0.9 kg ball (radius 0.06 m) at 12 m/s into the middle of a 1 x 1 m, 0.2 kg curtain hanging
-  // from its top row (31 x 31 vertices), 60 fps x 40 substeps. Hit at mid-height, an inextensible
-  // curtain swings up about its top and slides over the ball, which goes on. Carrying the whole
-  // curtain with it, perfectly inelastically, it would keep 0.9 * 12 / 1.1 = 9.8 m/s; the pins take
-  // part of the curtain's momentum. The same scene without tethers at 80 substeps (where the
-  // material sweeps alone hold the curtain; 7.94 at 40) passes at 7.96 m/s: asserted, at least 70 %
-  // of the inelastic speed. A tethered vertex pushed across its sphere was held (inverse mass 0)
-  // for the rest of the response, and each contact moved the ball as if alone: the ball went on at
-  // 4.8 m/s (1.9 at 20 substeps). Now a capped vertex keeps the share of each push its tethers let
-  // through (a swing keeps most), and the ball answers the summed impulses once.
+  // from its top row (31 x 31 vertices), 60 fps. Hit at mid-height, an inextensible curtain swings
+  // up about its top and slides over the ball, which goes on. Carrying the whole curtain with it,
+  // perfectly inelastically, it would keep 0.9 * 12 / 1.1 = 9.8 m/s; the pins take part of the
+  // curtain's momentum. The same scene without tethers at 80 substeps (where the material sweeps
+  // alone hold the curtain; 7.94 at 40) passes at 7.96 m/s. Asserted: at 40 substeps at least 70 %
+  // of the inelastic speed, at 10 (the ball 5 r a substep) 60 %. A tethered vertex pushed across
+  // its sphere was held (inverse mass 0) for the rest of the response, and each contact moved the
+  // ball as if alone: the ball went on at 4.8 m/s at 40 substeps and was stopped and thrown back
+  // at 10. Now a capped vertex keeps the share of each push its tethers let through (a swing keeps
+  // most), and the ball answers the summed impulses once.
   const double speed = 12.0, ball_mass = 0.9, curtain_mass = 0.2;
-  for (const char* solver : {"ccfr", "exact_projection"}) {
-    const auto cloth = gen::grid(1.0, 1.0, 30, 30);
-    const auto ball = gen::sphere(0.06, 3);
-    TopologyBuilder tb;
-    tb.add_object("curtain", ObjectKind::cloth, static_cast<Index>(cloth.v.size()), cloth.f);
-    tb.add_object("ball", ObjectKind::rigid, static_cast<Index>(ball.v.size()), ball.f);
-    Scene s;
-    s.topo = tb.finish();
-    s.state.resize(s.topo.num_vertices());
-    const Index nc = static_cast<Index>(cloth.v.size());
-    // The grid's x-z plane turned 90° about x (y = -z), each vertex a third of its triangles' area.
-    std::vector<Index> top;
-    for (Index i = 0; i < nc; ++i)
-      s.state.x[i] = Vec3(cloth.v[static_cast<size_t>(i)].x(), -cloth.v[static_cast<size_t>(i)].z(), 0.0);
-    for (const Vec3i& t : cloth.f) {
-      const double area = 0.5 * (s.state.x[t[1]] - s.state.x[t[0]]).cross(s.state.x[t[2]] - s.state.x[t[0]]).norm();
-      for (int k = 0; k < 3; ++k) s.state.mass[t[k]] += curtain_mass * area / 3.0;
-    }
-    for (Index i = 0; i < nc; ++i) {
-      const bool pinned = s.state.x[i].y() > 0.5 - 1e-9;
-      if (pinned) top.push_back(i), s.state.mass[i] = 0.0;
-      s.state.inv_mass[i] = pinned ? 0.0 : 1.0 / s.state.mass[i];
-    }
-    const SolidMassProperties props = solid_mass_properties(ball.v, ball.f);
-    const RigidVertexMasses m = rigid_vertex_masses(ball.v, ball.f, ball_mass / props.volume, props);
-    for (size_t i = 0; i < ball.v.size(); ++i) {
-      const Index v = nc + static_cast<Index>(i);
-      s.state.x[v] = ball.v[i] - props.centroid + Vec3(0.0, 0.0, 0.15);
-      s.state.v[v] = Vec3(0, 0, -speed);
-      s.state.mass[v] = m.vertex[i];
-      s.state.inv_mass[v] = m.vertex[i] > 0.0 ? 1.0 / m.vertex[i] : 0.0;
-    }
-    s.state.rest = s.state.x_prev = s.state.x;
-    s.params.objects.resize(2);
-    set_material_key(s.params.objects[0].material, "stretch_compliance", 1e-7);
-    set_material_key(s.params.objects[0].material, "bend_compliance", 1e-2);
-    s.params.objects[0].pins.push_back({top, {}});
-    s.params.objects[1].material.density = ball_mass / props.volume;
-    s.params.contact.solver = solver;
-    s.params.contact.radius = 0.004;
-    s.params.contact.offset = 0.003;
-    s.params.contact.repulsion_range = 0.001;
-    s.params.contact.stiffness = 1e5;
-    s.params.contact.momentum = true;
-    s.params.time.substeps = 40;
-    s.params.time.iterations = 2;
-    s.params.time.xpbd_sweeps = 10;
-    const Positions rest = s.state.rest;
-    Simulation sim(std::move(s));
-    Index violations = 0;
-    double stretch = 0.0, settled = 0.0, reach = 0.0, ball_speed = 0.0, ball_z = 0.15;
-    for (int f = 1; f <= 6; ++f) {
-      const test::ExpectWarnings whipping;  // the curtain's free edge may whip past r a pass
-      violations += sim.step_frame().violations_remaining;
-      const Positions& x = sim.positions();
-      Vec3 centre = Vec3::Zero();
-      for (Index v = nc; v < sim.topology().num_vertices(); ++v) centre += x[v];
-      ball_speed = -(centre.z() / double(sim.topology().num_vertices() - nc) - ball_z) * 60.0;
-      ball_z = centre.z() / double(sim.topology().num_vertices() - nc);
-      settled = 0.0;
-      for (const Vec2i& e : sim.topology().edges)
-        if (e[1] < nc) settled = std::max(settled, (x[e[0]] - x[e[1]]).norm() / (rest[e[0]] - rest[e[1]]).norm());
-      stretch = std::max(stretch, settled);
-      for (Index v = 0; v < nc; ++v) {
-        const auto pins = sim.tethers().pins(v);
-        const auto lengths = sim.tethers().lengths(v);
-        for (size_t t = 0; t < pins.size(); ++t)
-          reach = std::max(reach, (x[v] - x[pins[t]]).norm() / (lengths[t] / (1.0 + kSlack)));
+  for (const int substeps : {40, 10})
+    for (const char* solver : {"ccfr", "exact_projection"}) {
+      const auto cloth = gen::grid(1.0, 1.0, 30, 30);
+      const auto ball = gen::sphere(0.06, 3);
+      TopologyBuilder tb;
+      tb.add_object("curtain", ObjectKind::cloth, static_cast<Index>(cloth.v.size()), cloth.f);
+      tb.add_object("ball", ObjectKind::rigid, static_cast<Index>(ball.v.size()), ball.f);
+      Scene s;
+      s.topo = tb.finish();
+      s.state.resize(s.topo.num_vertices());
+      const Index nc = static_cast<Index>(cloth.v.size());
+      // The grid's x-z plane turned 90° about x (y = -z), each vertex a third of its triangles' area.
+      std::vector<Index> top;
+      for (Index i = 0; i < nc; ++i)
+        s.state.x[i] = Vec3(cloth.v[static_cast<size_t>(i)].x(), -cloth.v[static_cast<size_t>(i)].z(), 0.0);
+      for (const Vec3i& t : cloth.f) {
+        const double area = 0.5 * (s.state.x[t[1]] - s.state.x[t[0]]).cross(s.state.x[t[2]] - s.state.x[t[0]]).norm();
+        for (int k = 0; k < 3; ++k) s.state.mass[t[k]] += curtain_mass * area / 3.0;
       }
+      for (Index i = 0; i < nc; ++i) {
+        const bool pinned = s.state.x[i].y() > 0.5 - 1e-9;
+        if (pinned) top.push_back(i), s.state.mass[i] = 0.0;
+        s.state.inv_mass[i] = pinned ? 0.0 : 1.0 / s.state.mass[i];
+      }
+      const SolidMassProperties props = solid_mass_properties(ball.v, ball.f);
+      const RigidVertexMasses m = rigid_vertex_masses(ball.v, ball.f, ball_mass / props.volume, props);
+      for (size_t i = 0; i < ball.v.size(); ++i) {
+        const Index v = nc + static_cast<Index>(i);
+        s.state.x[v] = ball.v[i] - props.centroid + Vec3(0.0, 0.0, 0.15);
+        s.state.v[v] = Vec3(0, 0, -speed);
+        s.state.mass[v] = m.vertex[i];
+        s.state.inv_mass[v] = m.vertex[i] > 0.0 ? 1.0 / m.vertex[i] : 0.0;
+      }
+      s.state.rest = s.state.x_prev = s.state.x;
+      s.params.objects.resize(2);
+      set_material_key(s.params.objects[0].material, "stretch_compliance", 1e-7);
+      set_material_key(s.params.objects[0].material, "bend_compliance", 1e-2);
+      s.params.objects[0].pins.push_back({top, {}});
+      s.params.objects[1].material.density = ball_mass / props.volume;
+      s.params.contact.solver = solver;
+      s.params.contact.radius = 0.004;
+      s.params.contact.offset = 0.003;
+      s.params.contact.repulsion_range = 0.001;
+      s.params.contact.stiffness = 1e5;
+      s.params.contact.momentum = true;
+      s.params.time.substeps = substeps;
+      s.params.time.iterations = 2;
+      s.params.time.xpbd_sweeps = 10;
+      const Positions rest = s.state.rest;
+      Simulation sim(std::move(s));
+      Index violations = 0;
+      double stretch = 0.0, settled = 0.0, reach = 0.0, ball_speed = 0.0, ball_z = 0.15;
+      for (int f = 1; f <= 6; ++f) {
+        const test::ExpectWarnings whipping;  // the curtain's free edge may whip past r a pass
+        violations += sim.step_frame().violations_remaining;
+        const Positions& x = sim.positions();
+        Vec3 centre = Vec3::Zero();
+        for (Index v = nc; v < sim.topology().num_vertices(); ++v) centre += x[v];
+        ball_speed = -(centre.z() / double(sim.topology().num_vertices() - nc) - ball_z) * 60.0;
+        ball_z = centre.z() / double(sim.topology().num_vertices() - nc);
+        settled = 0.0;
+        for (const Vec2i& e : sim.topology().edges)
+          if (e[1] < nc) settled = std::max(settled, (x[e[0]] - x[e[1]]).norm() / (rest[e[0]] - rest[e[1]]).norm());
+        stretch = std::max(stretch, settled);
+        for (Index v = 0; v < nc; ++v) {
+          const auto pins = sim.tethers().pins(v);
+          const auto lengths = sim.tethers().lengths(v);
+          for (size_t t = 0; t < pins.size(); ++t)
+            reach = std::max(reach, (x[v] - x[pins[t]]).norm() / (lengths[t] / (1.0 + kSlack)));
+        }
+      }
+      std::printf(
+          "%s, %d substeps: ball at z = %.3f m, %.2f m/s in frame 6, largest stretch %.3f (%.3f in frame 6), reach "
+          "%.4f\n",
+          solver, substeps, ball_z, ball_speed, stretch, settled, reach);
+      const bool fine = substeps == 40;
+      EXPECT_EQ(violations, 0) << solver << ", " << substeps;
+      EXPECT_LT(ball_z, -0.5) << solver << ", " << substeps;  // through: the curtain hangs at z = 0
+      EXPECT_GT(ball_speed, (fine ? 0.7 : 0.6) * ball_mass * speed / (ball_mass + curtain_mass))
+          << solver << ", " << substeps;
+      EXPECT_LT(ball_speed, speed) << solver << ", " << substeps;
+      // At the impact 1.22 measured at 40 substeps, 2.5-2.8 at 10 (the material sweeps' lag).
+      EXPECT_LT(stretch, fine ? 1.3 : 3.0) << solver << ", " << substeps;
+      EXPECT_LT(settled, 1.1) << solver << ", " << substeps;                                // in frame 6 (1.04-1.06)
+      EXPECT_LT(reach, 1.0 + kSlack + (fine ? 0.01 : 0.02)) << solver << ", " << substeps;  // 1.020; 1.027-1.034
     }
-    std::printf("%s: ball at z = %.3f m, %.2f m/s in frame 6, largest stretch %.3f (%.3f in frame 6), reach %.4f\n",
-                solver, ball_z, ball_speed, stretch, settled, reach);
-    EXPECT_EQ(violations, 0) << solver;
-    EXPECT_LT(ball_z, -0.5) << solver;  // through: the curtain hangs at z = 0
-    EXPECT_GT(ball_speed, 0.7 * ball_mass * speed / (ball_mass + curtain_mass)) << solver;
-    EXPECT_LT(ball_speed, speed) << solver;
-    EXPECT_LT(stretch, 1.3) << solver;  // at the impact (1.22 measured)
-    EXPECT_LT(settled, 1.1) << solver;  // in frame 6 (1.04)
-    EXPECT_LT(reach, 1.0 + kSlack + 0.03) << solver;
-  }
 }

@@ -115,22 +115,29 @@ class ContactResponse {
   ///    linear momentum is kept, angular momentum not exactly (the pull-backs act at the vertices
   ///    that overshoot, off the closest points' line).
   ///
-  /// A side with an immovable vertex does not give way; `bodies` (or null) are the unpinned rigid
-  /// bodies that answer in their own solve (masked in `inv_mass`, not moved here). A body in n_b
-  /// overlapping contacts enters each with its generalized inverse mass w_o times n_b (split like
-  /// a vertex), the impulses J of a sweep are summed on it, and the next sweep measures each of
-  /// its contacts with the body displaced by them, \f$\mathbf{d}\cdot(M^{-1}\mathbf{P} +
-  /// I^{-1}\mathbf{L}\times\mathbf{r})\f$: n parallel contacts move it once, not n times, and
-  /// what it takes stays equal and opposite to what the other sides got. Mesh neighbours are skipped, and overlaps
-  /// below 1e-9 of the offset (rounding). The first `rest_overlap` (m) of every overlap is resting contact, left to the
-  /// planes (which stop it at a support and cut it by the mass shares between free sides, split_by_motion): a body
-  /// resting on another is pressed into it by about a substep of gravity, |g| dt², and closing that here sent every
-  /// sweep through the bodies stacked on it. Only an impact's overlap beyond it is closed here. Returns the most
-  /// contacts that overlapped in one sweep. `tethers` (or null): a tethered vertex moved past its tether is put back on
-  /// it, and in later sweeps gives way with the share of a push the tether let through: \f$\rho = |P_T
-  /// \hat{\mathbf{s}}|^2\f$ of its inverse mass, P_T the projection onto the tangent space of the
-  /// tethers it reached (a swing along one sphere keeps most, a vertex pressed along its tether
-  /// none).
+  /// A side with an immovable vertex does not give way. `bodies` (or null): the unpinned rigid
+  /// bodies that answer in their own solve (masked in `inv_mass`, not moved here). In a sweep where
+  /// a body is in n_b overlapping contacts, contact i counts it with inverse mass
+  /// \f$n_b M^{-1} + \sqrt{t_i}\sum_j \sqrt{t_j}\f$, t = w_o - M⁻¹ the turn's part of w_o (split
+  /// like a vertex; the sum bounds each row of its coupling between contacts), the sweep's impulses
+  /// J are summed on it, and the next sweep measures each of its contacts with the body displaced
+  /// by all of them, \f$\mathbf{d}\cdot(M^{-1}\mathbf{P} + I^{-1}\mathbf{L}\times\mathbf{r})\f$:
+  /// n parallel contacts move it once, not n times. What it takes is minus what the other sides
+  /// got, except where the other side cannot give way (pinned, or a tethered vertex pressed along
+  /// its tether): the body then closes the contact alone, the pin's impulse.
+  ///
+  /// Mesh neighbours are skipped, and overlaps below 1e-9 of the offset (rounding). The first
+  /// `rest_overlap` (m) of every overlap is resting contact, left to the planes (which stop it at a
+  /// support and cut it by the mass shares between free sides, split_by_motion): a body resting on
+  /// another is pressed into it by about a substep of gravity, |g| dt², and closing that here sent
+  /// every sweep through the bodies stacked on it. Only an impact's overlap beyond it is closed
+  /// here. Returns the most contacts that overlapped in one sweep.
+  ///
+  /// `tethers` (or null): a tethered vertex moved past its tether is put back on it, and in later
+  /// sweeps gives way with the share of the push its tethers let through,
+  /// \f$|P_T \hat{\mathbf{s}}|^2\f$ of its inverse mass (Tethers::share), P_T the projection onto
+  /// the tangent space of the tethers it reached: a swing along one sphere keeps most, a vertex
+  /// pressed along its tether none. Throws ccfr::Error if `bodies` does not match the contacts.
   Index separate(Positions& x, const Positions& anchor, std::span<const double> inv_mass, int sweeps,
                  double rest_overlap = 0.0, const AnsweringBodies* bodies = nullptr, const Tethers* tethers = nullptr);
   /// After separate() with `bodies`: per body, the impulse (kg m, positional) the contacts gave it
@@ -165,14 +172,16 @@ class ContactResponse {
                  bool barycentric, const AnsweringBodies* bodies);
   /// Moves each touched vertex by the mean of its overlapping contacts' pull-backs;
   /// separate_moved_ marks the vertices that moved (all of them touched).
-  void move_by_mean(Positions& x, std::span<const double> inv_mass, const Tethers* tethers);
+  /// With tethers, a capped vertex's inverse mass for the later sweeps becomes its share of the
+  /// push (Tethers::share) times its `uncapped` one.
+  void move_by_mean(Positions& x, std::span<const double> inv_mass, const Tethers* tethers,
+                    std::span<const double> uncapped);
   /// Sums each overlapping contact's impulse of the sweep on its body (body_push_, body_twist_)
   /// and sets every body contact's separate_given_ to the body's displacement there; true if a
   /// body moved.
   bool move_bodies(const AnsweringBodies& bodies);
-  std::span<const double> uncapped_mass_;  ///< in separate() with tethers: the caller's inv_mass
-  std::vector<double> capped_mass_;        ///< in separate() with tethers: ρ inv_mass once a vertex is capped
-  std::vector<Index> body_count_;          ///< per body, in separate(): its overlapping contacts this sweep
+  std::vector<double> capped_mass_;  ///< in separate() with tethers: ρ inv_mass once a vertex is capped
+  std::vector<Index> body_count_;    ///< per body, in separate(): its overlapping contacts this sweep
   /// Per body, in separate(): Σ_j √t_j over its overlapping contacts, t_j = w_o,j - M⁻¹ the turn's
   /// part of w_o. Contact i enters with n_b M⁻¹ + √t_i Σ_j √t_j, at least the sum of |A_ij| over its
   /// row (|(r_i × d)ᵀ I⁻¹ (r_j × d)| <= √(t_i t_j)): a sweep's impulses then do not overshoot it.

@@ -39,6 +39,10 @@ class Tethers {
   Index enforce(Positions& x, std::span<const double> inv_mass) const;
   /// enforce() for vertex v alone; true if it moved (the caller owns x[v]).
   bool cap(Positions& x, Index v) const;
+  /// |P_T d̂|²: the share of a motion along d that vertex v, held on the spheres of the tethers it
+  /// has reached at x (|x_v - x_p| >= (1 - 1e-9) L), can still take, P_T the projection onto their
+  /// normals' orthogonal complement; 1 with none reached, 0 for d = 0.
+  double share(const Positions& x, Index v, const Vec3& d) const;
 
  private:
   template <class T>
