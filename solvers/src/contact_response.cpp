@@ -475,26 +475,30 @@ void vertex_pull_back(const ContactPair& c, const PullBack& p, const Positions& 
 }
 }  // namespace
 
-/// Overlap E of contact `ci` at positions x (0: none, or a contact that cannot move).
-double ContactResponse::overlap(Index ci, const Positions& x, const Positions& anchor, std::span<const double> inv_mass,
-                                bool barycentric, double rest_overlap) const {
+ContactResponse::Measured ContactResponse::measure(Index ci, const Positions& x, const Positions& anchor,
+                                                   std::span<const double> inv_mass, double rest_overlap) const {
   const ContactPair& c = contacts_[ci];
-  if (c.neighbours) return 0.0;
+  Measured m;
+  if (c.neighbours) return m;
   double a[2] = {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
-  bool moves = false;
   Vec3 at = Vec3::Zero();
   for (int k = 0; k < c.size(); ++k) {
     a[k < c.side_a() ? 0 : 1] = std::max(a[k < c.side_a() ? 0 : 1], approach(c, k, x, anchor));
-    moves = moves || inv_mass[c.v[k]] > 0.0;
+    m.moves = m.moves || inv_mass[c.v[k]] > 0.0;
     at += c.w[k] * (x[c.v[k]] - anchor[c.v[k]]);
   }
   // Barycentric sweeps: the closest points' approach; then every vertex's. The first
-  // `rest_overlap` of it is resting contact, left to the planes; overlaps below 1e-9 of
-  // the offset are rounding, left to them too.
+  // `rest_overlap` of it is resting contact, left to the planes.
   const double given = separate_given_.empty() ? 0.0 : separate_given_[static_cast<size_t>(ci)];
-  const double e_c = (barycentric ? -(c.distance - c.offset + c.n.dot(at)) : a[0] + a[1] - (c.distance - c.offset)) -
-                     given - rest_overlap;
-  return moves && e_c > 1e-9 * c.offset ? e_c : 0.0;
+  m.barycentric = -(c.distance - c.offset + c.n.dot(at)) - given - rest_overlap;
+  m.vertex = a[0] + a[1] - (c.distance - c.offset) - given - rest_overlap;
+  return m;
+}
+
+double ContactResponse::overlap(const Measured& m, Index ci, bool barycentric) const {
+  // Overlaps below 1e-9 of the offset are rounding, left to the planes too; so is a contact that cannot move.
+  const double e_c = barycentric ? m.barycentric : m.vertex;
+  return m.moves && e_c > 1e-9 * contacts_[ci].offset ? e_c : 0.0;
 }
 
 void ContactResponse::build_touch(Index nv) {
@@ -506,42 +510,72 @@ void ContactResponse::build_touch(Index nv) {
       if (c.v[k] < nv) ++touch_start_[c.v[k] + 1];
   std::partial_sum(touch_start_.begin(), touch_start_.end(), touch_start_.begin());
   touch_.resize(static_cast<size_t>(touch_start_.back()));
+  touch_growth_.resize(touch_.size());
   std::vector<Index> cursor(touch_start_.begin(), touch_start_.end() - 1);
   for (Index ci = 0; ci < n; ++ci) {
     const ContactPair& c = contacts_[ci];
-    for (int k = 0; k < c.size(); ++k)
-      if (c.v[k] < nv) touch_[cursor[c.v[k]]++] = ci;
+    for (int k = 0; k < c.size(); ++k) {
+      if (c.v[k] >= nv) continue;
+      // A step s of vertex k adds at most max(1, |w_k|) max(0, ±n·s) to either overlap measure: E is
+      // the weighted sum of the approaches, or one side's largest plus the other's.
+      const Index q = cursor[c.v[k]]++;
+      touch_[q] = ci;
+      touch_growth_[static_cast<size_t>(q)] = std::max(1.0, std::abs(c.w[k])) * (k < c.side_a() ? Vec3(-c.n) : c.n);
+    }
   }
   listed_.assign(static_cast<size_t>(n), 0);
   touch_built_ = true;
 }
 
 Index ContactResponse::mark_overlaps(const Positions& x, const Positions& anchor, std::span<const double> inv_mass,
-                                     bool barycentric, double rest_overlap, bool every) {
-  if (!every) {
-    // The contacts that overlapped in the last sweep, then those around the vertices it moved
-    // (each once, in this order: the result does not depend on it).
+                                     bool barycentric, double rest_overlap, Listing listing) {
+  const Index nc = static_cast<Index>(contacts_.size());
+  if (listing != Listing::every) {
+    // Each contact's bounds grow by what the last sweep's steps could add to its overlap; a contact
+    // around a moved vertex is measured again only while its bound leaves it overlapping (the
+    // overlaps of the others are at most their bounds, so at most 0).
     const Index nv = static_cast<Index>(separate_moved_.size());
     if (!touch_built_) build_touch(nv);
+    const bool by_bound = listing == Listing::by_bound;
     for (const Index ci : overlapping_) listed_[static_cast<size_t>(ci)] = 1;
     for (const Index v : touched_) {  // the last sweep's: every vertex it moved is among them
-      if (!separate_moved_[v]) continue;
-      for (Index q = touch_start_[v]; q < touch_start_[v + 1]; ++q)
-        if (!listed_[static_cast<size_t>(touch_[q])])
-          listed_[static_cast<size_t>(touch_[q])] = 1, overlapping_.push_back(touch_[q]);
+      if (!steps_pending_ || !separate_moved_[v]) continue;
+      const Vec3& step = separate_step_[static_cast<size_t>(v)];
+      for (Index q = touch_start_[v]; q < touch_start_[v + 1]; ++q) {
+        const auto ci = static_cast<size_t>(touch_[q]);
+        OverlapBound& bound = bounds_[ci];
+        const double grown = std::max(0.0, touch_growth_[static_cast<size_t>(q)].dot(step));
+        bound.barycentric += grown;
+        bound.vertex += grown;
+        if (!by_bound && !listed_[ci] && (barycentric ? bound.barycentric : bound.vertex) > 0.0)
+          listed_[ci] = 1, overlapping_.push_back(touch_[q]);
+      }
     }
-    // A body that moved changed the overlap of every one of its contacts.
-    if (bodies_moved_)
+    steps_pending_ = false;
+    if (by_bound) {
+      // The first vertex sweep, in contact order: every contact its bound leaves overlapping, and
+      // those the last sweep found overlapping (their E was barycentric, at most the vertex one).
+      overlapping_.clear();
+      for (Index ci = 0; ci < nc; ++ci) {
+        const auto c = static_cast<size_t>(ci);
+        if (bounds_[c].vertex > 0.0 || listed_[c] || (bodies_moved_ && is_body_contact_[c])) overlapping_.push_back(ci);
+      }
+    } else if (bodies_moved_) {
+      // A body that moved changed the overlap of every one of its contacts.
       for (const Index ci : body_contacts_)
         if (!listed_[static_cast<size_t>(ci)]) listed_[static_cast<size_t>(ci)] = 1, overlapping_.push_back(ci);
+    }
   }
-  const Index n = every ? static_cast<Index>(contacts_.size()) : static_cast<Index>(overlapping_.size());
+  const bool every = listing == Listing::every;
+  const Index n = every ? nc : static_cast<Index>(overlapping_.size());
   parallel_for(
       n,
       [&](Index b, Index e) {
         for (Index i = b; i < e; ++i) {
           const Index ci = every ? i : overlapping_[i];
-          separate_dl_[static_cast<size_t>(ci)] = overlap(ci, x, anchor, inv_mass, barycentric, rest_overlap);
+          const Measured m = measure(ci, x, anchor, inv_mass, rest_overlap);
+          bounds_[static_cast<size_t>(ci)] = {m.barycentric, m.vertex};
+          separate_dl_[static_cast<size_t>(ci)] = overlap(m, ci, barycentric);
         }
       },
       2048);
@@ -630,6 +664,7 @@ void ContactResponse::move_by_mean(Positions& x, std::span<const double> inv_mas
             if (separate_dl_[slots_[q] / 4] != 0.0) sum += corr_[slots_[q]];
           const Vec3 before = x[v];
           x[v] += sum / static_cast<double>(separate_count_[v]);
+          separate_step_[static_cast<size_t>(v)] = x[v] - before;
           if (tethers) {
             // A vertex put back on its tethers gives way in later sweeps by the share of this push
             // they let through (a swing along one sphere keeps most); one back inside, freely.
@@ -696,8 +731,11 @@ Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span
   separate_dl_.resize(static_cast<size_t>(n));
   separate_count_.resize(static_cast<size_t>(nv));
   separate_moved_.assign(static_cast<size_t>(nv), 0);
+  separate_step_.resize(static_cast<size_t>(nv));
+  bounds_.resize(static_cast<size_t>(n));
   touched_mark_.assign(static_cast<size_t>(nv), 0);
   touch_built_ = false;
+  steps_pending_ = false;
   overlapping_.clear();
   touched_.clear();
   corr_.resize(static_cast<size_t>(n) * 4);
@@ -708,9 +746,10 @@ Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span
     separate_impulse_.assign(static_cast<size_t>(n), 0.0);
     body_count_.assign(bodies->inv_mass.size(), 0);
     body_split_.assign(bodies->inv_mass.size(), 0.0);
+    is_body_contact_.assign(static_cast<size_t>(n), 0);
     for (Index ci = 0; ci < n; ++ci)
       if (bodies->body[static_cast<size_t>(ci)] >= 0 && bodies->inverse_mass_at[static_cast<size_t>(ci)] > 0.0)
-        body_contacts_.push_back(ci);
+        body_contacts_.push_back(ci), is_body_contact_[static_cast<size_t>(ci)] = 1;
   }
   const std::span<const double> uncapped = inv_mass;
   if (tethers) {
@@ -721,10 +760,13 @@ Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span
   const int first_vertex_sweep = sweeps * 3 / 4;
   for (int sweep = 0; sweep < sweeps; ++sweep) {
     const bool barycentric = sweep < first_vertex_sweep;
-    // Overlapping contacts of this sweep: separate_dl_ holds E (0: none). The first sweep of each
-    // kind measures every contact; later ones only those that overlapped or whose vertices moved.
-    const bool every = sweep == 0 || sweep == first_vertex_sweep;
-    const Index closed = mark_overlaps(x, anchor, inv_mass, barycentric, rest_overlap, every);
+    // Overlapping contacts of this sweep: separate_dl_ holds E (0: none). The first sweep measures
+    // every contact, the first vertex sweep those its bounds leave overlapping, later ones those
+    // that overlapped or whose vertices moved.
+    const Listing listing = sweep == 0 || measure_every_sweep_ ? Listing::every
+                            : sweep == first_vertex_sweep      ? Listing::by_bound
+                                                               : Listing::around_moved;
+    const Index closed = mark_overlaps(x, anchor, inv_mass, barycentric, rest_overlap, listing);
     most = std::max(most, closed);
     if (closed == 0) {
       if (!barycentric) break;
@@ -749,6 +791,7 @@ Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span
     // Each vertex moves by the mean of its contacts' pull-backs: with split masses every contact
     // is balanced, so Σ_k (m_k / n_k) Σ_c Δx_k^c = 0 stays after the mean.
     move_by_mean(x, inv_mass, tethers, uncapped);
+    steps_pending_ = true;
     if (bodies) bodies_moved_ = move_bodies(*bodies);
   }
   return most;

@@ -5,6 +5,7 @@
 /// contacts (Macklin et al. 2014). Solved Jacobi-style with per-vertex averaging, so it runs in
 /// parallel and deterministically.
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <vector>
 
@@ -133,6 +134,10 @@ class ContactResponse {
   /// every sweep through the bodies stacked on it. Only an impact's overlap beyond it is closed
   /// here. Returns the most contacts that overlapped in one sweep.
   ///
+  /// A sweep measures again only the contacts that overlapped and those whose upper bound of the
+  /// overlap, grown by the last sweep's steps of their vertices (max(1, |w_k|) times the approach
+  /// gained), leaves them overlapping: the others' overlap is at most the bound, so 0.
+  ///
   /// `tethers` (or null): a tethered vertex moved past its tether is put back on it, and in later
   /// sweeps gives way with the share of the push its tethers let through,
   /// \f$|P_T \hat{\mathbf{s}}|^2\f$ of its inverse mass (Tethers::share), P_T the projection onto
@@ -140,6 +145,11 @@ class ContactResponse {
   /// pressed along its tether none. Throws ccfr::Error if `bodies` does not match the contacts.
   Index separate(Positions& x, const Positions& anchor, std::span<const double> inv_mass, int sweeps,
                  double rest_overlap = 0.0, const AnsweringBodies* bodies = nullptr, const Tethers* tethers = nullptr);
+  /// Measures every contact in every sweep of separate() instead of those around the last
+  /// sweep's steps whose bounds leave them overlapping: the brute-force reference the listing must
+  /// equal (tests). The same positions, bit for bit, without bodies; with them, up to the order of
+  /// the sums on a body.
+  void measure_every_sweep(bool on) { measure_every_sweep_ = on; }
   /// After separate() with `bodies`: per body, the impulse (kg m, positional) the contacts gave it
   /// and its moment about the body's centre (kg m²); the body's centre moves by M⁻¹ P and it turns
   /// by I⁻¹ L. Empty without bodies.
@@ -153,16 +163,26 @@ class ContactResponse {
                       std::span<const Index> row_start, std::span<const Index> slots,
                       std::span<const double> movable = {});
   // The phases of one sweep of separate().
-  /// Overlap E of contact `ci` at x (0: none).
-  double overlap(Index ci, const Positions& x, const Positions& anchor, std::span<const double> inv_mass,
-                 bool barycentric, double rest_overlap) const;
-  /// Sets separate_dl_ to each contact's overlap E (0: none) and overlapping_ to those with E > 0;
-  /// returns how many. Unless `every` is set, only the contacts that overlapped in the last sweep
-  /// and those around the vertices it moved (separate_moved_) are measured: every other contact's
-  /// E is a function of unchanged positions, still 0 (this relies on pull_back writing
-  /// separate_given_ only for overlapping contacts).
+  /// A contact's overlap at x under both measures, before the rounding threshold (a mesh
+  /// neighbour's: -inf), and whether it has a vertex that can move.
+  struct Measured {
+    double barycentric = -std::numeric_limits<double>::infinity();  ///< the closest points' approach, less the room
+    double vertex = -std::numeric_limits<double>::infinity();  ///< each side's largest vertex approach, less the room
+    bool moves = false;
+  };
+  Measured measure(Index ci, const Positions& x, const Positions& anchor, std::span<const double> inv_mass,
+                   double rest_overlap) const;
+  /// Overlap E of contact `ci` from its measures (0: none, rounding, or a contact that cannot move).
+  double overlap(const Measured& m, Index ci, bool barycentric) const;
+  /// Which contacts a sweep measures: all; those around the vertices the last sweep moved
+  /// (separate_moved_) that their bounds leave overlapping, and those that overlapped; those
+  /// whose vertex-measure bounds leave them overlapping (the first vertex sweep). Every other
+  /// contact's overlap is at most its bound, so 0. Bodies that moved list all their contacts.
+  enum class Listing { every, around_moved, by_bound };
+  /// Sets separate_dl_ to each listed contact's overlap E (0: none) and overlapping_ to those with
+  /// E > 0; returns how many. A measured contact's bounds become its measures.
   Index mark_overlaps(const Positions& x, const Positions& anchor, std::span<const double> inv_mass, bool barycentric,
-                      double rest_overlap, bool every);
+                      double rest_overlap, Listing listing);
   /// touched_: the vertices (below nv) of the overlapping contacts, ascending; separate_count_:
   /// each one's overlapping contacts (0 for an immovable one). Other vertices' counts are stale
   /// and never read: a vertex with an overlapping contact is in it.
@@ -203,9 +223,21 @@ class ContactResponse {
   std::vector<double> separate_dl_;           ///< per contact, in separate(): Δλ of the sweep (0: inactive)
   std::vector<Index> separate_count_;         ///< per vertex, in separate(): active contacts of the sweep
   std::vector<std::uint8_t> separate_moved_;  ///< per vertex, in separate(): moved in the last sweep
+  std::vector<Vec3> separate_step_;           ///< per vertex, in separate(): its step in the last sweep it moved (m)
+  /// Per contact, in separate(): upper bounds on its overlap under each measure (m), exact where
+  /// it was last measured, grown by its vertices' steps since.
+  struct OverlapBound {
+    double barycentric, vertex;
+  };
+  std::vector<OverlapBound> bounds_;
+  bool measure_every_sweep_ = false;           ///< see measure_every_sweep()
+  bool steps_pending_ = false;                 ///< in separate(): the bounds lack the last sweep's steps
+  std::vector<std::uint8_t> is_body_contact_;  ///< per contact, in separate(): listed in body_contacts_
   /// touch_start_/touch_ and listed_ for separate()'s contacts, built at its first partial sweep.
   void build_touch(Index nv);
   std::vector<Index> touch_start_, touch_;  ///< in separate(): CSR vertex -> every contact touching it
+  /// Per touch_ entry: g with max(0, g·s) the most a step s of the vertex grows the contact's overlap.
+  std::vector<Vec3> touch_growth_;
   bool touch_built_ = false;                ///< touch_ holds this separate() call's contacts
   std::vector<Index> overlapping_;          ///< in separate(): the contacts with E > 0 this sweep
   std::vector<Index> touched_;              ///< in separate(): the overlapping contacts' vertices
