@@ -3,6 +3,7 @@
 #include <string>
 
 #include "ccfr/geometry/generators.hpp"
+#include "ccfr/geometry/mass_properties.hpp"
 #include "ccfr/solvers/material_constraint.hpp"
 #include "ccfr/solvers/scene.hpp"
 
@@ -45,6 +46,23 @@ inline Scene floor_puck_scene(double height, double speed, const std::string& so
   s.state.inv_mass[p] = 100.0;
   s.state.rest = s.state.x_prev = s.state.x;
   return s;
+}
+
+/// Gives the rigid mesh `ball`, whose vertices are the scene's from `first` on, its place and
+/// motion: its centre of mass at `centre`, every vertex at `velocity`, and the vertex masses that
+/// carry a uniform solid of `density` (kg/m³; rigid_vertex_masses). Returns the solid's properties.
+inline SolidMassProperties place_solid(Scene& s, const gen::TriMesh& ball, Index first, double density,
+                                       const Vec3& centre, const Vec3& velocity) {
+  const SolidMassProperties props = solid_mass_properties(ball.v, ball.f);
+  const RigidVertexMasses m = rigid_vertex_masses(ball.v, ball.f, density, props);
+  for (size_t i = 0; i < ball.v.size(); ++i) {
+    const Index v = first + static_cast<Index>(i);
+    s.state.x[v] = ball.v[i] - props.centroid + centre;
+    s.state.v[v] = velocity;
+    s.state.mass[v] = m.vertex[i];
+    s.state.inv_mass[v] = m.vertex[i] > 0.0 ? 1.0 / m.vertex[i] : 0.0;
+  }
+  return props;
 }
 
 /// A square cloth in the x-z plane pinned at its four corners (stretch compliance 1e-7, bending

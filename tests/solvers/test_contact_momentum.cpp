@@ -11,6 +11,7 @@
 #include "ccfr/geometry/generators.hpp"
 #include "ccfr/geometry/mass_properties.hpp"
 #include "ccfr/solvers/simulation.hpp"
+#include "scenes.hpp"
 #include "test_support.hpp"
 
 using namespace ccfr;
@@ -249,15 +250,7 @@ Scene ball_into_cloth(const std::string& solver, double speed, int substeps, boo
     s.state.inv_mass[i] = corner ? 0.0 : 1.0 / cloth_vertex;
   }
   const double rho = 600.0, gap = 0.01;
-  const SolidMassProperties props = solid_mass_properties(ball.v, ball.f);
-  const RigidVertexMasses m = rigid_vertex_masses(ball.v, ball.f, rho, props);
-  for (size_t i = 0; i < ball.v.size(); ++i) {
-    const Index v = nc + static_cast<Index>(i);
-    s.state.x[v] = ball.v[i] - props.centroid + Vec3(aim_x, 0.05 + 0.005 + gap, 0.002);
-    s.state.v[v] = Vec3(0, -speed, 0);
-    s.state.mass[v] = m.vertex[i];
-    s.state.inv_mass[v] = m.vertex[i] > 0.0 ? 1.0 / m.vertex[i] : 0.0;
-  }
+  test::place_solid(s, ball, nc, rho, Vec3(aim_x, 0.05 + 0.005 + gap, 0.002), Vec3(0, -speed, 0));
   s.state.rest = s.state.x_prev = s.state.x;
   s.params.objects.resize(2);
   set_material_key(s.params.objects[0].material, "stretch_compliance", 1e-7);

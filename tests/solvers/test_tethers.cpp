@@ -389,21 +389,14 @@ TEST(Tethers, ABallShotIntoAHangingCurtainCarriesItOnAsTheCurtainSwingsUp) {
         if (pinned) top.push_back(i), s.state.mass[i] = 0.0;
         s.state.inv_mass[i] = pinned ? 0.0 : 1.0 / s.state.mass[i];
       }
-      const SolidMassProperties props = solid_mass_properties(ball.v, ball.f);
-      const RigidVertexMasses m = rigid_vertex_masses(ball.v, ball.f, ball_mass / props.volume, props);
-      for (size_t i = 0; i < ball.v.size(); ++i) {
-        const Index v = nc + static_cast<Index>(i);
-        s.state.x[v] = ball.v[i] - props.centroid + Vec3(0.0, 0.0, 0.15);
-        s.state.v[v] = Vec3(0, 0, -speed);
-        s.state.mass[v] = m.vertex[i];
-        s.state.inv_mass[v] = m.vertex[i] > 0.0 ? 1.0 / m.vertex[i] : 0.0;
-      }
+      const double density = ball_mass / solid_mass_properties(ball.v, ball.f).volume;
+      test::place_solid(s, ball, nc, density, Vec3(0.0, 0.0, 0.15), Vec3(0, 0, -speed));
       s.state.rest = s.state.x_prev = s.state.x;
       s.params.objects.resize(2);
       set_material_key(s.params.objects[0].material, "stretch_compliance", 1e-7);
       set_material_key(s.params.objects[0].material, "bend_compliance", 1e-2);
       s.params.objects[0].pins.push_back({top, {}});
-      s.params.objects[1].material.density = ball_mass / props.volume;
+      s.params.objects[1].material.density = density;
       s.params.contact.solver = solver;
       s.params.contact.radius = 0.004;
       s.params.contact.offset = 0.003;
