@@ -1,6 +1,5 @@
 #include "ccfr/solvers/simulation.hpp"
 
-#include <Eigen/Geometry>
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -9,9 +8,7 @@
 #include "ccfr/core/error.hpp"
 #include "ccfr/core/log.hpp"
 #include "ccfr/core/parallel.hpp"
-#include "ccfr/geometry/aabb.hpp"
 #include "ccfr/solvers/obstacles.hpp"
-#include "ccfr/solvers/polar_decomposition.hpp"
 #include "ccfr/solvers/step_bound.hpp"
 #include "inverse_mass_mask.hpp"
 
@@ -168,86 +165,6 @@ void Simulation::collide_analytic(Positions& x, double t) const {
         }
       },
       1024);
-}
-
-Index Simulation::carry_isolated_objects() {
-  const auto& topo = scene_.topo;
-  const auto& st = scene_.state;
-  const auto& cp = scene_.params.contact;
-  const double r = cp.radius;
-  const size_t no = topo.objects.size();
-  // Object boxes at the anchors. Every vertex ends a pass within 2r of its anchor (r carried, r
-  // solved; a scripted one within r), so boxes apart by more than 4r + ξ + δ cannot meet.
-  std::vector<AABB> box(no);
-  parallel_for(
-      static_cast<Index>(no),
-      [&](Index b, Index e) {
-        for (Index o = b; o < e; ++o)
-          for (Index v = topo.objects[o].vertex_begin; v < topo.objects[o].vertex_end; ++v) box[o].expand(anchor_[v]);
-      },
-      1);
-  const double apart = 4.0 * r + cp.offset + cp.repulsion_range;
-  auto separated = [&](const AABB& a, const AABB& b) {
-    return (b.lo.array() - a.hi.array() > apart).any() || (a.lo.array() - b.hi.array() > apart).any();
-  };
-  Index carried = 0;
-  carry_capped_.assign(anchor_.size(), 0);
-  for (size_t o = 0; o < no; ++o) {
-    const auto& obj = topo.objects[o];
-    // Bodies only: a particle cloud or a strand set is many independent pieces, not one shape.
-    const bool body =
-        obj.kind == ObjectKind::tet_solid || obj.kind == ObjectKind::cloth || obj.kind == ObjectKind::shell;
-    if (!body || obj.num_vertices() < 2) continue;
-    if (!box[o].valid()) continue;
-    bool movable = true;
-    for (Index v = obj.vertex_begin; v < obj.vertex_end && movable; ++v) movable = st.inv_mass[v] > 0.0;
-    if (!movable) continue;  // pinned, scripted, or fixed for this pass (time.continuation: held_back)
-    bool isolated = true;
-    for (size_t p = 0; p < no && isolated; ++p)
-      if (p != o && topo.objects[p].num_vertices() > 0) isolated = separated(box[o], box[p]);
-    if (!isolated) continue;
-    // Best rigid motion from the anchors to the material solve: mass-weighted centres, polar
-    // rotation of A_pq (Müller et al. 2005); the mass-weighted centre carries the momentum.
-    double total = 0.0;
-    Vec3 c = Vec3::Zero(), c1 = Vec3::Zero();
-    for (Index v = obj.vertex_begin; v < obj.vertex_end; ++v) {
-      const double m = 1.0 / st.inv_mass[v];
-      total += m;
-      c += m * anchor_[v];
-      c1 += m * material_solved_[v];
-    }
-    c /= total;
-    c1 /= total;
-    Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
-    double reach = 0.0;
-    for (Index v = obj.vertex_begin; v < obj.vertex_end; ++v) {
-      const Vec3 q = anchor_[v] - c;
-      a.noalias() += (1.0 / st.inv_mass[v]) * (material_solved_[v] - c1) * q.transpose();
-      reach = std::max(reach, q.norm());
-    }
-    const Eigen::AngleAxisd turn(xpbd::polar_rotation(a));
-    const double angle = std::isfinite(turn.angle()) ? turn.angle() : 0.0;
-    const Vec3 shift = c1 - c;
-    // |R q - q| <= angle |q|: no vertex is carried farther than |shift| + angle * reach; scaled to r.
-    const double bound = shift.norm() + angle * reach;
-    if (!(bound > 1e-12 * r) || !std::isfinite(bound)) continue;
-    const double f = std::min(1.0, r / bound);
-    if (angle * reach <= 1e-12 * r) {
-      // A translation: added exactly, so pair distances change by rounding of the sums only.
-      const Vec3 t = f * shift;
-      for (Index v = obj.vertex_begin; v < obj.vertex_end; ++v) anchor_[v] += t;
-    } else {
-      const Eigen::Matrix3d rot = Eigen::AngleAxisd(f * angle, turn.axis()).toRotationMatrix();
-      const Vec3 to = c + f * shift;
-      for (Index v = obj.vertex_begin; v < obj.vertex_end; ++v) anchor_[v] = to + rot * (anchor_[v] - c);
-    }
-    ++carried;
-    // Carried only part of the way: the rest of its rigid motion waits for the next pass, where
-    // it is carried again, rather than being solved against regions that would hold parts back.
-    if (f < 1.0)
-      for (Index v = obj.vertex_begin; v < obj.vertex_end; ++v) carry_capped_[v] = 1;
-  }
-  return carried;
 }
 
 std::string Simulation::kinematic_overrun(double kin_step) {

@@ -24,6 +24,26 @@ inline Scene obstacle_and_particle(const gen::TriMesh& obstacle, const std::stri
   return s;
 }
 
+/// Particles of 10 g at `x`, at rest, in one object named "dust"; r = 5 mm, ξ = 10 mm.
+inline Scene particle_scene(const Positions& x) {
+  const Index n = static_cast<Index>(x.size());
+  TopologyBuilder tb;
+  tb.add_object("dust", ObjectKind::particles, n);
+  Scene s;
+  s.topo = tb.finish();
+  s.state.resize(n);
+  for (Index i = 0; i < n; ++i) {
+    s.state.x[i] = x[i];
+    s.state.mass[i] = 0.01;
+    s.state.inv_mass[i] = 100.0;
+  }
+  s.state.rest = s.state.x_prev = s.state.x;
+  s.params.objects.resize(1);
+  s.params.contact.radius = 0.005;
+  s.params.contact.offset = 0.01;
+  return s;
+}
+
 /// One particle (mass 0.01) over a kinematic 4 m floor (plane y = 0, 4 x 4 cells, shifted so the
 /// particle starts at x = 0 over its first cells), at `height`, sliding along +x at `speed`.
 /// r = ξ = 0.01, 10 substeps x 4 iterations. The particle is the last vertex.

@@ -9,6 +9,7 @@
 
 #include "ccfr/geometry/generators.hpp"
 #include "ccfr/solvers/simulation.hpp"
+#include "scenes.hpp"
 #include "test_support.hpp"
 
 using namespace ccfr;
@@ -70,6 +71,9 @@ TEST(FreeFlight, FastTetSolidKeepsItsShapeAndSpeed) {
       const FrameStats fs = sim.step_frame();
       EXPECT_EQ(fs.violations_remaining, 0) << solver;
       EXPECT_EQ(fs.clamped_vertices, 0) << solver;
+      // Its box swept along the whole step meets nothing: carried in one pass a substep (at r a
+      // pass before, three).
+      EXPECT_EQ(fs.outer_iterations, 5) << solver;
       const double t = f / 60.0;
       // The closed form: every vertex at x0 + v t, to 1e-6 of the 60 mm box.
       EXPECT_LT(deviation_from_translation(sim.positions(), x0, v * t), 0.06e-6) << solver << " frame " << f;
@@ -135,4 +139,56 @@ TEST(FreeFlight, BoxesClosingOnEachOtherStayApart) {
   two.params.objects.resize(2, s.params.objects[0]);
   Simulation sim(std::move(two));
   for (int f = 0; f < 2; ++f) EXPECT_EQ(sim.step_frame().violations_remaining, 0);
+}
+
+TEST(FreeFlight, AGrainShotOutOfALayerUnderMomentumCrossesItsWholeStepInOnePass) {
+  // A 10 x 10 layer of 10 g grains 12 mm apart (ξ = 10 mm, δ = 0.5 mm, r = 5 mm) drifting at
+  // 0.3 m/s, its grain 55 shot up at 6 m/s: 20 mm = 4 r a substep (60 fps x 5 substeps), no
+  // gravity. Under contact.momentum its box swept along the step stays more than ξ + δ from every
+  // other grain's, so it is carried the whole step before detection, in one pass a substep; under
+  // the paper's response it keeps the step bound of r a pass: four. The closed form: every grain at
+  // x0 + v t.
+  const Index n = 100;
+  Positions layer(n);
+  for (Index i = 0; i < n; ++i) layer[i] = Vec3(0.012 * (i % 10), 1.0, 0.012 * (i / 10));
+  for (const bool momentum : {false, true}) {
+    Scene s = test::particle_scene(layer);
+    for (Index i = 0; i < n; ++i) s.state.v[i] = i == 55 ? Vec3(0, 6.0, 0) : Vec3(0.3, 0, 0);
+    s.params.contact.momentum = momentum;
+    s.params.time.fps = 60;
+    s.params.time.substeps = 5;
+    s.params.time.gravity = Vec3::Zero();
+    const Positions x0 = s.state.x;
+    const std::vector<Vec3> v(s.state.v.begin(), s.state.v.end());
+    Simulation sim(std::move(s));
+    for (int f = 1; f <= 3; ++f) {
+      const FrameStats fs = sim.step_frame();
+      EXPECT_EQ(fs.violations_remaining, 0);
+      EXPECT_EQ(fs.clamped_vertices, 0);
+      EXPECT_EQ(fs.substeps_run, 5);
+      EXPECT_EQ(fs.outer_iterations, momentum ? 5 : 20) << "momentum " << momentum << ", frame " << f;
+      double worst = 0.0;
+      for (Index i = 0; i < n; ++i) worst = std::max(worst, (sim.positions()[i] - x0[i] - v[i] * (f / 60.0)).norm());
+      EXPECT_LT(worst, 1e-9) << "momentum " << momentum << ", frame " << f;
+    }
+  }
+}
+
+TEST(FreeFlight, AGrainWhoseSweepPassesAnotherIsNotCarriedAndStaysApart) {
+  // Two grains 30 mm apart along x closing at 6 m/s each (20 mm a substep, r = 5 mm, ξ = 10 mm,
+  // contact.momentum): their swept boxes meet, so neither is carried, and the passes keep them at
+  // least ξ apart (the recount finds no violation), against the free flight that would cross them.
+  Scene s = test::particle_scene({Vec3(0.0, 1.0, 0.0), Vec3(0.03, 1.0, 0.0)});
+  s.state.v[0] = Vec3(6.0, 0, 0);
+  s.state.v[1] = Vec3(-6.0, 0, 0);
+  s.params.contact.momentum = true;
+  s.params.time.fps = 60;
+  s.params.time.substeps = 5;
+  s.params.time.gravity = Vec3::Zero();
+  Simulation sim(std::move(s));
+  for (int f = 1; f <= 2; ++f) {
+    EXPECT_EQ(sim.step_frame().violations_remaining, 0);
+    EXPECT_GE((sim.positions()[1] - sim.positions()[0]).norm(), 0.01 * (1.0 - 1e-6)) << "frame " << f;
+    EXPECT_LT(sim.positions()[0].x(), sim.positions()[1].x()) << "frame " << f;  // not crossed
+  }
 }

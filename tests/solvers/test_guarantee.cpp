@@ -176,32 +176,13 @@ TEST(Guarantee, StepBoundSumsTheIntendedAdvanceAndTheCut) {
 }
 
 namespace {
-/// Particles of 10 g at `x`, at rest, in one object; r = 5 mm, xi = 10 mm.
-Scene particle_scene(const Positions& x) {
-  const Index n = static_cast<Index>(x.size());
-  TopologyBuilder tb;
-  tb.add_object("dust", ObjectKind::particles, n);
-  Scene s;
-  s.topo = tb.finish();
-  s.state.resize(n);
-  for (Index i = 0; i < n; ++i) {
-    s.state.x[i] = x[i];
-    s.state.mass[i] = 0.01;
-    s.state.inv_mass[i] = 100.0;
-  }
-  s.state.rest = s.state.x_prev = s.state.x;
-  s.params.objects.resize(1);
-  s.params.contact.radius = 0.005;
-  s.params.contact.offset = 0.01;
-  return s;
-}
 
 /// A 10 x 10 layer of particles `spacing` apart drifting at 0.3 m/s, particle 55 flying up at
 /// `fast_speed` instead; no gravity, arrival up to rounding, up to 16 passes per substep.
 Scene drifting_layer(double spacing, double fast_speed) {
   Positions x(100);
   for (Index i = 0; i < 100; ++i) x[i] = Vec3(spacing * (i % 10), 1.0, spacing * (i / 10));
-  Scene s = particle_scene(x);
+  Scene s = test::particle_scene(x);
   for (Vec3& v : s.state.v) v = Vec3(0.3, 0, 0);
   s.state.v[55] = Vec3(0, fast_speed, 0);
   s.params.time.gravity = Vec3::Zero();
@@ -337,7 +318,7 @@ TEST(Guarantee, HeldBackContinuationMovesOnlyTheHeldBack) {
 TEST(Guarantee, RecountMarksTheVerticesAroundEveryViolatedPair) {
   Positions beads(6);
   for (Index i = 0; i < 6; ++i) beads[i] = Vec3(0.012 * i, 0, 0);
-  const Scene s = particle_scene(beads);
+  const Scene s = test::particle_scene(beads);
   auto solver = make_contact_solver("ccfr");
   solver->initialize(s.topo, s.state, s.params);
   StageTimes times;

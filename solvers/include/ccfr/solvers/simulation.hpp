@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "ccfr/core/error.hpp"
+#include "ccfr/geometry/aabb.hpp"
 #include "ccfr/solvers/contact_solver.hpp"
 #include "ccfr/solvers/frame_stats.hpp"
 #include "ccfr/solvers/material_system.hpp"
@@ -213,6 +214,10 @@ class Simulation {
   /// object as far apart as it was, so the new anchors are as feasible as the old ones, and the
   /// pass's regions, built there, no longer hold back a body in free flight by its own pairs.
   Index carry_isolated_objects();
+  /// The grains of particle object `o` whose box swept along their whole step (longer than r) stays
+  /// more than `gap` from every other grain's swept box and every other object's box in `swept`:
+  /// carried that step before detection. Returns their count.
+  Index carry_free_grains(size_t o, const std::vector<AABB>& swept, double gap);
   /// contact.adaptive_reach and contact.momentum's long steps: checks the setting against the solver and the kept
   /// list, marks rigid vertices.
   void init_adaptive_reach();

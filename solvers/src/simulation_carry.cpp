@@ -1,0 +1,204 @@
+// The carry before detection: an object that touches nothing is moved along its rigid motion
+// (a body) or its step (a grain under contact.momentum) before the regions are built
+// (docs/architecture.md, "Why the carry is safe").
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "ccfr/core/parallel.hpp"
+#include "ccfr/geometry/aabb.hpp"
+#include "ccfr/solvers/polar_decomposition.hpp"
+#include "ccfr/solvers/simulation.hpp"
+#include "ccfr/solvers/step_bound.hpp"
+
+namespace ccfr {
+
+namespace {
+/// A movable body's best rigid motion from its anchors to the material solve: the mass-weighted
+/// centres' shift (the mass-weighted centre carries the momentum) and the polar rotation of A_pq
+/// (Müller et al. 2005) about the anchors' centre c. `body` is false for any other object.
+struct BodyMotion {
+  bool body = false;
+  Vec3 c = Vec3::Zero(), shift = Vec3::Zero(), axis = Vec3::UnitX();
+  double angle = 0.0, reach = 0.0;  // reach: the farthest anchor from c (m)
+};
+
+std::vector<BodyMotion> body_motions(const Topology& topo, const SimState& st, const Positions& anchor,
+                                     const Positions& solved, const std::vector<AABB>& box) {
+  std::vector<BodyMotion> motion(topo.objects.size());
+  parallel_for(
+      static_cast<Index>(topo.objects.size()),
+      [&](Index b, Index e) {
+        for (Index o = b; o < e; ++o) {
+          const auto& obj = topo.objects[o];
+          // Bodies only: a particle cloud or a strand set is many independent pieces, not one shape.
+          const bool body =
+              obj.kind == ObjectKind::tet_solid || obj.kind == ObjectKind::cloth || obj.kind == ObjectKind::shell;
+          if (!body || obj.num_vertices() < 2 || !box[o].valid()) continue;
+          bool movable = true;  // not pinned, scripted, or fixed for this pass (time.continuation: held_back)
+          for (Index v = obj.vertex_begin; v < obj.vertex_end && movable; ++v) movable = st.inv_mass[v] > 0.0;
+          if (!movable) continue;
+          BodyMotion& m = motion[o];
+          double total = 0.0;
+          Vec3 c1 = Vec3::Zero();
+          for (Index v = obj.vertex_begin; v < obj.vertex_end; ++v) {
+            const double mass = 1.0 / st.inv_mass[v];
+            total += mass;
+            m.c += mass * anchor[v];
+            c1 += mass * solved[v];
+          }
+          m.c /= total;
+          c1 /= total;
+          Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+          for (Index v = obj.vertex_begin; v < obj.vertex_end; ++v) {
+            const Vec3 q = anchor[v] - m.c;
+            a.noalias() += (1.0 / st.inv_mass[v]) * (solved[v] - c1) * q.transpose();
+            m.reach = std::max(m.reach, q.norm());
+          }
+          const Eigen::AngleAxisd turn(xpbd::polar_rotation(a));
+          m.shift = c1 - m.c;
+          m.angle = std::isfinite(turn.angle()) ? turn.angle() : 0.0;
+          m.axis = turn.axis();
+          m.body = m.shift.allFinite() && std::isfinite(m.reach);
+        }
+      },
+      1);
+  return motion;
+}
+}  // namespace
+
+Index Simulation::carry_isolated_objects() {
+  const auto& topo = scene_.topo;
+  const auto& st = scene_.state;
+  const auto& cp = scene_.params.contact;
+  const double r = cp.radius;
+  const size_t no = topo.objects.size();
+  // Object boxes at the anchors.
+  std::vector<AABB> box(no);
+  parallel_for(
+      static_cast<Index>(no),
+      [&](Index b, Index e) {
+        for (Index o = b; o < e; ++o)
+          for (Index v = topo.objects[o].vertex_begin; v < topo.objects[o].vertex_end; ++v) box[o].expand(anchor_[v]);
+      },
+      1);
+  const std::vector<BodyMotion> motion = body_motions(topo, st, anchor_, material_solved_, box);
+  // Two ways to be isolated. Swept: the body's box swept along its whole translation, grown by
+  // the turn it is carried (at most r per vertex), stays more than ξ + δ from every other object's
+  // box, each body's swept the same way: the translation is carried in full, and detection then
+  // starts from the carried anchors. Near: its box is more than 4r + ξ + δ from every other
+  // (every vertex ends a pass within 2r of its anchor, r carried, r solved): carried at most r.
+  std::vector<AABB> swept(box);
+  for (size_t o = 0; o < no; ++o) {
+    // Under contact.momentum a grain may be carried its step (carry_free_grains).
+    if (follow_steps_ && topo.objects[o].kind == ObjectKind::particles)
+      for (Index v = topo.objects[o].vertex_begin; v < topo.objects[o].vertex_end; ++v)
+        if (st.inv_mass[v] > 0.0 && material_solved_[v].allFinite()) swept[o].expand(material_solved_[v]);
+    if (!motion[o].body) continue;
+    AABB moved = box[o];
+    moved.lo += motion[o].shift;
+    moved.hi += motion[o].shift;
+    swept[o].expand(moved);
+    swept[o].inflate(std::min(motion[o].angle * motion[o].reach, r));
+  }
+  auto apart = [](const AABB& a, const AABB& b, double gap) {
+    return (b.lo.array() - a.hi.array() > gap).any() || (a.lo.array() - b.hi.array() > gap).any();
+  };
+  const double near_gap = 4.0 * r + cp.offset + cp.repulsion_range, swept_gap = cp.offset + cp.repulsion_range;
+  Index carried = 0;
+  carry_capped_.assign(anchor_.size(), 0);
+  for (size_t o = 0; o < no; ++o) {
+    const BodyMotion& m = motion[o];
+    if (!m.body) continue;
+    bool isolated_swept = true, isolated_near = true;
+    for (size_t p = 0; p < no; ++p) {
+      if (p == o || topo.objects[p].num_vertices() == 0) continue;
+      isolated_swept = isolated_swept && apart(swept[o], swept[p], swept_gap);
+      isolated_near = isolated_near && apart(box[o], box[p], near_gap);
+    }
+    const double turn_reach = m.angle * m.reach;  // |R q - q| <= angle |q|
+    if (!(isolated_swept || isolated_near) || !(m.shift.norm() + turn_reach > 1e-12 * r) || !std::isfinite(turn_reach))
+      continue;
+    // The share of the translation and of the turn carried: no vertex farther than r along the
+    // turn, nor (near only) than r in all. A translation longer than kLongStepMost r is a
+    // blow-up, not a motion: cut there, as a long step is.
+    double f_shift = std::min(1.0, kLongStepMost * r / m.shift.norm()), f_turn = std::min(1.0, r / turn_reach);
+    if (!isolated_swept) f_shift = f_turn = std::min(1.0, r / (m.shift.norm() + turn_reach));
+    const auto& obj = topo.objects[o];
+    if (turn_reach <= 1e-12 * r) {
+      // A translation: added exactly, so pair distances change by rounding of the sums only.
+      const Vec3 t = f_shift * m.shift;
+      for (Index v = obj.vertex_begin; v < obj.vertex_end; ++v) anchor_[v] += t;
+    } else {
+      const Eigen::Matrix3d rot = Eigen::AngleAxisd(f_turn * m.angle, m.axis).toRotationMatrix();
+      const Vec3 to = m.c + f_shift * m.shift;
+      for (Index v = obj.vertex_begin; v < obj.vertex_end; ++v) anchor_[v] = to + rot * (anchor_[v] - m.c);
+    }
+    ++carried;
+    // Carried only part of the way: the rest of its rigid motion waits for the next pass, where
+    // it is carried again, rather than being solved against regions that would hold parts back.
+    if (f_shift < 1.0 || f_turn < 1.0)
+      for (Index v = obj.vertex_begin; v < obj.vertex_end; ++v) carry_capped_[v] = 1;
+  }
+  // Under the paper's response a grain keeps the step bound of r a pass (its Alg. 1, line 16), which
+  // time.advance_shortfall and time.continuation are defined against; under contact.momentum, whose
+  // last pass already takes the rest of a long step, a free grain is carried its whole step.
+  if (follow_steps_)
+    for (size_t o = 0; o < no; ++o)
+      if (topo.objects[o].kind == ObjectKind::particles) carried += carry_free_grains(o, swept, swept_gap);
+  return carried;
+}
+
+Index Simulation::carry_free_grains(size_t o, const std::vector<AABB>& swept, double gap) {
+  const auto& topo = scene_.topo;
+  const auto& st = scene_.state;
+  const double r = scene_.params.contact.radius;
+  const auto& obj = topo.objects[o];
+  // Each grain's box swept along its step to the material solve (a fixed grain's is its anchor).
+  const Index vb = obj.vertex_begin, n = obj.num_vertices();
+  std::vector<AABB> grain(static_cast<size_t>(n));
+  std::vector<Index> fast;
+  for (Index i = 0; i < n; ++i) {
+    const Index v = vb + i;
+    grain[i].expand(anchor_[v]);
+    if (!(st.inv_mass[v] > 0.0)) continue;
+    const Vec3 step = material_solved_[v] - anchor_[v];
+    if (!step.allFinite()) continue;
+    grain[i].expand(material_solved_[v]);
+    if (step.norm() > r) fast.push_back(i);  // a step within r needs no carry: one pass covers it
+  }
+  if (fast.empty()) return 0;
+  auto apart = [gap](const AABB& a, const AABB& b) {
+    return (b.lo.array() - a.hi.array() > gap).any() || (a.lo.array() - b.hi.array() > gap).any();
+  };
+  // The grains in the order of their boxes' lower x, to find those a box can meet by bisection.
+  std::vector<Index> order(static_cast<size_t>(n));
+  std::iota(order.begin(), order.end(), Index{0});
+  std::sort(order.begin(), order.end(), [&](Index a, Index b) { return grain[a].lo.x() < grain[b].lo.x(); });
+  double widest = 0.0;
+  for (const AABB& g : grain) widest = std::max(widest, g.hi.x() - g.lo.x());
+  Index carried = 0;
+  for (const Index i : fast) {
+    const AABB& g = grain[static_cast<size_t>(i)];
+    bool isolated = true;
+    for (size_t p = 0; p < swept.size() && isolated; ++p)
+      if (p != o && topo.objects[p].num_vertices() > 0) isolated = apart(g, swept[p]);
+    // Every grain whose box can come within the gap has its lower x in [lo - widest - gap, hi + gap].
+    auto first = std::lower_bound(order.begin(), order.end(), g.lo.x() - widest - gap,
+                                  [&](Index a, double x) { return grain[a].lo.x() < x; });
+    for (auto it = first; it != order.end() && isolated && grain[*it].lo.x() <= g.hi.x() + gap; ++it)
+      if (*it != i) isolated = apart(g, grain[*it]);
+    if (!isolated) continue;
+    const Index v = vb + i;
+    const Vec3 step = material_solved_[v] - anchor_[v];
+    // A step longer than kLongStepMost r is a blow-up, not a motion: cut there, as a long step is.
+    const double f = std::min(1.0, kLongStepMost * r / step.norm());
+    anchor_[v] += f * step;
+    if (f < 1.0) carry_capped_[v] = 1;
+    ++carried;
+  }
+  return carried;
+}
+
+}  // namespace ccfr
