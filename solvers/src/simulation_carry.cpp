@@ -4,7 +4,6 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
-#include <numeric>
 
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/geometry/aabb.hpp"
@@ -89,7 +88,13 @@ Index Simulation::carry_isolated_objects() {
   // box, each body's swept the same way: the translation is carried in full, and detection then
   // starts from the carried anchors. Near: its box is more than 4r + ξ + δ from every other
   // (every vertex ends a pass within 2r of its anchor, r carried, r solved): carried at most r.
+  // A scripted vertex reaches its target in the substep's first pass, wherever the regions are:
+  // its object's box covers the target too. Analytic obstacles (contact.analytic_obstacles) reach
+  // beyond their mesh's box, so with them only the near rule carries.
   std::vector<AABB> swept(box);
+  for (const Index v : kinematic_)
+    swept[static_cast<size_t>(topo.vertex_object[v])].expand(st.x[v] + kinematic_step_[v]);
+  const bool sweeps = analytic_obstacles_.empty();
   for (size_t o = 0; o < no; ++o) {
     // Under contact.momentum a grain may be carried its step (carry_free_grains).
     if (follow_steps_ && topo.objects[o].kind == ObjectKind::particles)
@@ -111,8 +116,8 @@ Index Simulation::carry_isolated_objects() {
   for (size_t o = 0; o < no; ++o) {
     const BodyMotion& m = motion[o];
     if (!m.body) continue;
-    bool isolated_swept = true, isolated_near = true;
-    for (size_t p = 0; p < no; ++p) {
+    bool isolated_swept = sweeps, isolated_near = true;
+    for (size_t p = 0; p < no && (isolated_swept || isolated_near); ++p) {
       if (p == o || topo.objects[p].num_vertices() == 0) continue;
       isolated_swept = isolated_swept && apart(swept[o], swept[p], swept_gap);
       isolated_near = isolated_near && apart(box[o], box[p], near_gap);
@@ -144,7 +149,7 @@ Index Simulation::carry_isolated_objects() {
   // Under the paper's response a grain keeps the step bound of r a pass (its Alg. 1, line 16), which
   // time.advance_shortfall and time.continuation are defined against; under contact.momentum, whose
   // last pass already takes the rest of a long step, a free grain is carried its whole step.
-  if (follow_steps_)
+  if (follow_steps_ && sweeps)
     for (size_t o = 0; o < no; ++o)
       if (topo.objects[o].kind == ObjectKind::particles) carried += carry_free_grains(o, swept, swept_gap);
   return carried;
@@ -172,24 +177,42 @@ Index Simulation::carry_free_grains(size_t o, const std::vector<AABB>& swept, do
   auto apart = [gap](const AABB& a, const AABB& b) {
     return (b.lo.array() - a.hi.array() > gap).any() || (a.lo.array() - b.hi.array() > gap).any();
   };
-  // The grains in the order of their boxes' lower x, to find those a box can meet by bisection.
-  std::vector<Index> order(static_cast<size_t>(n));
-  std::iota(order.begin(), order.end(), Index{0});
-  std::sort(order.begin(), order.end(), [&](Index a, Index b) { return grain[a].lo.x() < grain[b].lo.x(); });
-  double widest = 0.0;
-  for (const AABB& g : grain) widest = std::max(widest, g.hi.x() - g.lo.x());
+  // The slow grains (boxes at most r wide) and the fast ones, each in the order of their boxes'
+  // lower x, to find by bisection those a box can meet: a box within the gap of [lo, hi] has its
+  // lower x in [lo - widest - gap, hi + gap], widest taken over its own list (one long step does
+  // not widen the search among the many short ones).
+  std::vector<Index> slow;
+  slow.reserve(static_cast<size_t>(n) - fast.size());
+  for (Index i = 0, k = 0; i < n; ++i)
+    if (k < static_cast<Index>(fast.size()) && fast[static_cast<size_t>(k)] == i)
+      ++k;
+    else
+      slow.push_back(i);
+  std::vector<Index> fast_order = fast;
+  auto by_lower_x = [&](Index a, Index b) { return grain[a].lo.x() < grain[b].lo.x(); };
+  std::sort(slow.begin(), slow.end(), by_lower_x);
+  std::sort(fast_order.begin(), fast_order.end(), by_lower_x);
+  auto widest = [&](const std::vector<Index>& list) {
+    double w = 0.0;
+    for (const Index i : list) w = std::max(w, grain[i].hi.x() - grain[i].lo.x());
+    return w;
+  };
+  const double widest_slow = widest(slow), widest_fast = widest(fast_order);
+  auto clear_of = [&](Index i, const std::vector<Index>& list, double w) {
+    const AABB& g = grain[static_cast<size_t>(i)];
+    auto it = std::lower_bound(list.begin(), list.end(), g.lo.x() - w - gap,
+                               [&](Index a, double x) { return grain[a].lo.x() < x; });
+    for (; it != list.end() && grain[*it].lo.x() <= g.hi.x() + gap; ++it)
+      if (*it != i && !apart(g, grain[*it])) return false;
+    return true;
+  };
   Index carried = 0;
   for (const Index i : fast) {
     const AABB& g = grain[static_cast<size_t>(i)];
     bool isolated = true;
     for (size_t p = 0; p < swept.size() && isolated; ++p)
       if (p != o && topo.objects[p].num_vertices() > 0) isolated = apart(g, swept[p]);
-    // Every grain whose box can come within the gap has its lower x in [lo - widest - gap, hi + gap].
-    auto first = std::lower_bound(order.begin(), order.end(), g.lo.x() - widest - gap,
-                                  [&](Index a, double x) { return grain[a].lo.x() < x; });
-    for (auto it = first; it != order.end() && isolated && grain[*it].lo.x() <= g.hi.x() + gap; ++it)
-      if (*it != i) isolated = apart(g, grain[*it]);
-    if (!isolated) continue;
+    if (!isolated || !clear_of(i, slow, widest_slow) || !clear_of(i, fast_order, widest_fast)) continue;
     const Index v = vb + i;
     const Vec3 step = material_solved_[v] - anchor_[v];
     // A step longer than kLongStepMost r is a blow-up, not a motion: cut there, as a long step is.

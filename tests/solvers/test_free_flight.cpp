@@ -71,8 +71,8 @@ TEST(FreeFlight, FastTetSolidKeepsItsShapeAndSpeed) {
       const FrameStats fs = sim.step_frame();
       EXPECT_EQ(fs.violations_remaining, 0) << solver;
       EXPECT_EQ(fs.clamped_vertices, 0) << solver;
-      // Its box swept along the whole step meets nothing: carried in one pass a substep (at r a
-      // pass before, three).
+      // Its box swept along the whole step meets nothing: carried in one pass a substep (carried
+      // at most r a pass before: two).
       EXPECT_EQ(fs.outer_iterations, 5) << solver;
       const double t = f / 60.0;
       // The closed form: every vertex at x0 + v t, to 1e-6 of the 60 mm box.

@@ -207,12 +207,15 @@ class Simulation {
   std::string kinematic_overrun(double kin_step);
   void check_finite(const Positions& x, const char* stage) const;
   void collide_analytic(Positions& x, double t) const;
-  /// Carries every isolated deformable body's (tet solid, cloth, shell) anchors along its best rigid motion toward the
-  /// material solve (at most r per vertex), before the pass detects; returns the objects moved.
-  /// Isolated: its anchor box is more than 4r + ξ + δ from every other object's, so nothing
-  /// within 2r of it can meet another object this pass. A rigid motion keeps every pair of the
-  /// object as far apart as it was, so the new anchors are as feasible as the old ones, and the
-  /// pass's regions, built there, no longer hold back a body in free flight by its own pairs.
+  /// Carries every isolated deformable body's (tet solid, cloth, shell) anchors along its best rigid
+  /// motion toward the material solve before the pass detects (and, under contact.momentum, each
+  /// free grain, carry_free_grains); returns the objects and grains moved. Its whole translation
+  /// (its turn at most r per vertex) where its box swept along it stays more than ξ + δ from every
+  /// other object's box (swept along its own carry or scripted step); else at most r per vertex
+  /// where its anchor box is more than 4r + ξ + δ from every other's, so nothing within 2r of it
+  /// can meet another object this pass. A rigid motion keeps every pair of the object as far apart
+  /// as it was, so the new anchors are as feasible as the old ones, and the pass's regions, built
+  /// there, no longer hold back a body in free flight by its own pairs.
   Index carry_isolated_objects();
   /// The grains of particle object `o` whose box swept along their whole step (longer than r) stays
   /// more than `gap` from every other grain's swept box and every other object's box in `swept`:
