@@ -408,6 +408,7 @@ Simulation::PassesEnd Simulation::run_passes(FrameStats& fs, int substep_index, 
   const auto& tp = scene_.params.time;
   contact_->rewind_substep();  // each solve of a substep starts from the contact state at its start
   anchor_ = st.x;
+  start_islands();
   const bool local = reset_continuation_marks();
   bool next_local = false, uniform_next = false;
   const bool guarantees = contact_->guarantees_separation();
@@ -427,6 +428,7 @@ Simulation::PassesEnd Simulation::run_passes(FrameStats& fs, int substep_index, 
     const Index capped = carry_before_detection(fs);
     if (adaptive_reach_ || follow_steps_) set_vertex_reach(it, uniform_next, mask.active(), ctx);
     add_detection(fs, contact_->detect(anchor_, st, ctx));
+    join_islands();
     start_from_materials(fs, mask.active(), capped, ctx);
     SolveResult res;
     {
@@ -521,6 +523,7 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt, int halvi
   if (end.worst && !end.short_enough) report_capped_speed(*end.worst, end.worst_length + (bound - 1) * r, dt);
   fs.violations_remaining = std::max(fs.violations_remaining, end.remaining);
   check_violations(end.remaining, substep_index, iterations_run, end.held_back, fs);
+  restore_island_momentum();
 
   record_lag(fs);
 

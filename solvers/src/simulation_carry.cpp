@@ -4,6 +4,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/geometry/aabb.hpp"
@@ -107,20 +108,18 @@ Index Simulation::carry_isolated_objects() {
     swept[o].expand(moved);
     swept[o].inflate(std::min(motion[o].angle * motion[o].reach, r));
   }
-  auto apart = [](const AABB& a, const AABB& b, double gap) {
-    return (b.lo.array() - a.hi.array() > gap).any() || (a.lo.array() - b.hi.array() > gap).any();
-  };
   const double near_gap = 4.0 * r + cp.offset + cp.repulsion_range, swept_gap = cp.offset + cp.repulsion_range;
   Index carried = 0;
   carry_capped_.assign(anchor_.size(), 0);
+  std::vector<std::uint8_t> carried_object(no, 0);
   for (size_t o = 0; o < no; ++o) {
     const BodyMotion& m = motion[o];
     if (!m.body) continue;
     bool isolated_swept = sweeps, isolated_near = true;
     for (size_t p = 0; p < no && (isolated_swept || isolated_near); ++p) {
       if (p == o || topo.objects[p].num_vertices() == 0) continue;
-      isolated_swept = isolated_swept && apart(swept[o], swept[p], swept_gap);
-      isolated_near = isolated_near && apart(box[o], box[p], near_gap);
+      isolated_swept = isolated_swept && swept[o].apart(swept[p], swept_gap);
+      isolated_near = isolated_near && box[o].apart(box[p], near_gap);
     }
     const double turn_reach = m.angle * m.reach;  // |R q - q| <= angle |q|
     if (!(isolated_swept || isolated_near) || !(m.shift.norm() + turn_reach > 1e-12 * r) || !std::isfinite(turn_reach))
@@ -141,17 +140,94 @@ Index Simulation::carry_isolated_objects() {
       for (Index v = obj.vertex_begin; v < obj.vertex_end; ++v) anchor_[v] = to + rot * (anchor_[v] - m.c);
     }
     ++carried;
+    carried_object[o] = 1;
     // Carried only part of the way: the rest of its rigid motion waits for the next pass, where
     // it is carried again, rather than being solved against regions that would hold parts back.
     if (f_shift < 1.0 || f_turn < 1.0)
       for (Index v = obj.vertex_begin; v < obj.vertex_end; ++v) carry_capped_[v] = 1;
   }
+  if (follow_steps_ && sweeps) carried += carry_free_groups(box, swept, carried_object);
   // Under the paper's response a grain keeps the step bound of r a pass (its Alg. 1, line 16), which
   // time.advance_shortfall and time.continuation are defined against; under contact.momentum, whose
   // last pass already takes the rest of a long step, a free grain is carried its whole step.
   if (follow_steps_ && sweeps)
     for (size_t o = 0; o < no; ++o)
       if (topo.objects[o].kind == ObjectKind::particles) carried += carry_free_grains(o, swept, swept_gap);
+  return carried;
+}
+
+Index Simulation::carry_free_groups(const std::vector<AABB>& box, std::vector<AABB>& swept,
+                                    const std::vector<std::uint8_t>& carried_object) {
+  const auto& topo = scene_.topo;
+  const auto& st = scene_.state;
+  const auto& cp = scene_.params.contact;
+  const double r = cp.radius, near_gap = 4.0 * r + cp.offset + cp.repulsion_range;
+  const auto no = static_cast<Index>(topo.objects.size());
+  // Groups: objects whose anchor boxes come within 4r + ξ + δ of one another (union-find).
+  std::vector<Index> parent(static_cast<size_t>(no));
+  std::iota(parent.begin(), parent.end(), Index{0});
+  auto root_of = [&](Index o) {
+    while (parent[o] != o) o = parent[o] = parent[parent[o]];
+    return o;
+  };
+  for (Index o = 0; o < no; ++o)
+    for (Index p = o + 1; p < no; ++p)
+      if (box[o].valid() && box[p].valid() && !box[o].apart(box[p], near_gap)) parent[root_of(p)] = root_of(o);
+  // A group is carried when it has two bodies or more, every one a movable tet solid, cloth or
+  // shell not carried on its own: its mass-weighted translation toward the material solve.
+  std::vector<std::uint8_t> fixed(static_cast<size_t>(no), 0);
+  std::vector<Index> size(static_cast<size_t>(no), 0);
+  std::vector<double> mass(static_cast<size_t>(no), 0.0);
+  std::vector<Vec3> moment(static_cast<size_t>(no), Vec3::Zero());
+  for (Index o = 0; o < no; ++o) {
+    const auto& obj = topo.objects[o];
+    if (obj.num_vertices() == 0) continue;
+    const Index g = root_of(o);
+    ++size[g];
+    const bool body =
+        obj.kind == ObjectKind::tet_solid || obj.kind == ObjectKind::cloth || obj.kind == ObjectKind::shell;
+    bool free = body && !carried_object[o];
+    for (Index v = obj.vertex_begin; v < obj.vertex_end && free; ++v) {
+      free = st.inv_mass[v] > 0.0 && material_solved_[v].allFinite();
+      if (!free) break;
+      const double m = 1.0 / st.inv_mass[v];
+      mass[g] += m;
+      moment[g] += m * (material_solved_[v] - anchor_[v]);
+    }
+    if (!free) fixed[g] = 1;
+  }
+  Index carried = 0;
+  for (Index g = 0; g < no; ++g) {
+    if (root_of(g) != g || fixed[g] || size[g] < 2 || !(mass[g] > 0.0)) continue;
+    const Vec3 shift = moment[g] / mass[g];
+    if (!shift.allFinite() || !(shift.norm() > 1e-12 * r)) continue;
+    const double f = std::min(1.0, kLongStepMost * r / shift.norm());
+    const Vec3 t = f * shift;
+    // Translated as one, the group keeps every distance within it; its box swept along t must
+    // stay more than ξ + δ from every other object's, swept along its own carry or script.
+    AABB group;
+    for (Index o = 0; o < no; ++o)
+      if (root_of(o) == g && box[o].valid()) group.expand(box[o]);
+    AABB moved = group;
+    moved.lo += t, moved.hi += t;
+    group.expand(moved);
+    bool clear = true;
+    for (Index p = 0; p < no && clear; ++p)
+      if (root_of(p) != g && topo.objects[p].num_vertices() > 0)
+        clear = group.apart(swept[p], cp.offset + cp.repulsion_range);
+    if (!clear) continue;
+    for (Index o = 0; o < no; ++o) {
+      if (root_of(o) != g) continue;
+      const auto& obj = topo.objects[o];
+      for (Index v = obj.vertex_begin; v < obj.vertex_end; ++v) {
+        anchor_[v] += t;
+        if (f < 1.0) carry_capped_[v] = 1;
+      }
+      // Later groups and grains are checked against where this one went.
+      if (box[o].valid()) swept[o].expand(AABB{box[o].lo + t, box[o].hi + t});
+      ++carried;
+    }
+  }
   return carried;
 }
 
@@ -174,9 +250,6 @@ Index Simulation::carry_free_grains(size_t o, const std::vector<AABB>& swept, do
     if (step.norm() > r) fast.push_back(i);  // a step within r needs no carry: one pass covers it
   }
   if (fast.empty()) return 0;
-  auto apart = [gap](const AABB& a, const AABB& b) {
-    return (b.lo.array() - a.hi.array() > gap).any() || (a.lo.array() - b.hi.array() > gap).any();
-  };
   // The slow grains (boxes at most r wide) and the fast ones, each in the order of their boxes'
   // lower x, to find by bisection those a box can meet: a box within the gap of [lo, hi] has its
   // lower x in [lo - widest - gap, hi + gap], widest taken over its own list (one long step does
@@ -203,7 +276,7 @@ Index Simulation::carry_free_grains(size_t o, const std::vector<AABB>& swept, do
     auto it = std::lower_bound(list.begin(), list.end(), g.lo.x() - w - gap,
                                [&](Index a, double x) { return grain[a].lo.x() < x; });
     for (; it != list.end() && grain[*it].lo.x() <= g.hi.x() + gap; ++it)
-      if (*it != i && !apart(g, grain[*it])) return false;
+      if (*it != i && !g.apart(grain[*it], gap)) return false;
     return true;
   };
   Index carried = 0;
@@ -211,7 +284,7 @@ Index Simulation::carry_free_grains(size_t o, const std::vector<AABB>& swept, do
     const AABB& g = grain[static_cast<size_t>(i)];
     bool isolated = true;
     for (size_t p = 0; p < swept.size() && isolated; ++p)
-      if (p != o && topo.objects[p].num_vertices() > 0) isolated = apart(g, swept[p]);
+      if (p != o && topo.objects[p].num_vertices() > 0) isolated = g.apart(swept[p], gap);
     if (!isolated || !clear_of(i, slow, widest_slow) || !clear_of(i, fast_order, widest_fast)) continue;
     const Index v = vb + i;
     const Vec3 step = material_solved_[v] - anchor_[v];

@@ -146,8 +146,11 @@ const scene::Section<ContactParams>& contact_section() {
                  "whose passes end with pairs closer than their offset, which is solved again with this response "
                  "(stats.csv `substeps_redone`). Under the region-projection solvers, the last outer iteration of a "
                  "substep takes the rest of any step longer than r instead of cutting it (docs/feasibility.md, "
-                 "\"The last pass takes the rest of a step\"). With it, a cloth or strand with static pins is held "
-                 "by its tethers (contact.tethers)")
+                 "\"The last pass takes the rest of a step\"). Bodies (tet solids, cloths, shells) that a "
+                 "substep's contacts join, none pinned or scripted and none touching anything else, keep their "
+                 "linear momentum: what the projection took is given back as one translation of them all "
+                 "(docs/feasibility.md, \"A free island keeps its momentum\"). With it, a cloth or strand with "
+                 "static pins is held by its tethers (contact.tethers)")
           .field("tethers", &S::tethers,
                  "with contact.momentum: every cloth and strand with static pins (not scripted ones) gets "
                  "long-range attachments (Kim et al. 2012): each movable vertex is kept within (1 + "

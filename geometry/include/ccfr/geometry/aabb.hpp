@@ -29,6 +29,11 @@ struct AABB {
            b.lo.z() <= hi.z();
   }
   bool valid() const { return lo.allFinite() && hi.allFinite() && (lo.array() <= hi.array()).all(); }
+  /// Whether b lies more than `gap` beyond this box along some axis (then every point of one is
+  /// more than `gap` from every point of the other).
+  bool apart(const AABB& b, double gap) const {
+    return (b.lo.array() - hi.array() > gap).any() || (lo.array() - b.hi.array() > gap).any();
+  }
   Vec3 center() const { return 0.5 * (lo + hi); }
   Vec3 extent() const { return hi - lo; }
 

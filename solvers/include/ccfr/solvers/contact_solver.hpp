@@ -25,6 +25,7 @@ namespace ccfr {
 class Tethers;
 
 class CollisionDetector;
+struct ContactPair;
 
 /// What a solver sees of the current substep.
 struct StepContext {
@@ -149,6 +150,9 @@ class ContactSolver {
   /// whether the vertex halted (fell back to its anchor) during the current frame.
   virtual void vertex_diagnostics(std::vector<std::int32_t>& half_spaces, std::vector<double>& distance,
                                   std::vector<std::uint8_t>& halted) const {}
+  /// The contacts of the last detect() (every sub-pair within reach), or null for a solver that
+  /// does not list them: contact.momentum reads the substep's free islands from them.
+  virtual const std::vector<ContactPair>* detected_contacts() const { return nullptr; }
   /// The solver's collision detection, if it has one (initial-proximity counts for run.json).
   virtual const CollisionDetector* collision_detector() const { return nullptr; }
   /// State the solver carries from substep to substep beyond positions and velocities (for

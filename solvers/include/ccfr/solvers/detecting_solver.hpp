@@ -49,6 +49,7 @@ class DetectingSolver : public ContactSolver {
   const std::vector<ContactPair>& contacts() const { return contacts_; }
   const CollisionDetector& detector() const { return *detector_; }
   const CollisionDetector* collision_detector() const override { return detector_.get(); }
+  const std::vector<ContactPair>* detected_contacts() const override { return &contacts_; }
 
  protected:
   /// Distinct movable vertices of the detected contacts (the paper's collision points).

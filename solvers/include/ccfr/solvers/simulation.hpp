@@ -221,6 +221,27 @@ class Simulation {
   /// more than `gap` from every other grain's swept box and every other object's box in `swept`:
   /// carried that step before detection. Returns their count.
   Index carry_free_grains(size_t o, const std::vector<AABB>& swept, double gap);
+  /// contact.momentum: the groups of two or more bodies (tet solids, cloths, shells) whose anchor
+  /// boxes come within 4r + ξ + δ of one another, none pinned, scripted, held or carried on its
+  /// own: each is carried by its mass-weighted translation toward the material solve where its box
+  /// swept along it stays more than ξ + δ from every other object's `swept` box. The pass's regions
+  /// then hold only the motion relative to the group's; each carried object's `swept` box grows by
+  /// where it went. Returns the objects moved.
+  Index carry_free_groups(const std::vector<AABB>& box, std::vector<AABB>& swept,
+                          const std::vector<std::uint8_t>& carried_object);
+  /// contact.momentum: restarts the islands of a solve of the substep. An island is the bodies
+  /// (tet solids, cloths, shells) one contact of its passes joins; it is free while none of its
+  /// vertices is pinned or scripted and no contact joins it to anything else (an obstacle, a rigid
+  /// body, strands, particles): then no external impulse but gravity acts on it in the substep.
+  void start_islands();
+  /// Joins the objects of the last detection's contacts (ContactSolver::detected_contacts()).
+  void join_islands();
+  /// contact.momentum: gives each free island back the linear and angular momentum the substep's
+  /// solve took from it (the regions' projection is not an impulse between two sides), as one
+  /// translation and one turn about its centre of the whole island, each made where the island's
+  /// box swept along it stays more than ξ + δ from every other object's box (docs/feasibility.md,
+  /// "A free island keeps its momentum"). Returns the islands moved.
+  Index restore_island_momentum();
   /// contact.adaptive_reach and contact.momentum's long steps: checks the setting against the solver and the kept
   /// list, marks rigid vertices.
   void init_adaptive_reach();
@@ -246,6 +267,17 @@ class Simulation {
   std::vector<std::uint8_t> held_marks_, violated_marks_, deferred_marks_;
   /// Per vertex: its object was carried only part of its rigid motion this pass (at most r).
   std::vector<std::uint8_t> carry_capped_;
+  /// contact.momentum's islands (start_islands): per object its parent in the union-find, and
+  /// whether it is fixed (pinned, scripted, or not a body) or joined to a fixed one; off when the
+  /// solver lists no contacts or analytic obstacles act.
+  std::vector<Index> island_parent_;
+  std::vector<std::uint8_t> island_fixed_;
+  bool islands_on_ = false;
+  /// The root of object o's island (path halving).
+  Index island_of(Index o);
+  /// Whether `swept` (island `root`'s box along a shift or turn) stays more than `gap` from the box
+  /// of every object outside the island.
+  bool island_clear(Index root, const AABB& swept, const std::vector<AABB>& box, double gap);
   /// contact.adaptive_reach (on for a solver that takes it): each pass's per-vertex reach (m), the
   /// vertices always given r (rigid bodies'), and those the last pass's step bound held back.
   bool adaptive_reach_ = false;

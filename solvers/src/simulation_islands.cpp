@@ -1,0 +1,170 @@
+// contact.momentum's free islands: the bodies one substep's contacts join, with nothing pinned,
+// scripted or fixed among them, get back the linear and angular momentum the projection took
+// (docs/feasibility.md, "A free island keeps its momentum").
+#include <Eigen/Geometry>
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "ccfr/collision/collision_detector.hpp"
+#include "ccfr/geometry/aabb.hpp"
+#include "ccfr/solvers/simulation.hpp"
+#include "ccfr/solvers/step_bound.hpp"
+
+namespace ccfr {
+
+Index Simulation::island_of(Index o) {
+  while (island_parent_[o] != o) o = island_parent_[o] = island_parent_[island_parent_[o]];
+  return o;
+}
+
+void Simulation::start_islands() {
+  const auto& topo = scene_.topo;
+  const auto& st = scene_.state;
+  islands_on_ = scene_.params.contact.momentum && analytic_obstacles_.empty() && contact_->detected_contacts();
+  if (!islands_on_) return;
+  const auto no = static_cast<Index>(topo.objects.size());
+  island_parent_.resize(static_cast<size_t>(no));
+  std::iota(island_parent_.begin(), island_parent_.end(), Index{0});
+  island_fixed_.assign(static_cast<size_t>(no), 0);
+  bool any_free = false;
+  for (Index o = 0; o < no; ++o) {
+    const auto& obj = topo.objects[o];
+    // Bodies only: strands and particles are many pieces whose contacts move few of them, rigid
+    // bodies answer in their own pose solve.
+    bool fixed = !(obj.kind == ObjectKind::tet_solid || obj.kind == ObjectKind::cloth || obj.kind == ObjectKind::shell);
+    for (Index v = obj.vertex_begin; v < obj.vertex_end && !fixed; ++v) fixed = !(st.inv_mass[v] > 0.0);
+    island_fixed_[static_cast<size_t>(o)] = fixed ? 1 : 0;
+    any_free = any_free || !fixed;
+  }
+  islands_on_ = any_free;
+}
+
+void Simulation::join_islands() {
+  if (!islands_on_) return;
+  const auto& vo = scene_.topo.vertex_object;
+  for (const ContactPair& c : *contact_->detected_contacts()) {
+    const Index o0 = vo[c.v[0]];
+    for (int k = 1; k < c.size(); ++k) {
+      const Index ok = vo[c.v[k]];
+      if (ok == o0) continue;
+      const Index a = island_of(o0), b = island_of(ok);
+      if (a == b) continue;
+      island_parent_[b] = a;
+      island_fixed_[a] |= island_fixed_[b];
+    }
+  }
+}
+
+namespace {
+/// Cross-product matrix [a]×: [a]× b = a × b.
+Eigen::Matrix3d cross_matrix(const Vec3& a) {
+  Eigen::Matrix3d m;
+  m << 0.0, -a.z(), a.y(), a.z(), 0.0, -a.x(), -a.y(), a.x(), 0.0;
+  return m;
+}
+}  // namespace
+
+bool Simulation::island_clear(Index root, const AABB& swept, const std::vector<AABB>& box, double gap) {
+  if (!swept.valid()) return false;
+  for (Index p = 0; p < static_cast<Index>(box.size()); ++p)
+    if (island_of(p) != root && box[p].valid() && !swept.apart(box[p], gap)) return false;
+  return true;
+}
+
+Index Simulation::restore_island_momentum() {
+  if (!islands_on_) return 0;
+  const auto& topo = scene_.topo;
+  const auto& st = scene_.state;
+  const auto& cp = scene_.params.contact;
+  const auto no = static_cast<Index>(topo.objects.size());
+  std::vector<AABB> box(static_cast<size_t>(no));
+  std::vector<std::vector<Index>> members(static_cast<size_t>(no));  // per free root: its objects
+  for (Index o = 0; o < no; ++o) {
+    const auto& obj = topo.objects[o];
+    for (Index v = obj.vertex_begin; v < obj.vertex_end; ++v) box[o].expand(anchor_[v]);
+    const Index root = island_of(o);
+    if (!island_fixed_[root]) members[root].push_back(o);
+  }
+  auto each_vertex = [&](Index root, auto&& f) {
+    for (const Index o : members[root])
+      for (Index v = topo.objects[o].vertex_begin; v < topo.objects[o].vertex_end; ++v) f(v);
+  };
+  auto island_box = [&](Index root) {
+    AABB b;
+    for (const Index o : members[root]) b.expand(box[o]);
+    return b;
+  };
+  const double r = cp.radius, gap = cp.offset + cp.repulsion_range;
+  Index moved = 0;
+  for (Index root = 0; root < no; ++root) {
+    if (members[root].empty()) continue;
+    // Linear momentum: the island's mass-weighted shortfall behind the material solve y.
+    double mass = 0.0;
+    Vec3 taken = Vec3::Zero();
+    each_vertex(root, [&](Index v) { mass += st.mass[v], taken += st.mass[v] * (anchor_[v] - material_solved_[v]); });
+    if (!(mass > 0.0)) continue;
+    bool changed = false;
+    const Vec3 t = -taken / mass;
+    // Nothing taken (rounding), or a blow-up rather than a motion (cut as a long step is).
+    if (t.allFinite() && t.norm() > 1e-12 * r && t.norm() <= kLongStepMost * r) {
+      // Translated as one, the island keeps every distance within it along the way; against every
+      // other object its box swept along t must stay more than ξ + δ away.
+      AABB swept = island_box(root);
+      swept.expand(AABB{swept.lo + t, swept.hi + t});
+      if (island_clear(root, swept, box, gap)) {
+        each_vertex(root, [&](Index v) { anchor_[v] += t; });
+        for (const Index o : members[root])
+          if (box[o].valid()) box[o].lo += t, box[o].hi += t;
+        changed = true;
+      }
+    }
+    // Angular momentum about the island's centre c: L = Σ m (x - c) × (x - x_prev) per dt, against
+    // the material solve's. A turn θ about c changes it by A θ to first order, A = -Σ m [p]×[q]×
+    // with p = x_prev - c, q = x - c (the inertia tensor when the step is small); two Newton steps
+    // with A's pseudo-inverse (a collinear island cannot turn about its own line).
+    Vec3 c = Vec3::Zero(), cy = Vec3::Zero();
+    each_vertex(root, [&](Index v) { c += st.mass[v] * anchor_[v], cy += st.mass[v] * material_solved_[v]; });
+    c /= mass, cy /= mass;
+    Vec3 goal = Vec3::Zero();
+    double reach = 0.0;
+    each_vertex(root, [&](Index v) {
+      goal += st.mass[v] * (material_solved_[v] - cy).cross(material_solved_[v] - st.x_prev[v]);
+      reach = std::max(reach, (anchor_[v] - c).norm());
+    });
+    for (int newton = 0; newton < 2; ++newton) {
+      Vec3 now = Vec3::Zero();
+      Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+      each_vertex(root, [&](Index v) {
+        const Vec3 q = anchor_[v] - c;
+        now += st.mass[v] * q.cross(anchor_[v] - st.x_prev[v]);
+        a.noalias() -= st.mass[v] * cross_matrix(st.x_prev[v] - c) * cross_matrix(q);
+      });
+      const Eigen::JacobiSVD<Eigen::Matrix3d> svd(a, Eigen::ComputeFullU | Eigen::ComputeFullV);
+      const Vec3 sigma = svd.singularValues();
+      Vec3 inv = Vec3::Zero();
+      for (int k = 0; k < 3; ++k) inv[k] = sigma[k] > 1e-9 * sigma[0] ? 1.0 / sigma[k] : 0.0;
+      Vec3 theta = svd.matrixV() * inv.asDiagonal() * svd.matrixU().transpose() * (goal - now);
+      const double angle = theta.norm();
+      // No turn left, or none that is not a blow-up: at most r per vertex, as the carry turns.
+      if (!theta.allFinite() || !(angle * reach > 1e-12 * r)) break;
+      if (angle * reach > r) break;
+      // Every point of the island moves along an arc no longer than angle · reach.
+      AABB swept = island_box(root);
+      swept.inflate(angle * reach);
+      if (!island_clear(root, swept, box, gap)) break;
+      const Eigen::Matrix3d rot = Eigen::AngleAxisd(angle, theta / angle).toRotationMatrix();
+      each_vertex(root, [&](Index v) { anchor_[v] = c + rot * (anchor_[v] - c); });
+      for (const Index o : members[root]) {
+        box[o] = AABB{};
+        for (Index v = topo.objects[o].vertex_begin; v < topo.objects[o].vertex_end; ++v) box[o].expand(anchor_[v]);
+      }
+      changed = true;
+    }
+    moved += changed ? 1 : 0;
+  }
+  return moved;
+}
+
+}  // namespace ccfr
