@@ -22,7 +22,9 @@ Index Simulation::island_of(Index o) {
 void Simulation::start_islands() {
   const auto& topo = scene_.topo;
   const auto& st = scene_.state;
-  islands_on_ = scene_.params.contact.momentum && analytic_obstacles_.empty() && contact_->detected_contacts();
+  // contact.momentum under the region-projection solvers (follow_steps_), as the group carry: the
+  // baselines keep their own response.
+  islands_on_ = follow_steps_ && analytic_obstacles_.empty() && contact_->detected_contacts();
   if (!islands_on_) return;
   const auto no = static_cast<Index>(topo.objects.size());
   island_parent_.resize(static_cast<size_t>(no));
@@ -96,14 +98,18 @@ Index Simulation::restore_island_momentum() {
     for (const Index o : members[root]) b.expand(box[o]);
     return b;
   };
+  // Masses as the material sweeps weigh them (every vertex of a free island has inverse mass > 0).
+  auto mass_of = [&](Index v) { return 1.0 / st.inv_mass[v]; };
   const double r = cp.radius, gap = cp.offset + cp.repulsion_range;
   Index moved = 0;
-  for (Index root = 0; root < no; ++root) {
-    if (members[root].empty()) continue;
+  for (Index first = 0; first < no; ++first) {
+    // Islands in the order of their lowest object: the order the contacts joined them in does not matter.
+    const Index root = island_of(first);
+    if (members[root].empty() || members[root].front() != first) continue;
     // Linear momentum: the island's mass-weighted shortfall behind the material solve y.
     double mass = 0.0;
     Vec3 taken = Vec3::Zero();
-    each_vertex(root, [&](Index v) { mass += st.mass[v], taken += st.mass[v] * (anchor_[v] - material_solved_[v]); });
+    each_vertex(root, [&](Index v) { mass += mass_of(v), taken += mass_of(v) * (anchor_[v] - material_solved_[v]); });
     if (!(mass > 0.0)) continue;
     bool changed = false;
     const Vec3 t = -taken / mass;
@@ -121,40 +127,45 @@ Index Simulation::restore_island_momentum() {
       }
     }
     // Angular momentum about the island's centre c: L = Σ m (x - c) × (x - x_prev) per dt, against
-    // the material solve's. A turn θ about c changes it by A θ to first order, A = -Σ m [p]×[q]×
-    // with p = x_prev - c, q = x - c (the inertia tensor when the step is small); two Newton steps
-    // with A's pseudo-inverse (a collinear island cannot turn about its own line).
+    // the material solve's about its own centre (c itself once the shift is made). A turn θ about c
+    // changes it by A θ to first order, A = -Σ m [p]×[q]× with p = x_prev - c, q = x - c (the
+    // inertia tensor when the step is small); two Newton steps with A's pseudo-inverse (directions
+    // of almost no inertia are not turned), together moving no vertex more than r, nor by more
+    // than kMostTurn radians.
     Vec3 c = Vec3::Zero(), cy = Vec3::Zero();
-    each_vertex(root, [&](Index v) { c += st.mass[v] * anchor_[v], cy += st.mass[v] * material_solved_[v]; });
+    each_vertex(root, [&](Index v) { c += mass_of(v) * anchor_[v], cy += mass_of(v) * material_solved_[v]; });
     c /= mass, cy /= mass;
     Vec3 goal = Vec3::Zero();
     double reach = 0.0;
     each_vertex(root, [&](Index v) {
-      goal += st.mass[v] * (material_solved_[v] - cy).cross(material_solved_[v] - st.x_prev[v]);
+      goal += mass_of(v) * (material_solved_[v] - cy).cross(material_solved_[v] - st.x_prev[v]);
       reach = std::max(reach, (anchor_[v] - c).norm());
     });
+    constexpr double kMostTurn = 0.5;
+    double arc_left = r, angle_left = kMostTurn;  // the turns' budget for this substep
     for (int newton = 0; newton < 2; ++newton) {
       Vec3 now = Vec3::Zero();
       Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
       each_vertex(root, [&](Index v) {
         const Vec3 q = anchor_[v] - c;
-        now += st.mass[v] * q.cross(anchor_[v] - st.x_prev[v]);
-        a.noalias() -= st.mass[v] * cross_matrix(st.x_prev[v] - c) * cross_matrix(q);
+        now += mass_of(v) * q.cross(anchor_[v] - st.x_prev[v]);
+        a.noalias() -= mass_of(v) * cross_matrix(st.x_prev[v] - c) * cross_matrix(q);
       });
       const Eigen::JacobiSVD<Eigen::Matrix3d> svd(a, Eigen::ComputeFullU | Eigen::ComputeFullV);
       const Vec3 sigma = svd.singularValues();
       Vec3 inv = Vec3::Zero();
-      for (int k = 0; k < 3; ++k) inv[k] = sigma[k] > 1e-9 * sigma[0] ? 1.0 / sigma[k] : 0.0;
-      Vec3 theta = svd.matrixV() * inv.asDiagonal() * svd.matrixU().transpose() * (goal - now);
-      const double angle = theta.norm();
-      // No turn left, or none that is not a blow-up: at most r per vertex, as the carry turns.
-      if (!theta.allFinite() || !(angle * reach > 1e-12 * r)) break;
-      if (angle * reach > r) break;
+      for (int k = 0; k < 3; ++k) inv[k] = sigma[k] > 1e-6 * sigma[0] ? 1.0 / sigma[k] : 0.0;
+      const Vec3 theta = svd.matrixV() * inv.asDiagonal() * svd.matrixU().transpose() * (goal - now);
+      // No turn left; else within the budget (a first-order step is not trusted beyond it).
+      if (!theta.allFinite() || !(theta.norm() * reach > 1e-12 * r)) break;
+      const double angle = std::min({theta.norm(), arc_left / reach, angle_left});
+      if (!(angle * reach > 1e-12 * r)) break;
+      arc_left -= angle * reach, angle_left -= angle;
       // Every point of the island moves along an arc no longer than angle · reach.
       AABB swept = island_box(root);
       swept.inflate(angle * reach);
       if (!island_clear(root, swept, box, gap)) break;
-      const Eigen::Matrix3d rot = Eigen::AngleAxisd(angle, theta / angle).toRotationMatrix();
+      const Eigen::Matrix3d rot = Eigen::AngleAxisd(angle, theta.normalized()).toRotationMatrix();
       each_vertex(root, [&](Index v) { anchor_[v] = c + rot * (anchor_[v] - c); });
       for (const Index o : members[root]) {
         box[o] = AABB{};

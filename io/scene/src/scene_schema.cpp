@@ -146,9 +146,10 @@ const scene::Section<ContactParams>& contact_section() {
                  "whose passes end with pairs closer than their offset, which is solved again with this response "
                  "(stats.csv `substeps_redone`). Under the region-projection solvers, the last outer iteration of a "
                  "substep takes the rest of any step longer than r instead of cutting it (docs/feasibility.md, "
-                 "\"The last pass takes the rest of a step\"). Bodies (tet solids, cloths, shells) that a "
-                 "substep's contacts join, none pinned or scripted and none touching anything else, keep their "
-                 "linear momentum: what the projection took is given back as one translation of them all "
+                 "\"The last pass takes the rest of a step\"); bodies (tet solids, cloths, shells) close to "
+                 "one another with nothing pinned or scripted among them are carried together by their common "
+                 "translation before each pass, and bodies that touch only one another (or nothing) get back "
+                 "the linear and angular momentum the projection took, as one shift and one turn of them all "
                  "(docs/feasibility.md, \"A free island keeps its momentum\"). With it, a cloth or strand with "
                  "static pins is held by its tethers (contact.tethers)")
           .field("tethers", &S::tethers,

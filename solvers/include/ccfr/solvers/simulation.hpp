@@ -240,7 +240,8 @@ class Simulation {
   /// solve took from it (the regions' projection is not an impulse between two sides), as one
   /// translation and one turn about its centre of the whole island, each made where the island's
   /// box swept along it stays more than ξ + δ from every other object's box (docs/feasibility.md,
-  /// "A free island keeps its momentum"). Returns the islands moved.
+  /// "A free island keeps its momentum"). Region-projection solvers only (follow_steps_), no
+  /// analytic obstacles. Returns the islands moved.
   Index restore_island_momentum();
   /// contact.adaptive_reach and contact.momentum's long steps: checks the setting against the solver and the kept
   /// list, marks rigid vertices.
