@@ -9,6 +9,7 @@
 
 #include "ccfr/collision/collision_detector.hpp"
 #include "ccfr/geometry/aabb.hpp"
+#include "ccfr/solvers/rigid_bodies.hpp"
 #include "ccfr/solvers/simulation.hpp"
 #include "ccfr/solvers/step_bound.hpp"
 
@@ -30,12 +31,22 @@ void Simulation::start_islands() {
   island_parent_.resize(static_cast<size_t>(no));
   std::iota(island_parent_.begin(), island_parent_.end(), Index{0});
   island_fixed_.assign(static_cast<size_t>(no), 0);
+  if (object_core_.size() != static_cast<size_t>(no)) {
+    // A rigid body's momentum counts its core, the mass at its centre that no vertex carries.
+    object_core_.assign(static_cast<size_t>(no), 0.0);
+    const RigidBodies bodies(topo, st, &scene_.params);
+    for (Index o = 0; o < no; ++o) {
+      const auto& obj = topo.objects[o];
+      const Index b = obj.kind == ObjectKind::rigid && obj.num_vertices() > 0 ? bodies.body_of(obj.vertex_begin) : -1;
+      if (b >= 0) object_core_[static_cast<size_t>(o)] = bodies.core_of(b);
+    }
+  }
   bool any_free = false;
   for (Index o = 0; o < no; ++o) {
     const auto& obj = topo.objects[o];
-    // Bodies only: strands and particles are many pieces whose contacts move few of them, rigid
-    // bodies answer in their own pose solve.
-    bool fixed = !(obj.kind == ObjectKind::tet_solid || obj.kind == ObjectKind::cloth || obj.kind == ObjectKind::shell);
+    // Bodies only: strands and particles are many pieces whose contacts move few of them.
+    bool fixed = !(obj.kind == ObjectKind::tet_solid || obj.kind == ObjectKind::cloth ||
+                   obj.kind == ObjectKind::shell || obj.kind == ObjectKind::rigid);
     for (Index v = obj.vertex_begin; v < obj.vertex_end && !fixed; ++v) fixed = !(st.inv_mass[v] > 0.0);
     island_fixed_[static_cast<size_t>(o)] = fixed ? 1 : 0;
     any_free = any_free || !fixed;
@@ -93,13 +104,30 @@ Index Simulation::restore_island_momentum() {
     for (const Index o : members[root])
       for (Index v = topo.objects[o].vertex_begin; v < topo.objects[o].vertex_end; ++v) f(v);
   };
+  // Masses as the material sweeps weigh them (every vertex of a free island has inverse mass > 0).
+  auto mass_of = [&](Index v) { return 1.0 / st.inv_mass[v]; };
+  // Every point mass of the island: f(m, x, y, x_prev) per vertex (x its anchor, y its material
+  // solve), and per rigid body with a core the core at the body's centre (its vertices' masses
+  // are centred there, so the core moves with that centre).
+  auto each_point = [&](Index root, auto&& f) {
+    for (const Index o : members[root]) {
+      const auto& obj = topo.objects[o];
+      double m = 0.0;
+      Vec3 cx = Vec3::Zero(), cy = Vec3::Zero(), cprev = Vec3::Zero();
+      for (Index v = obj.vertex_begin; v < obj.vertex_end; ++v) {
+        const double mv = mass_of(v);
+        f(mv, anchor_[v], material_solved_[v], st.x_prev[v]);
+        m += mv, cx += mv * anchor_[v], cy += mv * material_solved_[v], cprev += mv * st.x_prev[v];
+      }
+      const double core = object_core_[static_cast<size_t>(o)];
+      if (core > 0.0 && m > 0.0) f(core, Vec3(cx / m), Vec3(cy / m), Vec3(cprev / m));
+    }
+  };
   auto island_box = [&](Index root) {
     AABB b;
     for (const Index o : members[root]) b.expand(box[o]);
     return b;
   };
-  // Masses as the material sweeps weigh them (every vertex of a free island has inverse mass > 0).
-  auto mass_of = [&](Index v) { return 1.0 / st.inv_mass[v]; };
   const double r = cp.radius, gap = cp.offset + cp.repulsion_range;
   Index moved = 0;
   for (Index first = 0; first < no; ++first) {
@@ -109,7 +137,7 @@ Index Simulation::restore_island_momentum() {
     // Linear momentum: the island's mass-weighted shortfall behind the material solve y.
     double mass = 0.0;
     Vec3 taken = Vec3::Zero();
-    each_vertex(root, [&](Index v) { mass += mass_of(v), taken += mass_of(v) * (anchor_[v] - material_solved_[v]); });
+    each_point(root, [&](double m, const Vec3& x, const Vec3& y, const Vec3&) { mass += m, taken += m * (x - y); });
     if (!(mass > 0.0)) continue;
     bool changed = false;
     const Vec3 t = -taken / mass;
@@ -133,23 +161,23 @@ Index Simulation::restore_island_momentum() {
     // of almost no inertia are not turned), together moving no vertex more than r, nor by more
     // than kMostTurn radians.
     Vec3 c = Vec3::Zero(), cy = Vec3::Zero();
-    each_vertex(root, [&](Index v) { c += mass_of(v) * anchor_[v], cy += mass_of(v) * material_solved_[v]; });
+    each_point(root, [&](double m, const Vec3& x, const Vec3& y, const Vec3&) { c += m * x, cy += m * y; });
     c /= mass, cy /= mass;
     Vec3 goal = Vec3::Zero();
     double reach = 0.0;
-    each_vertex(root, [&](Index v) {
-      goal += mass_of(v) * (material_solved_[v] - cy).cross(material_solved_[v] - st.x_prev[v]);
-      reach = std::max(reach, (anchor_[v] - c).norm());
+    each_point(root, [&](double m, const Vec3& x, const Vec3& y, const Vec3& prev) {
+      goal += m * (y - cy).cross(y - prev);
+      reach = std::max(reach, (x - c).norm());
     });
     constexpr double kMostTurn = 0.5;
     double arc_left = r, angle_left = kMostTurn;  // the turns' budget for this substep
     for (int newton = 0; newton < 2; ++newton) {
       Vec3 now = Vec3::Zero();
       Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
-      each_vertex(root, [&](Index v) {
-        const Vec3 q = anchor_[v] - c;
-        now += mass_of(v) * q.cross(anchor_[v] - st.x_prev[v]);
-        a.noalias() -= mass_of(v) * cross_matrix(st.x_prev[v] - c) * cross_matrix(q);
+      each_point(root, [&](double m, const Vec3& x, const Vec3&, const Vec3& prev) {
+        const Vec3 q = x - c;
+        now += m * q.cross(x - prev);
+        a.noalias() -= m * cross_matrix(prev - c) * cross_matrix(q);
       });
       const Eigen::JacobiSVD<Eigen::Matrix3d> svd(a, Eigen::ComputeFullU | Eigen::ComputeFullV);
       const Vec3 sigma = svd.singularValues();

@@ -148,10 +148,11 @@ const scene::Section<ContactParams>& contact_section() {
                  "substep takes the rest of any step longer than r instead of cutting it (docs/feasibility.md, "
                  "\"The last pass takes the rest of a step\"); bodies (tet solids, cloths, shells) close to "
                  "one another with nothing pinned or scripted among them are carried together by their common "
-                 "translation before each pass, and bodies that touch only one another (or nothing) get back "
-                 "the linear and angular momentum the projection took, as one shift and one turn of them all "
-                 "(docs/feasibility.md, \"A free island keeps its momentum\"). With it, a cloth or strand with "
-                 "static pins is held by its tethers (contact.tethers)")
+                 "translation before each pass, and bodies (rigid ones too) that touch only one another (or "
+                 "nothing) get back the linear and angular momentum the projection took, as one shift and one "
+                 "turn of them all (docs/feasibility.md, \"A free island keeps its momentum\"); two unpinned "
+                 "rigid bodies push each other where their candidates overlap (\"Momentum between rigid "
+                 "bodies\"). With it, a cloth or strand with static pins is held by its tethers (contact.tethers)")
           .field("tethers", &S::tethers,
                  "with contact.momentum: every cloth and strand with static pins (not scripted ones) gets "
                  "long-range attachments (Kim et al. 2012): each movable vertex is kept within (1 + "

@@ -14,6 +14,7 @@
 #include <span>
 #include <vector>
 
+#include "ccfr/collision/collision_detector.hpp"
 #include "ccfr/core/state.hpp"
 #include "ccfr/core/topology.hpp"
 #include "ccfr/core/types.hpp"
@@ -130,6 +131,8 @@ class RigidBodies {
   /// ballistically from `state` (x, v at the substep start) by dt under `gravity`, as the vertices are.
   std::vector<Vec3> predicted_cores(const SimState& state, double dt, const Vec3& gravity) const;
 
+  /// Body `b`'s core (kg): the mass at its centre of mass that no vertex carries.
+  double core_of(Index b) const { return bodies_[static_cast<size_t>(b)].core; }
   /// The body that vertex `v` belongs to, or -1.
   Index body_of(Index v) const;
   /// Every body's frame at positions `at` (its rigid fit there); pinned bodies get inv_mass 0.
@@ -141,6 +144,21 @@ class RigidBodies {
   /// Moves every unpinned body's vertices in `x` rigidly: turned by `turn[b]` (rotation vector,
   /// radians) about the centre of their fit and carried by `shift[b]` (both #bodies).
   void displace(Positions& x, std::span<const Vec3> shift, std::span<const Vec3> turn) const;
+
+  /// Inelastic contact between two unpinned bodies on candidate positions `x` (contact.momentum;
+  /// docs/feasibility.md, "Momentum between rigid bodies"): the contacts whose two sides lie on two
+  /// different unpinned bodies, measured at their closest points,
+  /// \f$C = \varphi + \mathbf{n}^\top\sum_k w_k (\mathbf{x}_k - \mathbf{a}_k) + \text{rest} \ge 0\f$,
+  /// are closed by projected Gauss-Seidel on the bodies' poses (Müller et al. 2020, positional
+  /// constraints between two bodies): \f$\Delta\lambda = -C / (w_A + w_B)\f$, w the generalized
+  /// inverse mass of each body at its closest point along n, λ ≥ 0 accumulated, +Δλ n on side A
+  /// and -Δλ n on side B at their closest points, so the pair's linear and angular momentum are
+  /// kept. The first `rest_overlap` (m) of an overlap is resting contact, left to the planes. At
+  /// most `sweeps` sweeps; the bodies' rotations are linearized within them. Writes each body's
+  /// shift and turn (rotation vector about its fit's centre at `x`, #bodies) and returns the
+  /// contacts that pushed. The caller moves the bodies (displace()).
+  Index answer_pairs(const Positions& x, const Positions& anchor, std::span<const ContactPair> contacts,
+                     double rest_overlap, int sweeps, std::vector<Vec3>& shift, std::vector<Vec3>& turn) const;
 
   /// Vertices of rigid bodies farther than `tolerance` from the best rigid fit of their body:
   /// a deformed rigid body, which detection cannot see (its pairs with itself are not tested).

@@ -230,9 +230,10 @@ class Simulation {
   Index carry_free_groups(const std::vector<AABB>& box, std::vector<AABB>& swept,
                           const std::vector<std::uint8_t>& carried_object);
   /// contact.momentum: restarts the islands of a solve of the substep. An island is the bodies
-  /// (tet solids, cloths, shells) one contact of its passes joins; it is free while none of its
-  /// vertices is pinned or scripted and no contact joins it to anything else (an obstacle, a rigid
-  /// body, strands, particles): then no external impulse but gravity acts on it in the substep.
+  /// (tet solids, cloths, shells, rigid bodies with their cores) one contact of its passes joins; it
+  /// is free while none of its vertices is pinned or scripted and no contact joins it to anything
+  /// else (an obstacle, strands, particles): then no external impulse but gravity acts on it in the
+  /// substep.
   void start_islands();
   /// Joins the objects of the last detection's contacts (ContactSolver::detected_contacts()).
   void join_islands();
@@ -274,6 +275,9 @@ class Simulation {
   std::vector<Index> island_parent_;
   std::vector<std::uint8_t> island_fixed_;
   bool islands_on_ = false;
+  /// Per object: a rigid body's core (kg), the mass at its centre no vertex carries (RigidBodies);
+  /// 0 for every other object. Sized on the first start_islands().
+  std::vector<double> object_core_;
   /// The root of object o's island (path halving).
   Index island_of(Index o);
   /// Whether `swept` (island `root`'s box along a shift or turn) stays more than `gap` from the box
