@@ -89,9 +89,11 @@ void RegionProjectionSolver::respond(Positions& x, const Positions& anchor, cons
   bodies.inv_inertia = body_inv_inertia_;
   response_.separate(x, anchor, free_mask_, kSeparateSweeps, rest_overlap(ctx), &bodies, ctx.tethers);
   react_bodies(x);
-  // Two unpinned bodies in contact push each other, as the response pushes a movable side.
+  // Two unpinned bodies in contact push each other, as the response pushes a movable side; not
+  // in the paper's path, whose substeps redone with the response above keep their rigid bodies'.
   std::vector<Vec3> shift, turn;
-  if (rigid_.answer_pairs(x, anchor, contacts_, rest_overlap(ctx), kSeparateSweeps, shift, turn) > 0) {
+  if (ctx.params.contact.momentum &&
+      rigid_.answer_pairs(x, anchor, contacts_, rest_overlap(ctx), kSeparateSweeps, shift, turn) > 0) {
     rigid_.displace(x, shift, turn);
     for (size_t b = 0; b < shift.size(); ++b) reaction_shift_[b] += shift[b];
   }

@@ -8,8 +8,9 @@ namespace ccfr {
 
 namespace {
 
-/// One contact between two bodies: its closest points' arms about the bodies' centres at the
-/// candidates, its generalized inverse mass along n, and its accumulated impulse (kg m).
+/// One contact between two bodies: the arms of its closest points' midpoint about the bodies'
+/// centres at the candidates, its generalized inverse mass along n, and its accumulated impulse
+/// (kg m).
 struct PairContact {
   Index a = -1, b = -1;  ///< the bodies of sides A and B
   Vec3 n = Vec3::Zero();
@@ -36,29 +37,48 @@ Index RigidBodies::answer_pairs(const Positions& x, const Positions& anchor, std
   shift.assign(nb, Vec3::Zero());
   turn.assign(nb, Vec3::Zero());
   if (nb < 2) return 0;
-  const std::vector<RigidFrame> frame = frames(x);
-  std::vector<PairContact> pairs;
+  // The contacts between two different bodies first (most scenes have none: no fit is needed).
+  struct Found {
+    const ContactPair* c;
+    Index a, b;
+  };
+  std::vector<Found> found;
   for (const ContactPair& c : contacts) {
     if (c.neighbours) continue;
     const int na = c.side_a();
-    const Index a = side_body(*this, c, 0, na), b = side_body(*this, c, na, c.size());
-    if (a < 0 || b < 0 || a == b) continue;
-    const RigidFrame &fa = frame[static_cast<size_t>(a)], &fb = frame[static_cast<size_t>(b)];
-    if (!(fa.inv_mass > 0.0) || !(fb.inv_mass > 0.0)) continue;
+    const Index a = side_body(*this, c, 0, na);
+    if (a < 0) continue;
+    const Index b = side_body(*this, c, na, c.size());
+    if (b >= 0 && a != b) found.push_back({&c, a, b});
+  }
+  if (found.empty()) return 0;
+  const std::vector<RigidFrame> frame = frames(x);
+  std::vector<PairContact> pairs;
+  for (const Found& f : found) {
+    const ContactPair& c = *f.c;
+    const RigidFrame &fa = frame[static_cast<size_t>(f.a)], &fb = frame[static_cast<size_t>(f.b)];
+    if (!(fa.inv_mass > 0.0) || !(fb.inv_mass > 0.0)) continue;  // a pinned body: the planes hold it
     // Closest points at the candidates (w > 0 on A, < 0 on B) and the approach since the anchors.
-    Vec3 pa = Vec3::Zero(), pb = Vec3::Zero();
+    // Both impulses act at the points' midpoint: equal and opposite on one point, they keep the
+    // angular momentum exactly (n need not be along p_A - p_B once the plane has turned).
+    Vec3 mid = Vec3::Zero();
     double approach = 0.0;
     for (int k = 0; k < c.size(); ++k) {
-      (k < na ? pa : pb) += std::abs(c.w[k]) * x[c.v[k]];
+      mid += 0.5 * std::abs(c.w[k]) * x[c.v[k]];
       approach += c.w[k] * c.n.dot(x[c.v[k]] - anchor[c.v[k]]);
     }
     const double base = c.distance - c.offset + approach + rest_overlap;
-    PairContact pc{
-        a, b, c.n, pa - fa.centre, pb - fb.centre, base, fa.inverse_mass_at(pa, c.n) + fb.inverse_mass_at(pb, c.n)};
+    PairContact pc{f.a,
+                   f.b,
+                   c.n,
+                   mid - fa.centre,
+                   mid - fb.centre,
+                   base,
+                   fa.inverse_mass_at(mid, c.n) + fb.inverse_mass_at(mid, c.n)};
     if (pc.w > 0.0) pairs.push_back(pc);
   }
   if (pairs.empty()) return 0;
-  // C = base + n·(δ_A(p_A) - δ_B(p_B)), δ the body's displacement so far (rotation linearized).
+  // C = base + n·(δ_A(m) - δ_B(m)), δ a body's displacement so far (rotation linearized), m the midpoint.
   auto value = [&](const PairContact& p) {
     const size_t a = static_cast<size_t>(p.a), b = static_cast<size_t>(p.b);
     const Vec3 da = shift[a] + turn[a].cross(p.arm_a), db = shift[b] + turn[b].cross(p.arm_b);
@@ -75,7 +95,7 @@ Index RigidBodies::answer_pairs(const Positions& x, const Positions& anchor, std
       worst = std::max(worst, -c);
       if (dl == 0.0) continue;
       p.lambda = next;
-      // +Δλ n on A at its closest point, -Δλ n on B.
+      // +Δλ n on A, -Δλ n on B, both at the midpoint.
       const RigidFrame &fa = frame[static_cast<size_t>(p.a)], &fb = frame[static_cast<size_t>(p.b)];
       shift[static_cast<size_t>(p.a)] += fa.inv_mass * dl * p.n;
       turn[static_cast<size_t>(p.a)] += fa.inv_inertia * p.arm_a.cross(p.n) * dl;

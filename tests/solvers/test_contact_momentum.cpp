@@ -12,6 +12,7 @@
 #include "ccfr/geometry/generators.hpp"
 #include "ccfr/geometry/mass_properties.hpp"
 #include "ccfr/geometry_exact/audit.hpp"
+#include "ccfr/solvers/rigid_bodies.hpp"
 #include "ccfr/solvers/simulation.hpp"
 #include "scenes.hpp"
 #include "test_support.hpp"
@@ -502,10 +503,10 @@ Momenta rigid_momenta(const Simulation& sim, const double (&solid)[2]) {
 TEST_P(ContactMomentum, TwoRigidBodiesKeepTheirLinearAndAngularMomentumThroughAnImpact) {
   // a (0.52 kg) at 2 m/s, b (twice as heavy) at -0.5 m/s, head on and a third of a radius off
   // centre; they meet in frame 1. Two rigid bodies answer their contacts in their own pose solves,
-  // each against planes split at the anchors, so neither pushes the other: on 92cbae8 the pair
-  // lost 93 % of its momentum (two rigid boxes; both bounced back). Now the bodies push each other
-  // at their closest points and, touching nothing else, get back what the planes took: linear
-  // momentum within 2 % in every frame, angular momentum within 5 %, every frame audited at ξ.
+  // each against planes split at the anchors, so neither pushes the other: on 92cbae8 this pair
+  // lost 97 % of its momentum. Touching nothing else, the pair is a free island and gets back
+  // what the planes took: linear momentum within 2 % in every frame, angular momentum within 5 %,
+  // every frame audited at ξ. (The pair's own push, answer_pairs, is tested below.)
   const gen::TriMesh ball = gen::sphere(0.05, 2);
   const double volume = solid_mass_properties(ball.v, ball.f).volume;
   const double solid[2] = {1000.0 * volume, 2000.0 * volume};
@@ -531,4 +532,95 @@ TEST_P(ContactMomentum, TwoRigidBodiesKeepTheirLinearAndAngularMomentumThroughAn
     test::report_physics(tag + "angular momentum after 8 frames, " + GetParam(), before.l.z(), after.l.z(), "kg m²/s");
     EXPECT_LT((after.l - before.l).norm(), 0.05 * before.l.norm());
   }
+}
+
+TEST(ContactMomentum, TwoRigidBodiesPushEachOtherWithEqualAndOppositeImpulses) {
+  // RigidBodies::answer_pairs on one overlapping contact between two rigid boxes (0.1 m, 8 corner
+  // vertices of 0.1 and 0.3 kg), b 3 cm off a's axis so that the push turns both. Independent
+  // answers: after the bodies are moved (exactly, by displace()) the contact's closest points are
+  // at the offset again, to the rotation's second order; the pair's linear momentum and its
+  // angular momentum about the origin, from each body's mass and inertia tensor summed over its
+  // vertices, do not change; and the bodies move apart along n.
+  const gen::TriMesh box = gen::box(Vec3(0.1, 0.1, 0.1));
+  TopologyBuilder tb;
+  tb.add_object("a", ObjectKind::rigid, static_cast<Index>(box.v.size()), box.f);
+  tb.add_object("b", ObjectKind::rigid, static_cast<Index>(box.v.size()), box.f);
+  const Topology topo = tb.finish();
+  SimState st;
+  st.resize(topo.num_vertices());
+  const Index n = static_cast<Index>(box.v.size());
+  const Vec3 at_b(0.101, 0.03, 0.0);
+  for (Index i = 0; i < n; ++i)
+    for (Index k = 0; k < 2; ++k) {
+      const Index v = i + k * n;
+      st.x[v] = box.v[static_cast<size_t>(i)] + (k == 0 ? Vec3::Zero() : at_b);
+      st.mass[v] = k == 0 ? 0.1 : 0.3;
+      st.inv_mass[v] = 1.0 / st.mass[v];
+    }
+  st.rest = st.x_prev = st.x;
+  const RigidBodies rigid(topo, st);
+  // a's corner (0.05, 0.05, 0.05) against b's -x face (x = 0.051): its closest point there is
+  // (0.051, 0.05, 0.05) = 0.3 (0.051, -0.02, 0.05) + 0.7 (0.051, 0.08, 0.05), 1 mm away, 1 mm
+  // closer than the 2 mm offset along n = -x (from b to a).
+  auto vertex_at = [&](const Vec3& p) {
+    for (Index i = 0; i < 2 * n; ++i)
+      if ((st.x[i] - p).norm() < 1e-12) return i;
+    return Index{-1};
+  };
+  ContactPair c;
+  c.kind = ContactKind::vf;
+  c.v = {vertex_at(Vec3(0.05, 0.05, 0.05)), vertex_at(Vec3(0.051, -0.02, 0.05)), vertex_at(Vec3(0.051, 0.08, 0.05)),
+         vertex_at(Vec3(0.051, 0.08, -0.05))};
+  for (const Index v : c.v) ASSERT_GE(v, 0);
+  c.w = {1.0, -0.3, -0.7, 0.0};
+  c.n = Vec3(-1, 0, 0);
+  c.offset = 0.002;
+  c.distance = 0.001;
+  auto closest_gap = [&](const Positions& x) {
+    Vec3 d = Vec3::Zero();
+    for (int k = 0; k < 4; ++k) d += c.w[static_cast<size_t>(k)] * x[c.v[static_cast<size_t>(k)]];
+    const Vec3 d0 = [&] {
+      Vec3 e = Vec3::Zero();
+      for (int k = 0; k < 4; ++k) e += c.w[static_cast<size_t>(k)] * st.x[c.v[static_cast<size_t>(k)]];
+      return e;
+    }();
+    return c.distance - c.offset + c.n.dot(d - d0);
+  };
+  // Each body's mass, centre and inertia tensor about its centre, from its vertices.
+  struct Body {
+    double m = 0.0;
+    Vec3 c = Vec3::Zero();
+    Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero();
+  } body[2];
+  for (int k = 0; k < 2; ++k) {
+    for (Index i = k * n; i < (k + 1) * n; ++i) body[k].m += st.mass[i], body[k].c += st.mass[i] * st.x[i];
+    body[k].c /= body[k].m;
+    for (Index i = k * n; i < (k + 1) * n; ++i) {
+      const Vec3 r = st.x[i] - body[k].c;
+      body[k].inertia += st.mass[i] * (r.squaredNorm() * Eigen::Matrix3d::Identity() - r * r.transpose());
+    }
+  }
+  std::vector<Vec3> shift, turn;
+  ASSERT_EQ(rigid.answer_pairs(st.x, st.x, std::span<const ContactPair>(&c, 1), 0.0, 32, shift, turn), 1);
+  Positions moved = st.x;
+  rigid.displace(moved, shift, turn);
+  // 1 mm closed, to the second order of the exact rotation (θ² |arm| / 2, θ the turn)
+  EXPECT_NEAR(closest_gap(moved), 0.0, 1e-5);
+  Vec3 p = Vec3::Zero(), l = Vec3::Zero();
+  for (int k = 0; k < 2; ++k) {
+    p += body[k].m * shift[static_cast<size_t>(k)];
+    l += body[k].inertia * turn[static_cast<size_t>(k)] + body[k].m * body[k].c.cross(shift[static_cast<size_t>(k)]);
+  }
+  EXPECT_LT(p.norm(), 1e-15);
+  EXPECT_LT(l.norm(), 1e-16);
+  EXPECT_GT(turn[0].norm(), 1e-3);                                   // off centre: the push turns them
+  EXPECT_GT(c.n.dot(shift[0] - shift[1]), 0.0);                      // a moves along n, b against it
+  EXPECT_NEAR(shift[1].norm() / shift[0].norm(), 1.0 / 3.0, 1e-12);  // by their masses
+  // A contact already at its offset, and one within a single body, push nothing.
+  c.distance = 0.0025;
+  EXPECT_EQ(rigid.answer_pairs(st.x, st.x, std::span<const ContactPair>(&c, 1), 0.0, 32, shift, turn), 0);
+  c.distance = 0.001;
+  c.v = {c.v[0], c.v[0] == 0 ? 1 : 0, 2, 3};
+  EXPECT_EQ(rigid.answer_pairs(st.x, st.x, std::span<const ContactPair>(&c, 1), 0.0, 32, shift, turn), 0);
+  EXPECT_EQ(shift[0], Vec3::Zero());
 }

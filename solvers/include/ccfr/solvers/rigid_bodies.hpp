@@ -151,9 +151,9 @@ class RigidBodies {
   /// \f$C = \varphi + \mathbf{n}^\top\sum_k w_k (\mathbf{x}_k - \mathbf{a}_k) + \text{rest} \ge 0\f$,
   /// are closed by projected Gauss-Seidel on the bodies' poses (Müller et al. 2020, positional
   /// constraints between two bodies): \f$\Delta\lambda = -C / (w_A + w_B)\f$, w the generalized
-  /// inverse mass of each body at its closest point along n, λ ≥ 0 accumulated, +Δλ n on side A
-  /// and -Δλ n on side B at their closest points, so the pair's linear and angular momentum are
-  /// kept. The first `rest_overlap` (m) of an overlap is resting contact, left to the planes. At
+  /// inverse mass of each body along n at the closest points' midpoint, λ ≥ 0 accumulated, +Δλ n
+  /// on side A and -Δλ n on side B, both at that midpoint, so the pair's linear and angular momentum
+  /// are kept. The first `rest_overlap` (m) of an overlap is resting contact, left to the planes. At
   /// most `sweeps` sweeps; the bodies' rotations are linearized within them. Writes each body's
   /// shift and turn (rotation vector about its fit's centre at `x`, #bodies) and returns the
   /// contacts that pushed. The caller moves the bodies (displace()).
