@@ -26,11 +26,15 @@ constexpr double kPushReach = 0.5;
 /// Room a side pushed past the gap gets beyond its push, as a share of the push, in the first
 /// round (push_through): the push is a bound along n alone, the vertex's other planes may ask more.
 constexpr double kPushMargin = 0.1;
+/// Least share of its mass share a side of a pair of two unpinned rigid bodies keeps when the
+/// split follows their motion (split_by_motion).
+constexpr double kPairShareFloor = 0.1;
 }  // namespace
 
 Index split_by_motion(RegionSet& regions, std::span<const ContactPair> contacts, const Positions& anchor,
                       const Positions& x, std::span<const double> inv_mass, std::span<const double> responds,
-                      std::vector<HeldSplit>& held, std::span<const double> other_inverse_mass) {
+                      std::vector<HeldSplit>& held, std::span<const double> other_inverse_mass,
+                      std::span<const std::uint8_t> paired) {
   held.clear();
   if (regions.records.size() != contacts.size()) return 0;
   std::mutex gather;
@@ -64,23 +68,30 @@ Index split_by_motion(RegionSet& regions, std::span<const ContactPair> contacts,
             }
           }
           // Two rigid bodies: each pose solve takes the pair as if the other were fixed, so the
-          // paper's split stays (a split by their predictions would leave each a share it cannot use).
+          // paper's split stays (a split by their predictions would leave each a share it cannot
+          // use), unless answer_pairs() made their candidates one pair's answer (`paired`).
           // A rigid body answering for itself: its generalized inverse mass at the contact, as the
           // response took it (its vertices' own masses would make it a light cloth).
           const double w_o = other_inverse_mass.empty() ? 0.0 : other_inverse_mass[static_cast<size_t>(ci)];
           if (w_o > 0.0 && answers[0] != answers[1]) (answers[0] ? w_b : w_a) = w_o;
-          if (!all_free || !(answers[0] || answers[1]) || !(w_a + w_b > 0.0) || !std::isfinite(a_a + a_b)) continue;
+          const bool pair = paired.size() == contacts.size() && paired[static_cast<size_t>(ci)];
+          if (!all_free || !(answers[0] || answers[1] || pair) || !(w_a + w_b > 0.0) || !std::isfinite(a_a + a_b))
+            continue;
           const double s_a = w_a / (w_a + w_b);
           const double raw = a_a + s_a * (gap - a_a - a_b);
-          const double d_a = std::clamp(raw, 0.0, gap);
+          // Two rigid bodies keep a tenth of their mass shares: a pose solve turning a body about
+          // a contact held at its anchor (d = 0) pushes some vertex into the plane, and halts.
+          const double lo = pair ? kPairShareFloor * std::max(0.0, rec.d[0]) : 0.0;
+          const double hi = pair ? gap - kPairShareFloor * std::max(0.0, rec.d[1]) : gap;
+          const double d_a = std::clamp(raw, lo, hi);
           rec.d[0] = d_a;
           rec.d[1] = gap - d_a;
           // A side clamped at its anchor while it moves away: the other side may wait for the next
           // pass, if this one lets the retreating side go (held_followers).
           const double tol = 1e-9 * gap;
-          if (raw < 0.0 && a_b > rec.d[1] + tol && a_a < 0.0)
+          if (raw < lo && a_b > rec.d[1] + tol && a_a < 0.0)
             local.push_back({ci, 1, a_b - rec.d[1]});
-          else if (raw > gap && a_a > rec.d[0] + tol && a_b < 0.0)
+          else if (raw > hi && a_a > rec.d[0] + tol && a_b < 0.0)
             local.push_back({ci, 0, a_a - rec.d[0]});
         }
         if (local.empty()) return;

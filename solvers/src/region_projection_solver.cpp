@@ -79,6 +79,8 @@ void RegionProjectionSolver::respond(Positions& x, const Positions& anchor, cons
   response_.apply(x, state.x_prev, free_mask_, ctx.params.contact, ctx.dt, friction_override_, other_inverse_mass_,
                   ctx.momentum);
   reaction_shift_.assign(static_cast<size_t>(rigid_.size()), Vec3::Zero());
+  pair_pressed_.clear();
+  pair_answered_.clear();
   if (!ctx.momentum) return;
   AnsweringBodies bodies;
   bodies.body = answering_body_;
@@ -92,8 +94,16 @@ void RegionProjectionSolver::respond(Positions& x, const Positions& anchor, cons
   // Two unpinned bodies in contact push each other, as the response pushes a movable side; not
   // in the paper's path, whose substeps redone with the response above keep their rigid bodies'.
   std::vector<Vec3> shift, turn;
+  PairResponse pairs;
+  pairs.rest_overlap = rest_overlap(ctx);
+  pairs.sweeps = kSeparateSweeps;
+  pairs.repulsion_range = ctx.params.contact.repulsion_range;
+  pairs.repulsion_compliance = 1.0 / (ctx.params.contact.stiffness * ctx.dt * ctx.dt);
+  pair_pressed_.clear();
+  pair_answered_.assign(rigid_.size() > 1 && ctx.params.contact.momentum ? contacts_.size() : 0, 0);
+  for (size_t ci = 0; ci < pair_answered_.size(); ++ci) pair_answered_[ci] = rigid_.between_two_bodies(contacts_[ci]);
   if (ctx.params.contact.momentum &&
-      rigid_.answer_pairs(x, anchor, contacts_, rest_overlap(ctx), kSeparateSweeps, shift, turn) > 0) {
+      rigid_.answer_pairs(x, anchor, contacts_, pairs, shift, turn, &pair_pressed_) > 0) {
     rigid_.displace(x, shift, turn);
     for (size_t b = 0; b < shift.size(); ++b) reaction_shift_[b] += shift[b];
   }
@@ -156,7 +166,8 @@ SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& ancho
   // Each pair's plane split by the motion the response left (the dividing plane moves with the pair).
   held_splits_.clear();
   if (ctx.momentum) {
-    split_by_motion(regions_, contacts_, anchor, x, state.inv_mass, projected_mass, held_splits_, other_inverse_mass_);
+    split_by_motion(regions_, contacts_, anchor, x, state.inv_mass, projected_mass, held_splits_, other_inverse_mass_,
+                    pair_answered_);
     if (ctx.push_through) push_through(regions_, contacts_, state.inv_mass, projected_mass, kPushRounds);
   }
   const BatchStats b = project_all(*projector_, regions_, anchor, x, projected_mass, halted_);
@@ -235,11 +246,15 @@ void RegionProjectionSolver::place_bodies(Positions& x, const Positions& anchor,
     // (react_bodies), with the impulse that side took: the pose solve repels only what does
     // not answer (fixed, scripted, another body).
     if (ctx.momentum && pc.responds_w > 0.0) pc.repel = 0.0;
+    // Two unpinned bodies: answer_pairs() repelled the pair as one; its impulse bounds the friction.
+    if (paired(sources[q])) pc.repel = 0.0, pc.pressed = paired_press(sources[q]);
     return pc;
   };
   auto plane_repel = [&](Index q) {
     if (sources.size() != regions_.total()) return delta;
     const ContactPair& c = contacts_[static_cast<size_t>(sources[q] / 4)];
+    // A pair answer_pairs() pressed stays within reach: its friction acts while it rests within δ.
+    if (paired(sources[q])) return paired_press(sources[q]) > 0.0 ? delta : 0.0;
     if (ctx.momentum) {
       const int k = static_cast<int>(sources[q] % 4), na = c.side_a();
       const int lo = k < na ? na : 0, hi = k < na ? c.size() : na;
@@ -284,6 +299,17 @@ void RegionProjectionSolver::place_bodies(Positions& x, const Positions& anchor,
       if (at_anchor && moved)
         for (Index v = o.vertex_begin; v < o.vertex_end; ++v) halted_[v] = 1;
     }
+}
+
+bool RegionProjectionSolver::paired(size_t source) const {
+  const size_t ci = source / 4;
+  return ci < pair_answered_.size() && pair_answered_[ci];
+}
+
+double RegionProjectionSolver::paired_press(size_t source) const {
+  // Shared over the side's vertices by their weights, as the pose solve's own was over their planes.
+  const size_t ci = source / 4;
+  return ci < pair_pressed_.size() ? std::abs(contacts_[ci].w[source % 4]) * pair_pressed_[ci] : 0.0;
 }
 
 bool RegionProjectionSolver::carried_plane_holds(std::uint32_t ref, const Positions& anchor, std::span<const Vec3> ends,

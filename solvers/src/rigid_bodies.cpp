@@ -315,7 +315,8 @@ class RigidBodies::PoseSolver {
           contacts.push_back({static_cast<Index>(i), q, h, pair_of(options_, q)});
         }
         const PoseContact& c = contacts[static_cast<size_t>(s)];
-        if (value <= threshold(c) + slack_ || c.lambda_n != 0.0 || c.lambda_r != 0.0 || c.lambda_t.squaredNorm() != 0.0)
+        if (value <= threshold(c) + slack_ || c.lambda_n != 0.0 || c.lambda_r != 0.0 ||
+            c.lambda_t.squaredNorm() != 0.0 || c.pair.pressed > 0.0)
           ws_.live.push_back(s);
       }
     }
@@ -389,7 +390,7 @@ class RigidBodies::PoseSolver {
   /// bounded by μ_k λ_n (Müller et al. 2020, Sec. 3.5, with Coulomb's cone on the
   /// accumulated λ_t); the other side takes its share, Δλ = -C / (w_body + w_other).
   void rub(PoseContact& c, const Eigen::Matrix3d& inv_inertia) {
-    const double pressed = c.lambda_n + c.lambda_r;
+    const double pressed = c.lambda_n + c.lambda_r + c.pair.pressed;
     if (!options_.x_start || (b_.mu_s <= 0.0 && b_.mu_k <= 0.0)) return;
     if (pressed <= 0.0 && c.lambda_t.squaredNorm() == 0.0) return;
     const Index v = b_.begin + c.i;

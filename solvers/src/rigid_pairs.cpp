@@ -18,6 +18,9 @@ struct PairContact {
   double base = 0.0;  ///< C at the candidates before any impulse (m), rest included
   double w = 0.0;     ///< w_A + w_B
   double lambda = 0.0;
+  double gap = 0.0;       ///< the pair's gap beyond ξ at the candidates before any impulse (m)
+  double lambda_r = 0.0;  ///< the repulsion's accumulated impulse (kg m)
+  size_t contact = 0;     ///< its index in the contact list
 };
 
 /// The body holding every vertex of `c` in [lo, hi), or -1 (none, or more than one).
@@ -30,9 +33,19 @@ Index side_body(const RigidBodies& rigid, const ContactPair& c, int lo, int hi) 
 
 }  // namespace
 
+bool RigidBodies::between_two_bodies(const ContactPair& c) const {
+  if (c.neighbours) return false;
+  const int na = c.side_a();
+  const Index a = side_body(*this, c, 0, na), b = side_body(*this, c, na, c.size());
+  return a >= 0 && b >= 0 && a != b && !bodies_[static_cast<size_t>(a)].pinned &&
+         !bodies_[static_cast<size_t>(b)].pinned;
+}
+
 Index RigidBodies::answer_pairs(const Positions& x, const Positions& anchor, std::span<const ContactPair> contacts,
-                                double rest_overlap, int sweeps, std::vector<Vec3>& shift,
-                                std::vector<Vec3>& turn) const {
+                                const PairResponse& response, std::vector<Vec3>& shift, std::vector<Vec3>& turn,
+                                std::vector<double>* repelled) const {
+  const double rest_overlap = response.rest_overlap;
+  if (repelled) repelled->assign(contacts.size(), 0.0);
   const size_t nb = bodies_.size();
   shift.assign(nb, Vec3::Zero());
   turn.assign(nb, Vec3::Zero());
@@ -53,6 +66,7 @@ Index RigidBodies::answer_pairs(const Positions& x, const Positions& anchor, std
   }
   if (found.empty()) return 0;
   const std::vector<RigidFrame> frame = frames(x);
+  const double delta = response.repulsion_range, slack = std::max(delta, rest_overlap);
   std::vector<PairContact> pairs;
   for (const Found& f : found) {
     const ContactPair& c = *f.c;
@@ -67,44 +81,71 @@ Index RigidBodies::answer_pairs(const Positions& x, const Positions& anchor, std
       mid += 0.5 * std::abs(c.w[k]) * x[c.v[k]];
       approach += c.w[k] * c.n.dot(x[c.v[k]] - anchor[c.v[k]]);
     }
-    const double base = c.distance - c.offset + approach + rest_overlap;
+    // Only a contact near acting enters the sweeps: one beyond the repulsion's reach by more than
+    // `slack` acts only if the others move its bodies that far (the planes hold it then).
+    const double gap = c.distance - c.offset + approach;
+    if (gap >= delta + slack) continue;
     PairContact pc{f.a,
                    f.b,
                    c.n,
                    mid - fa.centre,
                    mid - fb.centre,
-                   base,
-                   fa.inverse_mass_at(mid, c.n) + fb.inverse_mass_at(mid, c.n)};
+                   gap + rest_overlap,
+                   fa.inverse_mass_at(mid, c.n) + fb.inverse_mass_at(mid, c.n),
+                   0.0,
+                   gap,
+                   0.0,
+                   static_cast<size_t>(f.c - contacts.data())};
     if (pc.w > 0.0) pairs.push_back(pc);
   }
   if (pairs.empty()) return 0;
   // C = base + n·(δ_A(m) - δ_B(m)), δ a body's displacement so far (rotation linearized), m the midpoint.
-  auto value = [&](const PairContact& p) {
+  auto moved = [&](const PairContact& p) {
     const size_t a = static_cast<size_t>(p.a), b = static_cast<size_t>(p.b);
     const Vec3 da = shift[a] + turn[a].cross(p.arm_a), db = shift[b] + turn[b].cross(p.arm_b);
-    return p.base + p.n.dot(da - db);
+    return p.n.dot(da - db);
   };
-  const double tolerance = 1e-9 * std::max(rest_overlap, 1e-6);
+  auto push = [&](const PairContact& p, double dl) {
+    // +Δλ n on A, -Δλ n on B, both at the midpoint.
+    const RigidFrame &fa = frame[static_cast<size_t>(p.a)], &fb = frame[static_cast<size_t>(p.b)];
+    shift[static_cast<size_t>(p.a)] += fa.inv_mass * dl * p.n;
+    turn[static_cast<size_t>(p.a)] += fa.inv_inertia * p.arm_a.cross(p.n) * dl;
+    shift[static_cast<size_t>(p.b)] -= fb.inv_mass * dl * p.n;
+    turn[static_cast<size_t>(p.b)] -= fb.inv_inertia * p.arm_b.cross(p.n) * dl;
+  };
+  const double alpha = response.repulsion_compliance;
+  // Converged once no overlap is left beyond round-off and no repulsion moves a pair by more
+  // than a thousandth of δ in a sweep.
+  const double tolerance = 1e-9 * std::max(rest_overlap, 1e-6), settled = 1e-3 * delta;
   Index pushed = 0;
-  for (int sweep = 0; sweep < sweeps; ++sweep) {
+  for (int sweep = 0; sweep < response.sweeps; ++sweep) {
     double worst = 0.0;
+    double change = 0.0;
     for (PairContact& p : pairs) {
-      const double c = value(p);
+      const double c = p.base + moved(p);
       const double next = std::max(0.0, p.lambda - c / p.w);
       const double dl = next - p.lambda;
       worst = std::max(worst, -c);
-      if (dl == 0.0) continue;
-      p.lambda = next;
-      // +Δλ n on A, -Δλ n on B, both at the midpoint.
-      const RigidFrame &fa = frame[static_cast<size_t>(p.a)], &fb = frame[static_cast<size_t>(p.b)];
-      shift[static_cast<size_t>(p.a)] += fa.inv_mass * dl * p.n;
-      turn[static_cast<size_t>(p.a)] += fa.inv_inertia * p.arm_a.cross(p.n) * dl;
-      shift[static_cast<size_t>(p.b)] -= fb.inv_mass * dl * p.n;
-      turn[static_cast<size_t>(p.b)] -= fb.inv_inertia * p.arm_b.cross(p.n) * dl;
+      if (dl != 0.0) {
+        p.lambda = next;
+        push(p, dl);
+      }
+      if (!(delta > 0.0)) continue;
+      // The pair's XPBD repulsion of its gap toward δ, both bodies answering.
+      const double gap = p.gap + moved(p);
+      const double rep = std::max(0.0, p.lambda_r + (delta - gap - alpha * p.lambda_r) / (p.w + alpha));
+      const double dr = rep - p.lambda_r;
+      if (dr == 0.0) continue;
+      p.lambda_r = rep;
+      change = std::max(change, std::abs(dr) * p.w);
+      push(p, dr);
     }
-    if (worst <= tolerance) break;
+    if (worst <= tolerance && change <= settled) break;
   }
-  for (const PairContact& p : pairs) pushed += p.lambda > 0.0;
+  for (const PairContact& p : pairs) {
+    pushed += p.lambda > 0.0 || p.lambda_r > 0.0;
+    if (repelled) (*repelled)[p.contact] = p.lambda + p.lambda_r;
+  }
   return pushed;
 }
 

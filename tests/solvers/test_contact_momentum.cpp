@@ -601,7 +601,7 @@ TEST(ContactMomentum, TwoRigidBodiesPushEachOtherWithEqualAndOppositeImpulses) {
     }
   }
   std::vector<Vec3> shift, turn;
-  ASSERT_EQ(rigid.answer_pairs(st.x, st.x, std::span<const ContactPair>(&c, 1), 0.0, 32, shift, turn), 1);
+  ASSERT_EQ(rigid.answer_pairs(st.x, st.x, std::span<const ContactPair>(&c, 1), PairResponse{0.0, 32}, shift, turn), 1);
   Positions moved = st.x;
   rigid.displace(moved, shift, turn);
   // 1 mm closed, to the second order of the exact rotation (θ² |arm| / 2, θ the turn)
@@ -618,9 +618,41 @@ TEST(ContactMomentum, TwoRigidBodiesPushEachOtherWithEqualAndOppositeImpulses) {
   EXPECT_NEAR(shift[1].norm() / shift[0].norm(), 1.0 / 3.0, 1e-12);  // by their masses
   // A contact already at its offset, and one within a single body, push nothing.
   c.distance = 0.0025;
-  EXPECT_EQ(rigid.answer_pairs(st.x, st.x, std::span<const ContactPair>(&c, 1), 0.0, 32, shift, turn), 0);
+  EXPECT_EQ(rigid.answer_pairs(st.x, st.x, std::span<const ContactPair>(&c, 1), PairResponse{0.0, 32}, shift, turn), 0);
+  // Within δ = 1 mm of its offset (0.5 mm beyond it) the pair's XPBD repulsion acts on both alike:
+  // λ_r = (δ - g) / (w_A + w_B + α̃), w from each body's mass and inertia at the closest points'
+  // midpoint, and the gap opens by (w_A + w_B) λ_r; momentum and angular momentum are kept.
+  const double delta = 0.001, alpha = 5.0, g = 0.0005;
+  const Vec3 mid(0.0505, 0.05, 0.05);
+  double w = 0.0;
+  for (int k = 0; k < 2; ++k) {
+    const Vec3 rn = (mid - body[k].c).cross(c.n);
+    w += 1.0 / body[k].m + rn.dot(body[k].inertia.inverse() * rn);
+  }
+  const double lambda = (delta - g) / (w + alpha);
+  std::vector<double> repelled;
+  ASSERT_EQ(rigid.answer_pairs(st.x, st.x, std::span<const ContactPair>(&c, 1), PairResponse{0.0, 32, delta, alpha},
+                               shift, turn, &repelled),
+            1);
+  ASSERT_EQ(repelled.size(), 1u);
+  EXPECT_NEAR(repelled[0], lambda, 1e-12 * lambda);
+  moved = st.x;
+  rigid.displace(moved, shift, turn);
+  EXPECT_NEAR(closest_gap(moved), g + w * lambda, 1e-7);
+  p = l = Vec3::Zero();
+  for (int k = 0; k < 2; ++k) {
+    p += body[k].m * shift[static_cast<size_t>(k)];
+    l += body[k].inertia * turn[static_cast<size_t>(k)] + body[k].m * body[k].c.cross(shift[static_cast<size_t>(k)]);
+  }
+  EXPECT_LT(p.norm(), 1e-15);
+  EXPECT_LT(l.norm(), 1e-16);
+  // Beyond δ it does not reach.
+  c.distance = 0.0035;
+  EXPECT_EQ(rigid.answer_pairs(st.x, st.x, std::span<const ContactPair>(&c, 1), PairResponse{0.0, 32, delta, alpha},
+                               shift, turn),
+            0);
   c.distance = 0.001;
   c.v = {c.v[0], c.v[0] == 0 ? 1 : 0, 2, 3};
-  EXPECT_EQ(rigid.answer_pairs(st.x, st.x, std::span<const ContactPair>(&c, 1), 0.0, 32, shift, turn), 0);
+  EXPECT_EQ(rigid.answer_pairs(st.x, st.x, std::span<const ContactPair>(&c, 1), PairResponse{0.0, 32}, shift, turn), 0);
   EXPECT_EQ(shift[0], Vec3::Zero());
 }

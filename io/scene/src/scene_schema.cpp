@@ -151,8 +151,9 @@ const scene::Section<ContactParams>& contact_section() {
                  "translation before each pass, and bodies (rigid ones too) that touch only one another (or "
                  "nothing) get back the linear and angular momentum the projection took, as one shift and one "
                  "turn of them all (docs/feasibility.md, \"A free island keeps its momentum\"); two unpinned "
-                 "rigid bodies push each other where their candidates overlap (\"Momentum between rigid "
-                 "bodies\"). With it, a cloth or strand with static pins is held by its tethers (contact.tethers)")
+                 "rigid bodies push each other where their candidates overlap and repel each other as one pair "
+                 "within δ, their plane split by the motion that leaves (\"Momentum between rigid bodies\"). "
+                 "With it, a cloth or strand with static pins is held by its tethers (contact.tethers)")
           .field("tethers", &S::tethers,
                  "with contact.momentum: every cloth and strand with static pins (not scripted ones) gets "
                  "long-range attachments (Kim et al. 2012): each movable vertex is kept within (1 + "

@@ -42,12 +42,16 @@ struct HeldSplit {
 ///
 /// `responds` (#V, or empty: all) marks the vertices that answer in the per-vertex response (> 0);
 /// a contact none of whose vertices does (two unpinned rigid bodies, each resolved in its own pose
-/// solve) keeps the paper's split. `other_inverse_mass` (per contact, or empty): where > 0 on a
+/// solve) keeps the paper's split, unless `paired` (per contact, or empty) marks it: two bodies
+/// whose candidates RigidBodies::answer_pairs() moved as the pair's answer, split by their motion
+/// with each side keeping at least a tenth of its mass share (a body turning about a plane held at
+/// its anchor cannot keep every vertex behind it). `other_inverse_mass` (per contact, or empty): where > 0 on a
 /// contact with one side answering and the other not, the other side's generalized inverse mass
 /// (a rigid body's at the contact), which takes its vertices' place in s_A.
 Index split_by_motion(RegionSet& regions, std::span<const ContactPair> contacts, const Positions& anchor,
                       const Positions& x, std::span<const double> inv_mass, std::span<const double> responds,
-                      std::vector<HeldSplit>& held, std::span<const double> other_inverse_mass = {});
+                      std::vector<HeldSplit>& held, std::span<const double> other_inverse_mass = {},
+                      std::span<const std::uint8_t> paired = {});
 
 /// Passes the push of what cannot move on through resting pairs. A vertex pressed by a fixed or
 /// scripted side (a plane of such a contact with d < 0: its anchor lies past the plane) must move

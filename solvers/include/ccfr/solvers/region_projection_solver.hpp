@@ -55,6 +55,11 @@ class RegionProjectionSolver final : public DetectingSolver {
   /// to `to` (enforce_carrying), the other side at `ends` (where each vertex ends the pass; one of
   /// inverse mass 0 gives no room by retreating). A pair one rigid motion moves whole needs a gap
   /// of `shrink` times its offset (1/cos(θ/2) - 1 for the body's turn θ).
+  /// Whether the contact of plane source `source` (contact × 4 + vertex) joins two unpinned bodies,
+  /// answered by answer_pairs() in the last respond().
+  bool paired(size_t source) const;
+  /// The impulse (kg m) answer_pairs() gave that contact, times the source vertex's |w|.
+  double paired_press(size_t source) const;
   bool carried_plane_holds(std::uint32_t ref, const Positions& anchor, std::span<const Vec3> ends,
                            std::span<const double> inv_mass, const Vec3& from, const Vec3& to, double shrink) const;
   /// The pair of plane `ref` of a vertex carried by `body`: if its every vertex is `body`'s or
@@ -70,6 +75,12 @@ class RegionProjectionSolver final : public DetectingSolver {
   /// Per body, in the last respond(): the move of its centre by the impulses of the contacts it
   /// gave way in (react_bodies); its core's prediction moves with it in resolve().
   std::vector<Vec3> reaction_shift_;
+  /// Per contact, in the last respond() under contact.momentum: the impulse (kg m) answer_pairs()
+  /// gave a pair of two unpinned bodies, which press each other with it (their friction's bound).
+  std::vector<double> pair_pressed_;
+  /// Per contact, with pair_pressed_: 1 where its sides lie on two unpinned bodies (their plane is
+  /// split by the motion answer_pairs() left them).
+  std::vector<std::uint8_t> pair_answered_;
   std::vector<double> later_;               ///< per vertex: placed after the projection (an unpinned rigid body's)
   std::vector<Index> vertex_body_;          ///< per vertex: its unpinned rigid body, or -1 (with later_)
   std::vector<Index> carrier_;              ///< per vertex: the body carrying it this pass, or -1

@@ -42,6 +42,18 @@ struct RigidPlaneContact {
   /// other_w when the other side is movable and answers the same repulsion in the per-vertex
   /// response (cloth, tets, strands); 0 for an obstacle or a rigid body.
   double responds_w = 0.0;
+  /// The normal impulse (kg m) another unpinned body presses it with, from answer_pairs(): it
+  /// joins the pose solve's own in bounding the friction.
+  double pressed = 0.0;
+};
+
+/// How RigidBodies::answer_pairs() closes the contacts between two unpinned bodies.
+struct PairResponse {
+  double rest_overlap = 0.0;  ///< the first part of an overlap left to the planes as resting contact (m)
+  int sweeps = 1;             ///< Gauss-Seidel sweeps at most
+  /// δ (m) and α̃ = 1 / (k dt²): the pair's repulsion of its gap toward δ (0: none).
+  double repulsion_range = 0.0;
+  double repulsion_compliance = 0.0;
 };
 
 /// The contact response of the pose solve (the per-vertex response skips unpinned rigid bodies).
@@ -153,12 +165,20 @@ class RigidBodies {
   /// constraints between two bodies): \f$\Delta\lambda = -C / (w_A + w_B)\f$, w the generalized
   /// inverse mass of each body along n at the closest points' midpoint, λ ≥ 0 accumulated, +Δλ n
   /// on side A and -Δλ n on side B, both at that midpoint, so the pair's linear and angular momentum
-  /// are kept. The first `rest_overlap` (m) of an overlap is resting contact, left to the planes. At
-  /// most `sweeps` sweeps; the bodies' rotations are linearized within them. Writes each body's
-  /// shift and turn (rotation vector about its fit's centre at `x`, #bodies) and returns the
-  /// contacts that pushed. The caller moves the bodies (displace()).
+  /// are kept. The first `rest_overlap` (m) of an overlap is resting contact, left to the planes.
+  /// In the same sweeps each such pair's XPBD repulsion of its gap g toward δ,
+  /// \f$\Delta\lambda_r = (\delta - g - \tilde\alpha\lambda_r) / (w_A + w_B + \tilde\alpha)\f$, λ_r ≥ 0,
+  /// acts on both alike (the pose solves leave these planes' repulsion to it). At most
+  /// `response.sweeps` sweeps; the bodies' rotations are linearized within them. Writes each body's
+  /// shift and turn (rotation vector about its fit's centre at `x`, #bodies), and per contact the
+  /// impulse λ + λ_r it took into `repelled` (if given; 0 for the others), and returns the contacts
+  /// that pushed. The caller moves the bodies (displace()).
   Index answer_pairs(const Positions& x, const Positions& anchor, std::span<const ContactPair> contacts,
-                     double rest_overlap, int sweeps, std::vector<Vec3>& shift, std::vector<Vec3>& turn) const;
+                     const PairResponse& response, std::vector<Vec3>& shift, std::vector<Vec3>& turn,
+                     std::vector<double>* repelled = nullptr) const;
+
+  /// Whether `c`'s two sides lie on two different unpinned bodies (answer_pairs() answers it).
+  bool between_two_bodies(const ContactPair& c) const;
 
   /// Vertices of rigid bodies farther than `tolerance` from the best rigid fit of their body:
   /// a deformed rigid body, which detection cannot see (its pairs with itself are not tested).
