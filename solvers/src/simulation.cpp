@@ -523,7 +523,7 @@ void Simulation::substep(FrameStats& fs, int substep_index, double dt, int halvi
   if (end.worst && !end.short_enough) report_capped_speed(*end.worst, end.worst_length + (bound - 1) * r, dt);
   fs.violations_remaining = std::max(fs.violations_remaining, end.remaining);
   check_violations(end.remaining, substep_index, iterations_run, end.held_back, fs);
-  restore_island_momentum();
+  restore_island_momentum(dt);
 
   record_lag(fs);
 

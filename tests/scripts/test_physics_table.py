@@ -49,3 +49,20 @@ def test_no_binary_and_no_measurement(tmp_path):
     assert code == 2 and "not found" in err
     code, _, err = run(fake_build(tmp_path / "b", ["nothing"]))
     assert code == 2 and "no measurement" in err
+
+
+def test_pairings_as_a_matrix_per_solver(tmp_path):
+    dev = "momentum'\"'\"'s largest deviation"  # an apostrophe inside the stand-in's echo '...'
+    build = fake_build(tmp_path, [
+        f"physics|P.x/a|rigid into cloth, ccfr: {dev} in 10 frames|2|2.02|kg m/s",
+        "physics|P.x/a|rigid into cloth, ccfr: angular momentum after 10 frames|0.1|0.099|kg m²/s",
+        f"physics|P.x/b|cloth into rigid, ccfr: {dev} in 10 frames|1|1|kg m/s",
+        "physics|A.b|box: distance|2|2.1|m"])
+    code, out, err = run(build)
+    assert code == 0, err
+    assert "| `A.b` | box: distance | 2 m | 2.1 m | +5.00 % |" in out
+    assert "rigid into cloth" not in out
+    assert "Every pairing under `ccfr`" in out
+    assert "| shot \\ hit | rigid | cloth |" in out
+    assert "| rigid | — | +1.00 % / -1.00 % |" in out
+    assert "| cloth | +0.00 % / — | — |" in out

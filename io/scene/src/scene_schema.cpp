@@ -148,9 +148,10 @@ const scene::Section<ContactParams>& contact_section() {
                  "substep takes the rest of any step longer than r instead of cutting it (docs/feasibility.md, "
                  "\"The last pass takes the rest of a step\"); bodies (tet solids, cloths, shells) close to "
                  "one another with nothing pinned or scripted among them are carried together by their common "
-                 "translation before each pass, and bodies (rigid ones too) that touch only one another (or "
-                 "nothing) get back the linear and angular momentum the projection took, as one shift and one "
-                 "turn of them all (docs/feasibility.md, \"A free island keeps its momentum\"); two unpinned "
+                 "translation before each pass, and pieces (bodies, rigid ones too, single strands, single "
+                 "grains) that touch only one another (or nothing) get back the linear momentum the projection "
+                 "took and the angular momentum they had at the substep's start, as one shift and one turn of "
+                 "them all (docs/feasibility.md, \"A free island keeps its momentum\"); two unpinned "
                  "rigid bodies push each other where their candidates overlap and repel each other as one pair "
                  "within δ, their plane split by the motion that leaves (\"Momentum between rigid bodies\"). "
                  "With it, a cloth or strand with static pins is held by its tethers (contact.tethers)")

@@ -229,21 +229,24 @@ class Simulation {
   /// where it went. Returns the objects moved.
   Index carry_free_groups(const std::vector<AABB>& box, std::vector<AABB>& swept,
                           const std::vector<std::uint8_t>& carried_object);
-  /// contact.momentum: restarts the islands of a solve of the substep. An island is the bodies
-  /// (tet solids, cloths, shells, rigid bodies with their cores) one contact of its passes joins; it
-  /// is free while none of its vertices is pinned or scripted and no contact joins it to anything
-  /// else (an obstacle, strands, particles): then no external impulse but gravity acts on it in the
+  /// contact.momentum: splits the objects into the pieces islands are made of (vertex_piece_).
+  void build_pieces();
+  /// contact.momentum: restarts the islands of a solve of the substep. An island is the pieces
+  /// (tet solids, cloths, shells, rigid bodies with their cores, single strands, single grains) one
+  /// contact of its passes joins; it is free while none of its vertices is pinned or scripted and
+  /// no contact joins it to an obstacle: then no external impulse but gravity acts on it in the
   /// substep.
   void start_islands();
-  /// Joins the objects of the last detection's contacts (ContactSolver::detected_contacts()).
+  /// Joins the pieces of the last detection's contacts (ContactSolver::detected_contacts()).
   void join_islands();
-  /// contact.momentum: gives each free island back the linear and angular momentum the substep's
-  /// solve took from it (the regions' projection is not an impulse between two sides), as one
-  /// translation and one turn about its centre of the whole island, each made where the island's
-  /// box swept along it stays more than ξ + δ from every other object's box (docs/feasibility.md,
-  /// "A free island keeps its momentum"). Region-projection solvers only (follow_steps_), no
-  /// analytic obstacles. Returns the islands moved.
-  Index restore_island_momentum();
+  /// contact.momentum: gives each free island back the linear momentum the substep's contact solve
+  /// took from it (the regions' projection is not an impulse between two sides) and the angular
+  /// momentum it had at the substep's start (which the material sweeps' projection of a turning
+  /// shape loses too; dt the substep, s), as one translation and one turn about its centre of the whole island, each
+  /// made where the island's pieces swept along it stay more than ξ + δ from every other piece (docs/feasibility.md, "A
+  /// free island keeps its momentum"). Region-projection solvers only (follow_steps_), no analytic obstacles. Returns
+  /// the islands moved.
+  Index restore_island_momentum(double dt);
   /// contact.adaptive_reach and contact.momentum's long steps: checks the setting against the solver and the kept
   /// list, marks rigid vertices.
   void init_adaptive_reach();
@@ -269,8 +272,15 @@ class Simulation {
   std::vector<std::uint8_t> held_marks_, violated_marks_, deferred_marks_;
   /// Per vertex: its object was carried only part of its rigid motion this pass (at most r).
   std::vector<std::uint8_t> carry_capped_;
-  /// contact.momentum's islands (start_islands): per object its parent in the union-find, and
-  /// whether it is fixed (pinned, scripted, or not a body) or joined to a fixed one; off when the
+  /// contact.momentum's pieces (build_pieces): a tet solid, cloth, shell, rigid body or obstacle is
+  /// one, each connected run of a strand object's segments one, each grain of a particle cloud one
+  /// (a hit moves the grain, not the cloud). Per vertex its piece; per piece its object and its
+  /// vertices (piece_vertex_ from piece_first_[p] to piece_first_[p + 1]).
+  std::vector<Index> vertex_piece_, piece_object_, piece_first_, piece_vertex_;
+  /// Per strand piece its segments (edge ids, piece_edge_ from piece_edge_first_[p]); none for others.
+  std::vector<Index> piece_edge_first_, piece_edge_;
+  /// contact.momentum's islands (start_islands): per piece its parent in the union-find, and
+  /// whether it is fixed (pinned, scripted, an obstacle) or joined to a fixed one; off when the
   /// solver lists no contacts or analytic obstacles act.
   std::vector<Index> island_parent_;
   std::vector<std::uint8_t> island_fixed_;
@@ -278,11 +288,46 @@ class Simulation {
   /// Per object: a rigid body's core (kg), the mass at its centre no vertex carries (RigidBodies);
   /// 0 for every other object. Sized on the first start_islands().
   std::vector<double> object_core_;
-  /// The root of object o's island (path halving).
-  Index island_of(Index o);
-  /// Whether `swept` (island `root`'s box along a shift or turn) stays more than `gap` from the box
-  /// of every object outside the island.
-  bool island_clear(Index root, const AABB& swept, const std::vector<AABB>& box, double gap);
+  /// The root of piece p's island (path halving).
+  Index island_of(Index p);
+  /// The free islands' pieces: those of the island rooted at r are member[first[r]] to
+  /// member[first[r + 1]] (empty for a fixed island or a piece that is not a root).
+  struct IslandMembers {
+    std::vector<Index> first, member;
+    std::span<const Index> of(Index root) const {
+      return {member.data() + first[root], static_cast<size_t>(first[root + 1] - first[root])};
+    }
+  };
+  /// Groups the pieces by free island, and sets each piece's box at the anchors.
+  IslandMembers free_island_members(std::vector<AABB>& box);
+  /// A free island's move: a shift, then a turn that carries no point farther than `arc` (m).
+  struct IslandMove {
+    Vec3 shift = Vec3::Zero();
+    double arc = 0.0;
+    /// The box `b` sweeps under the move.
+    AABB of(const AABB& b) const;
+  };
+  /// Calls f(box) for each collision primitive of piece p at the anchors: a grain's point, a
+  /// strand's segments, a mesh's triangles.
+  template <class F>
+  void each_primitive_box(Index p, F&& f) const;
+  Index primitive_count(Index p) const;
+  /// Whether every primitive of piece p, swept by `move`, stays more than `gap` from every one of q
+  /// (their boxes; false without looking where that is more than 2^16 pairs).
+  bool pieces_apart(Index p, Index q, const IslandMove& move, double gap);
+  std::vector<AABB> clear_scratch_;  ///< pieces_apart's primitive boxes of q
+  /// The pieces sorted by their boxes' lower x at the restore's start, the widest box along x, and
+  /// the farthest (m) one island's moves made since may have carried a point: island_clear's window.
+  struct PieceIndex {
+    explicit PieceIndex(const std::vector<AABB>& box);
+    std::vector<Index> order;
+    std::vector<double> lo_x;
+    double width = 0.0, drift = 0.0;
+  };
+  /// Whether island `root` (its pieces `members`, boxes `box` per piece), swept by `move`, stays
+  /// more than `gap` from every piece outside it: by boxes, and where boxes meet, by primitives.
+  bool island_clear(Index root, std::span<const Index> members, const IslandMove& move, const std::vector<AABB>& box,
+                    const PieceIndex& index, double gap);
   /// contact.adaptive_reach (on for a solver that takes it): each pass's per-vertex reach (m), the
   /// vertices always given r (rigid bodies'), and those the last pass's step bound held back.
   bool adaptive_reach_ = false;
