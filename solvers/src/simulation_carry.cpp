@@ -146,7 +146,7 @@ Index Simulation::carry_isolated_objects() {
     if (f_shift < 1.0 || f_turn < 1.0)
       for (Index v = obj.vertex_begin; v < obj.vertex_end; ++v) carry_capped_[v] = 1;
   }
-  if (follow_steps_ && sweeps) carried += carry_free_groups(box, swept, carried_object);
+  if (free_islands_ && sweeps) carried += carry_free_groups(box, swept, carried_object);
   // Under the paper's response a grain keeps the step bound of r a pass (its Alg. 1, line 16), which
   // time.advance_shortfall and time.continuation are defined against; under contact.momentum, whose
   // last pass already takes the rest of a long step, a free grain is carried its whole step.

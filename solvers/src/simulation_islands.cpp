@@ -1,4 +1,4 @@
-// contact.momentum's free islands: the pieces (bodies, single strands, single grains) one
+// contact.free_islands: the pieces (bodies, single strands, single grains) one
 // substep's contacts join, with nothing pinned, scripted or fixed among them, get back the linear
 // and angular momentum the projection took (docs/feasibility.md, "A free island keeps its momentum").
 #include <Eigen/Geometry>
@@ -78,9 +78,8 @@ void Simulation::build_pieces() {
 void Simulation::start_islands() {
   const auto& topo = scene_.topo;
   const auto& st = scene_.state;
-  // contact.momentum under the region-projection solvers (follow_steps_), as the group carry: the
-  // baselines keep their own response.
-  islands_on_ = follow_steps_ && analytic_obstacles_.empty() && contact_->detected_contacts();
+  // Under the region-projection solvers only (free_islands_), as the group carry.
+  islands_on_ = free_islands_ && analytic_obstacles_.empty() && contact_->detected_contacts();
   if (!islands_on_) return;
   const auto no = static_cast<Index>(topo.objects.size());
   if (object_core_.size() != static_cast<size_t>(no)) {

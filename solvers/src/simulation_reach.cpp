@@ -12,6 +12,9 @@ void Simulation::init_adaptive_reach() {
   const auto& params = scene_.params;
   // contact.momentum: the last pass of a substep takes the rest of a step longer than r.
   follow_steps_ = params.contact.momentum && contact_->takes_vertex_reach();
+  // contact.free_islands: the group carry and the islands' momentum, under the region-projection solvers (the
+  // baselines keep their own response).
+  free_islands_ = params.contact.free_islands && contact_->takes_vertex_reach();
   if (params.contact.adaptive_reach > 0.0) {
     if (params.collision.reuse_skin > 0.0)
       throw Error(

@@ -81,6 +81,12 @@ struct ContactParams : ContactModel {
   /// the paper's response (repulsion within δ) and mass-share planes. Off by default (docs/feasibility.md, "Why it is
   /// not the default yet"); a cloth or strand with static pins is held by its tethers.
   bool momentum = false;
+  /// Free islands keep their momentum (on by default; region-projection solvers): bodies close to one another with
+  /// nothing pinned or scripted among them are carried together before each pass, and the pieces that touch only one
+  /// another (or nothing) get back, by one rigid motion, the linear momentum the projection took and the angular
+  /// momentum of the substep's start (docs/feasibility.md, "A free island keeps its momentum"). false: the paper's
+  /// projection alone, which takes the momentum of whatever it holds.
+  bool free_islands = true;
   /// With `momentum`: every pinned cloth and strand gets long-range attachments (Tethers), each
   /// movable vertex at most (1 + tether_slack) times its rest geodesic distance from its pins,
   /// enforced in the material sweeps and as a cap of the momentum response's pushes.

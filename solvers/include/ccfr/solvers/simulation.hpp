@@ -221,7 +221,7 @@ class Simulation {
   /// more than `gap` from every other grain's swept box and every other object's box in `swept`:
   /// carried that step before detection. Returns their count.
   Index carry_free_grains(size_t o, const std::vector<AABB>& swept, double gap);
-  /// contact.momentum: the groups of two or more bodies (tet solids, cloths, shells) whose anchor
+  /// contact.free_islands: the groups of two or more bodies (tet solids, cloths, shells) whose anchor
   /// boxes come within 4r + ξ + δ of one another, none pinned, scripted, held or carried on its
   /// own: each is carried by its mass-weighted translation toward the material solve where its box
   /// swept along it stays more than ξ + δ from every other object's `swept` box. The pass's regions
@@ -229,9 +229,9 @@ class Simulation {
   /// where it went. Returns the objects moved.
   Index carry_free_groups(const std::vector<AABB>& box, std::vector<AABB>& swept,
                           const std::vector<std::uint8_t>& carried_object);
-  /// contact.momentum: splits the objects into the pieces islands are made of (vertex_piece_).
+  /// contact.free_islands: splits the objects into the pieces islands are made of (vertex_piece_).
   void build_pieces();
-  /// contact.momentum: restarts the islands of a solve of the substep. An island is the pieces
+  /// contact.free_islands: restarts the islands of a solve of the substep. An island is the pieces
   /// (tet solids, cloths, shells, rigid bodies with their cores, single strands, single grains) one
   /// contact of its passes joins; it is free while none of its vertices is pinned or scripted and
   /// no contact joins it to an obstacle: then no external impulse but gravity acts on it in the
@@ -239,12 +239,12 @@ class Simulation {
   void start_islands();
   /// Joins the pieces of the last detection's contacts (ContactSolver::detected_contacts()).
   void join_islands();
-  /// contact.momentum: gives each free island back the linear momentum the substep's contact solve
+  /// contact.free_islands: gives each free island back the linear momentum the substep's contact solve
   /// took from it (the regions' projection is not an impulse between two sides) and the angular
   /// momentum it had at the substep's start (which the material sweeps' projection of a turning
   /// shape loses too; dt the substep, s), as one translation and one turn about its centre of the whole island, each
   /// made where the island's pieces swept along it stay more than ξ + δ from every other piece (docs/feasibility.md, "A
-  /// free island keeps its momentum"). Region-projection solvers only (follow_steps_), no analytic obstacles. Returns
+  /// free island keeps its momentum"). Region-projection solvers only (free_islands_), no analytic obstacles. Returns
   /// the islands moved.
   Index restore_island_momentum(double dt);
   /// contact.adaptive_reach and contact.momentum's long steps: checks the setting against the solver and the kept
@@ -332,6 +332,7 @@ class Simulation {
   /// vertices always given r (rigid bodies'), and those the last pass's step bound held back.
   bool adaptive_reach_ = false;
   bool follow_steps_ = false;  ///< contact.momentum: the last pass takes the rest of a step (reach_long_steps)
+  bool free_islands_ = false;  ///< contact.free_islands under a region-projection solver: group carry and islands
   bool reach_pass_ = false;    ///< this pass bounds each vertex by vertex_reach_
   std::vector<double> vertex_reach_;
   std::vector<std::uint8_t> reach_full_, reach_held_;
