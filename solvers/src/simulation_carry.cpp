@@ -148,8 +148,10 @@ Index Simulation::carry_isolated_objects() {
   }
   if (free_islands_ && sweeps) carried += carry_free_groups(box, swept, carried_object);
   // Under the paper's response a grain keeps the step bound of r a pass (its Alg. 1, line 16), which
-  // time.advance_shortfall and time.continuation are defined against; under contact.momentum, whose
-  // last pass already takes the rest of a long step, a free grain is carried its whole step.
+  // time.advance_shortfall and time.continuation are defined against (a lone grain the bound held
+  // back may get its momentum back afterwards as a free island of its own, contact.free_islands);
+  // under contact.momentum, whose last pass already takes the rest of a long step, a free grain is
+  // carried its whole step.
   if (follow_steps_ && sweeps)
     for (size_t o = 0; o < no; ++o)
       if (topo.objects[o].kind == ObjectKind::particles) carried += carry_free_grains(o, swept, swept_gap);

@@ -189,8 +189,9 @@ TEST_P(ContactMomentum, AGlancingImpactKeepsTheAngularMomentumAboutTheCommonCent
 TEST_P(ContactMomentum, ByDefaultTwoSoftSolidsKeepTheirMomentaThroughAnImpactAndPart) {
   // The head-on and the glancing pair above under the defaults (contact.momentum false): the paper's
   // fixed dividing plane stops both sides of each pair, and the pair, a free island, gets back by
-  // one shift and one turn the momentum and angular momentum the projection took. Measured: both
-  // kept to the rounding; the head-on pair parts at -0.42 and +0.71 m/s (restitution 0.45).
+  // one shift and one turn the momentum and angular momentum the projection took. Measured: the
+  // momentum kept to the rounding, the angular momentum within 0.02 %; the head-on pair parts at
+  // -0.42 and +0.71 m/s (restitution 0.45).
   for (const double lateral : {0.0, 0.02}) {
     Simulation sim(two_boxes(GetParam(), 1e-3, 2e-3, 2.0, -0.5, lateral, false));
     const Momenta before = momenta(sim);
@@ -208,7 +209,7 @@ TEST_P(ContactMomentum, ByDefaultTwoSoftSolidsKeepTheirMomentaThroughAnImpactAnd
       EXPECT_GT(after.vb - after.va, 0.0);  // and they part
     } else {
       test::report_physics(what + GetParam(), before.l.z(), after.l.z(), "kg m²/s");
-      EXPECT_LT((after.l - before.l).norm(), 0.05 * before.l.norm());
+      EXPECT_LT((after.l - before.l).norm(), 0.005 * before.l.norm());
     }
   }
 }

@@ -201,7 +201,7 @@ TEST(FreeFlight, ACoilWhoseTurnsTouchFallsAtTheDiscreteFreeFallByDefault) {
   // configs/coil_in_box.yaml's coil without its box: one strand of 600 vertices wound 10 times (4 cm
   // radius, 30 cm long; 4.2 mm segments), so each segment holds pairs with its neighbours along the
   // strand within the reach 2r + ξ = 14 mm, falling under gravity (60 fps x 4 substeps). Independent answer: the
-  // integrator's own free fall, v = g dt (1 + 2 + ... + 4k) / 4k after frame k's 4k substeps, the same for every
+  // integrator's own free fall, v = g dt n after the n = 4k substeps of frame k, the same for every
   // vertex, since nothing but gravity acts on the coil as a whole. The projection of its own pairs
   // and the step bound took 1.7 % of it by frame 9 (contact.free_islands: false: 1.447 m/s for 1.4715); as its own free
   // island the coil gets it back each substep.

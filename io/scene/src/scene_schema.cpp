@@ -151,15 +151,18 @@ const scene::Section<ContactParams>& contact_section() {
                  "within δ, their plane split by the motion that leaves (\"Momentum between rigid bodies\"). "
                  "With it, a cloth or strand with static pins is held by its tethers (contact.tethers)")
           .field("free_islands", &S::free_islands,
-                 "free islands keep their momentum (default true; region-projection solvers, without "
-                 "contact.analytic_obstacles): bodies (tet solids, cloths, shells) close to one another with nothing "
+                 "free islands keep their momentum (default true; region-projection solvers, in scenes "
+                 "without an object of generated analytic shape: plane, obstacle grid, sphere, box, cylinder): bodies "
+                 "(tet solids, cloths, "
+                 "shells) close to one another with nothing "
                  "pinned or scripted among them are carried together by their common translation before each "
                  "pass, and pieces (bodies, rigid ones too, single strands, single grains) that touch only one "
                  "another (or nothing) get back the linear momentum the projection took and the angular momentum "
                  "they had at the substep's start, as one shift and one turn of them all, made only where it "
                  "keeps them more than ξ + δ from everything else (docs/feasibility.md, \"A free island keeps its "
                  "momentum\"); false: the paper's projection alone, which takes the momentum of what it holds "
-                 "(two soft solids meeting in free space stop), and XPBD's loss of a free body's spin")
+                 "(two soft solids meeting in free space stop), and XPBD's loss of a free body's spin. "
+                 "contact.momentum's exact momenta between free bodies rely on it")
           .field("tethers", &S::tethers,
                  "with contact.momentum: every cloth and strand with static pins (not scripted ones) gets "
                  "long-range attachments (Kim et al. 2012): each movable vertex is kept within (1 + "

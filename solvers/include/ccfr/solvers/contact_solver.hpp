@@ -151,7 +151,7 @@ class ContactSolver {
   virtual void vertex_diagnostics(std::vector<std::int32_t>& half_spaces, std::vector<double>& distance,
                                   std::vector<std::uint8_t>& halted) const {}
   /// The contacts of the last detect() (every sub-pair within reach), or null for a solver that
-  /// does not list them: contact.momentum reads the substep's free islands from them.
+  /// does not list them: contact.free_islands reads the substep's free islands from them.
   virtual const std::vector<ContactPair>* detected_contacts() const { return nullptr; }
   /// The solver's collision detection, if it has one (initial-proximity counts for run.json).
   virtual const CollisionDetector* collision_detector() const { return nullptr; }

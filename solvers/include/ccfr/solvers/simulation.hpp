@@ -272,16 +272,16 @@ class Simulation {
   std::vector<std::uint8_t> held_marks_, violated_marks_, deferred_marks_;
   /// Per vertex: its object was carried only part of its rigid motion this pass (at most r).
   std::vector<std::uint8_t> carry_capped_;
-  /// contact.momentum's pieces (build_pieces): a tet solid, cloth, shell, rigid body or obstacle is
+  /// contact.free_islands' pieces (build_pieces): a tet solid, cloth, shell, rigid body or obstacle is
   /// one, each connected run of a strand object's segments one, each grain of a particle cloud one
   /// (a hit moves the grain, not the cloud). Per vertex its piece; per piece its object and its
   /// vertices (piece_vertex_ from piece_first_[p] to piece_first_[p + 1]).
   std::vector<Index> vertex_piece_, piece_object_, piece_first_, piece_vertex_;
   /// Per strand piece its segments (edge ids, piece_edge_ from piece_edge_first_[p]); none for others.
   std::vector<Index> piece_edge_first_, piece_edge_;
-  /// contact.momentum's islands (start_islands): per piece its parent in the union-find, and
+  /// contact.free_islands' islands (start_islands): per piece its parent in the union-find, and
   /// whether it is fixed (pinned, scripted, an obstacle) or joined to a fixed one; off when the
-  /// solver lists no contacts or analytic obstacles act.
+  /// solver lists no contacts or an object has a generated analytic shape (analytic_obstacles_).
   std::vector<Index> island_parent_;
   std::vector<std::uint8_t> island_fixed_;
   bool islands_on_ = false;
