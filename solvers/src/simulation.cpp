@@ -34,7 +34,10 @@ Simulation::Simulation(Scene scene) : scene_(std::move(scene)) {
       for (Index v = o.vertex_begin; v < o.vertex_end; ++v) is_kin[v] = true, motion_of[v] = &op.motion;
     for (const auto& pin : op.pins)
       for (Index lv : pin.vertices) is_kin[o.vertex_begin + lv] = true, motion_of[o.vertex_begin + lv] = &pin.motion;
-    if (op.shape.type != AnalyticShape::Type::none) analytic_obstacles_.push_back(static_cast<Index>(oi));
+    // Distance functions act only for obstacles (they follow the obstacle's script) and only under
+    // contact.analytic_obstacles.
+    if (params.contact.analytic_obstacles && o.kinematic() && op.shape.type != AnalyticShape::Type::none)
+      analytic_obstacles_.push_back(static_cast<Index>(oi));
   }
   kin_slot_.assign(static_cast<size_t>(topo.num_vertices()), -1);
   for (Index v = 0; v < topo.num_vertices(); ++v)
@@ -148,7 +151,7 @@ void Simulation::check_finite(const Positions& x, const char* stage) const {
 }
 
 void Simulation::collide_analytic(Positions& x, double t) const {
-  if (analytic_obstacles_.empty() || !scene_.params.contact.analytic_obstacles) return;
+  if (analytic_obstacles_.empty()) return;
   const auto& st = scene_.state;
   const double offset = scene_.params.contact.offset;
   parallel_for(
@@ -635,8 +638,7 @@ void Simulation::set_kinematic_targets(std::span<const Index> vertices, std::spa
       throw Error("set_kinematic_targets: vertex " + std::to_string(v) + " (local " +
                   std::to_string(v - o.vertex_begin) + " of object '" + o.name +
                   "') is neither pinned nor part of an obstacle; pin it in the scene first");
-    if (scene_.params.contact.analytic_obstacles &&
-        std::find(analytic_obstacles_.begin(), analytic_obstacles_.end(), oi) != analytic_obstacles_.end())
+    if (std::find(analytic_obstacles_.begin(), analytic_obstacles_.end(), oi) != analytic_obstacles_.end())
       throw Error("set_kinematic_targets: vertex " + std::to_string(v) + " belongs to obstacle '" + o.name +
                   "', whose analytic shape follows its scripted motion only; set contact.analytic_obstacles: false "
                   "to drive it");

@@ -152,7 +152,7 @@ const scene::Section<ContactParams>& contact_section() {
                  "With it, a cloth or strand with static pins is held by its tethers (contact.tethers)")
           .field("free_islands", &S::free_islands,
                  "free islands keep their momentum (default true; region-projection solvers, in scenes "
-                 "without an object of generated analytic shape: plane, obstacle grid, sphere, box, cylinder): bodies "
+                 "where no obstacle collides through its distance function, contact.analytic_obstacles): bodies "
                  "(tet solids, cloths, "
                  "shells) close to one another with nothing "
                  "pinned or scripted among them are carried together by their common translation before each "

@@ -81,8 +81,8 @@ struct ContactParams : ContactModel {
   /// the paper's response (repulsion within δ) and mass-share planes. Off by default (docs/feasibility.md, "Why it is
   /// not the default yet"); a cloth or strand with static pins is held by its tethers.
   bool momentum = false;
-  /// Free islands keep their momentum (on by default; region-projection solvers, in scenes without an object of
-  /// generated analytic shape, Simulation::analytic_obstacles_): bodies close to one another with
+  /// Free islands keep their momentum (on by default; region-projection solvers, in scenes where no obstacle collides
+  /// through its distance function, contact.analytic_obstacles): bodies close to one another with
   /// nothing pinned or scripted among them are carried together before each pass, and the pieces that touch only one
   /// another (or nothing) get back, by one rigid motion, the linear momentum the projection took and the angular
   /// momentum of the substep's start (docs/feasibility.md, "A free island keeps its momentum"). false: the paper's

@@ -261,7 +261,8 @@ class Simulation {
   Tethers tethers_;                        ///< contact.momentum: the pinned cloths' and strands' long-range attachments
   std::vector<Index> kinematic_;           ///< kinematic vertex ids
   std::vector<const Motion*> kin_motion_;  ///< motion of each kinematic vertex (nullptr: static)
-  std::vector<Index> analytic_obstacles_;  ///< objects with an analytic shape
+  /// Obstacles whose analytic shape collides through its distance function (contact.analytic_obstacles).
+  std::vector<Index> analytic_obstacles_;
   Positions predicted_, anchor_, solve_, kinematic_step_;
   /// The material sweeps' result from the prediction, computed once per substep: every outer
   /// iteration restarts from the same prediction with fresh multipliers, so it is the same each time.
@@ -281,7 +282,7 @@ class Simulation {
   std::vector<Index> piece_edge_first_, piece_edge_;
   /// contact.free_islands' islands (start_islands): per piece its parent in the union-find, and
   /// whether it is fixed (pinned, scripted, an obstacle) or joined to a fixed one; off when the
-  /// solver lists no contacts or an object has a generated analytic shape (analytic_obstacles_).
+  /// solver lists no contacts or an obstacle collides through its distance function (analytic_obstacles_).
   std::vector<Index> island_parent_;
   std::vector<std::uint8_t> island_fixed_;
   bool islands_on_ = false;
