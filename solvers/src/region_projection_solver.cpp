@@ -169,6 +169,14 @@ SolveResult RegionProjectionSolver::resolve(Positions& x, const Positions& ancho
     split_by_motion(regions_, contacts_, anchor, x, state.inv_mass, projected_mass, held_splits_, other_inverse_mass_,
                     pair_answered_);
     if (ctx.push_through) push_through(regions_, contacts_, state.inv_mass, projected_mass, kPushRounds);
+  } else if (ctx.free_island.size() == x.size()) {
+    // Inside a free island (contact.free_islands) the pairs' planes follow the motion too, without
+    // the response: two pieces flying together within reach keep their gap (the paper's fixed
+    // split holds the trailing one back at half the gap a pass, and the island's restore then
+    // gives the loss to both). Every other contact keeps the paper's split.
+    free_split_.resize(x.size());
+    for (size_t v = 0; v < x.size(); ++v) free_split_[v] = ctx.free_island[v] ? projected_mass[v] : 0.0;
+    split_by_motion(regions_, contacts_, anchor, x, state.inv_mass, free_split_, held_splits_, other_inverse_mass_);
   }
   const BatchStats b = project_all(*projector_, regions_, anchor, x, projected_mass, halted_);
   SolveResult r;

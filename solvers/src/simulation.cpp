@@ -431,7 +431,7 @@ Simulation::PassesEnd Simulation::run_passes(FrameStats& fs, int substep_index, 
     const Index capped = carry_before_detection(fs);
     if (adaptive_reach_ || follow_steps_) set_vertex_reach(it, uniform_next, mask.active(), ctx);
     add_detection(fs, contact_->detect(anchor_, st, ctx));
-    join_islands();
+    join_islands(ctx);
     start_from_materials(fs, mask.active(), capped, ctx);
     SolveResult res;
     {

@@ -10,6 +10,7 @@
 #include <span>
 
 #include "ccfr/collision/collision_detector.hpp"
+#include "ccfr/core/parallel.hpp"
 #include "ccfr/geometry/aabb.hpp"
 #include "ccfr/solvers/rigid_bodies.hpp"
 #include "ccfr/solvers/simulation.hpp"
@@ -109,7 +110,8 @@ void Simulation::start_islands() {
   islands_on_ = any_free;
 }
 
-void Simulation::join_islands() {
+void Simulation::join_islands(StepContext& ctx) {
+  ctx.free_island = {};
   if (!islands_on_) return;
   for (const ContactPair& c : *contact_->detected_contacts()) {
     const Index p0 = vertex_piece_[c.v[0]];
@@ -122,6 +124,23 @@ void Simulation::join_islands() {
       island_fixed_[a] |= island_fixed_[b];
     }
   }
+  // Per piece whether its island is free (serial: island_of compresses paths), then per vertex.
+  const auto np = static_cast<Index>(piece_object_.size());
+  std::vector<std::uint8_t> free_piece(static_cast<size_t>(np));
+  bool any = false;
+  for (Index p = 0; p < np; ++p) {
+    free_piece[static_cast<size_t>(p)] = island_fixed_[island_of(p)] ? 0 : 1;
+    any = any || free_piece[static_cast<size_t>(p)];
+  }
+  if (!any) return;
+  free_marks_.resize(vertex_piece_.size());
+  parallel_for(
+      static_cast<Index>(vertex_piece_.size()),
+      [&](Index b, Index e) {
+        for (Index v = b; v < e; ++v) free_marks_[v] = free_piece[static_cast<size_t>(vertex_piece_[v])];
+      },
+      4096);
+  ctx.free_island = free_marks_;
 }
 
 namespace {

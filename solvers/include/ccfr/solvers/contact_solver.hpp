@@ -60,6 +60,9 @@ struct StepContext {
   /// Pass the pushes of fixed and scripted sides on through resting pairs (push_through), with
   /// `momentum`: the last solve of a substep that would otherwise stop the run.
   bool push_through = false;
+  /// Per vertex (#V, or empty: none): 1 where its piece is in a free island after this pass's join
+  /// (contact.free_islands); the region solvers split those pairs' planes by the motion.
+  std::span<const std::uint8_t> free_island = {};
   /// The tethers of the pinned cloths and strands (contact.tethers), or null: the momentum
   /// response pushes no vertex past them, the other side takes the rest of the overlap.
   const Tethers* tethers = nullptr;

@@ -96,6 +96,7 @@ class RegionProjectionSolver final : public DetectingSolver {
   std::vector<double> free_mask_;  ///< inverse masses with unpinned rigid bodies' vertices at 0 (not projected alone)
   std::vector<std::uint8_t> halted_;    ///< #V: halted during frame `halted_frame_`
   std::vector<HeldSplit> held_splits_;  ///< the pass's sides held at their old plane (split_by_motion)
+  std::vector<double> free_split_;      ///< #V: projected inverse masses in the pass's free islands, else 0
   int halted_frame_ = -1;
 };
 

@@ -237,8 +237,9 @@ class Simulation {
   /// no contact joins it to an obstacle: then no external impulse but gravity acts on it in the
   /// substep.
   void start_islands();
-  /// Joins the pieces of the last detection's contacts (ContactSolver::detected_contacts()).
-  void join_islands();
+  /// Joins the pieces of the last detection's contacts (ContactSolver::detected_contacts()), and
+  /// hands the solver the vertices of the free islands so far (StepContext::free_island), or none.
+  void join_islands(StepContext& ctx);
   /// contact.free_islands: gives each free island back the linear momentum the substep's contact solve
   /// took from it (the regions' projection is not an impulse between two sides) and the angular
   /// momentum it had at the substep's start (which the material sweeps' projection of a turning
@@ -286,6 +287,8 @@ class Simulation {
   std::vector<Index> island_parent_;
   std::vector<std::uint8_t> island_fixed_;
   bool islands_on_ = false;
+  /// Per vertex: 1 where its piece's island is free after the pass's join (StepContext::free_island).
+  std::vector<std::uint8_t> free_marks_;
   /// Per object: a rigid body's core (kg), the mass at its centre no vertex carries (RigidBodies);
   /// 0 for every other object. Sized on the first start_islands().
   std::vector<double> object_core_;
