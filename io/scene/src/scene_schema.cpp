@@ -156,11 +156,14 @@ const scene::Section<ContactParams>& contact_section() {
                  "(tet solids, cloths, "
                  "shells) close to one another with nothing "
                  "pinned or scripted among them are carried together by their common translation before each "
-                 "pass, and pieces (bodies, rigid ones too, single strands, single grains) that touch only one "
+                 "pass, a grain whose sweep along its step meets nothing is carried that step, and pieces (bodies, "
+                 "rigid ones too, single strands, single grains) that touch only one "
                  "another (or nothing) get back the linear momentum the projection took and the angular momentum "
                  "they had at the substep's start, as one shift and one turn of them all, made only where it "
-                 "keeps them more than ξ + δ from everything else (docs/feasibility.md, \"A free island keeps its "
-                 "momentum\"); false: the paper's projection alone, which takes the momentum of what it holds "
+                 "keeps them more than ξ + δ from everything else, and their pairs split each gap by the motion "
+                 "that leaves, so that pieces flying together within reach keep their gaps (docs/feasibility.md, "
+                 "\"A free island keeps its momentum\"); false: the paper's projection alone, which takes the momentum "
+                 "of what it holds and keeps a grain to r a pass "
                  "(two soft solids meeting in free space stop), and XPBD's loss of a free body's spin. "
                  "contact.momentum's exact momenta between free bodies rely on it")
           .field("tethers", &S::tethers,
