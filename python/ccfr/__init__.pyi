@@ -109,6 +109,9 @@ class Simulation:
     def frames(self) -> int:
         """time.frames of the scene."""
     @property
+    def masses(self) -> npt.NDArray[np.float64]:
+        """Each vertex's mass in kg as the integrator weighs it, an (n,) copy; obstacles' are 0."""
+    @property
     def kinematic_vertices(self) -> npt.NDArray[np.int32]: ...
 
 class Run:

@@ -150,6 +150,15 @@ void define_simulation_properties(py::class_<PySimulation>& cls) {
           "frames", [](const PySimulation& s) { return s.sim->scene().params.time.frames; },
           "time.frames of the scene.")
       .def_property_readonly(
+          "masses",
+          [](const PySimulation& s) {
+            const auto& m = s.sim->scene().state.mass;
+            return py::array_t<double>(static_cast<py::ssize_t>(m.size()), m.data());
+          },
+          "Each vertex's mass in kg as the integrator weighs it (a copy, (n,)): Σ m v over an object is its "
+          "momentum. Obstacles' are 0; pinned vertices keep theirs. A rigid body's vertices carry part of its "
+          "mass, the rest (its core) sits at its centre of mass, which their mass-weighted centre follows.")
+      .def_property_readonly(
           "kinematic_vertices",
           [](const PySimulation& s) {
             const auto& st = s.sim->scene().state;

@@ -50,6 +50,35 @@ def test_set_positions_and_velocities_closed_form(data):
     np.testing.assert_allclose(sim.velocities[grain], v[grain], rtol=0, atol=1e-9)
 
 
+def test_masses_are_the_lumped_masses_and_weigh_the_momentum():
+    # Closed form: the cloth strip's vertex masses add up to its areal density x 0.4 m x 0.1 m, the
+    # grain's is its material's density (kg a grain); a free grain's momentum is m v.
+    scene = ccfr.load_scene_text(
+        """
+time: {fps: 60, frames: 1, substeps: 4, gravity: [0, 0, 0], damping: 0}
+materials: {sheet: {density: 0.3}, sand: {density: 0.002}}
+objects:
+  - {name: strip, kind: cloth, material: sheet, shape: {type: grid, size: [0.4, 0.1], resolution: [8, 2]}}
+  - name: grain
+    kind: particles
+    material: sand
+    shape: {type: particles, counts: [1, 1, 1], spacing: 0.01}
+    transform: {translate: [0, 0.5, 0]}
+"""
+    )
+    sim = ccfr.Simulation(scene, threads=2)
+    m = sim.masses
+    assert m.shape == (sim.num_vertices,) and m.dtype == np.float64
+    strip = scene.objects[0]
+    assert m[strip["vertex_begin"] : strip["vertex_end"]].sum() == pytest.approx(0.3 * 0.4 * 0.1, rel=1e-12)
+    assert m[-1] == 0.002
+    v = np.zeros((sim.num_vertices, 3))
+    v[-1] = [0.0, 0.0, 2.0]
+    sim.set_velocities(v)
+    sim.step()
+    assert (m[:, None] * sim.velocities)[-1, 2] == pytest.approx(0.004, rel=1e-9)
+
+
 @pytest.mark.parametrize("bad", [np.zeros((3, 3)), np.zeros((5,)), "text"])
 def test_setters_refuse_wrong_shapes(data, bad):
     sim = handle_sim(data)
