@@ -97,7 +97,26 @@ Momenta momenta(const Simulation& sim) {
 
 }  // namespace
 
-class ContactMomentum : public ::testing::TestWithParam<const char*> {};
+/// Each test under ccfr and exact_projection; under a compared solver (test::physics_solvers) only
+/// the impacts of issue 54's list run, measured for docs/results.md's table, their closed forms
+/// not asserted.
+class ContactMomentum : public ::testing::TestWithParam<const char*> {
+ protected:
+  void SetUp() override {
+    if (asserted()) return;
+    const std::string name = ::testing::UnitTest::GetInstance()->current_test_info()->name();
+    const std::vector<const char*> with_rigid = test::physics_solvers_with_rigid();
+    const bool takes_rigid = std::find_if(with_rigid.begin(), with_rigid.end(), [](const char* s) {
+                               return std::string(s) == GetParam();
+                             }) != with_rigid.end();
+    for (const char* compared : {"TwoSoftSolidsOfUnequalMass", "ByDefaultTwoSoftSolids"})
+      if (name.find(compared) != std::string::npos) return;
+    for (const char* compared : {"ARigidBallShotIntoAFreeCloth", "TwoRigidBodiesKeep"})
+      if (name.find(compared) != std::string::npos && takes_rigid) return;
+    GTEST_SKIP() << "measured under the region solvers only";
+  }
+  static bool asserted() { return test::asserts_closed_form(GetParam()); }
+};
 
 TEST_P(ContactMomentum, TwoSoftSolidsOfUnequalMassConserveMomentumThroughAHeadOnImpactAndPart) {
   // a: 343 vertices of 1 g (0.343 kg) at 2 m/s; b: twice as heavy at -0.5 m/s, 4 mm away. Total
@@ -108,11 +127,12 @@ TEST_P(ContactMomentum, TwoSoftSolidsOfUnequalMassConserveMomentumThroughAHeadOn
   for (int f = 1; f <= 12; ++f) {
     const FrameStats fs = sim.step_frame();
     EXPECT_EQ(fs.violations_remaining, 0) << "frame " << f;
-    EXPECT_NEAR(momenta(sim).p.x(), before.p.x(), 0.02 * std::abs(before.p.x())) << "frame " << f;
+    if (asserted()) EXPECT_NEAR(momenta(sim).p.x(), before.p.x(), 0.02 * std::abs(before.p.x())) << "frame " << f;
   }
   const Momenta after = momenta(sim);
   test::report_physics(std::string("head-on soft solids: momentum after 12 frames, ") + GetParam(), before.p.x(),
                        after.p.x(), "kg m/s");
+  if (!asserted()) return;
   EXPECT_LT(after.va, 1.0);             // a was stopped by b (it flew at 2 m/s)
   EXPECT_GT(after.vb - after.va, 0.0);  // and they part again: b moves away from a
 }
@@ -211,8 +231,9 @@ TEST_P(ContactMomentum, ByDefaultTwoSoftSolidsKeepTheirMomentaThroughAnImpactAnd
     for (int f = 1; f <= 12; ++f) {
       const FrameStats fs = sim.step_frame();
       EXPECT_EQ(fs.violations_remaining, 0) << "frame " << f;
-      EXPECT_NEAR(momenta(sim).p.x(), before.p.x(), 0.02 * std::abs(before.p.x()))
-          << "frame " << f << (plane_floor ? ", over a plane floor" : "");
+      if (asserted())
+        EXPECT_NEAR(momenta(sim).p.x(), before.p.x(), 0.02 * std::abs(before.p.x()))
+            << "frame " << f << (plane_floor ? ", over a plane floor" : "");
     }
     const Momenta after = momenta(sim);
     const std::string what = lateral != 0.0 ? "glancing soft solids by default: angular momentum after 12 frames, "
@@ -221,11 +242,12 @@ TEST_P(ContactMomentum, ByDefaultTwoSoftSolidsKeepTheirMomentaThroughAnImpactAnd
                                  : "head-on soft solids by default: momentum after 12 frames, ";
     if (lateral == 0.0) {
       test::report_physics(what + GetParam(), before.p.x(), after.p.x(), "kg m/s");
+      if (!asserted()) continue;
       EXPECT_LT(after.va, 0.0);             // a, at 2 m/s, is thrown back by b, twice as heavy
       EXPECT_GT(after.vb - after.va, 0.0);  // and they part
     } else {
       test::report_physics(what + GetParam(), before.l.z(), after.l.z(), "kg m²/s");
-      EXPECT_LT((after.l - before.l).norm(), 0.005 * before.l.norm());
+      if (asserted()) EXPECT_LT((after.l - before.l).norm(), 0.005 * before.l.norm());
     }
   }
 }
@@ -281,7 +303,7 @@ TEST_P(ContactMomentum, ByDefaultGrainsFlyingTogetherWithinReachKeepTheirGapsAnd
   EXPECT_LT(sim.scene().state.v[0].x(), 0.7);  // the trailing grain is held back at half the gap a pass
 }
 
-INSTANTIATE_TEST_SUITE_P(Solvers, ContactMomentum, ::testing::Values("ccfr", "exact_projection"));
+INSTANTIATE_TEST_SUITE_P(Solvers, ContactMomentum, ::testing::ValuesIn(test::physics_solvers()));
 
 TEST(ContactMomentum, ThePapersResponseStopsBothBodies) {
   // contact.momentum and contact.free_islands false are the paper's response: the pair's dividing
@@ -458,15 +480,18 @@ TEST_P(ContactMomentum, ARigidBallShotIntoAFreeClothCarriesItOnWithTheShotsMomen
   for (int f = 1; f <= 6; ++f) {
     const FrameStats fs = sim.step_frame();
     EXPECT_EQ(fs.violations_remaining, 0) << "frame " << f;
-    EXPECT_EQ(fs.halted_vertices, 0) << "frame " << f;
     const ObjectMomentum c = object_momentum(sim, 0), b = object_momentum(sim, 1, ball_mass);
-    EXPECT_NEAR(c.p.y() + b.p.y(), before, 0.05 * std::abs(before)) << "frame " << f;
+    if (asserted()) {
+      EXPECT_EQ(fs.halted_vertices, 0) << "frame " << f;
+      EXPECT_NEAR(c.p.y() + b.p.y(), before, 0.05 * std::abs(before)) << "frame " << f;
+    }
     cloth_speed = -c.p.y() / c.mass;
     ball_speed = -b.p.y() / b.mass;
   }
   const double after = object_momentum(sim, 0).p.y() + object_momentum(sim, 1, ball_mass).p.y();
   test::report_physics(std::string("rigid ball into a free cloth: momentum after 6 frames, ") + GetParam(), before,
                        after, "kg m/s");
+  if (!asserted()) return;
   const double inelastic = -before / (ball_mass + 0.05);
   EXPECT_GT(ball_speed, 0.8 * inelastic);   // the ball goes on (it stopped dead before)
   EXPECT_GT(cloth_speed, 0.8 * inelastic);  // and carries the cloth with it
@@ -626,11 +651,11 @@ TEST_P(ContactMomentum, TwoRigidBodiesKeepTheirLinearAndAngularMomentumThroughAn
     const std::string tag = std::string(lateral > 0.0 ? "off-centre" : "head-on") + " rigid spheres: ";
     test::report_physics(tag + "momentum's largest deviation in 8 frames, " + GetParam(), before.p.x(),
                          before.p.x() + worst, "kg m/s");
-    EXPECT_LT(worst, 0.02 * before.p.norm()) << "lateral " << lateral;
-    EXPECT_LT(after.va, 1.0) << "lateral " << lateral;  // a was stopped by b
+    if (asserted()) EXPECT_LT(worst, 0.02 * before.p.norm()) << "lateral " << lateral;
+    if (asserted()) EXPECT_LT(after.va, 1.0) << "lateral " << lateral;  // a was stopped by b
     if (lateral == 0.0) continue;
     test::report_physics(tag + "angular momentum after 8 frames, " + GetParam(), before.l.z(), after.l.z(), "kg m²/s");
-    EXPECT_LT((after.l - before.l).norm(), 0.05 * before.l.norm());
+    if (asserted()) EXPECT_LT((after.l - before.l).norm(), 0.05 * before.l.norm());
   }
 }
 

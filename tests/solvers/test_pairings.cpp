@@ -1,6 +1,7 @@
 // Contact carries momentum in every pairing of movable kinds (issue #54, item 1): a body of each
 // kind (rigid, tet solid, cloth, strands, particles) shot off centre into a resting body of each
-// kind, in zero gravity with no obstacle, under contact.momentum. Independent answer: nothing
+// kind, in zero gravity with no obstacle, under the defaults (the free islands) and under
+// contact.momentum (the inelastic response between the two). Independent answer: nothing
 // outside the pair acts, so the total linear momentum and the angular momentum about the common
 // centre of mass must be what they were before the impact, measured from positions and velocities.
 #include <gtest/gtest.h>
@@ -100,7 +101,7 @@ double extent_x(const Body& b, double sign) {
 
 /// Body a shot at 2 m/s along +x into body b at rest, b's centre `lateral` off a's path along y,
 /// the two 6 mm apart; r = 4 mm, ξ = 2 mm, δ = 0.5 mm, 60 fps x 10 substeps, no gravity.
-Scene shot(const Body& a, const Body& b, const std::string& solver, double lateral) {
+Scene shot(const Body& a, const Body& b, const std::string& solver, bool momentum, double lateral) {
   TopologyBuilder tb;
   const Body* bodies[2] = {&a, &b};
   const char* names[2] = {"a", "b"};
@@ -137,7 +138,7 @@ Scene shot(const Body& a, const Body& b, const std::string& solver, double later
   s.params.contact.radius = 0.004;
   s.params.contact.offset = 0.002;
   s.params.contact.repulsion_range = 0.0005;
-  s.params.contact.momentum = true;
+  s.params.contact.momentum = momentum;
   s.params.time.fps = 60;
   s.params.time.substeps = 10;
   s.params.time.iterations = 2;
@@ -197,7 +198,8 @@ constexpr ObjectKind kKinds[] = {ObjectKind::rigid, ObjectKind::tet_solid, Objec
 
 }  // namespace
 
-using Pairing = std::tuple<ObjectKind, ObjectKind, const char*>;
+/// Shot, hit, solver, contact.momentum.
+using Pairing = std::tuple<ObjectKind, ObjectKind, const char*, bool>;
 class Pairings : public ::testing::TestWithParam<Pairing> {};
 
 TEST_P(Pairings, AnOffCentreShotIntoARestingBodyKeepsTheMomenta) {
@@ -207,13 +209,15 @@ TEST_P(Pairings, AnOffCentreShotIntoARestingBodyKeepsTheMomenta) {
   // 5 % at the end; b carries at least 3 % of it (a pushed b: a sphere through a loose grain
   // cloud hits a few grains only); and no vertex flung, faster than 3 times the shot.
   // On 16679cc islands held bodies only: with strands or grains the momentum moved by 2-12 %, and
-  // the material sweeps' own loss of a spin (below) cost up to 12 % of the angular momentum.
+  // the material sweeps' own loss of a spin (below) cost up to 12 % of the angular momentum. Under
+  // the defaults on bd714e1 (the islands restored a pair's loss as one motion of both, where
+  // the loss fell on one side) rigid with grains or strands missed by 5.1-5.5 % and 7.1 %.
   // A soft impact may end a substep's passes with a vertex still held by r (the speed warning,
   // counted in clamped_vertices); this test measures what the contact leaves of the momenta.
   const test::ExpectWarnings held_in_impacts;
-  const auto [kind_a, kind_b, solver] = GetParam();
+  const auto [kind_a, kind_b, solver, momentum] = GetParam();
   const Body a = make_body(kind_a, false), b = make_body(kind_b, kind_a == ObjectKind::strand);
-  Scene scene = shot(a, b, solver, 0.025);
+  Scene scene = shot(a, b, solver, momentum, 0.025);
   const double solid[2] = {a.solid, b.solid};
   exact::PenetrationAudit audit(scene.topo, scene.state.x, exact::AuditOptions{scene.params.contact.offset, 1e-6});
   Simulation sim(std::move(scene));
@@ -232,10 +236,12 @@ TEST_P(Pairings, AnOffCentreShotIntoARestingBodyKeepsTheMomenta) {
     EXPECT_NE(logged->last.find("wants to move"), std::string::npos) << logged->last;
   }
   const Momenta after = momenta(sim, solid);
-  const std::string tag = std::string(label(kind_a)) + " into " + label(kind_b) + ", " + solver;
+  const std::string tag = std::string(label(kind_a)) + " into " + label(kind_b) + ", " + solver +
+                          (momentum ? " (contact.momentum)" : " (defaults)");
   test::report_physics(tag + ": momentum's largest deviation in 10 frames", before.p.x(), before.p.x() + worst,
                        "kg m/s");
   test::report_physics(tag + ": angular momentum after 10 frames", before.l.z(), after.l.z(), "kg m²/s");
+  if (!test::asserts_closed_form(solver)) return;  // measured for the table (test::physics_solvers)
   EXPECT_LT(worst, 0.02 * before.p.norm());
   EXPECT_LT((after.l - before.l).norm(), 0.05 * before.l.norm());
   EXPECT_GT(after.p_b.x(), 0.03 * before.p.x()) << "b was not pushed";
@@ -246,7 +252,10 @@ std::vector<Pairing> every_pairing() {
   std::vector<Pairing> out;
   for (size_t i = 0; i < std::size(kKinds); ++i)
     for (size_t j = 0; j < std::size(kKinds); ++j)
-      for (const char* solver : {"ccfr", "exact_projection"}) out.emplace_back(kKinds[i], kKinds[j], solver);
+      for (const char* solver : kKinds[i] == ObjectKind::rigid || kKinds[j] == ObjectKind::rigid
+                                    ? test::physics_solvers_with_rigid()
+                                    : test::physics_solvers())
+        for (const bool momentum : {false, true}) out.emplace_back(kKinds[i], kKinds[j], solver, momentum);
   return out;
 }
 }  // namespace
@@ -254,7 +263,8 @@ std::vector<Pairing> every_pairing() {
 INSTANTIATE_TEST_SUITE_P(Solvers, Pairings, ::testing::ValuesIn(every_pairing()),
                          [](const ::testing::TestParamInfo<Pairing>& info) {
                            return std::string(label(std::get<0>(info.param))) + "_into_" +
-                                  label(std::get<1>(info.param)) + "_" + std::get<2>(info.param);
+                                  label(std::get<1>(info.param)) + "_" + std::get<2>(info.param) +
+                                  (std::get<3>(info.param) ? "_momentum" : "_defaults");
                          });
 
 class FreeSpin : public ::testing::TestWithParam<ObjectKind> {};
@@ -282,8 +292,7 @@ TEST_P(FreeSpin, ASpinningBodyTouchingNothingKeepsItsAngularMomentum) {
     a.faces = box.f, a.mass = m.vertex, a.solid = 1000.0 * props.volume;
   }
   const Body b = make_body(ObjectKind::particles, false);
-  Scene scene = shot(a, b, GetParam() == ObjectKind::cloth ? "exact_projection" : "ccfr", 0.0);
-  scene.params.contact.momentum = false;  // the defaults
+  Scene scene = shot(a, b, GetParam() == ObjectKind::cloth ? "exact_projection" : "ccfr", false, 0.0);
   const Index na = static_cast<Index>(a.x.size());
   for (Index i = 0; i < na; ++i) scene.state.v[i] = Vec3(5.0, 20.0, 3.0).cross(scene.state.x[i]);
   for (Index i = na; i < scene.topo.num_vertices(); ++i) scene.state.x[i] += Vec3(5, 0, 0), scene.state.v[i].setZero();

@@ -13,6 +13,7 @@
 #include "ccfr/geometry/generators.hpp"
 #include "ccfr/geometry/mass_properties.hpp"
 #include "ccfr/solvers/simulation.hpp"
+#include "scenes.hpp"
 #include "test_support.hpp"
 
 using namespace ccfr;
@@ -122,8 +123,8 @@ Swing swing(const std::string& solver, bool sliding, Index pin_faces, int subste
   size_t best = 0;
   for (size_t i = 1; i + 1 < y.size(); ++i)
     if (x[i] > 0.0 && (best == 0 || y[i] > y[best])) best = i;
-  if (best == 0) {
-    ADD_FAILURE() << solver << ": never reached the far side";
+  if (best == 0) {  // reported as height 0 under a compared solver (test::physics_solvers)
+    if (test::asserts_closed_form(solver)) ADD_FAILURE() << solver << ": never reached the far side";
     return {};
   }
   const double y_m = y[best - 1], y_c = y[best], y_p = y[best + 1], h = 1.0 / 60.0;
@@ -153,11 +154,12 @@ TEST(RingPendulum, RingOnAFrictionlessPinSwingsToTheFarSideWithThePendulumsPerio
   // inner side back (the chain that cannot swing). Asserted on a 128-face pin at 20
   // substeps: at least 0.85 of the height, the half period within 5 %.
   const double expected = 2.0 * std::sqrt(kArm / kG) * 1.854075;
-  for (const char* solver : {"ccfr", "exact_projection"}) {
+  for (const char* solver : test::physics_solvers_with_rigid()) {
     const Swing s = swing(solver, true, 128, 20);
     const std::string tag = std::string(", 128-face pin, 20 substeps, ") + solver;
     test::report_physics("ring on a pin: height reached on the far side" + tag, 1.0, s.height, "");
     test::report_physics("ring on a pin: half period" + tag, expected, s.half_period, "s");
+    if (!test::asserts_closed_form(solver)) continue;
     EXPECT_GE(s.height, 0.85) << solver;
     EXPECT_NEAR(s.half_period, expected, 0.05 * expected) << solver;
   }
@@ -239,43 +241,47 @@ TEST(RingPendulum, AChainOfRigidLinksSwingsPastTheVerticalUnderContactMomentum) 
   // joint and the faceted tubes (8 facets round) make some of the loss physical, the rest is the
   // integrator's first-order loss (10 substeps).
   constexpr int kLinks = 7, kFrames = 30;
-  Simulation sim(rigid_chain(kLinks, true));
-  std::vector<double> mass(kLinks, 0.0);
-  for (int i = 1; i < kLinks; ++i) {
-    const auto& o = sim.topology().objects[static_cast<size_t>(i)];
-    for (Index v = o.vertex_begin; v < o.vertex_end; ++v) mass[static_cast<size_t>(i)] += sim.scene().state.mass[v];
-  }
-  std::vector<Vec3> before(kLinks);
-  for (int i = 1; i < kLinks; ++i) before[static_cast<size_t>(i)] = centre_of(sim, static_cast<size_t>(i));
-  double potential0 = 0.0;
-  for (int i = 1; i < kLinks; ++i) potential0 += mass[static_cast<size_t>(i)] * kG * before[static_cast<size_t>(i)].y();
-  // A percent of what the chain's whole drop (its length, 0.48 m) would release.
-  double chain_mass = 0.0;
-  for (const double m : mass) chain_mass += m;
-  const double tolerance = 0.01 * chain_mass * kG * before[kLinks - 1].x();
-  double last_x = before[kLinks - 1].x(), most_kept = 0.0, most_released = 0.0;
-  for (int f = 1; f <= kFrames; ++f) {
-    ASSERT_EQ(sim.step_frame().violations_remaining, 0) << "frame " << f;
-    double kinetic = 0.0, potential = 0.0;
+  for (const bool momentum : {true, false}) {
+    Simulation sim(rigid_chain(kLinks, momentum));
+    std::vector<double> mass(kLinks, 0.0);
     for (int i = 1; i < kLinks; ++i) {
-      const size_t k = static_cast<size_t>(i);
-      const Vec3 now = centre_of(sim, k);
-      const Vec3 v = (now - before[k]) * 60.0;
-      kinetic += 0.5 * mass[k] * v.squaredNorm();
-      potential += mass[k] * kG * 0.5 * (now.y() + before[k].y());
-      before[k] = now;
+      const auto& o = sim.topology().objects[static_cast<size_t>(i)];
+      for (Index v = o.vertex_begin; v < o.vertex_end; ++v) mass[static_cast<size_t>(i)] += sim.scene().state.mass[v];
     }
-    const double released = potential0 - potential;
-    EXPECT_LE(kinetic, released + tolerance) << "frame " << f << ": energy created";
-    if (released > most_released) most_released = released, most_kept = kinetic / released;
-    last_x = std::min(last_x, before[kLinks - 1].x());
+    std::vector<Vec3> before(kLinks);
+    for (int i = 1; i < kLinks; ++i) before[static_cast<size_t>(i)] = centre_of(sim, static_cast<size_t>(i));
+    double potential0 = 0.0;
+    for (int i = 1; i < kLinks; ++i)
+      potential0 += mass[static_cast<size_t>(i)] * kG * before[static_cast<size_t>(i)].y();
+    // A percent of what the chain's whole drop (its length, 0.48 m) would release.
+    double chain_mass = 0.0;
+    for (const double m : mass) chain_mass += m;
+    const double tolerance = 0.01 * chain_mass * kG * before[kLinks - 1].x();
+    double last_x = before[kLinks - 1].x(), most_kept = 0.0, most_released = 0.0;
+    for (int f = 1; f <= kFrames; ++f) {
+      ASSERT_EQ(sim.step_frame().violations_remaining, 0) << "frame " << f;
+      double kinetic = 0.0, potential = 0.0;
+      for (int i = 1; i < kLinks; ++i) {
+        const size_t k = static_cast<size_t>(i);
+        const Vec3 now = centre_of(sim, k);
+        const Vec3 v = (now - before[k]) * 60.0;
+        kinetic += 0.5 * mass[k] * v.squaredNorm();
+        potential += mass[k] * kG * 0.5 * (now.y() + before[k].y());
+        before[k] = now;
+      }
+      const double released = potential0 - potential;
+      EXPECT_LE(kinetic, released + tolerance) << "frame " << f << ": energy created";
+      if (released > most_released) most_released = released, most_kept = kinetic / released;
+      last_x = std::min(last_x, before[kLinks - 1].x());
+    }
+    const std::string setting = momentum ? "contact.momentum" : "defaults";
+    test::report_physics("rigid chain of 7 links, " + setting + ": last link's least x in 0.5 s (starts 0.48 m)", 0.0,
+                         last_x, "m");
+    test::report_physics(
+        "rigid chain of 7 links, " + setting + ": translational share of the energy released, lowest point", 1.0,
+        most_kept, "");
+    if (!momentum) continue;  // the defaults' fixed dividing planes: reported, not asserted
+    EXPECT_LT(last_x, 0.0) << "the last link never passed the vertical";
+    EXPECT_GE(most_kept, 0.5);
   }
-  test::report_physics("rigid chain of 7 links, contact.momentum: last link's least x in 0.5 s (starts 0.48 m)", 0.0,
-                       last_x, "m");
-  test::report_physics(
-      "rigid chain of 7 links, contact.momentum: translational share of the energy released, lowest "
-      "point",
-      1.0, most_kept, "");
-  EXPECT_LT(last_x, 0.0) << "the last link never passed the vertical";
-  EXPECT_GE(most_kept, 0.5);
 }
