@@ -74,7 +74,7 @@ Index split_by_motion(RegionSet& regions, std::span<const ContactPair> contacts,
           // response took it (its vertices' own masses would make it a light cloth).
           const double w_o = other_inverse_mass.empty() ? 0.0 : other_inverse_mass[static_cast<size_t>(ci)];
           if (w_o > 0.0 && answers[0] != answers[1]) (answers[0] ? w_b : w_a) = w_o;
-          const bool pair = paired.size() == contacts.size() && paired[static_cast<size_t>(ci)];
+          const bool pair = paired.size() == contacts.size() && paired[static_cast<size_t>(ci)] == 1;
           if (!all_free || !(answers[0] || answers[1] || pair) || !(w_a + w_b > 0.0) || !std::isfinite(a_a + a_b))
             continue;
           const double s_a = w_a / (w_a + w_b);

@@ -99,11 +99,11 @@ void RegionProjectionSolver::respond(Positions& x, const Positions& anchor, cons
   pairs.sweeps = kSeparateSweeps;
   pairs.repulsion_range = ctx.params.contact.repulsion_range;
   pairs.repulsion_compliance = 1.0 / (ctx.params.contact.stiffness * ctx.dt * ctx.dt);
+  pairs.inv_mass = state.inv_mass;
   pair_pressed_.clear();
-  pair_answered_.assign(rigid_.size() > 1 && ctx.params.contact.momentum ? contacts_.size() : 0, 0);
-  for (size_t ci = 0; ci < pair_answered_.size(); ++ci) pair_answered_[ci] = rigid_.between_two_bodies(contacts_[ci]);
+  pair_answered_.clear();
   if (ctx.params.contact.momentum &&
-      rigid_.answer_pairs(x, anchor, contacts_, pairs, shift, turn, &pair_pressed_) > 0) {
+      rigid_.answer_pairs(x, anchor, contacts_, pairs, shift, turn, &pair_pressed_, &pair_answered_) > 0) {
     rigid_.displace(x, shift, turn);
     for (size_t b = 0; b < shift.size(); ++b) reaction_shift_[b] += shift[b];
   }
@@ -311,7 +311,7 @@ void RegionProjectionSolver::place_bodies(Positions& x, const Positions& anchor,
 
 bool RegionProjectionSolver::paired(size_t source) const {
   const size_t ci = source / 4;
-  return ci < pair_answered_.size() && pair_answered_[ci];
+  return ci < pair_answered_.size() && pair_answered_[ci] == 1;
 }
 
 double RegionProjectionSolver::paired_press(size_t source) const {

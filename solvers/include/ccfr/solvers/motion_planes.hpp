@@ -42,7 +42,7 @@ struct HeldSplit {
 ///
 /// `responds` (#V, or empty: all) marks the vertices that answer in the per-vertex response (> 0);
 /// a contact none of whose vertices does (two unpinned rigid bodies, each resolved in its own pose
-/// solve) keeps the paper's split, unless `paired` (per contact, or empty) marks it: two bodies
+/// solve) keeps the paper's split, unless `paired` (per contact, or empty) marks it with 1: two bodies
 /// whose candidates RigidBodies::answer_pairs() moved as the pair's answer, split by their motion
 /// with each side keeping at least a tenth of its mass share (a body turning about a plane held at
 /// its anchor cannot keep every vertex behind it). `other_inverse_mass` (per contact, or empty): where > 0 on a

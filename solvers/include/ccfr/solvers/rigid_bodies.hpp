@@ -54,6 +54,9 @@ struct PairResponse {
   /// δ (m) and α̃ = 1 / (k dt²): the pair's repulsion of its gap toward δ (0: none).
   double repulsion_range = 0.0;
   double repulsion_compliance = 0.0;
+  /// Every vertex's inverse mass (1/kg): a side whose vertices all have 0 and lie on no rigid body
+  /// (an obstacle, a pin) cannot move. Empty: only pinned bodies count as such sides.
+  std::span<const double> inv_mass;
 };
 
 /// The contact response of the pose solve (the per-vertex response skips unpinned rigid bodies).
@@ -168,23 +171,28 @@ class RigidBodies {
   /// are kept. The first `rest_overlap` (m) of an overlap is resting contact, left to the planes.
   /// In the same sweeps each such pair's XPBD repulsion of its gap g toward δ,
   /// \f$\Delta\lambda_r = (\delta - g - \tilde\alpha\lambda_r) / (w_A + w_B + \tilde\alpha)\f$, λ_r ≥ 0,
-  /// acts on both alike (the pose solves leave these planes' repulsion to it). At most
-  /// `response.sweeps` sweeps; the bodies' rotations are linearized within them. Writes each body's
-  /// shift and turn (rotation vector about its fit's centre at `x`, #bodies), and per contact the
-  /// impulse λ + λ_r it took into `repelled` (if given; 0 for the others), and returns the contacts
-  /// that pushed. The caller moves the bodies (displace()).
+  /// acts on both alike (the pose solves leave these planes' repulsion to it). A body in such a
+  /// pair also takes, in the same sweeps, its contacts with sides that cannot move (a floor, a
+  /// pinned body: w_B = 0) as C ≥ 0 with no resting part, so that the pair's pushes and turns meet
+  /// the support it rests on or hangs from; their repulsion and friction stay its pose solve's. At most
+  /// `response.sweeps` sweeps; the bodies' rotations are linearized within them. Writes each body's shift and turn
+  /// (rotation vector about its fit's centre at `x`, #bodies), and per contact the impulse λ + λ_r it took into
+  /// `repelled` and into `answered` 1 for every contact between two bodies it answers and 2 for every one with a side
+  /// that cannot move, beyond reach or not (if given; 0 for the others), and returns the contacts that pushed. The
+  /// caller moves the bodies (displace()).
   Index answer_pairs(const Positions& x, const Positions& anchor, std::span<const ContactPair> contacts,
                      const PairResponse& response, std::vector<Vec3>& shift, std::vector<Vec3>& turn,
-                     std::vector<double>* repelled = nullptr) const;
-
-  /// Whether `c`'s two sides lie on two different unpinned bodies (answer_pairs() answers it).
-  bool between_two_bodies(const ContactPair& c) const;
+                     std::vector<double>* repelled = nullptr, std::vector<std::uint8_t>* answered = nullptr) const;
 
   /// Vertices of rigid bodies farther than `tolerance` from the best rigid fit of their body:
   /// a deformed rigid body, which detection cannot see (its pairs with itself are not tested).
   Index count_deformed(const Positions& x, double tolerance) const;
 
  private:
+  /// Whether the vertices of `c` in [lo, hi) cannot move: a pinned body's, or all of inverse mass 0
+  /// on no rigid body (answer_pairs()).
+  bool holds(const ContactPair& c, int lo, int hi, std::span<const double> inv_mass) const;
+
   struct Body {
     Index begin = 0, end = 0;
     bool pinned = false;
