@@ -25,6 +25,12 @@ Eigen::Matrix3d polar_rotation(const Eigen::Matrix3d& a);
 /// inverted, flat or nearly flat A (det A ≤ 1e-6 ‖A‖³) goes to polar_rotation() instead.
 Eigen::Matrix3d polar_rotation_newton(const Eigen::Matrix3d& a);
 
+/// polar_rotation_newton() of two matrices at once: `ra` of `a` and `rb` of `b`, bit-identical to two
+/// calls. The two iterations run step by step interleaved, so each one's divisions and square roots
+/// wait while the other's arithmetic runs (two tets of one colour, TetBatch::solve_in_order).
+void polar_rotation_newton(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b, Eigen::Matrix3d& ra,
+                           Eigen::Matrix3d& rb);
+
 }  // namespace xpbd
 
 }  // namespace ccfr

@@ -19,10 +19,12 @@ namespace ccfr {
 namespace xpbd {
 
 /// Applies one XPBD update for a scalar constraint of `N` vertices given its value and gradient.
-/// Returns Δλ (0 when every vertex is kinematic or the gradient vanishes).
+/// Returns Δλ (0 when every vertex is kinematic or the gradient vanishes). Always inlined: the
+/// kernels' updates are short chains of dependent arithmetic that only run side by side inline.
 template <int N>
-double apply_update(const std::array<Vec3*, N>& x, const std::array<double, N>& w, const std::array<Vec3, N>& grad,
-                    double c, double alpha_tilde, double& lambda) {
+[[gnu::always_inline]] inline double apply_update(const std::array<Vec3*, N>& x, const std::array<double, N>& w,
+                                                  const std::array<Vec3, N>& grad, double c, double alpha_tilde,
+                                                  double& lambda) {
   double denom = alpha_tilde;
   for (int k = 0; k < N; ++k) denom += w[k] * grad[k].squaredNorm();
   if (!(denom > 0.0)) return 0.0;

@@ -51,6 +51,13 @@ bool tet_deviatoric_constraint(const std::array<Vec3, 4>& x, const Eigen::Matrix
 void solve_tet_deviatoric(const std::array<Vec3*, 4>& x, const std::array<double, 4>& w,
                           const Eigen::Matrix3d& rest_inverse, double alpha_tilde, double& lambda);
 
+/// solve_tet_deviatoric() of two tets without a common vertex, bit-identical to the two calls in
+/// either order: their polar decompositions run interleaved (polar_rotation_newton of two matrices).
+void solve_tet_deviatoric_pair(const std::array<Vec3*, 4>& xa, const std::array<double, 4>& wa,
+                               const Eigen::Matrix3d& rest_inverse_a, double alpha_tilde_a, double& lambda_a,
+                               const std::array<Vec3*, 4>& xb, const std::array<double, 4>& wb,
+                               const Eigen::Matrix3d& rest_inverse_b, double alpha_tilde_b, double& lambda_b);
+
 }  // namespace xpbd
 
 /// Volume and deviatoric constraints per tet (the material constraint `tet_elasticity`; ids(t): its
