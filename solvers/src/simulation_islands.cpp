@@ -186,31 +186,14 @@ void Simulation::each_primitive_box(Index p, F&& f) const {
   }
 }
 
-Index Simulation::primitive_count(Index p) const {
-  const auto& obj = scene_.topo.objects[piece_object_[p]];
-  if (obj.kind == ObjectKind::particles) return 1;
-  if (obj.kind == ObjectKind::strand) return std::max<Index>(1, piece_edge_first_[p + 1] - piece_edge_first_[p]);
-  return obj.face_end - obj.face_begin;
-}
-
 bool Simulation::pieces_apart(Index p, Index q, const IslandMove& move, double gap) {
-  // Beyond this many primitive pairs the pieces' boxes decide (no finer look): blocked.
-  constexpr double kMostPairs = 1 << 16;
-  if (static_cast<double>(primitive_count(p)) * static_cast<double>(primitive_count(q)) > kMostPairs) return false;
-  std::vector<AABB>& others = clear_scratch_;
-  others.clear();
-  each_primitive_box(q, [&](const AABB& b) { others.push_back(b); });
-  bool apart = true;
-  each_primitive_box(p, [&](const AABB& b) {
-    if (!apart) return;
-    const AABB swept = move.of(b);
-    for (const AABB& o : others)
-      if (!swept.apart(o, gap)) {
-        apart = false;
-        return;
-      }
-  });
-  return apart;
+  std::vector<AABB>& ps = clear_near_;
+  ps.clear();
+  each_primitive_box(p, [&](const AABB& b) { ps.push_back(move.of(b)); });
+  std::vector<AABB>& qs = clear_scratch_;
+  qs.clear();
+  each_primitive_box(q, [&](const AABB& b) { qs.push_back(b); });
+  return all_apart(ps, qs, gap, clear_sorted_);
 }
 
 Simulation::PieceIndex::PieceIndex(const std::vector<AABB>& box) {

@@ -3,6 +3,8 @@
 /// Axis-aligned bounding boxes of primitives.
 #include <cmath>
 #include <limits>
+#include <span>
+#include <vector>
 
 #include "ccfr/core/types.hpp"
 
@@ -54,5 +56,11 @@ struct AABB {
     return b;
   }
 };
+
+/// Whether every box of `a` is apart from every box of `b` by more than `gap` (AABB::apart), the
+/// same answer as testing all |a| x |b| pairs: only the boxes within `gap` of the other set's bounding
+/// box can meet it, and those of `b`, sorted by lower x, are searched per box of `a` in the window
+/// its x extent allows. `scratch` (reused) holds b's boxes that pass.
+bool all_apart(std::span<const AABB> a, std::span<const AABB> b, double gap, std::vector<AABB>& scratch);
 
 }  // namespace ccfr

@@ -315,11 +315,10 @@ class Simulation {
   /// strand's segments, a mesh's triangles.
   template <class F>
   void each_primitive_box(Index p, F&& f) const;
-  Index primitive_count(Index p) const;
   /// Whether every primitive of piece p, swept by `move`, stays more than `gap` from every one of q
-  /// (their boxes; false without looking where that is more than 2^16 pairs).
+  /// (their boxes, all_apart: every pair, however many).
   bool pieces_apart(Index p, Index q, const IslandMove& move, double gap);
-  std::vector<AABB> clear_scratch_;  ///< pieces_apart's primitive boxes of q
+  std::vector<AABB> clear_scratch_, clear_near_, clear_sorted_;  ///< pieces_apart's primitive boxes
   /// The pieces sorted by their boxes' lower x at the restore's start, the widest box along x, and
   /// the farthest (m) one island's moves made since may have carried a point: island_clear's window.
   struct PieceIndex {
