@@ -24,6 +24,18 @@ struct BodyMotion {
   double angle = 0.0, reach = 0.0;  // reach: the farthest anchor from c (m)
 };
 
+/// The boxes of object o's triangles at `x`.
+std::vector<AABB> face_boxes(const Topology& topo, Index o, const Positions& x) {
+  const auto& obj = topo.objects[o];
+  std::vector<AABB> out;
+  out.reserve(static_cast<size_t>(obj.face_end - obj.face_begin));
+  for (Index t = obj.face_begin; t < obj.face_end; ++t) {
+    const Vec3i& f = topo.faces[t];
+    out.push_back(AABB::of(x[f[0]], x[f[1]], x[f[2]]));
+  }
+  return out;
+}
+
 std::vector<BodyMotion> body_motions(const Topology& topo, const SimState& st, const Positions& anchor,
                                      const Positions& solved, const std::vector<AABB>& box) {
   std::vector<BodyMotion> motion(topo.objects.size());
@@ -110,6 +122,26 @@ Index Simulation::carry_isolated_objects() {
     swept[o].inflate(std::min(motion[o].angle * motion[o].reach, r));
   }
   const double near_gap = 4.0 * r + cp.offset + cp.repulsion_range, swept_gap = cp.offset + cp.repulsion_range;
+  // Where two swept boxes meet, the swept one's triangles against the other's at its anchors, for
+  // an other that stays where it is in this loop: a mesh object (its collision primitives are its
+  // triangles) that is not a body (never carried here) and has no scripted vertex.
+  std::vector<std::uint8_t> still_mesh(no, 0);
+  for (size_t p = 0; p < no; ++p) {
+    const auto& obj = topo.objects[p];
+    still_mesh[p] = obj.kind != ObjectKind::strand && obj.kind != ObjectKind::particles && !motion[p].body &&
+                    obj.face_end > obj.face_begin;
+  }
+  for (const Index v : kinematic_) still_mesh[static_cast<size_t>(topo.vertex_object[v])] = 0;
+  std::vector<AABB> scratch;
+  auto triangles_apart = [&](size_t o, size_t p) {
+    const BodyMotion& m = motion[o];
+    std::vector<AABB> moving = face_boxes(topo, static_cast<Index>(o), anchor_);
+    for (AABB& b : moving) {
+      b.expand(AABB{b.lo + m.shift, b.hi + m.shift});
+      b.inflate(std::min(m.angle * m.reach, r));
+    }
+    return all_apart(moving, face_boxes(topo, static_cast<Index>(p), anchor_), swept_gap, scratch);
+  };
   Index carried = 0;
   carry_capped_.assign(anchor_.size(), 0);
   std::vector<std::uint8_t> carried_object(no, 0);
@@ -119,7 +151,8 @@ Index Simulation::carry_isolated_objects() {
     bool isolated_swept = sweeps, isolated_near = true;
     for (size_t p = 0; p < no && (isolated_swept || isolated_near); ++p) {
       if (p == o || topo.objects[p].num_vertices() == 0) continue;
-      isolated_swept = isolated_swept && swept[o].apart(swept[p], swept_gap);
+      isolated_swept =
+          isolated_swept && (swept[o].apart(swept[p], swept_gap) || (still_mesh[p] && triangles_apart(o, p)));
       isolated_near = isolated_near && box[o].apart(box[p], near_gap);
     }
     const double turn_reach = m.angle * m.reach;  // |R q - q| <= angle |q|
