@@ -124,14 +124,16 @@ Index Simulation::carry_isolated_objects() {
   const double near_gap = 4.0 * r + cp.offset + cp.repulsion_range, swept_gap = cp.offset + cp.repulsion_range;
   // Where two swept boxes meet, the swept one's triangles against the other's at its anchors, for
   // an other that stays where it is in this loop: a mesh object (its collision primitives are its
-  // triangles) that is not a body (never carried here) and has no scripted vertex.
+  // triangles) that is not a body (never carried here) and has no scripted vertex that moves in
+  // this substep (a pin stays at its anchor).
   std::vector<std::uint8_t> still_mesh(no, 0);
   for (size_t p = 0; p < no; ++p) {
     const auto& obj = topo.objects[p];
     still_mesh[p] = obj.kind != ObjectKind::strand && obj.kind != ObjectKind::particles && !motion[p].body &&
                     obj.face_end > obj.face_begin;
   }
-  for (const Index v : kinematic_) still_mesh[static_cast<size_t>(topo.vertex_object[v])] = 0;
+  for (const Index v : kinematic_)
+    if (kinematic_step_[v] != Vec3::Zero()) still_mesh[static_cast<size_t>(topo.vertex_object[v])] = 0;
   std::vector<AABB> scratch;
   auto triangles_apart = [&](size_t o, size_t p) {
     const BodyMotion& m = motion[o];
