@@ -23,12 +23,12 @@ double contact_gap(const ContactPair& c, const Positions& x) {
 
 namespace {
 struct GroupScratch {
+  std::vector<double> gap;  ///< the group's gaps, in group order
   std::vector<Index> window;
   std::vector<double> window_gap;
 };
 
 /// The weights of one query vertex's contacts, `group` in increasing index order.
-///
 /// Only contacts j with d_c - δ_v < d_j < d_c attenuate c (S vanishes for d_j >= d_c), and any j
 /// with d_j <= d_c - δ_v occludes c completely (S = 1). So within a group every contact at least
 /// δ_v beyond the group's nearest has weight 0, and the product runs over the few contacts inside
@@ -36,19 +36,19 @@ struct GroupScratch {
 void weigh_group(std::span<const Index> group, std::span<const ContactPair> contacts, double width,
                  std::vector<double>& vis, GroupScratch& scratch) {
   if (group.size() < 2) return;
-  auto gap = [&](Index i) { return contacts[i].distance - contacts[i].offset; };
-  double nearest = gap(group[0]);
-  for (size_t i = 1; i < group.size(); ++i) nearest = std::min(nearest, gap(group[i]));
+  auto& gap = scratch.gap;  // each 96-byte record is read once
+  gap.resize(group.size());
+  for (size_t i = 0; i < group.size(); ++i) gap[i] = contacts[group[i]].distance - contacts[group[i]].offset;
+  const double nearest = *std::min_element(gap.begin(), gap.end());
   auto& window = scratch.window;
   auto& window_gap = scratch.window_gap;
   window.clear();
   window_gap.clear();
-  for (const Index c : group) {
-    const double g = gap(c);
-    if (g - nearest >= width) {
-      vis[c] = 0.0;
+  for (size_t i = 0; i < group.size(); ++i) {
+    if (const double g = gap[i]; g - nearest >= width) {
+      vis[group[i]] = 0.0;
     } else {
-      window.push_back(c);
+      window.push_back(group[i]);
       window_gap.push_back(g);
     }
   }
@@ -250,11 +250,11 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
       n,
       [&](Index b, Index e) {
         for (Index ci = b; ci < e; ++ci) {
-          const ContactPair& c = contacts_[ci];
-          if (c.neighbours) continue;  // a fine mesh's neighbours: their distance is the material's
-          // The weight first: an occluded contact (most of a dense pile's) then reads no position.
+          // The weight first: an occluded contact (most of a pile's) reads no record, no position.
           const double vis = visibility_[ci];
           if (vis <= 1e-12) continue;
+          const ContactPair& c = contacts_[ci];
+          if (c.neighbours) continue;  // a fine mesh's neighbours: their distance is the material's
           const double gap = contact_gap(c, x);
           if (gap >= p.repulsion_range) continue;
           double wsum = 0.0;

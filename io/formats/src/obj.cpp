@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -68,6 +69,24 @@ void write_file_atomic(const fs::path& path, const std::string& content) {
   }
 }
 
+namespace {
+/// Appends " " and x as printf's "%.17g" writes it (to_chars with a precision is specified to
+/// match printf), at about a third of snprintf's cost: a 40,000-vertex frame spent 3 % of a
+/// soft-wire frame's work in printf.
+void append_coordinate(std::string& s, double x) {
+  char buf[32];
+  buf[0] = ' ';
+  const auto r = std::to_chars(buf + 1, buf + sizeof buf, x, std::chars_format::general, 17);
+  s.append(buf, r.ptr);
+}
+void append_index(std::string& s, Index i) {
+  char buf[16];
+  buf[0] = ' ';
+  const auto r = std::to_chars(buf + 1, buf + sizeof buf, i);
+  s.append(buf, r.ptr);
+}
+}  // namespace
+
 void write_frame_obj(const fs::path& path, const Topology& topo, const Positions& x, std::uint64_t scene_fingerprint) {
   std::string s;
   s.reserve(x.size() * 40 + topo.faces.size() * 24);
@@ -81,23 +100,24 @@ void write_frame_obj(const fs::path& path, const Topology& topo, const Positions
   for (const auto& o : topo.objects) {
     s += "o " + o.name + "\n";
     for (Index v = o.vertex_begin; v < o.vertex_end; ++v) {
-      const int n = std::snprintf(buf, sizeof buf, "v %.17g %.17g %.17g\n", x[v].x(), x[v].y(), x[v].z());
-      s.append(buf, static_cast<size_t>(n));
+      s += 'v';
+      for (int k = 0; k < 3; ++k) append_coordinate(s, x[v][k]);
+      s += '\n';
     }
     for (Index f = o.face_begin; f < o.face_end; ++f) {
-      const auto& t = topo.faces[f];
-      const int n = std::snprintf(buf, sizeof buf, "f %d %d %d\n", t[0] + 1, t[1] + 1, t[2] + 1);
-      s.append(buf, static_cast<size_t>(n));
+      s += 'f';
+      for (int k = 0; k < 3; ++k) append_index(s, topo.faces[f][k] + 1);
+      s += '\n';
     }
     for (Index l = o.polyline_begin; l < o.polyline_end; ++l) {
-      s += "l";
-      for (Index v : topo.polylines.row(l)) s += " " + std::to_string(v + 1);
-      s += "\n";
+      s += 'l';
+      for (Index v : topo.polylines.row(l)) append_index(s, v + 1);
+      s += '\n';
     }
     if (o.kind == ObjectKind::particles && o.num_vertices() > 0) {
-      s += "p";
-      for (Index v = o.vertex_begin; v < o.vertex_end; ++v) s += " " + std::to_string(v + 1);
-      s += "\n";
+      s += 'p';
+      for (Index v = o.vertex_begin; v < o.vertex_end; ++v) append_index(s, v + 1);
+      s += '\n';
     }
   }
   write_file_atomic(path, s);
