@@ -123,9 +123,19 @@ void CollisionDetector::flag_movable_primitives(std::span<const double> inv_mass
 
 void CollisionDetector::run_broad_phase(const Positions& x, bool listing, std::span<const double> vertex_reach) {
   if (!vertex_reach.empty()) {
-    // Each box grown by its vertices' largest reach instead of r (an adaptive reach never lists).
-    compute_primitive_boxes(prims_, topo_, x, box_inflation(0.0, params_.offset, params_.repulsion_range), boxes_,
-                            vertex_reach);
+    // Each box grown by its vertices' largest reach ρ and ξ/2, without the paper's δ/2: two boxes
+    // then overlap exactly when their sub-pairs can pass the range ρ_A + ρ_B + ξ the policy checks
+    // (a pair between that and ρ_A + ρ_B + ξ + δ was enumerated only to be rejected: 18 % of the
+    // soft wires' candidates). The tree is split over the boxes with δ/2, then refitted: a tree
+    // split over the tighter boxes would enumerate in another order (their centres round
+    // differently), and the contacts' order is part of the trajectory. An adaptive reach never lists.
+    if (rebuild_) {
+      compute_primitive_boxes(prims_, topo_, x, box_inflation(0.0, params_.offset, params_.repulsion_range), boxes_,
+                              vertex_reach);
+      broad_->build(boxes_);
+      rebuild_ = false;
+    }
+    compute_primitive_boxes(prims_, topo_, x, box_inflation(0.0, params_.offset, 0.0), boxes_, vertex_reach);
   } else {
     const double inflation = box_inflation(params_.radius, params_.offset, params_.repulsion_range);
     if (rebuild_ && listing) {

@@ -213,8 +213,8 @@ class CollisionDetector {
   /// `vertex_reach` (#V, m, or empty for the uniform r): how far each vertex can move in the
   /// coming iteration (its step bound: at most r under contact.adaptive_reach, more in
   /// contact.momentum's last pass; a fixed vertex 0, a kinematic one its known step). A sub-pair is then in range
-  /// within ρ_A + ρ_B + ξ, ρ a side's largest vertex reach, and the boxes grow by ρ + ξ/2 + δ/2: a pair farther apart
-  /// cannot come within ξ when every point of a primitive moves at most its vertices' largest step
+  /// within ρ_A + ρ_B + ξ, ρ a side's largest vertex reach, and the boxes grow by ρ + ξ/2 (no δ/2): a pair farther
+  /// apart cannot come within ξ when every point of a primitive moves at most its vertices' largest step
   /// (docs/feasibility.md, "Adaptive reach"). The kept list (set_reuse_skin) is neither read nor built with it.
   void detect(const Positions& x, std::span<const double> inv_mass, RegionSet& regions,
               std::vector<ContactPair>& contacts, DetectionStats& stats, std::span<const Vec3> kinematic_step = {},
