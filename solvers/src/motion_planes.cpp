@@ -373,15 +373,14 @@ double gap_along(const ContactPair& c, const Vec3& m, const Positions& anchor) {
 }
 
 /// Summed shortfall of the movable candidates from their planes (m, d_A) and (-m, d_B), each
-/// plane's target raised to the repulsion's reach max(0, δ - d_other) (turn_by_motion).
+/// plane's target raised to the repulsion's reach max(0, δ - d_other) (turn_by_motion). `step`:
+/// per vertex x - a (m), NaN where immovable, whose term max(0, NaN) is then +0: no term.
 double shortfall_along(const ContactPair& c, const Vec3& m, double d_a, double d_b, double reach,
-                       const Positions& anchor, const Positions& x, std::span<const double> inv_mass) {
+                       std::span<const Vec3> step) {
   const double want_a = std::max(0.0, reach - d_b), want_b = std::max(0.0, reach - d_a);
   double shortfall = 0.0;
   for (int k = 0; k < c.size(); ++k) {
-    const Index v = c.v[k];
-    if (!(inv_mass[v] > 0.0)) continue;
-    const double along = m.dot(x[v] - anchor[v]);
+    const double along = m.dot(step[c.v[k]]);
     shortfall += k < c.side_a() ? std::max(0.0, want_a - along - d_a) : std::max(0.0, want_b + along - d_b);
   }
   return shortfall;
@@ -392,6 +391,16 @@ Index turn_by_motion(std::span<ContactPair> contacts, RegionSet& regions, const 
                      std::span<const double> inv_mass, std::span<const Vec3> kinematic_step, double repulsion_range) {
   if (regions.records.size() != contacts.size()) return 0;
   const double reach = std::max(0.0, repulsion_range);
+  // Each vertex's step once: one 24-byte read per candidate where x, a and m⁻¹ took three.
+  std::vector<Vec3> step(x.size());
+  parallel_for(
+      static_cast<Index>(x.size()),
+      [&](Index b, Index e) {
+        for (Index v = b; v < e; ++v)
+          step[v] =
+              inv_mass[v] > 0.0 ? Vec3(x[v] - anchor[v]) : Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+      },
+      4096);
   std::atomic<Index> count{0};
   parallel_for(
       static_cast<Index>(contacts.size()),
@@ -406,7 +415,7 @@ Index turn_by_motion(std::span<ContactPair> contacts, RegionSet& regions, const 
           for (int k = 0; k < c.size() && !kinematic_step.empty(); ++k)
             scripted = scripted || kinematic_step[c.v[k]] != Vec3::Zero();
           if (scripted) continue;
-          double best = shortfall_along(c, c.n, rec.d[0], rec.d[1], reach, anchor, x, inv_mass);
+          double best = shortfall_along(c, c.n, rec.d[0], rec.d[1], reach, step);
           if (!(best > 0.0)) continue;
           const Vec3 toward = closest_direction(c, x);
           const double len = toward.norm();
@@ -426,7 +435,7 @@ Index turn_by_motion(std::span<ContactPair> contacts, RegionSet& regions, const 
             const double g = gap_along(c, m, anchor);
             if (!(g >= 0.0)) continue;
             const double d_a = s_a * g, d_b = g - d_a;
-            const double here = shortfall_along(c, m, d_a, d_b, reach, anchor, x, inv_mass);
+            const double here = shortfall_along(c, m, d_a, d_b, reach, step);
             if (!(here < best && here <= 0.5 * first)) continue;
             best = here;
             rec = {m, {d_a, d_b}};
