@@ -119,16 +119,24 @@ void Bvh::refit(std::span<const AABB> boxes) {
   gather(boxes);
 }
 
-void Bvh::leaf_pairs(Index leaf, const PairFilter& f, std::vector<std::pair<Index, Index>>& out) const {
+void Bvh::leaf_pairs(Index leaf, const PairFilter& f, std::vector<std::pair<Index, Index>>& buf, size_t& count) const {
   const Node& L = nodes_[leaf];
   const Index lend = L.first + L.count;
-  auto emit = [&](Index i, Index j) {
-    const Index a = order_[i], b = order_[j];
-    out.emplace_back(std::min(a, b), std::max(a, b));
-  };
   auto excluded = [&](Index i, Index j) {
     return (f.fixed_sorted && f.fixed_sorted[i] && f.fixed_sorted[j]) ||
            (f.group_sorted && f.group_sorted[i] != 0 && f.group_sorted[i] == f.group_sorted[j]);
+  };
+  // Every tested pair is written at buf[count] and kept by advancing count: whether two boxes
+  // overlap follows no pattern a branch predictor learns, and a branch per test mispredicted
+  // often. Room for a visit's at most L.count x n.count pairs is made before it.
+  auto room = [&](Index pairs) {
+    const size_t need = count + static_cast<size_t>(pairs);
+    if (buf.size() < need) buf.resize(std::max(2 * buf.size(), need));
+  };
+  auto put = [&](Index i, Index j, bool keep) {
+    const Index a = order_[i], b = order_[j];
+    buf[count] = {std::min(a, b), std::max(a, b)};
+    count += keep;
   };
   // A leaf of flagged boxes only looks at subtrees that hold an unflagged one; a leaf of one group
   // skips the subtrees of that same group.
@@ -138,10 +146,11 @@ void Bvh::leaf_pairs(Index leaf, const PairFilter& f, std::vector<std::pair<Inde
     return (!leaf_live && !f.live[id]) || (leaf_group != 0 && f.node_group[id] == leaf_group);
   };
   // Pairs inside the leaf.
-  if (leaf_live && leaf_group == 0)
+  if (leaf_live && leaf_group == 0) {
+    room(L.count * L.count);
     for (Index i = L.first; i < lend; ++i)
-      for (Index j = i + 1; j < lend; ++j)
-        if (sorted_[i].overlaps(sorted_[j]) && !excluded(i, j)) emit(i, j);
+      for (Index j = i + 1; j < lend; ++j) put(i, j, sorted_[i].overlaps(sorted_[j]) & !excluded(i, j));
+  }
   // Pairs with leaves after this one in depth-first order: each leaf pair is found exactly once.
   // Those nodes are exactly the ones after the leaf in the array, so a forward scan that jumps over
   // a non-overlapping subtree visits them in the same order as a descent from the root, without
@@ -155,11 +164,11 @@ void Bvh::leaf_pairs(Index leaf, const PairFilter& f, std::vector<std::pair<Inde
     }
     ++id;
     if (n.right >= 0) continue;
+    room(L.count * n.count);
     for (Index i = L.first; i < lend; ++i) {
       const AABB& bi = sorted_[i];
       if (!bi.overlaps(n.box)) continue;
-      for (Index j = n.first; j < n.first + n.count; ++j)
-        if (bi.overlaps(sorted_[j]) && !excluded(i, j)) emit(i, j);
+      for (Index j = n.first; j < n.first + n.count; ++j) put(i, j, bi.overlaps(sorted_[j]) & !excluded(i, j));
     }
   }
 }
@@ -224,19 +233,20 @@ void Bvh::self_pairs(std::vector<std::pair<Index, Index>>& out, std::span<const 
     filter.node_group = node_group.data();
   }
   const Index chunks = default_chunk_count(num_leaves);
+  // Per chunk its pairs, the first counts[c] of parts[c] (the rest is room, kept between calls).
   std::vector<std::vector<std::pair<Index, Index>>>& parts = scratch_parts_;
   parts.resize(static_cast<size_t>(chunks));
+  std::vector<size_t> counts(static_cast<size_t>(chunks), 0);
   parallel_chunks(num_leaves, chunks, [&](Index c, Index begin, Index end) {
     auto& part = parts[c];
-    part.clear();
-    part.reserve(static_cast<size_t>(end - begin) * 64);
-    for (Index l = begin; l < end; ++l) leaf_pairs(leaves_[l], filter, part);
+    if (part.size() < static_cast<size_t>(end - begin) * 64) part.resize(static_cast<size_t>(end - begin) * 64);
+    for (Index l = begin; l < end; ++l) leaf_pairs(leaves_[l], filter, part, counts[c]);
   });
   std::vector<size_t> offset(parts.size() + 1, 0);
-  for (size_t c = 0; c < parts.size(); ++c) offset[c + 1] = offset[c] + parts[c].size();
+  for (size_t c = 0; c < parts.size(); ++c) offset[c + 1] = offset[c] + counts[c];
   resize_for_overwrite(out, offset.back());  // every pair is copied in below
   parallel_chunks(chunks, chunks, [&](Index c, Index, Index) {
-    std::copy(parts[c].begin(), parts[c].end(), out.begin() + static_cast<std::ptrdiff_t>(offset[c]));
+    std::copy_n(parts[c].begin(), counts[c], out.begin() + static_cast<std::ptrdiff_t>(offset[c]));
   });
 }
 

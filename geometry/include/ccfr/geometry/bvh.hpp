@@ -57,7 +57,9 @@ class Bvh {
     const std::uint32_t* group_sorted = nullptr;  ///< #boxes in order_ order: group id
     const std::uint32_t* node_group = nullptr;    ///< #nodes: the one group of the subtree, 0 if mixed
   };
-  void leaf_pairs(Index leaf, const PairFilter& f, std::vector<std::pair<Index, Index>>& out) const;
+  /// Writes the pairs of `leaf` with itself and the leaves after it to buf[count...], advancing
+  /// count (buf grows as needed; entries past count are room, not pairs).
+  void leaf_pairs(Index leaf, const PairFilter& f, std::vector<std::pair<Index, Index>>& buf, size_t& count) const;
 
   std::vector<Node> nodes_;
   std::vector<Index> order_;   ///< #boxes: box ids, leaf-contiguous
