@@ -1,9 +1,11 @@
 // Contact solvers inside the simulation loop, against closed-form motion.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <random>
 #include <string>
 
@@ -212,6 +214,47 @@ TEST(ContactResponse, VisibilityWeightsOfManyShuffledGroupsMatchTheProductAtAnyT
     const auto w = visibility_weights(cs, width);
     for (size_t c = 0; c < cs.size(); ++c)
       ASSERT_EQ(w[c], expect[c]) << "contact " << c << ", " << threads << " threads";
+  }
+  set_thread_count(0);
+}
+
+TEST(ContactResponse, VisibilityWeightsOfWideWindowsMatchTheProductBitForBit) {
+  // Groups of 2 to 400 contacts whose gaps all lie within one width (windows past the 16 that are
+  // scanned and past one 64-bit word of the nearer set), gaps on a coarse grid so that many tie,
+  // and a NaN gap in some groups (never nearer than anything, nothing nearer than it: weight 1).
+  // Expected: the product over the same vertex's strictly nearer contacts in index order.
+  auto rng = ccfr::test::rng(41);
+  std::uniform_int_distribution<int> grid(0, 40);
+  const std::vector<int> sizes = {2, 16, 17, 63, 64, 65, 130, 400};
+  std::vector<ContactPair> cs;
+  for (size_t g = 0; g < sizes.size(); ++g)
+    for (int i = 0; i < sizes[g]; ++i) {
+      ContactPair c;
+      c.v = {static_cast<Index>(g), 900, 901, 902};
+      c.distance = i == 5 && g % 2 == 1 ? std::numeric_limits<double>::quiet_NaN() : 0.01 + 5e-5 * grid(rng);
+      c.offset = 0.01;
+      cs.push_back(c);
+    }
+  std::shuffle(cs.begin(), cs.end(), rng);
+  const double width = 0.0021;  // wider than the grid's 2 mm span: every contact is in its window
+  auto gap = [&](size_t i) { return cs[i].distance - cs[i].offset; };
+  std::vector<double> expect(cs.size());
+  size_t partial = 0, nan = 0;
+  for (size_t c = 0; c < cs.size(); ++c) {
+    double w = 1.0;
+    for (size_t j = 0; j < cs.size(); ++j)
+      if (cs[j].v[0] == cs[c].v[0] && gap(j) < gap(c)) w *= 1.0 - smoothstep((gap(c) - gap(j)) / width);
+    expect[c] = w;
+    partial += w > 0.0 && w < 1.0;
+    nan += std::isnan(gap(c));
+  }
+  EXPECT_GT(partial, 300u);
+  EXPECT_EQ(nan, 4u);
+  for (int threads : {1, 2}) {
+    set_thread_count(threads);
+    const auto w = visibility_weights(cs, width);
+    for (size_t c = 0; c < cs.size(); ++c)
+      ASSERT_EQ(w[c], expect[c]) << "contact " << c << " of vertex " << cs[c].v[0] << ", " << threads << " threads";
   }
   set_thread_count(0);
 }
