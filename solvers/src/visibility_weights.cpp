@@ -29,7 +29,7 @@ void weigh_window(std::span<const Index> window, std::span<const double> gap, do
                   GroupScratch& scratch) {
   const size_t k = window.size();
   auto factor = [&](double gi, double gj) { return 1.0 - smoothstep((gi - gj) / width); };
-  if (k <= 16) {
+  if (k <= 4) {
     for (size_t i = 0; i < k; ++i) {
       const double gi = gap[i];
       double w = 1.0;
@@ -60,8 +60,10 @@ void weigh_window(std::span<const Index> window, std::span<const double> gap, do
     for (size_t q = r; q < e; ++q) {
       const double gi = gap[order[q]];
       double w = 1.0;
+      // Every factor lies in [0, 1] (S does for any t), so a product that reached 0 stays +0 over
+      // the rest of its word: checking once a word gives the value of the scan that stops at 0.
       for (size_t word = 0; word < nearer.size() && w != 0.0; ++word)
-        for (std::uint64_t bits = nearer[word]; bits != 0 && w != 0.0; bits &= bits - 1)
+        for (std::uint64_t bits = nearer[word]; bits != 0; bits &= bits - 1)
           w *= factor(gi, gap[64 * word + static_cast<size_t>(std::countr_zero(bits))]);
       vis[window[order[q]]] = w;
     }
