@@ -97,7 +97,7 @@ struct ContactPolicy {
     const bool neighbours = slot >= 0 && fixed && fixed[slot];
     // Built whole in place: a default-constructed record overwritten field by field cost a
     // second write of its 96 bytes. n from B to A (lines 9/25/40).
-    contacts.push_back(ContactPair{kind, v, wts, (pa - pb) / dist, dist, offset, neighbours});
+    contacts.push_back(ContactPair{kind, neighbours, v, wts, (pa - pb) / dist, dist, offset});
     reduced_contacts += offset < xi;
   }
 };
