@@ -31,9 +31,6 @@ void ContactResponse::prepare_common(std::span<const ContactPair> contacts, cons
     visibility_weights(contacts, width, visibility_, visibility_ws_);
   else
     visibility_weights(contacts, row_start, slots, width, visibility_, visibility_ws_, movable);
-  // No zeroing: apply() writes every used slot of an active contact, and its gather reads only
-  // the slots of active contacts.
-  resize_for_overwrite(corr_, contacts.size() * 4);
 }
 
 void ContactResponse::prepare(std::span<const ContactPair> contacts, Index num_vertices, const ContactParams& params) {
@@ -76,52 +73,63 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
   }
   if (!prepared_repulsion_) throw Error("ContactResponse::apply: prepare() had no repulsion range, apply() has one");
   const double alpha_tilde = 1.0 / (p.stiffness * dt * dt);
-  std::vector<std::uint8_t>& is_active = is_active_;
-  is_active.assign(static_cast<size_t>(n), 0);
-  // Per contact: the correction of each of its vertices, computed from the same x (Jacobi).
+  // Per active contact: the correction of each of its vertices, computed from the same x (Jacobi),
+  // in its block's stage at corr_at_ (-1: inactive). Fixed blocks keep the stages thread-independent.
+  const Index blocks = (n + kStageBlock - 1) / kStageBlock;
+  if (stage_.size() < static_cast<size_t>(blocks)) stage_.resize(static_cast<size_t>(blocks));
+  resize_for_overwrite(corr_at_, static_cast<size_t>(n));  // every entry written below
   parallel_for(
-      n,
-      [&](Index b, Index e) {
-        for (Index ci = b; ci < e; ++ci) {
-          // The weight first: an occluded contact (most of a pile's) reads no record, no position.
-          const double vis = visibility_[ci];
-          if (vis <= 1e-12) continue;
-          const ContactPair& c = contacts_[ci];
-          if (c.neighbours) continue;  // a fine mesh's neighbours: their distance is the material's
-          const double gap = contact_gap(c, x);
-          if (gap >= p.repulsion_range) continue;
-          double wsum = 0.0;
-          for (int k = 0; k < c.size(); ++k) wsum += c.w[k] * c.w[k] * inv_mass[c.v[k]];
-          if (wsum <= 0.0) continue;
-          // A rigid body on the other side takes its share of Δλ in its pose solve: both sides'
-          // inverse masses divide the correction, or the pair is pushed apart about twice.
-          if (!other_inverse_mass.empty()) wsum += other_inverse_mass[static_cast<size_t>(ci)];
-          // Only active contacts write corrections, each of its c.size() slots below (the only
-          // ones the gather can name); the gather skips the others by is_active, so the (many)
-          // contacts beyond δ cost no 96-byte zero fill and no read-back.
-          is_active[ci] = 1;
-          // Repulsion C = d_c - δ <= 0 with compliance α/w_c (visibility scales the stiffness):
-          // Δλ = -C / (Σ w_k² m_k⁻¹ + α̃ / w_c), Δx_k = m_k⁻¹ w_k n Δλ.
-          const double dl = -(gap - p.repulsion_range) / (wsum + alpha_tilde / vis);
-          for (int k = 0; k < c.size(); ++k) corr_[ci * 4 + k] = inv_mass[c.v[k]] * c.w[k] * dl * c.n;
+      blocks,
+      [&](Index block_begin, Index block_end) {
+        for (Index block = block_begin; block < block_end; ++block) {
+          std::vector<Vec3>& stage = stage_[static_cast<size_t>(block)];
+          stage.clear();
+          const Index first = block * kStageBlock, last = std::min(n, first + kStageBlock);
+          for (Index ci = first; ci < last; ++ci) {
+            corr_at_[static_cast<size_t>(ci)] = -1;
+            // The weight first: an occluded contact (most of a pile's) reads no record, no position.
+            const double vis = visibility_[ci];
+            if (vis <= 1e-12) continue;
+            const ContactPair& c = contacts_[ci];
+            if (c.neighbours) continue;  // a fine mesh's neighbours: their distance is the material's
+            const double gap = contact_gap(c, x);
+            if (gap >= p.repulsion_range) continue;
+            double wsum = 0.0;
+            for (int k = 0; k < c.size(); ++k) wsum += c.w[k] * c.w[k] * inv_mass[c.v[k]];
+            if (wsum <= 0.0) continue;
+            // A rigid body on the other side takes its share of Δλ in its pose solve: both sides'
+            // inverse masses divide the correction, or the pair is pushed apart about twice.
+            if (!other_inverse_mass.empty()) wsum += other_inverse_mass[static_cast<size_t>(ci)];
+            // Only active contacts have corrections, each of its c.size() slots below (the only
+            // ones the gather can name): the (many) contacts beyond δ cost no memory and no read-back.
+            corr_at_[static_cast<size_t>(ci)] = static_cast<Index>(stage.size());
+            stage.resize(stage.size() + 4);
+            Vec3* corr = &stage[stage.size() - 4];
+            // Repulsion C = d_c - δ <= 0 with compliance α/w_c (visibility scales the stiffness):
+            // Δλ = -C / (Σ w_k² m_k⁻¹ + α̃ / w_c), Δx_k = m_k⁻¹ w_k n Δλ.
+            const double dl = -(gap - p.repulsion_range) / (wsum + alpha_tilde / vis);
+            for (int k = 0; k < c.size(); ++k) corr[k] = inv_mass[c.v[k]] * c.w[k] * dl * c.n;
 
-          // Friction on the tangential relative motion of the substep (Macklin et al. 2014, Eq. 24).
-          double mu_s = p.friction_static, mu_k = p.friction_kinetic;
-          if (!friction_override.empty() && friction_override[c.v[0]] >= 0.0) mu_s = mu_k = friction_override[c.v[0]];
-          if (mu_s <= 0.0 && mu_k <= 0.0) continue;
-          Vec3 rel = Vec3::Zero();
-          for (int k = 0; k < c.size(); ++k) rel += c.w[k] * ((x[c.v[k]] + corr_[ci * 4 + k]) - x_start[c.v[k]]);
-          const Vec3 tangential = rel - c.n.dot(rel) * c.n;
-          const double tl = tangential.norm();
-          if (tl <= 0.0) continue;
-          // Coulomb bound on the normal correction this contact applied (relative displacement).
-          const double depth = std::max(0.0, dl * wsum);
-          const Vec3 remove = tl < mu_s * depth ? tangential : tangential * std::min(mu_k * depth / tl, 1.0);
-          for (int k = 0; k < c.size(); ++k) corr_[ci * 4 + k] -= inv_mass[c.v[k]] * c.w[k] * remove / wsum;
+            // Friction on the tangential relative motion of the substep (Macklin et al. 2014, Eq. 24).
+            double mu_s = p.friction_static, mu_k = p.friction_kinetic;
+            if (!friction_override.empty() && friction_override[c.v[0]] >= 0.0) mu_s = mu_k = friction_override[c.v[0]];
+            if (mu_s <= 0.0 && mu_k <= 0.0) continue;
+            Vec3 rel = Vec3::Zero();
+            for (int k = 0; k < c.size(); ++k) rel += c.w[k] * ((x[c.v[k]] + corr[k]) - x_start[c.v[k]]);
+            const Vec3 tangential = rel - c.n.dot(rel) * c.n;
+            const double tl = tangential.norm();
+            if (tl <= 0.0) continue;
+            // Coulomb bound on the normal correction this contact applied (relative displacement).
+            const double depth = std::max(0.0, dl * wsum);
+            const Vec3 remove = tl < mu_s * depth ? tangential : tangential * std::min(mu_k * depth / tl, 1.0);
+            for (int k = 0; k < c.size(); ++k) corr[k] -= inv_mass[c.v[k]] * c.w[k] * remove / wsum;
+          }
         }
       },
-      1024);
-  active_ = static_cast<Index>(std::count(is_active.begin(), is_active.end(), 1));
+      1);
+  active_ = 0;
+  for (Index block = 0; block < blocks; ++block)
+    active_ += static_cast<Index>(stage_[static_cast<size_t>(block)].size() / 4);
   // Gather: each vertex takes the average of its contacts' corrections.
   const Index gathered = std::min(static_cast<Index>(x.size()), static_cast<Index>(row_start_.size()) - 1);
   const bool reacts = record_impulses && !other_inverse_mass.empty();
@@ -136,8 +144,9 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
           Vec3 sum = Vec3::Zero();
           int cnt = 0;
           for (Index q = s; q < t; ++q) {
-            if (!is_active[static_cast<size_t>(slots_[q] / 4)]) continue;
-            const Vec3& d = corr_[slots_[q]];
+            const Vec3* d_at = applied_correction(slots_[q]);
+            if (!d_at) continue;
+            const Vec3& d = *d_at;
             if (d.squaredNorm() > 0.0) sum += d, ++cnt;
           }
           if (cnt) x[v] += sum / cnt;
@@ -155,13 +164,13 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
       [&](Index b, Index e) {
         for (Index ci = b; ci < e; ++ci) {
           impulse_[static_cast<size_t>(ci)] = Vec3::Zero();
-          if (!is_active[static_cast<size_t>(ci)] || !(other_inverse_mass[static_cast<size_t>(ci)] > 0.0)) continue;
+          if (corr_at_[static_cast<size_t>(ci)] < 0 || !(other_inverse_mass[static_cast<size_t>(ci)] > 0.0)) continue;
           const ContactPair& c = contacts_[ci];
           Vec3 j = Vec3::Zero();
           for (int k = 0; k < c.size(); ++k) {
             const Index v = c.v[k];
             if (!(inv_mass[v] > 0.0) || v >= gathered || gathered_[static_cast<size_t>(v)] == 0) continue;
-            const Vec3& d = corr_[static_cast<size_t>(ci) * 4 + k];
+            const Vec3& d = *applied_correction(4 * ci + k);
             if (d.squaredNorm() > 0.0) j += d / (inv_mass[v] * gathered_[static_cast<size_t>(v)]);
           }
           impulse_[static_cast<size_t>(ci)] = j;
@@ -451,6 +460,7 @@ void ContactResponse::count_overlaps(Index nv, std::span<const double> inv_mass)
 
 void ContactResponse::pull_back(const Positions& x, const Positions& anchor, std::span<const double> inv_mass, Index nv,
                                 bool barycentric, const AnsweringBodies* bodies) {
+  resize_for_overwrite(corr_, overlapping_.size() * 4);  // every slot move_by_mean reads is written below
   parallel_for(
       static_cast<Index>(overlapping_.size()),
       [&](Index b, Index e) {
@@ -461,7 +471,8 @@ void ContactResponse::pull_back(const Positions& x, const Positions& anchor, std
           p.count = separate_count_;
           p.nv = nv;
           p.excess = separate_dl_[static_cast<size_t>(ci)];
-          p.corr = &corr_[static_cast<size_t>(ci) * 4];
+          corr_at_[static_cast<size_t>(ci)] = i;
+          p.corr = &corr_[static_cast<size_t>(i) * 4];
           if (bodies) {
             const Index body = bodies->body[static_cast<size_t>(ci)];
             // Split like a vertex, its turn by the row sums of its coupling (see body_split_).
@@ -494,7 +505,7 @@ void ContactResponse::move_by_mean(Positions& x, std::span<const double> inv_mas
           if (!(inv_mass[v] > 0.0) || separate_count_[v] == 0) continue;
           Vec3 sum = Vec3::Zero();
           for (Index q = row_start_[v]; q < row_start_[v + 1]; ++q)
-            if (separate_dl_[slots_[q] / 4] != 0.0) sum += corr_[slots_[q]];
+            if (separate_dl_[slots_[q] / 4] != 0.0) sum += corr_[4 * corr_at_[slots_[q] / 4] + slots_[q] % 4];
           const Vec3 before = x[v];
           x[v] += sum / static_cast<double>(separate_count_[v]);
           separate_step_[static_cast<size_t>(v)] = x[v] - before;
@@ -571,7 +582,7 @@ Index ContactResponse::separate(Positions& x, const Positions& anchor, std::span
   steps_pending_ = false;
   overlapping_.clear();
   touched_.clear();
-  corr_.resize(static_cast<size_t>(n) * 4);
+  corr_at_.resize(static_cast<size_t>(n));
   if (bodies) {
     // Per contact: how far its answering body (not moved here) has given way at it so far, so that
     // later sweeps leave the body its part instead of handing it to the other side.

@@ -352,6 +352,64 @@ TEST(ContactResponse, VisibilityWeightsSkipOnlyGroupsTheResponseCannotMove) {
   EXPECT_EQ(w[0], expect[0]);
 }
 
+TEST(ContactResponse, RepulsionOverManyBlocksOfMostlyInactiveContactsMatchesTheClosedForm) {
+  // 7,001 vertex-vertex contacts, each a movable vertex (m⁻¹ = 2) at height h over its own pinned
+  // one, n = +y: the contacts span 4 of the response's blocks and two in three lie beyond δ. A
+  // lone contact within δ moves its vertex by m⁻¹ Δλ, Δλ = (δ - g) / (m⁻¹ + α̃), g = h - ξ,
+  // α̃ = 1 / (k dt²); the others stay, at 1 and 2 threads alike, bit for bit.
+  const Index n = 7001;
+  ContactParams params;
+  params.offset = 0.006;
+  params.repulsion_range = 0.002;
+  params.friction_static = params.friction_kinetic = 0.0;
+  const double dt = 1.0 / 240.0, alpha = 1.0 / (params.stiffness * dt * dt);
+  Positions x(static_cast<size_t>(2 * n));
+  std::vector<double> inv_mass(x.size(), 0.0);
+  std::vector<ContactPair> cs(static_cast<size_t>(n));
+  std::vector<double> expect_y(static_cast<size_t>(n));
+  Index within = 0;
+  for (Index i = 0; i < n; ++i) {
+    // Every third contact inside δ, each at its own gap; the others at 1.5 δ and exactly δ
+    // (outside: g ≥ δ is inactive).
+    const double inside = 0.1 + 0.8 * static_cast<double>((37 * i) % 101) / 100.0;
+    const double g = (i % 3 == 0 ? inside : i % 3 == 1 ? 1.5 : 1.0) * params.repulsion_range;
+    const double h = params.offset + g;
+    x[static_cast<size_t>(2 * i)] = Vec3(0.1 * i, 0.0, 0.0);
+    x[static_cast<size_t>(2 * i + 1)] = Vec3(0.1 * i, h, 0.0);
+    inv_mass[static_cast<size_t>(2 * i + 1)] = 2.0;
+    ContactPair& c = cs[static_cast<size_t>(i)];
+    c.kind = ContactKind::vv;
+    c.v = {2 * i + 1, 2 * i, -1, -1};
+    c.w = {1.0, -1.0, 0.0, 0.0};
+    c.n = Vec3::UnitY();
+    c.distance = h;
+    c.offset = params.offset;
+    const bool active = g < params.repulsion_range;
+    within += active;
+    expect_y[static_cast<size_t>(i)] = active ? h + 2.0 * ((params.repulsion_range - g) / (2.0 + alpha)) : h;
+  }
+  Positions first;
+  for (int threads : {1, 2}) {
+    set_thread_count(threads);
+    ContactResponse response;
+    response.prepare(cs, static_cast<Index>(x.size()), params);
+    Positions moved = x;
+    response.apply(moved, x, inv_mass, params, dt, {});
+    EXPECT_EQ(response.active(), within);
+    for (Index i = 0; i < n; ++i) {
+      const Vec3& p = moved[static_cast<size_t>(2 * i + 1)];
+      ASSERT_NEAR(p.y(), expect_y[static_cast<size_t>(i)], 1e-15) << "contact " << i << ", " << threads << " threads";
+      ASSERT_EQ(p.x(), 0.1 * i);
+      ASSERT_EQ(moved[static_cast<size_t>(2 * i)], x[static_cast<size_t>(2 * i)]) << "a pinned vertex moved";
+    }
+    if (first.empty())
+      first = moved;
+    else
+      EXPECT_EQ(moved, first) << "the thread count changed the response";
+  }
+  set_thread_count(0);
+}
+
 TEST(ContactResponse, DetectorIncidenceGivesTheResponseOfItsOwnIndex) {
   // Three stacked sheets 8 mm apart (r = 5 mm, ξ = 6 mm), jittered, the bottom one pinned: the
   // incidence the detector records beside its half-spaces must name, for every plane, a contact

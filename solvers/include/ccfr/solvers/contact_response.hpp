@@ -216,8 +216,20 @@ class ContactResponse {
   VisibilityWorkspace visibility_ws_;
   std::vector<Index> vertex_row_start_, vertex_contacts_;  ///< CSR vertex -> contact slots (first prepare())
   std::span<const Index> row_start_, slots_;               ///< the CSR in use: the vectors above or the caller's
-  std::vector<Vec3> corr_;                    ///< per contact slot: correction of each vertex (4 per contact)
-  std::vector<std::uint8_t> is_active_;       ///< per contact, in apply()
+  /// apply()'s contacts in blocks of kStageBlock: block b's active ones have their 4 corrections
+  /// at stage_[b][4 · corr_at_[c]], in contact order. A pile's contacts are mostly beyond δ or
+  /// occluded (the 50 layers: 16 % active), so only the active ones hold slots.
+  static constexpr Index kStageBlock = 2048;
+  std::vector<std::vector<Vec3>> stage_;
+  /// Per contact: in apply(), its first slot in its block's stage (-1: inactive); in separate(),
+  /// its position in overlapping_ (read only while it overlaps).
+  std::vector<Index> corr_at_;
+  std::vector<Vec3> corr_;  ///< in separate(): 4 pull-back slots per overlapping contact, in list order
+  /// After apply(): the correction of contact slot 4·c + k, or null where contact c is inactive.
+  const Vec3* applied_correction(Index slot) const {
+    const Index c = slot / 4, at = corr_at_[static_cast<size_t>(c)];
+    return at < 0 ? nullptr : &stage_[static_cast<size_t>(c / kStageBlock)][static_cast<size_t>(at + slot % 4)];
+  }
   std::vector<Vec3> impulse_;                 ///< per contact, in apply(): see impulse_on_movable()
   std::vector<int> gathered_;                 ///< per vertex, in apply(): its active contacts
   std::vector<double> separate_dl_;           ///< per contact, in separate(): Δλ of the sweep (0: inactive)
