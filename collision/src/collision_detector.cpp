@@ -7,6 +7,7 @@
 #include "ccfr/core/parallel.hpp"
 #include "ccfr/core/timer.hpp"
 #include "contact_sink.hpp"
+#include "contact_waves.hpp"
 #include "initial_proximity.hpp"
 #include "region_assembly.hpp"
 #include "reuse_list.hpp"
@@ -22,6 +23,7 @@ struct CollisionDetector::Stages {
   detail::InitialPairs::Mark initial_mark;
   bool marked = false;
   detail::SubPairList list;
+  detail::ContactWaves waves;
   detail::AssemblyBuffers assembly;
 };
 
@@ -158,32 +160,37 @@ void CollisionDetector::run_broad_phase(const Positions& x, bool listing, std::s
 }
 
 void CollisionDetector::enumerate_candidates(const Positions& x, std::span<const double> inv_mass, bool listing,
-                                             std::span<const double> vertex_reach, DetectionStats& stats) {
+                                             std::span<const double> vertex_reach, std::vector<ContactPair>& contacts,
+                                             DetectionStats& stats) {
   const Index n = static_cast<Index>(candidates_.size());
-  const Index chunks = default_chunk_count(n);
-  contact_buffers_.resize(static_cast<size_t>(chunks));
-  for (auto& b : contact_buffers_) b.clear();
+  // The usual fixed chunks, finer for a large pass, so that a wave of them (ContactWaves) keeps
+  // the threads busy; the contacts come out in candidate order for any chunk count.
+  const Index chunks = std::clamp<Index>(n / kCandidatesPerChunk, default_chunk_count(n), kMostCandidateChunks);
   std::vector<DetectionStats> counts(static_cast<size_t>(chunks));
   detail::SubPairList& list = stages_->list;
   // Without listing the old chunks stay allocated but invalid: the next listing pass refills them.
   if (listing) list.resize(chunks);
-  parallel_chunks(n, chunks, [&](Index chunk, Index begin, Index end) {
-    detail::ContactSink sink{topo_, x,
-                             detail::contact_policy(inv_mass, stages_->initial, params_, contact_buffers_[chunk])};
-    if (!vertex_reach.empty()) sink.policy.vertex_reach = vertex_reach.data();
-    if (listing) {
-      detail::ContactPolicy& policy = sink.policy;
-      list.chunk(chunk).clear();
-      policy.list = &list.chunk(chunk);
-      policy.list_reach = policy.reach_m + list.skin();
-      policy.list_reach_sq = policy.list_reach * policy.list_reach;
-    }
-    for (Index i = begin; i < end; ++i) {
-      const auto [p, q] = candidates_[i];
-      if (movable_[p] || movable_[q]) detail::visit_sub_pairs(topo_, prims_, p, q, sink);
-    }
-    sink.policy.add_to(counts[chunk]);
-  });
+  stages_->waves.collect(
+      chunks,
+      [&](Index chunk, std::vector<ContactPair>& out) {
+        const Index begin = static_cast<Index>(static_cast<long long>(n) * chunk / chunks);
+        const Index end = static_cast<Index>(static_cast<long long>(n) * (chunk + 1) / chunks);
+        detail::ContactSink sink{topo_, x, detail::contact_policy(inv_mass, stages_->initial, params_, out)};
+        if (!vertex_reach.empty()) sink.policy.vertex_reach = vertex_reach.data();
+        if (listing) {
+          detail::ContactPolicy& policy = sink.policy;
+          list.chunk(chunk).clear();
+          policy.list = &list.chunk(chunk);
+          policy.list_reach = policy.reach_m + list.skin();
+          policy.list_reach_sq = policy.list_reach * policy.list_reach;
+        }
+        for (Index i = begin; i < end; ++i) {
+          const auto [p, q] = candidates_[i];
+          if (movable_[p] || movable_[q]) detail::visit_sub_pairs(topo_, prims_, p, q, sink);
+        }
+        sink.policy.add_to(counts[chunk]);
+      },
+      contacts);
   for (Index c = 0; c < chunks; ++c) {
     detail::add_counts(stats, counts[c]);
     if (listing) stats.listed += list.size(c);
@@ -230,10 +237,10 @@ void CollisionDetector::detect(const Positions& x, std::span<const double> inv_m
   serial = SerialStopwatch();
   if (!stages_->initial.active.empty()) stages_->initial.raise(topo_, x, params_.offset);
   if (stats.reused)
-    list.evaluate(topo_, x, inv_mass, stages_->initial, params_, contact_buffers_, stats);
+    list.evaluate(topo_, x, inv_mass, stages_->initial, params_, stages_->waves, contacts, stats);
   else
-    enumerate_candidates(x, inv_mass, listing, vertex_reach, stats);
-  detail::assemble_regions(nv, x, inv_mass, kinematic_step, contact_buffers_, stages_->assembly, contacts, regions);
+    enumerate_candidates(x, inv_mass, listing, vertex_reach, contacts, stats);
+  detail::assemble_regions(nv, x, inv_mass, kinematic_step, contacts, stages_->assembly, regions);
   stats.constraints = static_cast<Index>(regions.total());
   stats.narrow_s = watch.seconds();
   stats.narrow_serial_s = serial.seconds();

@@ -189,42 +189,37 @@ RegionRecord contact_record(const ContactPair& c, const Positions& x, std::span<
   return {c.n, {s_a * gap, s_b * gap}};
 }
 
-/// Counts, per block of consecutive chunks, the planes of every vertex (into block_cursor).
-void count_planes(Index nv, std::span<const double> inv_mass, const std::vector<std::vector<ContactPair>>& buffers,
-                  Index blocks, std::vector<Index>& block_cursor) {
-  parallel_chunks(static_cast<Index>(buffers.size()), blocks, [&](Index b, Index chunk_begin, Index chunk_end) {
+/// Counts, per block of consecutive contacts, the planes of every vertex (into block_cursor).
+void count_planes(Index nv, std::span<const double> inv_mass, std::span<const ContactPair> contacts, Index blocks,
+                  std::vector<Index>& block_cursor) {
+  parallel_chunks(static_cast<Index>(contacts.size()), blocks, [&](Index b, Index begin, Index end) {
     Index* count = block_cursor.data() + static_cast<size_t>(b) * nv;
     std::fill(count, count + nv, 0);
-    for (Index chunk = chunk_begin; chunk < chunk_end; ++chunk)
-      for (const ContactPair& c : buffers[chunk])
-        for (int k = 0; k < c.size(); ++k)
-          if (inv_mass[c.v[k]] > 0.0) ++count[c.v[k]];
+    for (Index ci = begin; ci < end; ++ci) {
+      const ContactPair& c = contacts[static_cast<size_t>(ci)];
+      for (int k = 0; k < c.size(); ++k)
+        if (inv_mass[c.v[k]] > 0.0) ++count[c.v[k]];
+    }
   });
 }
 
-/// Copies the contacts from `start` on and writes their records and plane references, each block
-/// at its own cursors: one sweep reads every contact buffer once more.
+/// Writes the contacts' records and plane references, each block at its own cursors.
 void write_planes(Index nv, const Positions& x, std::span<const double> inv_mass, std::span<const Vec3> kinematic_step,
-                  const std::vector<std::vector<ContactPair>>& buffers, const std::vector<size_t>& start, Index blocks,
-                  AssemblyBuffers& work, std::vector<ContactPair>& contacts, RegionSet& regions) {
-  parallel_chunks(static_cast<Index>(buffers.size()), blocks, [&](Index b, Index chunk_begin, Index chunk_end) {
+                  std::span<const ContactPair> contacts, Index blocks, AssemblyBuffers& work, RegionSet& regions) {
+  parallel_chunks(static_cast<Index>(contacts.size()), blocks, [&](Index b, Index begin, Index end) {
     Index* cursor = work.block_cursor.data() + static_cast<size_t>(b) * nv;
-    for (Index chunk = chunk_begin; chunk < chunk_end; ++chunk) {
-      ContactPair* out = contacts.data() + start[chunk];
-      for (const ContactPair& c : buffers[chunk]) {
-        const size_t ci = static_cast<size_t>(out - contacts.data());
-        const Index slot0 = 4 * static_cast<Index>(ci);
-        *out++ = c;
-        regions.records[ci] = contact_record(c, x, inv_mass, kinematic_step);
-        // One record per contact; each movable vertex's slot refers to it and its side.
-        const std::uint32_t ref = 2 * static_cast<std::uint32_t>(ci);
-        const int na = c.side_a();
-        for (int k = 0; k < c.size(); ++k) {
-          const Index v = c.v[k];
-          if (!(inv_mass[v] > 0.0)) continue;
-          if (work.record_sources) work.plane_sources[static_cast<size_t>(cursor[v])] = slot0 + k;
-          regions.refs[static_cast<size_t>(cursor[v]++)] = ref + (k < na ? 0u : 1u);
-        }
+    for (Index ci = begin; ci < end; ++ci) {
+      const ContactPair& c = contacts[static_cast<size_t>(ci)];
+      const Index slot0 = 4 * ci;
+      regions.records[static_cast<size_t>(ci)] = contact_record(c, x, inv_mass, kinematic_step);
+      // One record per contact; each movable vertex's slot refers to it and its side.
+      const std::uint32_t ref = 2 * static_cast<std::uint32_t>(ci);
+      const int na = c.side_a();
+      for (int k = 0; k < c.size(); ++k) {
+        const Index v = c.v[k];
+        if (!(inv_mass[v] > 0.0)) continue;
+        if (work.record_sources) work.plane_sources[static_cast<size_t>(cursor[v])] = slot0 + k;
+        regions.refs[static_cast<size_t>(cursor[v]++)] = ref + (k < na ? 0u : 1u);
       }
     }
   });
@@ -232,21 +227,17 @@ void write_planes(Index nv, const Positions& x, std::span<const double> inv_mass
 
 }  // namespace
 
-// The CSR is filled in parallel without sorting: the chunks are grouped into at most 32 fixed
-// blocks of consecutive chunks, each block counts its planes per vertex, and prefix sums over
+// The CSR is filled in parallel without sorting: the contacts are split into at most 32 fixed
+// blocks of consecutive contacts, each block counts its planes per vertex, and prefix sums over
 // (vertex, block) give every block its own write cursor per vertex.
 void assemble_regions(Index nv, const Positions& x, std::span<const double> inv_mass,
-                      std::span<const Vec3> kinematic_step, const std::vector<std::vector<ContactPair>>& buffers,
-                      AssemblyBuffers& work, std::vector<ContactPair>& contacts, RegionSet& regions) {
-  const Index chunks = static_cast<Index>(buffers.size());
-  std::vector<size_t> start(static_cast<size_t>(chunks) + 1, 0);
-  for (Index c = 0; c < chunks; ++c) start[c + 1] = start[c] + buffers[c].size();
-  resize_for_overwrite(contacts, start.back());  // every contact and record is written below
+                      std::span<const Vec3> kinematic_step, std::span<const ContactPair> contacts,
+                      AssemblyBuffers& work, RegionSet& regions) {
   regions.row_start.assign(static_cast<size_t>(nv) + 1, 0);
-  if (start.back() > std::numeric_limits<std::uint32_t>::max() / 2)
-    throw Error("CollisionDetector::detect: " + std::to_string(start.back()) +
+  if (contacts.size() > std::numeric_limits<std::uint32_t>::max() / 2)
+    throw Error("CollisionDetector::detect: " + std::to_string(contacts.size()) +
                 " contacts exceed the region's 32-bit plane references");
-  resize_for_overwrite(regions.records, start.back());
+  resize_for_overwrite(regions.records, contacts.size());  // every record is written below
   if (contacts.empty()) {
     regions.refs.clear();
     work.plane_sources.clear();
@@ -254,14 +245,14 @@ void assemble_regions(Index nv, const Positions& x, std::span<const double> inv_
   }
   // Blocks x vertices cursors cost as much as the scatter they split once the contacts are few (a
   // pass that moves a handful of vertices): about 1,024 contacts per block, at most 32.
-  const Index blocks = cursor_blocks(static_cast<Index>(start.back()), 1024, std::min<Index>(chunks, 32));
+  const Index blocks = cursor_blocks(static_cast<Index>(contacts.size()), 1024, 32);
   work.block_cursor.resize(static_cast<size_t>(blocks) * nv);
-  count_planes(nv, inv_mass, buffers, blocks, work.block_cursor);
+  count_planes(nv, inv_mass, contacts, blocks, work.block_cursor);
   counts_to_block_cursors(nv, blocks, work.block_cursor, regions.row_start);
   // Every entry is written below: resizing without clearing first skips zero-filling them.
   resize_for_overwrite(regions.refs, static_cast<size_t>(regions.row_start.back()));
   resize_for_overwrite(work.plane_sources, work.record_sources ? regions.refs.size() : 0);
-  write_planes(nv, x, inv_mass, kinematic_step, buffers, start, blocks, work, contacts, regions);
+  write_planes(nv, x, inv_mass, kinematic_step, contacts, blocks, work, regions);
 }
 
 }  // namespace detail

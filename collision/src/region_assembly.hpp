@@ -1,7 +1,7 @@
 #pragma once
 /// @file region_assembly.hpp
 /// Narrow-phase stage 4 (private): the half-spaces of every contact (Alg. NarrowPhase lines 10, 26
-/// and 41; Eq. 3) written to the RegionSet's CSR, and the contacts concatenated in chunk order.
+/// and 41; Eq. 3) written to the RegionSet's CSR.
 #include <span>
 #include <vector>
 
@@ -17,13 +17,13 @@ struct AssemblyBuffers {
   bool record_sources = false;
 };
 
-/// Concatenates `buffers` (per-chunk contacts) into `contacts` in chunk order and gives each movable
-/// vertex of side A the plane (n, s_A G) and each of side B (−n, s_B G), G = φ − K_A − K_B the gap
+/// Gives each movable vertex of side A of each of `contacts` the plane (n, s_A G) and each of side
+/// B (−n, s_B G), G = φ − K_A − K_B the gap
 /// left once kinematic vertices (`kinematic_step`, #V or empty) have moved; mixed_pair_record()
 /// where that split cannot hold. A vertex's planes are in contact order for any thread count.
 /// Throws ccfr::Error past the region's 32-bit plane references.
 void assemble_regions(Index nv, const Positions& x, std::span<const double> inv_mass,
-                      std::span<const Vec3> kinematic_step, const std::vector<std::vector<ContactPair>>& buffers,
-                      AssemblyBuffers& work, std::vector<ContactPair>& contacts, RegionSet& regions);
+                      std::span<const Vec3> kinematic_step, std::span<const ContactPair> contacts,
+                      AssemblyBuffers& work, RegionSet& regions);
 
 }  // namespace ccfr::detail

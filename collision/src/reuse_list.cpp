@@ -176,47 +176,48 @@ void SubPairList::record(const Topology& topo, const Positions& x, std::span<con
 }
 
 void SubPairList::evaluate(const Topology& topo, const Positions& x, std::span<const double> inv_mass,
-                           const InitialPairs& initial, const ContactModel& params,
-                           std::vector<std::vector<ContactPair>>& buffers, DetectionStats& stats) const {
+                           const InitialPairs& initial, const ContactModel& params, ContactWaves& waves,
+                           std::vector<ContactPair>& contacts, DetectionStats& stats) const {
   const Index chunks = static_cast<Index>(chunks_.size());
-  buffers.resize(static_cast<size_t>(chunks));
-  for (auto& b : buffers) b.clear();
   std::vector<DetectionStats> counts(static_cast<size_t>(chunks));
   // A listed sub-pair is evaluated unless its lower bound (listed distance less the largest
   // displacement of each side) already clears the range, with a margin for rounding.
   const double clear = (2.0 * params.radius + params.offset) * (1.0 + 1e-9) + 1e-12;
-  parallel_chunks(chunks, chunks, [&](Index chunk, Index, Index) {
-    ContactSink sink{topo, x, contact_policy(inv_mass, initial, params, buffers[chunk])};
-    const auto& d = disp_;
-    for (const ListedSubPair& p : chunks_[chunk]) {
-      const double listed = p.distance;
-      switch (p.kind) {
-        case ContactKind::vf: {
-          const Vec3i& t = topo.faces[p.b];
-          if (listed - d[p.a] - std::max({d[t[0]], d[t[1]], d[t[2]]}) >= clear) continue;
-          sink.vf_eval(p.a, p.b, p.slot);
-          break;
+  waves.collect(
+      chunks,
+      [&](Index chunk, std::vector<ContactPair>& out) {
+        ContactSink sink{topo, x, contact_policy(inv_mass, initial, params, out)};
+        const auto& d = disp_;
+        for (const ListedSubPair& p : chunks_[chunk]) {
+          const double listed = p.distance;
+          switch (p.kind) {
+            case ContactKind::vf: {
+              const Vec3i& t = topo.faces[p.b];
+              if (listed - d[p.a] - std::max({d[t[0]], d[t[1]], d[t[2]]}) >= clear) continue;
+              sink.vf_eval(p.a, p.b, p.slot);
+              break;
+            }
+            case ContactKind::ee: {
+              const Vec2i &ea = topo.edges[p.a], &eb = topo.edges[p.b];
+              if (listed - std::max(d[ea[0]], d[ea[1]]) - std::max(d[eb[0]], d[eb[1]]) >= clear) continue;
+              sink.ee_eval(p.a, p.b, p.slot);
+              break;
+            }
+            case ContactKind::ve: {
+              const Vec2i& e = topo.edges[p.b];
+              if (listed - d[p.a] - std::max(d[e[0]], d[e[1]]) >= clear) continue;
+              sink.ve_eval(p.a, p.b, p.slot);
+              break;
+            }
+            case ContactKind::vv:
+              if (listed - d[p.a] - d[p.b] >= clear) continue;
+              sink.vv_eval(p.a, p.b, p.slot);
+              break;
+          }
         }
-        case ContactKind::ee: {
-          const Vec2i &ea = topo.edges[p.a], &eb = topo.edges[p.b];
-          if (listed - std::max(d[ea[0]], d[ea[1]]) - std::max(d[eb[0]], d[eb[1]]) >= clear) continue;
-          sink.ee_eval(p.a, p.b, p.slot);
-          break;
-        }
-        case ContactKind::ve: {
-          const Vec2i& e = topo.edges[p.b];
-          if (listed - d[p.a] - std::max(d[e[0]], d[e[1]]) >= clear) continue;
-          sink.ve_eval(p.a, p.b, p.slot);
-          break;
-        }
-        case ContactKind::vv:
-          if (listed - d[p.a] - d[p.b] >= clear) continue;
-          sink.vv_eval(p.a, p.b, p.slot);
-          break;
-      }
-    }
-    sink.policy.add_to(counts[chunk]);
-  });
+        sink.policy.add_to(counts[chunk]);
+      },
+      contacts);
   for (Index c = 0; c < chunks; ++c) {
     add_counts(stats, counts[c]);
     stats.listed += static_cast<Index>(chunks_[c].size());

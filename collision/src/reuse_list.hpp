@@ -11,6 +11,7 @@
 #include "ccfr/collision/collision_detector.hpp"
 #include "ccfr/core/topology.hpp"
 #include "ccfr/geometry/aabb.hpp"
+#include "contact_waves.hpp"
 #include "initial_proximity.hpp"
 
 namespace ccfr::detail {
@@ -51,11 +52,11 @@ class SubPairList {
   Index size(Index c) const { return static_cast<Index>(chunks_[static_cast<size_t>(c)].size()); }
   /// Ends a listing pass: records the positions, the objects' boxes and the movable flags.
   void record(const Topology& topo, const Positions& x, std::span<const double> inv_mass);
-  /// A pass over the list (covers() true just before): the contacts of every listed sub-pair whose
-  /// distance bound (listed distance less both sides' displacement) does not clear the range, one
-  /// buffer per chunk; adds the counters to `stats`.
+  /// A pass over the list (covers() true just before): into `contacts`, in list order, the
+  /// contacts of every listed sub-pair whose distance bound (listed distance less both sides'
+  /// displacement) does not clear the range; adds the counters to `stats`.
   void evaluate(const Topology& topo, const Positions& x, std::span<const double> inv_mass, const InitialPairs& initial,
-                const ContactModel& params, std::vector<std::vector<ContactPair>>& buffers,
+                const ContactModel& params, ContactWaves& waves, std::vector<ContactPair>& contacts,
                 DetectionStats& stats) const;
 
  private:

@@ -300,9 +300,14 @@ class CollisionDetector {
   /// Boxes at x (grown by s/2 when listing, by each vertex's reach when given), the tree updated or
   /// rebuilt, the candidates queried.
   void run_broad_phase(const Positions& x, bool listing, std::span<const double> vertex_reach);
-  /// The candidates' sub-pairs into the per-chunk contact buffers (and the list when listing).
+  /// The candidates' contacts into `contacts`, in candidate order (and the list when listing).
   void enumerate_candidates(const Positions& x, std::span<const double> inv_mass, bool listing,
-                            std::span<const double> vertex_reach, DetectionStats& stats);
+                            std::span<const double> vertex_reach, std::vector<ContactPair>& contacts,
+                            DetectionStats& stats);
+  /// Candidate chunks of about this many candidates, at least default_chunk_count's and at most
+  /// kMostCandidateChunks of them.
+  static constexpr Index kCandidatesPerChunk = 16384;
+  static constexpr Index kMostCandidateChunks = 2048;
 
   const Topology& topo_;
   ContactModel params_;
@@ -313,8 +318,7 @@ class CollisionDetector {
   std::vector<AABB> boxes_;
   std::vector<IndexPair> candidates_;
   std::vector<std::uint8_t> movable_;
-  std::vector<std::uint8_t> fixed_;                        ///< !movable_, handed to the broad phase
-  std::vector<std::vector<ContactPair>> contact_buffers_;  ///< per candidate chunk, in enumeration order
+  std::vector<std::uint8_t> fixed_;  ///< !movable_, handed to the broad phase
   bool rebuild_ = false;
 };
 

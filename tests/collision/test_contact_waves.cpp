@@ -1,0 +1,63 @@
+// The narrow phase's wave-wise concatenation (collision/src/contact_waves.hpp) against a serial
+// concatenation of the same chunks.
+#include <gtest/gtest.h>
+
+#include <random>
+#include <vector>
+
+#include "ccfr/core/parallel.hpp"
+#include "contact_waves.hpp"
+#include "test_support.hpp"
+
+using namespace ccfr;
+
+namespace {
+/// Chunk c's contacts for pass `pass`: a count in [0, most] (many chunks empty), each record
+/// naming its chunk, its position and the pass, so that any misplaced record shows.
+std::vector<ContactPair> chunk_contacts(int pass, Index c, Index most) {
+  auto rng = ccfr::test::rng(static_cast<std::uint64_t>(1000 * pass + c));
+  std::uniform_int_distribution<Index> count(-most / 2, most);
+  std::vector<ContactPair> out(static_cast<size_t>(std::max<Index>(0, count(rng))));
+  for (size_t i = 0; i < out.size(); ++i) {
+    out[i].v = {c, static_cast<Index>(i), pass, -1};
+    out[i].distance = 0.001 * static_cast<double>(i + 1);
+  }
+  return out;
+}
+}  // namespace
+
+TEST(ContactWaves, ConcatenateChunksInOrderForAnyThreadCountAndAcrossGrowingAndShrinkingPasses) {
+  // Passes of 0 to 1,000 chunks of up to 300 contacts each, the list growing past its capacity and
+  // shrinking again between passes: each pass's list is exactly the serial concatenation, at 1
+  // and 2 threads (waves of 32 and 64 chunks).
+  detail::ContactWaves waves;
+  std::vector<ContactPair> contacts;
+  const Index chunk_counts[] = {5, 1000, 0, 37, 1000, 64, 65, 1};
+  for (int threads : {1, 2}) {
+    set_thread_count(threads);
+    int pass = 0;
+    for (Index chunks : chunk_counts) {
+      ++pass;
+      const Index most = pass % 2 ? 300 : 40;
+      std::vector<ContactPair> expect;
+      for (Index c = 0; c < chunks; ++c) {
+        const auto part = chunk_contacts(pass, c, most);
+        expect.insert(expect.end(), part.begin(), part.end());
+      }
+      waves.collect(
+          chunks,
+          [&](Index c, std::vector<ContactPair>& out) {
+            ASSERT_TRUE(out.empty()) << "chunk " << c << " was handed a used buffer";
+            const auto part = chunk_contacts(pass, c, most);
+            out.insert(out.end(), part.begin(), part.end());
+          },
+          contacts);
+      ASSERT_EQ(contacts.size(), expect.size()) << "pass " << pass << ", " << threads << " threads";
+      for (size_t i = 0; i < expect.size(); ++i) {
+        ASSERT_EQ(contacts[i].v, expect[i].v) << "contact " << i << ", pass " << pass;
+        ASSERT_EQ(contacts[i].distance, expect[i].distance) << "contact " << i << ", pass " << pass;
+      }
+    }
+  }
+  set_thread_count(0);
+}
