@@ -61,3 +61,44 @@ TEST(ContactWaves, ConcatenateChunksInOrderForAnyThreadCountAndAcrossGrowingAndS
   }
   set_thread_count(0);
 }
+
+TEST(ContactWaves, SizeAListGrownFromEmptyOnceFromTheFirstWaveAndStayExactWhenTheEstimateIsWrong) {
+  // Uniform chunks: the first wave's density extrapolates to the exact pass, so the empty list is
+  // allocated once, to the pass plus an eighth (growth wave by wave would end at a quarter over
+  // the last wave's need). Skewed passes (first wave empty, or the only full one) still come out
+  // exact.
+  set_thread_count(1);
+  const Index chunks = 1000, per_chunk = 50;
+  detail::ContactWaves waves;
+  std::vector<ContactPair> contacts;
+  const auto fill_uniform = [&](Index c, std::vector<ContactPair>& out) {
+    out.resize(static_cast<size_t>(per_chunk));
+    for (Index i = 0; i < per_chunk; ++i) out[static_cast<size_t>(i)].v = {c, i, 0, -1};
+  };
+  waves.collect(chunks, fill_uniform, contacts);
+  const size_t n = static_cast<size_t>(chunks * per_chunk);
+  ASSERT_EQ(contacts.size(), n);
+  EXPECT_EQ(contacts.capacity(), n + n / 8);
+  EXPECT_EQ(contacts.back().v[0], chunks - 1);
+
+  const Index wave = detail::ContactWaves::kChunksPerThread;
+  for (const bool first_wave_only : {false, true}) {
+    std::vector<ContactPair> skewed;
+    const auto full = [&](Index c) { return first_wave_only ? c < wave : c >= wave; };
+    waves.collect(
+        chunks,
+        [&](Index c, std::vector<ContactPair>& out) {
+          if (full(c)) fill_uniform(c, out);
+        },
+        skewed);
+    const Index full_chunks = first_wave_only ? wave : chunks - wave;
+    ASSERT_EQ(skewed.size(), static_cast<size_t>(full_chunks * per_chunk));
+    const Index first = first_wave_only ? 0 : wave;
+    for (size_t i = 0; i < skewed.size(); ++i) {
+      const Index k = static_cast<Index>(i);
+      ASSERT_EQ(skewed[i].v[0], first + k / per_chunk) << "contact " << i;
+      ASSERT_EQ(skewed[i].v[1], k % per_chunk) << "contact " << i;
+    }
+  }
+  set_thread_count(0);
+}
