@@ -192,7 +192,7 @@ RegionRecord contact_record(const ContactPair& c, const Positions& x, std::span<
 /// Counts, per block of consecutive contacts, the planes of every vertex (into block_cursor).
 void count_planes(Index nv, std::span<const double> inv_mass, std::span<const ContactPair> contacts, Index blocks,
                   std::vector<Index>& block_cursor) {
-  parallel_chunks(static_cast<Index>(contacts.size()), blocks, [&](Index b, Index begin, Index end) {
+  for_cursor_blocks(static_cast<Index>(contacts.size()), blocks, [&](Index b, Index begin, Index end) {
     Index* count = block_cursor.data() + static_cast<size_t>(b) * nv;
     std::fill(count, count + nv, 0);
     for (Index ci = begin; ci < end; ++ci) {
@@ -206,7 +206,7 @@ void count_planes(Index nv, std::span<const double> inv_mass, std::span<const Co
 /// Writes the contacts' records and plane references, each block at its own cursors.
 void write_planes(Index nv, const Positions& x, std::span<const double> inv_mass, std::span<const Vec3> kinematic_step,
                   std::span<const ContactPair> contacts, Index blocks, AssemblyBuffers& work, RegionSet& regions) {
-  parallel_chunks(static_cast<Index>(contacts.size()), blocks, [&](Index b, Index begin, Index end) {
+  for_cursor_blocks(static_cast<Index>(contacts.size()), blocks, [&](Index b, Index begin, Index end) {
     Index* cursor = work.block_cursor.data() + static_cast<size_t>(b) * nv;
     for (Index ci = begin; ci < end; ++ci) {
       const ContactPair& c = contacts[static_cast<size_t>(ci)];
@@ -245,7 +245,7 @@ void assemble_regions(Index nv, const Positions& x, std::span<const double> inv_
   }
   // Blocks x vertices cursors cost as much as the scatter they split once the contacts are few (a
   // pass that moves a handful of vertices): about 1,024 contacts per block, at most 32.
-  const Index blocks = cursor_blocks(static_cast<Index>(contacts.size()), 1024, 32);
+  const Index blocks = cursor_blocks(static_cast<Index>(contacts.size()));
   work.block_cursor.resize(static_cast<size_t>(blocks) * nv);
   count_planes(nv, inv_mass, contacts, blocks, work.block_cursor);
   counts_to_block_cursors(nv, blocks, work.block_cursor, regions.row_start);

@@ -116,6 +116,13 @@ void parallel_invoke(const std::function<void()>& a, const std::function<void()>
   });
 }
 
+void run_as_parallel_work(const std::function<void()>& body) {
+  timed_region([&] {
+    const InBody in;
+    body();
+  });
+}
+
 double parallel_seconds() { return 1e-9 * static_cast<double>(g_parallel_ns.load(std::memory_order_relaxed)); }
 
 Index default_chunk_count(Index n) {

@@ -118,9 +118,9 @@ void visibility_weights(std::span<const ContactPair> contacts, double width, std
   // a serial counting sort would, for any thread count. (Serial, these three passes over the
   // 96-byte contact records were about 6 % of a soft-wire frame at one thread.) About 1,024
   // contacts per block, at most 32: the blocks x vertices cursors must not outweigh few contacts.
-  const Index blocks = cursor_blocks(n, 1024, 32);
+  const Index blocks = cursor_blocks(n);
   std::vector<Index> block_max(static_cast<size_t>(blocks), 0);
-  parallel_chunks(n, blocks, [&](Index b, Index lo, Index hi) {
+  for_cursor_blocks(n, blocks, [&](Index b, Index lo, Index hi) {
     Index m = 0;
     for (Index i = lo; i < hi; ++i) m = std::max(m, contacts[i].v[0]);
     block_max[b] = m;
@@ -128,7 +128,7 @@ void visibility_weights(std::span<const ContactPair> contacts, double width, std
   const Index nq = *std::max_element(block_max.begin(), block_max.end()) + 1;  // query vertices 0..nq-1
   std::vector<Index>& cursor = ws.cursor;  // (block, vertex): a count, then the block's write cursor
   cursor.resize(static_cast<size_t>(blocks) * nq);
-  parallel_chunks(n, blocks, [&](Index b, Index lo, Index hi) {
+  for_cursor_blocks(n, blocks, [&](Index b, Index lo, Index hi) {
     Index* count = cursor.data() + static_cast<size_t>(b) * nq;
     std::fill(count, count + nq, 0);
     for (Index i = lo; i < hi; ++i) ++count[contacts[i].v[0]];
@@ -137,7 +137,7 @@ void visibility_weights(std::span<const ContactPair> contacts, double width, std
   counts_to_block_cursors(nq, blocks, cursor, start);
   std::vector<Index>& order = ws.order;
   order.resize(static_cast<size_t>(n));
-  parallel_chunks(n, blocks, [&](Index b, Index lo, Index hi) {
+  for_cursor_blocks(n, blocks, [&](Index b, Index lo, Index hi) {
     Index* at = cursor.data() + static_cast<size_t>(b) * nq;
     for (Index i = lo; i < hi; ++i) order[at[contacts[i].v[0]]++] = i;
   });

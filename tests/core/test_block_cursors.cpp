@@ -1,10 +1,13 @@
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <random>
+#include <thread>
 #include <vector>
 
 #include "ccfr/core/block_cursors.hpp"
 #include "ccfr/core/parallel.hpp"
+#include "ccfr/core/timer.hpp"
 
 using namespace ccfr;
 
@@ -38,5 +41,42 @@ TEST(BlockCursors, ScatterEqualsASerialStableCountingSort) {
     EXPECT_EQ(row_start, ref_row_start) << threads << " threads";
     EXPECT_EQ(out, ref) << threads << " threads";
   }
+  set_thread_count(0);
+}
+
+// Amdahl's serial part at one thread holds only what no thread count shortens: the one block of a
+// one-thread run that more threads would split counts as parallel work, a pass too small to split
+// anywhere counts as serial, and a loop inside run_as_parallel_work is not counted twice. Sleeps
+// stand in for work; the bounds allow any scheduling delay and fail only for the wrong count.
+TEST(BlockCursors, OneThreadsSingleBlockIsParallelWorkOnlyWhereMoreThreadsSplitIt) {
+  const auto nap = [] { std::this_thread::sleep_for(std::chrono::milliseconds(40)); };
+  set_thread_count(1);
+  const Index split = 8 * kItemsPerCursorBlock, unsplit = kItemsPerCursorBlock + 1;
+  ASSERT_EQ(cursor_blocks(split), 1);
+  ASSERT_EQ(cursor_blocks(unsplit), 1);
+  Index seen = 0;
+  SerialStopwatch serial;
+  for_cursor_blocks(split, cursor_blocks(split), [&](Index, Index lo, Index hi) {
+    seen += hi - lo;
+    nap();
+  });
+  EXPECT_EQ(seen, split);
+  EXPECT_LT(serial.seconds(), 0.02) << "a block that 2+ threads split was counted as serial";
+
+  serial = SerialStopwatch();
+  for_cursor_blocks(unsplit, cursor_blocks(unsplit), [&](Index, Index, Index) { nap(); });
+  EXPECT_GE(serial.seconds(), 0.04) << "a block that no thread count splits was counted as parallel";
+
+  set_thread_count(2);
+  ASSERT_GT(cursor_blocks(split), 1);
+  const double p0 = parallel_seconds();
+  Stopwatch wall;
+  run_as_parallel_work([&] {
+    parallel_for(
+        2, [&](Index, Index) { nap(); }, 1);
+  });
+  const double counted = parallel_seconds() - p0;
+  EXPECT_GE(counted, 0.04);
+  EXPECT_LE(counted, wall.seconds() + 1e-3) << "a loop inside run_as_parallel_work was counted again";
   set_thread_count(0);
 }

@@ -3,6 +3,7 @@
 /// The middle step of a parallel, stable counting sort over fixed blocks of input (the region
 /// assembly's half-spaces, the contact response's visibility groups).
 #include <algorithm>
+#include <functional>
 #include <numeric>
 #include <vector>
 
@@ -10,12 +11,27 @@
 
 namespace ccfr {
 
-/// Blocks for `items` inputs split into about `per_block` each, between 1 and `most`: one on a
-/// single thread, where the blocks run in turn and each extra one only adds #keys cursors to fill,
-/// sum and scatter through. The groups come out the same for any block count.
-inline Index cursor_blocks(Index items, Index per_block, Index most) {
+/// Inputs per block, and the most blocks: the blocks x keys cursors must not outweigh few inputs.
+inline constexpr Index kItemsPerCursorBlock = 1024;
+inline constexpr Index kMostCursorBlocks = 32;
+
+/// Blocks for `items` inputs split into about kItemsPerCursorBlock each, between 1 and
+/// kMostCursorBlocks: one on a single thread, where the blocks run in turn and each extra one only
+/// adds #keys cursors to fill, sum and scatter through. The groups come out the same for any block
+/// count.
+inline Index cursor_blocks(Index items) {
   if (thread_count() == 1) return 1;
-  return std::clamp<Index>(items / per_block, 1, std::max<Index>(most, 1));
+  return std::clamp<Index>(items / kItemsPerCursorBlock, 1, kMostCursorBlocks);
+}
+
+/// parallel_chunks over cursor_blocks(items) blocks. The one block of a one-thread run that more
+/// threads would split counts as parallel work, so that Amdahl's serial part measured at one thread
+/// (SerialStopwatch) holds only what no thread count shortens.
+inline void for_cursor_blocks(Index items, Index blocks, const std::function<void(Index, Index, Index)>& body) {
+  if (blocks == 1 && items / kItemsPerCursorBlock > 1)
+    run_as_parallel_work([&] { body(0, 0, items); });
+  else
+    parallel_chunks(items, blocks, body);
 }
 
 /// `cursor` holds, for each of `blocks` consecutive input blocks, how many items it has per key

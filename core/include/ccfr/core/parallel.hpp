@@ -34,11 +34,16 @@ void parallel_chunks(Index n, Index num_chunks, const std::function<void(Index c
 /// Runs a() and b() in parallel.
 void parallel_invoke(const std::function<void()>& a, const std::function<void()>& b);
 
+/// Runs body() on the calling thread, counted as parallel work (parallel_seconds): for a loop that
+/// runs as one block only because one thread was asked for, where more threads split it.
+void run_as_parallel_work(const std::function<void()>& body);
+
 /// Wall seconds spent so far inside outermost parallel loops (parallel_for and parallel_chunks
 /// that reached TBB, parallel_invoke), summed over the threads that called them. A loop inside
 /// another's body is not counted again; a loop short enough to run inline (n <= grain) is serial
-/// work and not counted. Over a stretch of one thread's code, wall time minus this difference is
-/// the time that no extra core can shorten: Amdahl's serial part (SerialStopwatch).
+/// work and not counted, unless run_as_parallel_work says more threads would split it. Over a stretch of one thread's
+/// code, wall time minus this difference is the time that no extra core can shorten: Amdahl's serial part
+/// (SerialStopwatch).
 double parallel_seconds();
 
 /// A fixed chunk count (at most 128, at most n): enough for load balance on a few cores and
