@@ -7,18 +7,23 @@
 namespace ccfr::detail {
 
 namespace {
-/// Gives `v` at least `need` elements, its first `keep` kept: within the capacity only the
-/// elements past the old size are initialised; a growth past it copies the `keep` only, to a
-/// capacity of at least `expect` and a quarter of headroom over `need`.
-void grow_keeping(std::vector<ContactPair>& v, size_t keep, size_t need, size_t expect) {
-  if (need <= v.size()) return;
-  if (need > v.capacity()) {
-    std::vector<ContactPair> bigger;
-    bigger.reserve(std::max(expect, need + need / 4));
-    bigger.assign(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(keep));
-    v.swap(bigger);
+/// Gives `v` at least `need` elements, its first `keep` kept, growing it to a capacity of at least
+/// `capacity`: within the capacity only the elements past the old size are initialised. A growth
+/// that keeps nothing frees the old buffer before it allocates, so that the two are never resident
+/// together; one that keeps copies the `keep` only.
+void grow_keeping(std::vector<ContactPair>& v, size_t keep, size_t need, size_t capacity) {
+  if (capacity > v.capacity()) {
+    if (keep == 0) {
+      std::vector<ContactPair>().swap(v);
+      v.reserve(capacity);
+    } else {
+      std::vector<ContactPair> bigger;
+      bigger.reserve(capacity);
+      bigger.assign(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(keep));
+      v.swap(bigger);
+    }
   }
-  v.resize(need);
+  if (need > v.size()) v.resize(need);
 }
 }  // namespace
 
@@ -41,11 +46,19 @@ void ContactWaves::collect(Index chunks, const Fill& fill, std::vector<ContactPa
         1);
     at[0] = used;
     for (Index i = 0; i < count; ++i) at[i + 1] = at[i] + staging_[static_cast<size_t>(i)].size();
-    // The first wave's density, extrapolated to the pass plus an eighth, sizes the list once: a
-    // list grown from empty (the first pass, a resumed run) would otherwise be copied to fresh
-    // pages some 20 times over (the 50 layers: 24 M contacts, 64 waves at one thread).
-    const size_t expect = first == 0 ? at[count] * static_cast<size_t>(chunks) / static_cast<size_t>(count) : 0;
-    grow_keeping(contacts, used, at[count], expect + expect / 8);
+    // The density so far, extrapolated to the pass plus an eighth, sizes the list: at the first
+    // wave, where nothing is kept, whenever it outgrows the capacity (a quarter more at least, so
+    // that a slowly growing count reallocates rarely), and later only when the list is full. A
+    // growth after the first wave holds the old list and the new one at once (the 50 layers:
+    // 1.4 GB more at the peak of a 60-frame run); one from empty would be copied some 20 times over.
+    const size_t done = static_cast<size_t>(first + count);
+    const size_t expect = at[count] * static_cast<size_t>(chunks) / done;
+    const size_t need = at[count];
+    const size_t headroom = expect + expect / 8;
+    if (first == 0 && headroom > contacts.capacity())
+      grow_keeping(contacts, 0, need, std::max(headroom, contacts.capacity() + contacts.capacity() / 4));
+    else
+      grow_keeping(contacts, used, need, need > contacts.capacity() ? std::max(headroom, need + need / 4) : 0);
     parallel_for(
         count,
         [&](Index b, Index e) {

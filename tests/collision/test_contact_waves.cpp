@@ -102,3 +102,49 @@ TEST(ContactWaves, SizeAListGrownFromEmptyOnceFromTheFirstWaveAndStayExactWhenTh
   }
   set_thread_count(0);
 }
+
+TEST(ContactWaves, GrowAListAtTheFirstWaveWhereNothingIsKeptAndRarelyForASlowlyGrowingCount) {
+  // A pass that outgrows the list is sized when its first wave is in, where the old list holds
+  // nothing that must be kept: freed first, it is never resident beside the new one. Growing after
+  // that wave (when the list is full) would copy the kept contacts with both lists resident. A
+  // count that grows 2 % a pass reallocates only when it passes a quarter over the last size.
+  set_thread_count(1);
+  const Index chunks = 1000, wave = detail::ContactWaves::kChunksPerThread;
+  detail::ContactWaves waves;
+  std::vector<ContactPair> contacts;
+  Index per_chunk = 50;
+  size_t capacity_in_second_wave = 0;
+  const auto fill = [&](Index c, std::vector<ContactPair>& out) {
+    if (c == wave) capacity_in_second_wave = contacts.capacity();
+    out.resize(static_cast<size_t>(per_chunk));
+    for (Index i = 0; i < per_chunk; ++i) out[static_cast<size_t>(i)].v = {c, i, per_chunk, -1};
+  };
+  const auto check_exact = [&] {
+    ASSERT_EQ(contacts.size(), static_cast<size_t>(chunks * per_chunk));
+    for (size_t i = 0; i < contacts.size(); ++i) {
+      const Index k = static_cast<Index>(i);
+      ASSERT_EQ(contacts[i].v, (std::array<Index, 4>{k / per_chunk, k % per_chunk, per_chunk, -1})) << "contact " << i;
+    }
+  };
+  waves.collect(chunks, fill, contacts);
+  check_exact();
+  ASSERT_EQ(contacts.capacity(), 56250u);  // 50,000 and an eighth
+
+  per_chunk = 100;  // twice the list: sized at the first wave to 100,000 and an eighth
+  waves.collect(chunks, fill, contacts);
+  check_exact();
+  EXPECT_EQ(contacts.capacity(), 112500u);
+  EXPECT_EQ(capacity_in_second_wave, 112500u) << "the list grew after its first wave";
+
+  int reallocations = 0;
+  for (per_chunk = 102; per_chunk <= 140; per_chunk += 2) {
+    const size_t before = contacts.capacity();
+    waves.collect(chunks, fill, contacts);
+    check_exact();
+    EXPECT_EQ(capacity_in_second_wave, contacts.capacity()) << per_chunk << " a chunk: grown after the first wave";
+    reallocations += contacts.capacity() != before;
+  }
+  // 112,500 -> 140,625 at 102 a chunk (a quarter more) -> 175,781 at 126: 2 of 20 passes.
+  EXPECT_EQ(reallocations, 2);
+  set_thread_count(0);
+}
