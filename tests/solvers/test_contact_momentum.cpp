@@ -252,6 +252,25 @@ TEST_P(ContactMomentum, ByDefaultTwoSoftSolidsKeepTheirMomentaThroughAnImpactAnd
   }
 }
 
+TEST_P(ContactMomentum, TwoSoftSolidsKeepTheirMomentaWhenLaterPassesMoveOnlyTheHeldBack) {
+  // The head-on pair under time.continuation: held_back, by default and under contact.momentum:
+  // momentum kept to the rounding and parting speeds within 10 % of full passes' (measured: 1.123
+  // against 1.130 m/s by default, 1.189 against 1.267 under the momentum response).
+  for (const bool momentum : {false, true}) {
+    double parting[2] = {0.0, 0.0};
+    for (const auto mode : {TimeParams::Continuation::full, TimeParams::Continuation::held_back}) {
+      Scene s = two_boxes(GetParam(), 1e-3, 2e-3, 2.0, -0.5, 0.0, momentum);
+      s.params.time.continuation = mode;
+      Simulation sim(std::move(s));
+      const Momenta before = momenta(sim);
+      for (int f = 1; f <= 12; ++f) EXPECT_EQ(sim.step_frame().violations_remaining, 0) << "frame " << f;
+      EXPECT_NEAR(momenta(sim).p.x(), before.p.x(), 1e-6 * before.p.x());
+      parting[mode == TimeParams::Continuation::held_back] = momenta(sim).vb - momenta(sim).va;
+    }
+    EXPECT_NEAR(parting[1], parting[0], 0.1 * parting[0]) << (momentum ? "contact.momentum" : "by default");
+  }
+}
+
 TEST_P(ContactMomentum, ByDefaultGrainsFlyingTogetherWithinReachKeepTheirGapsAndSpeeds) {
   // Grains 8 mm apart (ξ = 4 mm, r = 5 mm: each pair is a contact), all at one velocity in zero
   // gravity, 60 fps x 4 substeps: nothing acts on them, so after 0.2 s every gap and velocity is
