@@ -31,6 +31,11 @@ void ContactWaves::collect(Index chunks, const Fill& fill, std::vector<ContactPa
   const Index wave = std::clamp<Index>(kChunksPerThread * thread_count(), 1, std::max<Index>(chunks, 1));
   if (staging_.size() < static_cast<size_t>(wave)) staging_.resize(static_cast<size_t>(wave));
   std::vector<size_t> at(static_cast<size_t>(wave) + 1);
+  // A list put aside by a small pass comes back: its records are already constructed.
+  if (spare_.size() > contacts.size()) {
+    contacts.swap(spare_);
+    spare_.clear();  // the caller's old buffer: its capacity receives the next small pass's copy
+  }
   size_t used = 0;
   for (Index first = 0; first < chunks; first += wave) {
     const Index count = std::min(wave, chunks - first);
@@ -70,7 +75,14 @@ void ContactWaves::collect(Index chunks, const Fill& fill, std::vector<ContactPa
         1);
     used = at[count];
   }
-  contacts.resize(used);  // a shrink: nothing reallocates
+  if (used * kSpareRatio < contacts.size()) {
+    // Much smaller than the list: keep the list whole, hand out a copy (at most an eighth of the
+    // list's records, where growing it back would construct all of them).
+    spare_.swap(contacts);
+    contacts.assign(spare_.begin(), spare_.begin() + static_cast<std::ptrdiff_t>(used));
+  } else {
+    contacts.resize(used);  // a shrink: nothing reallocates
+  }
 }
 
 }  // namespace ccfr::detail

@@ -20,11 +20,23 @@ class ContactWaves {
   /// Chunks staged at once per worker thread: the waves' barriers then idle a thread for about
   /// one chunk in this many.
   static constexpr Index kChunksPerThread = 32;
-  /// Replaces `contacts` with the contacts of chunks 0..chunks-1 in chunk order.
+  /// Replaces `contacts` with the contacts of chunks 0..chunks-1 in chunk order. Its buffer may
+  /// be exchanged for one this object keeps (spare_): pointers into it do not outlive the call.
   void collect(Index chunks, const Fill& fill, std::vector<ContactPair>& contacts);
+  /// Records held constructed for the next large pass (spare_); 0 when none is put aside.
+  size_t spare_size() const { return spare_.size(); }
+
+  /// A small pass's result is at most this fraction of the list it filled: the list is then put
+  /// aside whole (spare_) and the result copied out.
+  static constexpr size_t kSpareRatio = 8;
 
  private:
   std::vector<std::vector<ContactPair>> staging_;  ///< one wave's chunks, reused
+  /// The list of the last large pass, put aside whole by a much smaller pass after it (a substep's
+  /// held-back passes after its first): its records stay constructed, so the next large pass
+  /// writes into them instead of value-initialising them again, serially (the 50 layers: about
+  /// 1 GB a substep). Its memory is what `contacts` would have kept as capacity.
+  std::vector<ContactPair> spare_;
 };
 
 }  // namespace ccfr::detail

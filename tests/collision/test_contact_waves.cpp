@@ -148,3 +148,47 @@ TEST(ContactWaves, GrowAListAtTheFirstWaveWhereNothingIsKeptAndRarelyForASlowlyG
   EXPECT_EQ(reallocations, 2);
   set_thread_count(0);
 }
+
+TEST(ContactWaves, KeepALargeListWholeThroughSmallPassesAndWriteTheNextLargePassIntoIt) {
+  // A substep's first pass finds every contact, its held-back passes a few: a small pass puts the
+  // large list aside whole and hands out a copy, so the next large pass reuses the same buffer
+  // and records (no reallocation, no value-initialisation of the list again). Results stay exact;
+  // a pass at least an eighth of the list shrinks it in place as before.
+  set_thread_count(2);
+  const Index chunks = 1000;
+  detail::ContactWaves waves;
+  std::vector<ContactPair> contacts;
+  Index per_chunk = 0;
+  const auto fill = [&](Index c, std::vector<ContactPair>& out) {
+    out.resize(static_cast<size_t>(per_chunk));
+    for (Index i = 0; i < per_chunk; ++i) out[static_cast<size_t>(i)].v = {c, i, per_chunk, -1};
+  };
+  const auto collect_exact = [&](Index n) {
+    per_chunk = n;
+    waves.collect(chunks, fill, contacts);
+    ASSERT_EQ(contacts.size(), static_cast<size_t>(chunks * per_chunk));
+    for (size_t i = 0; i < contacts.size(); ++i) {
+      const Index k = static_cast<Index>(i);
+      ASSERT_EQ(contacts[i].v, (std::array<Index, 4>{k / per_chunk, k % per_chunk, per_chunk, -1})) << "contact " << i;
+    }
+  };
+  collect_exact(40);  // 40,000
+  const ContactPair* large = contacts.data();
+  EXPECT_EQ(waves.spare_size(), 0u);
+  collect_exact(4);  // 4,000 < 40,000 / 8: the list is put aside whole
+  EXPECT_EQ(waves.spare_size(), 40000u);
+  EXPECT_NE(contacts.data(), large);
+  collect_exact(1);
+  EXPECT_EQ(waves.spare_size(), 40000u);
+  collect_exact(36);  // the large list comes back
+  EXPECT_EQ(contacts.data(), large);
+  EXPECT_EQ(waves.spare_size(), 0u);
+  collect_exact(5);  // 5,000 = 36,000 / 7.2: shrunk in place
+  EXPECT_EQ(contacts.data(), large);
+  EXPECT_EQ(waves.spare_size(), 0u);
+  collect_exact(0);  // empty: the 5,000 records put aside (the shrink in place gave up the rest)
+  EXPECT_EQ(waves.spare_size(), 5000u);
+  collect_exact(60);  // outgrows the kept list's capacity: a new list, exact
+  EXPECT_EQ(waves.spare_size(), 0u);
+  set_thread_count(0);
+}
