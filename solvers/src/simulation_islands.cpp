@@ -4,10 +4,14 @@
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <numeric>
 #include <span>
+#include <utility>
+#include <vector>
 
 #include "ccfr/collision/collision_detector.hpp"
 #include "ccfr/core/parallel.hpp"
@@ -113,17 +117,40 @@ void Simulation::start_islands() {
 void Simulation::join_islands(StepContext& ctx) {
   ctx.free_island = {};
   if (!islands_on_) return;
-  for (const ContactPair& c : *contact_->detected_contacts()) {
-    const Index p0 = vertex_piece_[c.v[0]];
-    for (int k = 1; k < c.size(); ++k) {
-      const Index pk = vertex_piece_[c.v[k]];
-      if (pk == p0) continue;
+  // The piece pairs the contacts join, in contact order, gathered in parallel chunks (a pass of
+  // the 50 layers holds about 10 M contacts: 0.65 s a frame of serial work when united one by
+  // one); each chunk drops a pair its small table of the chunk's pairs has seen. Then united
+  // serially, in chunk order. A dropped repeat would have found its two pieces in one island
+  // already, so the unions, in their order, and the roots are those of the contacts one by one.
+  const std::vector<ContactPair>& contacts = *contact_->detected_contacts();
+  const Index n = static_cast<Index>(contacts.size());
+  std::vector<std::vector<std::pair<Index, Index>>> joined(static_cast<size_t>(default_chunk_count(n)));
+  parallel_chunks(n, static_cast<Index>(joined.size()), [&](Index chunk, Index b, Index e) {
+    constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
+    std::array<std::uint64_t, 64> seen;
+    seen.fill(kEmpty);
+    auto& out = joined[static_cast<size_t>(chunk)];
+    for (Index i = b; i < e; ++i) {
+      const ContactPair& c = contacts[i];
+      const Index p0 = vertex_piece_[c.v[0]];
+      for (int k = 1; k < c.size(); ++k) {
+        const Index pk = vertex_piece_[c.v[k]];
+        if (pk == p0) continue;
+        const std::uint64_t key = static_cast<std::uint64_t>(p0) << 32 | static_cast<std::uint32_t>(pk);
+        std::uint64_t& slot = seen[(key * 0x9E3779B97F4A7C15ull) >> 58];
+        if (slot == key) continue;
+        slot = key;
+        out.emplace_back(p0, pk);
+      }
+    }
+  });
+  for (const auto& pairs : joined)
+    for (const auto& [p0, pk] : pairs) {
       const Index a = island_of(p0), b = island_of(pk);
       if (a == b) continue;
       island_parent_[b] = a;
       island_fixed_[a] |= island_fixed_[b];
     }
-  }
   // Per piece whether its island is free (serial: island_of compresses paths), then per vertex.
   const auto np = static_cast<Index>(piece_object_.size());
   std::vector<std::uint8_t> free_piece(static_cast<size_t>(np));
