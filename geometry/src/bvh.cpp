@@ -94,19 +94,33 @@ void Bvh::build_node(Index id, Index first, Index count, int leaf_size, const st
 }
 
 void Bvh::gather(std::span<const AABB> boxes) {
+  // Every pass refits the tree: the NaN check, the copy in tree order and the leaves run in
+  // parallel chunks (a serial refit of the 50 layers' 1.2 M boxes cost about 0.3 s a frame of
+  // serial work). The lowest NaN index is reported whatever the chunking, before anything changes.
+  const Index nb = static_cast<Index>(order_.size());
+  const Index chunks = default_chunk_count(nb);
+  std::vector<Index> first_nan(static_cast<size_t>(chunks), nb);
+  parallel_chunks(nb, chunks, [&](Index c, Index b, Index e) {
+    for (Index i = b; i < e && first_nan[c] == nb; ++i)
+      if (has_nan(boxes[i])) first_nan[c] = i;
+  });
+  if (const Index i = *std::min_element(first_nan.begin(), first_nan.end()); i < nb) throw_nan(i);
   sorted_.resize(order_.size());
-  for (size_t k = 0; k < order_.size(); ++k) sorted_[k] = boxes[order_[k]];
-  // Children follow their parent in depth-first order, so a reverse sweep is bottom-up.
+  parallel_for(nb, [&](Index b, Index e) {
+    for (Index k = b; k < e; ++k) sorted_[k] = boxes[order_[k]];
+  });
+  each_leaf([&](Index n, const Node& node) {
+    AABB box;
+    for (Index k = node.first; k < node.first + node.count; ++k) box.expand(sorted_[k]);
+    nodes_[n].box = box;
+  });
+  // Children follow their parent in depth-first order, so a reverse sweep is bottom-up; the
+  // internal nodes, as many as the leaves, take two reads each.
   for (Index n = static_cast<Index>(nodes_.size()) - 1; n >= 0; --n) {
     Node& node = nodes_[n];
-    if (node.right < 0) {
-      AABB b;
-      for (Index k = node.first; k < node.first + node.count; ++k) b.expand(sorted_[k]);
-      node.box = b;
-    } else {
-      node.box = nodes_[n + 1].box;
-      node.box.expand(nodes_[node.right].box);
-    }
+    if (node.right < 0) continue;
+    node.box = nodes_[n + 1].box;
+    node.box.expand(nodes_[node.right].box);
   }
 }
 
@@ -114,8 +128,6 @@ void Bvh::refit(std::span<const AABB> boxes) {
   if (static_cast<Index>(boxes.size()) != num_boxes_)
     throw Error("Bvh::refit: " + std::to_string(boxes.size()) + " boxes, the tree was built over " +
                 std::to_string(num_boxes_));
-  for (Index i = 0; i < num_boxes_; ++i)
-    if (has_nan(boxes[i])) throw_nan(i);
   gather(boxes);
 }
 
@@ -196,18 +208,17 @@ void Bvh::self_pairs(std::vector<std::pair<Index, Index>>& out, std::span<const 
     std::vector<std::uint8_t>& fixed_sorted = scratch_fixed_;
     std::vector<std::uint8_t>& live = scratch_live_;
     fixed_sorted.resize(order_.size());
-    for (size_t k = 0; k < order_.size(); ++k) fixed_sorted[k] = fixed[order_[k]] != 0;
     live.resize(nodes_.size());
-    for (Index n = num_nodes - 1; n >= 0; --n) {
-      const Node& node = nodes_[n];
-      if (node.right < 0) {
-        std::uint8_t any = 0;
-        for (Index k = node.first; k < node.first + node.count; ++k) any |= !fixed_sorted[k];
-        live[n] = any;
-      } else {
-        live[n] = live[n + 1] | live[node.right];
-      }
-    }
+    parallel_for(num_boxes_, [&](Index b, Index e) {
+      for (Index k = b; k < e; ++k) fixed_sorted[k] = fixed[order_[k]] != 0;
+    });
+    each_leaf([&](Index n, const Node& node) {
+      std::uint8_t any = 0;
+      for (Index k = node.first; k < node.first + node.count; ++k) any |= !fixed_sorted[k];
+      live[n] = any;
+    });
+    for (Index n = num_nodes - 1; n >= 0; --n)
+      if (nodes_[n].right >= 0) live[n] = live[n + 1] | live[nodes_[n].right];
     filter.fixed_sorted = fixed_sorted.data();
     filter.live = live.data();
   }
@@ -215,19 +226,21 @@ void Bvh::self_pairs(std::vector<std::pair<Index, Index>>& out, std::span<const 
     std::vector<std::uint32_t>& group_sorted = scratch_group_;
     std::vector<std::uint32_t>& node_group = scratch_node_group_;
     group_sorted.resize(order_.size());
-    for (size_t k = 0; k < order_.size(); ++k) group_sorted[k] = groups[order_[k]];
     node_group.resize(nodes_.size());
+    parallel_for(num_boxes_, [&](Index b, Index e) {
+      for (Index k = b; k < e; ++k) group_sorted[k] = groups[order_[k]];
+    });
+    each_leaf([&](Index n, const Node& node) {
+      std::uint32_t g = group_sorted[node.first];
+      for (Index k = node.first + 1; k < node.first + node.count; ++k)
+        if (group_sorted[k] != g) g = 0;
+      node_group[n] = g;
+    });
     for (Index n = num_nodes - 1; n >= 0; --n) {
       const Node& node = nodes_[n];
-      if (node.right < 0) {
-        std::uint32_t g = group_sorted[node.first];
-        for (Index k = node.first + 1; k < node.first + node.count; ++k)
-          if (group_sorted[k] != g) g = 0;
-        node_group[n] = g;
-      } else {
-        const std::uint32_t g = node_group[n + 1];
-        node_group[n] = g == node_group[node.right] ? g : 0;
-      }
+      if (node.right < 0) continue;
+      const std::uint32_t g = node_group[n + 1];
+      node_group[n] = g == node_group[node.right] ? g : 0;
     }
     filter.group_sorted = group_sorted.data();
     filter.node_group = node_group.data();

@@ -7,6 +7,7 @@
 #include <utility>
 #include <vector>
 
+#include "ccfr/core/parallel.hpp"
 #include "ccfr/geometry/aabb.hpp"
 
 namespace ccfr {
@@ -50,6 +51,16 @@ class Bvh {
   };
   void build_node(Index id, Index first, Index count, int leaf_size, const std::vector<Vec3>& centres);
   void gather(std::span<const AABB> boxes);
+  /// Calls f(node id, node) for every leaf, in parallel: the bottom-up sweeps' per-box part.
+  template <class F>
+  void each_leaf(F&& f) const {
+    parallel_for(
+        static_cast<Index>(leaves_.size()),
+        [&](Index b, Index e) {
+          for (Index l = b; l < e; ++l) f(leaves_[l], nodes_[leaves_[l]]);
+        },
+        1024);
+  }
   /// Per-box and per-node filters of self_pairs(); each pointer is null when unused.
   struct PairFilter {
     const std::uint8_t* fixed_sorted = nullptr;   ///< #boxes in order_ order: flagged fixed
