@@ -237,9 +237,9 @@ void assemble_regions(Index nv, const Positions& x, std::span<const double> inv_
   if (contacts.size() > std::numeric_limits<std::uint32_t>::max() / 2)
     throw Error("CollisionDetector::detect: " + std::to_string(contacts.size()) +
                 " contacts exceed the region's 32-bit plane references");
-  resize_for_overwrite(regions.records, contacts.size());  // every record is written below
+  resize_for_overwrite(regions.records, contacts.size(), work.spare_records);  // every record is written below
   if (contacts.empty()) {
-    regions.refs.clear();
+    resize_for_overwrite(regions.refs, 0, work.spare_refs);
     work.plane_sources.clear();
     return;
   }
@@ -250,7 +250,7 @@ void assemble_regions(Index nv, const Positions& x, std::span<const double> inv_
   count_planes(nv, inv_mass, contacts, blocks, work.block_cursor);
   counts_to_block_cursors(nv, blocks, work.block_cursor, regions.row_start);
   // Every entry is written below: resizing without clearing first skips zero-filling them.
-  resize_for_overwrite(regions.refs, static_cast<size_t>(regions.row_start.back()));
+  resize_for_overwrite(regions.refs, static_cast<size_t>(regions.row_start.back()), work.spare_refs);
   resize_for_overwrite(work.plane_sources, work.record_sources ? regions.refs.size() : 0);
   write_planes(nv, x, inv_mass, kinematic_step, contacts, blocks, work, regions);
 }

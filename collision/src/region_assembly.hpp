@@ -2,6 +2,7 @@
 /// @file region_assembly.hpp
 /// Narrow-phase stage 4 (private): the half-spaces of every contact (Alg. NarrowPhase lines 10, 26
 /// and 41; Eq. 3) written to the RegionSet's CSR.
+#include <cstdint>
 #include <span>
 #include <vector>
 
@@ -15,6 +16,10 @@ struct AssemblyBuffers {
   std::vector<Index> block_cursor;   ///< #blocks by #V plane counts, then write cursors
   std::vector<Index> plane_sources;  ///< per plane: 4 · contact + vertex slot (when recorded)
   bool record_sources = false;
+  /// The large records and references of a substep's first pass, kept constructed through its
+  /// small held-back passes (resize_for_overwrite with a spare).
+  std::vector<RegionRecord> spare_records;
+  std::vector<std::uint32_t> spare_refs;
 };
 
 /// Gives each movable vertex of side A of each of `contacts` the plane (n, s_A G) and each of side

@@ -77,7 +77,7 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
   // in its block's stage at corr_at_ (-1: inactive). Fixed blocks keep the stages thread-independent.
   const Index blocks = (n + kStageBlock - 1) / kStageBlock;
   if (stage_.size() < static_cast<size_t>(blocks)) stage_.resize(static_cast<size_t>(blocks));
-  resize_for_overwrite(corr_at_, static_cast<size_t>(n));  // every entry written below
+  resize_for_overwrite(corr_at_, static_cast<size_t>(n), spare_corr_at_);  // every entry written below
   parallel_for(
       blocks,
       [&](Index block_begin, Index block_end) {
@@ -158,7 +158,7 @@ void ContactResponse::apply(Positions& x, const Positions& x_start, std::span<co
     impulse_.clear();
     return;
   }
-  resize_for_overwrite(impulse_, static_cast<size_t>(n));  // every entry written below
+  resize_for_overwrite(impulse_, static_cast<size_t>(n), spare_impulse_);  // every entry written below
   parallel_for(
       n,
       [&](Index b, Index e) {

@@ -30,6 +30,34 @@ TEST(Buffers, ResizeForOverwriteGivesExactlyNElementsAndHeadroomOnGrowth) {
   EXPECT_GE(v.capacity(), 6250u);
 }
 
+TEST(Buffers, ResizeWithASpareKeepsALargeBufferConstructedThroughSmallRequests) {
+  // A first pass of 100,000, held-back passes of 10 and 0, the next first pass of 90,000: the
+  // large buffer comes back unreallocated with its old elements in place, where a shrink and a
+  // regrowth would value-initialise them (zeros). A request of at least an eighth shrinks in place.
+  std::vector<int> v, spare;
+  resize_for_overwrite(v, 100000, spare);
+  for (size_t i = 0; i < v.size(); ++i) v[i] = static_cast<int>(i) + 1;
+  const int* large = v.data();
+  resize_for_overwrite(v, 10, spare);
+  EXPECT_EQ(v.size(), 10u);
+  EXPECT_NE(v.data(), large);
+  EXPECT_EQ(spare.size(), 100000u);
+  resize_for_overwrite(v, 0, spare);
+  EXPECT_TRUE(v.empty());
+  EXPECT_EQ(spare.data(), large);
+  resize_for_overwrite(v, 90000, spare);
+  ASSERT_EQ(v.size(), 90000u);
+  EXPECT_EQ(v.data(), large);
+  EXPECT_EQ(v[89999], 90000) << "the kept elements were initialised again";
+  EXPECT_LE(spare.size(), 10u);
+  resize_for_overwrite(v, 20000, spare);  // 20,000 >= 90,000 / 8: in place
+  EXPECT_EQ(v.data(), large);
+  EXPECT_EQ(v.size(), 20000u);
+  resize_for_overwrite(v, 200000, spare);  // past the capacity: a new buffer of the asked size
+  EXPECT_EQ(v.size(), 200000u);
+  EXPECT_LE(spare.size(), 10u);
+}
+
 TEST(Buffers, FillParallelWritesEveryElementAtEverySize) {
   std::vector<double> v;
   for (const Index n : {Index{0}, Index{1}, Index{7}, Index{100000}, Index{33}, Index{300000}}) {

@@ -23,6 +23,21 @@ void resize_for_overwrite(std::vector<T, A>& v, std::size_t n) {
   v.resize(n);
 }
 
+/// resize_for_overwrite for a buffer whose size swings from pass to pass (a substep's first pass,
+/// then its few held-back ones): a request under an eighth of the constructed size swaps `v` with
+/// `spare`, which keeps the large buffer's elements constructed; a larger request takes them back.
+/// Growing the large buffer again would value-initialise its elements, serially, every substep.
+/// At most two buffers live, the smaller under an eighth of the larger's size when put aside.
+template <class T, class A>
+void resize_for_overwrite(std::vector<T, A>& v, std::size_t n, std::vector<T, A>& spare) {
+  if (n * 8 < v.size()) {
+    if (spare.size() < v.size()) v.swap(spare);
+  } else if (spare.size() > v.size()) {
+    v.swap(spare);
+  }
+  resize_for_overwrite(v, n);
+}
+
 /// Gives `v` n elements equal to `value`, written in parallel chunks: a serial assign of a pass's
 /// millions of entries is a serial stretch of every pass.
 template <class T, class A>

@@ -224,6 +224,10 @@ class ContactResponse {
   /// Per contact: in apply(), its first slot in its block's stage (-1: inactive); in separate(),
   /// its position in overlapping_ (read only while it overlaps).
   std::vector<Index> corr_at_;
+  /// corr_at_'s and impulse_'s large buffers of a substep's first pass, kept constructed through
+  /// its small held-back passes (resize_for_overwrite with a spare).
+  std::vector<Index> spare_corr_at_;
+  std::vector<Vec3> spare_impulse_;
   std::vector<Vec3> corr_;  ///< in separate(): 4 pull-back slots per overlapping contact, in list order
   /// After apply(): the correction of contact slot 4·c + k, or null where contact c is inactive.
   const Vec3* applied_correction(Index slot) const {
